@@ -1,0 +1,364 @@
+//! Configuration: one TOML file (or the original tool's `config.json`) describes a whole run.
+//!
+//! Pipeline (see ARCHITECTURE.md): the user's file is parsed into a `toml::Table`, checked key by
+//! key against the embedded default (`default.toml`, which is also what `simserpent init` writes),
+//! merged onto it, overridden by `--set key.path=value`, deserialized into [`Config`] with key
+//! paths in errors, and finally validated ([`Config::validate`]). Every error names the key path,
+//! the value and what is allowed.
+//!
+//! Does: parse, merge, override, validate. Does not: touch files other than the config itself,
+//! or MuJoCo.
+
+mod legacy;
+mod load;
+mod validate;
+
+pub use load::{ConfigSource, load_config, load_config_str, parse_override};
+
+use serde::{Deserialize, Serialize};
+
+/// The embedded, fully commented default configuration.
+pub const DEFAULT_CONFIG_TOML: &str = include_str!("default.toml");
+
+/// A configuration problem: which key, what value, what is allowed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// A key that the configuration does not have.
+    #[error("unknown key `{key}`{}; allowed keys here: {allowed}", suggestion.as_ref().map(|s| format!(" (did you mean `{s}`?)")).unwrap_or_default())]
+    UnknownKey {
+        /// Full key path.
+        key: String,
+        /// Closest known key, if any is close.
+        suggestion: Option<String>,
+        /// The keys allowed in that table.
+        allowed: String,
+    },
+    /// A value of the wrong type or out of range.
+    #[error("`{key}` = {value}: {allowed}")]
+    InvalidValue {
+        /// Full key path.
+        key: String,
+        /// The offending value as written.
+        value: String,
+        /// What is allowed.
+        allowed: String,
+    },
+    /// The file could not be parsed at all.
+    #[error("{file}: {message}")]
+    Syntax {
+        /// The file (or `--set` argument).
+        file: String,
+        /// Parser message (with line and column when known).
+        message: String,
+    },
+    /// The file could not be read.
+    #[error("cannot read config file {file}: {message}")]
+    Io {
+        /// The file.
+        file: String,
+        /// OS message.
+        message: String,
+    },
+}
+
+impl ConfigError {
+    pub(crate) fn invalid(key: &str, value: impl std::fmt::Display, allowed: impl Into<String>) -> Self {
+        Self::InvalidValue { key: key.to_string(), value: value.to_string(), allowed: allowed.into() }
+    }
+}
+
+/// The whole resolved configuration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    pub general: General,
+    pub physics: Physics,
+    pub visual: Visual,
+    pub snake: Snake,
+    pub sensors: Sensors,
+    pub control: Control,
+    pub gait: Gait,
+    pub terrain: Terrain,
+    pub recording: Recording,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct General {
+    pub run_name: String,
+    pub output_dir: String,
+    pub duration_secs: f64,
+    pub timestep_secs: f64,
+    pub integrator: Integrator,
+    pub seed: u64,
+    pub gravity_m_per_s2: [f64; 3],
+    pub plot: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Integrator {
+    Euler,
+    RK4,
+    #[serde(rename = "implicit")]
+    Implicit,
+    #[serde(rename = "implicitfast")]
+    ImplicitFast,
+}
+
+impl Integrator {
+    /// The MJCF attribute value.
+    pub fn mjcf_name(self) -> &'static str {
+        match self {
+            Self::Euler => "Euler",
+            Self::RK4 => "RK4",
+            Self::Implicit => "implicit",
+            Self::ImplicitFast => "implicitfast",
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Physics {
+    pub friction_cone: FrictionCone,
+    pub self_collision: bool,
+    pub contact_time_constant_secs: f64,
+    pub contact_damping_ratio: f64,
+    pub solver_iterations: u32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FrictionCone {
+    Elliptic,
+    Pyramidal,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Visual {
+    pub show_contact_forces: bool,
+    pub show_contact_points: bool,
+    pub show_actuators: bool,
+    pub show_joints: bool,
+    pub show_center_of_mass: bool,
+    pub make_transparent: bool,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Snake {
+    pub n_links: usize,
+    pub link_length_m: f64,
+    pub link_radius_m: f64,
+    pub link_mass_kg: f64,
+    pub joint_range_deg: f64,
+    pub joint_damping_nm_s_per_rad: f64,
+    pub joint_armature_kg_m2: f64,
+    pub joint_axes: JointAxes,
+    pub torque_range_nm: [f64; 2],
+    pub ground_friction: [f64; 3],
+    pub link_friction: [f64; 3],
+    pub color_rgba: [f64; 4],
+    pub head_position_m: [f64; 3],
+    pub head_rotation_deg: [f64; 3],
+}
+
+impl Snake {
+    /// Number of joints (= links - 1).
+    pub fn n_joints(&self) -> usize {
+        self.n_links.saturating_sub(1)
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JointAxes {
+    Yaw,
+    Alternating,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sensors {
+    pub noise_enabled: bool,
+    pub accelerometer_std_m_per_s2: f64,
+    pub gyro_std_rad_per_s: f64,
+    pub velocimeter_std_m_per_s: f64,
+    pub joint_angle_std_rad: f64,
+    pub joint_velocity_std_rad_per_s: f64,
+    pub joint_force_std_n: f64,
+    pub joint_torque_std_nm: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Control {
+    pub method: ControlMethod,
+    pub torque_gear: f64,
+    pub position_kp_nm_per_rad: f64,
+    pub position_kv_nm_s_per_rad: f64,
+    pub velocity_kv_nm_s_per_rad: f64,
+    pub intvelocity_kp_nm_per_rad: f64,
+    pub pid_kp_nm_per_rad: f64,
+    pub pid_ki_nm_per_rad_s: f64,
+    pub pid_kd_nm_s_per_rad: f64,
+}
+
+/// Which actuator kind the controller drives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ControlMethod {
+    Torque,
+    Position,
+    Velocity,
+    Intvelocity,
+}
+
+impl ControlMethod {
+    /// All kinds, in the order their actuators appear in the model (thesis 6.x: ctrl blocks).
+    pub const ALL: [ControlMethod; 4] = [Self::Torque, Self::Position, Self::Velocity, Self::Intvelocity];
+
+    /// Short name used in MJCF and column names.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Torque => "torque",
+            Self::Position => "position",
+            Self::Velocity => "velocity",
+            Self::Intvelocity => "intvelocity",
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Gait {
+    pub kind: GaitKind,
+    pub ramp_secs: f64,
+    pub sine_wave: SineWave,
+    pub form_closure: FormClosureGait,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GaitKind {
+    None,
+    SineWave,
+    FormClosure,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SineWave {
+    pub amplitude_deg: f64,
+    pub frequency_hz: f64,
+    pub phase_lag_deg: f64,
+    pub offset_deg: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FormClosureGait {
+    pub pattern_deg: Vec<f64>,
+    pub shift_period_secs: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Terrain {
+    pub kind: TerrainKind,
+    pub obstacle_friction: [f64; 3],
+    pub cylinder_height_m: f64,
+    pub floor_size_m: f64,
+    pub two_cylinders: TwoCylinders,
+    pub random_cylinders: RandomCylinders,
+    pub cylinder_path: CylinderPath,
+    pub form_closure: FormClosureTerrain,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TerrainKind {
+    None,
+    TwoCylinders,
+    RandomCylinders,
+    CylinderPath,
+    FormClosure,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TwoCylinders {
+    pub distance_m: f64,
+    pub radius_m: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RandomCylinders {
+    pub count: usize,
+    pub radius_range_m: [f64; 2],
+    pub half_size_m: f64,
+    pub min_gap_m: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CylinderPath {
+    pub n_pairs: usize,
+    pub spacing_m: f64,
+    pub width_m: f64,
+    pub radius_m: f64,
+    pub start_m: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FormClosureTerrain {
+    pub order: u8,
+    pub radius_m: f64,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Recording {
+    pub enabled: bool,
+    pub every_n_steps: u64,
+    pub link_position: bool,
+    pub link_orientation: bool,
+    pub link_velocity: bool,
+    pub link_acceleration: bool,
+    pub link_angular_velocity: bool,
+    pub link_angular_acceleration: bool,
+    pub joint_angles: bool,
+    pub joint_velocities: bool,
+    pub torque_actuator_forces: bool,
+    pub position_actuator_forces: bool,
+    pub velocity_actuator_forces: bool,
+    pub intvelocity_actuator_forces: bool,
+    pub external_contact_forces: bool,
+    pub internal_joint_forces: bool,
+    pub imu_sensors: bool,
+    pub contacts: bool,
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        // The embedded default is checked by a unit test; it cannot fail to parse.
+        load_config_str(DEFAULT_CONFIG_TOML, ConfigSource::Toml, &[])
+            .unwrap_or_else(|e| unreachable!("embedded default config is invalid: {e}"))
+    }
+}
+
+impl Config {
+    /// The resolved config as TOML (written to every run folder).
+    pub fn to_toml_string(&self) -> String {
+        toml::to_string_pretty(self).unwrap_or_else(|e| format!("# cannot serialize config: {e}\n"))
+    }
+
+    /// Snake joint angle limit in radians.
+    pub fn joint_range_rad(&self) -> f64 {
+        self.snake.joint_range_deg.to_radians()
+    }
+}
