@@ -59,8 +59,14 @@ fn main() {
             let _ = fs::copy(&lib_file, &dest);
         }
     }
-    println!("cargo::rustc-link-arg=-Wl,-rpath,$ORIGIN:$ORIGIN/..:{}", lib_dir.display());
-    println!("cargo::rustc-env=SIMSERPENT_MUJOCO_LIB={}", lib_file.display());
+    println!(
+        "cargo::rustc-link-arg=-Wl,-rpath,$ORIGIN:$ORIGIN/..:{}",
+        lib_dir.display()
+    );
+    println!(
+        "cargo::rustc-env=SIMSERPENT_MUJOCO_LIB={}",
+        lib_file.display()
+    );
 }
 
 /// The `target/<profile>` directory, derived from `OUT_DIR` (`target/<profile>/build/<pkg>/out`).
@@ -103,11 +109,15 @@ fn cache_dir() -> PathBuf {
 
 fn find_wheel(dir: &Path) -> Option<PathBuf> {
     let prefix = format!("mujoco-{MUJOCO_VERSION}-");
-    fs::read_dir(dir).ok()?.flatten().map(|e| e.path()).find(|p| {
-        p.file_name()
-            .and_then(|n| n.to_str())
-            .is_some_and(|n| n.starts_with(&prefix) && n.ends_with(".whl"))
-    })
+    fs::read_dir(dir)
+        .ok()?
+        .flatten()
+        .map(|e| e.path())
+        .find(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with(&prefix) && n.ends_with(".whl"))
+        })
 }
 
 fn cached_wheel() -> Result<PathBuf, String> {
@@ -116,9 +126,19 @@ fn cached_wheel() -> Result<PathBuf, String> {
         return Ok(wheel);
     }
     fs::create_dir_all(&dir).map_err(|e| format!("cannot create cache {}: {e}", dir.display()))?;
-    println!("cargo::warning=downloading mujoco=={MUJOCO_VERSION} from PyPI (once, into {})", dir.display());
+    println!(
+        "cargo::warning=downloading mujoco=={MUJOCO_VERSION} from PyPI (once, into {})",
+        dir.display()
+    );
     let output = Command::new("python3")
-        .args(["-m", "pip", "download", "--no-deps", "--only-binary=:all:", "--disable-pip-version-check"])
+        .args([
+            "-m",
+            "pip",
+            "download",
+            "--no-deps",
+            "--only-binary=:all:",
+            "--disable-pip-version-check",
+        ])
         .arg(format!("mujoco=={MUJOCO_VERSION}"))
         .arg("-d")
         .arg(&dir)
@@ -130,7 +150,8 @@ fn cached_wheel() -> Result<PathBuf, String> {
             String::from_utf8_lossy(&output.stderr)
         ));
     }
-    find_wheel(&dir).ok_or_else(|| format!("pip reported success but no wheel is in {}", dir.display()))
+    find_wheel(&dir)
+        .ok_or_else(|| format!("pip reported success but no wheel is in {}", dir.display()))
 }
 
 /// Unpacks the library and headers from the wheel (a zip file) with Python's zipfile module.

@@ -1,2 +1,13 @@
 //! SimSerpent: a physics-based snake-robot simulator on MuJoCo 3.17.
+//!
+//! Map (see ARCHITECTURE.md):
+//! - pure core, no MuJoCo and no I/O: [`config`], [`model`] (MJCF generation), [`control`];
+//! - the engine: [`sim`] (the only module that calls MuJoCo);
+//! - I/O: [`record`] (run folder, manifest, tables), [`run`] (one whole run);
+//! - the command line lives in `src/main.rs`.
 pub mod config;
+pub mod control;
+pub mod model;
+pub mod record;
+pub mod run;
+pub mod sim;

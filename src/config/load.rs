@@ -1,6 +1,12 @@
-//! Placeholder: being rewritten (merge onto default, overrides, unknown keys, legacy JSON).
-use super::{Config, ConfigError, DEFAULT_CONFIG_TOML};
+//! Loading a config: parse, check keys against the embedded default, merge, override,
+//! deserialize with key paths, validate.
+//!
+//! Every step reports the full key path of the problem (`snake.n_links`), the value as written
+//! and what is allowed; misspelt keys get a did-you-mean suggestion.
+
+use super::{Config, ConfigError, DEFAULT_CONFIG_TOML, legacy};
 use std::path::Path;
+use toml::{Table, Value};
 
 /// Which syntax a config text is in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -11,20 +17,396 @@ pub enum ConfigSource {
     LegacyJson,
 }
 
+/// Name used in errors when the config text did not come from a file.
+const TEXT_NAME: &str = "<config text>";
+
 /// Loads, merges, overrides and validates a config file.
+///
+/// The syntax is chosen by the file extension: `.toml` is SimSerpent's format, `.json` the
+/// original tool's `config.json` (converted, see the `legacy` module). `overrides` are
+/// `key.path=value` strings (`--set`), applied in order after the file.
+///
+/// # Errors
+/// [`ConfigError::Io`] when the file cannot be read, [`ConfigError::Syntax`] for an unsupported
+/// extension or a parse error, [`ConfigError::UnknownKey`] / [`ConfigError::InvalidValue`] for
+/// keys and values.
 pub fn load_config(path: &Path, overrides: &[String]) -> Result<Config, ConfigError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| ConfigError::Io { file: path.display().to_string(), message: e.to_string() })?;
-    load_config_str(&text, ConfigSource::Toml, overrides)
+    let file = path.display().to_string();
+    let extension = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    let source = match extension.as_deref() {
+        Some("toml") => ConfigSource::Toml,
+        Some("json") => ConfigSource::LegacyJson,
+        other => {
+            let found = match other {
+                Some(ext) => format!("extension `.{ext}`"),
+                None => "no extension".to_string(),
+            };
+            return Err(ConfigError::Syntax {
+                file,
+                message: format!(
+                    "unsupported config file type ({found}); allowed: `.toml` (SimSerpent config) \
+                     or `.json` (the original tool's config.json)"
+                ),
+            });
+        }
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
+        file: file.clone(),
+        message: e.to_string(),
+    })?;
+    load_named(&text, source, overrides, &file)
 }
 
-/// Same as [`load_config`] on a string.
-pub fn load_config_str(text: &str, _source: ConfigSource, _overrides: &[String]) -> Result<Config, ConfigError> {
-    let _ = text;
-    toml::from_str(DEFAULT_CONFIG_TOML).map_err(|e| ConfigError::Syntax { file: "default".into(), message: e.to_string() })
+/// Same as [`load_config`] on a string; `source` says which syntax it is in.
+///
+/// # Errors
+/// As [`load_config`], without the file-related ones.
+pub fn load_config_str(
+    text: &str,
+    source: ConfigSource,
+    overrides: &[String],
+) -> Result<Config, ConfigError> {
+    load_named(text, source, overrides, TEXT_NAME)
 }
 
-/// Parses `key.path=value`.
-pub fn parse_override(s: &str) -> Result<(String, toml::Value), ConfigError> {
-    Err(ConfigError::Syntax { file: s.into(), message: "todo".into() })
+/// Parses a `--set` argument `key.path=value`.
+///
+/// The value is a TOML value literal (`1`, `0.5`, `true`, `"s"`, `[1, 2]`, `{ a = 1 }`), so
+/// its type is kept; a bare word that is not valid TOML (`torque`, `my-run`) is taken as a
+/// string. Whitespace around the key and the value is ignored.
+///
+/// # Errors
+/// [`ConfigError::Syntax`] (naming the argument) when there is no `=`, the key is not a dotted
+/// path of bare keys, the value is missing, or the value looks like TOML but does not parse.
+pub fn parse_override(s: &str) -> Result<(String, Value), ConfigError> {
+    let syntax = |message: String| ConfigError::Syntax {
+        file: format!("--set {s}"),
+        message,
+    };
+    let Some((key, value)) = s.split_once('=') else {
+        return Err(syntax(
+            "expected `key.path=value`, e.g. `snake.n_links=15`".into(),
+        ));
+    };
+    let key = key.trim();
+    let value = value.trim();
+    if key.is_empty() {
+        return Err(syntax(
+            "missing key before `=`; expected `key.path=value`".into(),
+        ));
+    }
+    for segment in key.split('.') {
+        if segment.is_empty()
+            || !segment
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        {
+            return Err(syntax(format!(
+                "invalid key `{key}`: expected a dotted path of keys made of letters, digits, `_` and `-`, \
+                 e.g. `general.duration_secs`"
+            )));
+        }
+    }
+    if value.is_empty() {
+        return Err(syntax(format!("missing value after `{key}=`")));
+    }
+    let parsed = match value.parse::<Value>() {
+        Ok(v) => v,
+        Err(e) => {
+            // Values that start like a TOML string, array or inline table must be valid TOML.
+            if value.starts_with(['"', '\'', '[', '{']) {
+                return Err(syntax(format!(
+                    "invalid value `{value}`: {}",
+                    e.message().trim()
+                )));
+            }
+            Value::String(value.to_string())
+        }
+    };
+    Ok((key.to_string(), parsed))
+}
+
+/// The whole pipeline; `file` names the text in syntax errors.
+fn load_named(
+    text: &str,
+    source: ConfigSource,
+    overrides: &[String],
+    file: &str,
+) -> Result<Config, ConfigError> {
+    let syntax = |message: String| ConfigError::Syntax {
+        file: file.to_string(),
+        message: message.trim_end().to_string(),
+    };
+    let defaults = default_table()?;
+    let user = match source {
+        ConfigSource::Toml => text.parse::<Table>().map_err(|e| syntax(e.to_string()))?,
+        ConfigSource::LegacyJson => {
+            let json: serde_json::Value =
+                serde_json::from_str(text).map_err(|e| syntax(e.to_string()))?;
+            let converted = legacy::convert(&json, &defaults)?;
+            // Errors on converted values also name the config.json key they came from.
+            return resolve(converted.clone(), &defaults, overrides)
+                .map_err(|e| legacy::annotate(e, &converted, overrides));
+        }
+    };
+    resolve(user, &defaults, overrides)
+}
+
+/// Merge onto the defaults, apply the overrides, deserialize and validate.
+fn resolve(user: Table, defaults: &Table, overrides: &[String]) -> Result<Config, ConfigError> {
+    let mut merged = defaults.clone();
+    merge_checked(&mut merged, user, defaults, "")?;
+    for item in overrides {
+        let (key, value) = parse_override(item)?;
+        let mut nested = value;
+        for segment in key.rsplit('.') {
+            let mut table = Table::new();
+            table.insert(segment.to_string(), nested);
+            nested = Value::Table(table);
+        }
+        if let Value::Table(table) = nested {
+            merge_checked(&mut merged, table, defaults, "")?;
+        }
+    }
+    let as_written = merged.clone();
+    ints_to_floats_table(&mut merged, defaults);
+    let config: Config = serde_path_to_error::deserialize(Value::Table(merged)).map_err(|e| {
+        let key = e.path().to_string();
+        let value =
+            lookup(&as_written, &key).map_or_else(|| "(missing)".to_string(), |v| v.to_string());
+        ConfigError::InvalidValue {
+            key,
+            value,
+            allowed: expectation(e.inner().message()),
+        }
+    })?;
+    config.validate()?;
+    Ok(config)
+}
+
+/// The embedded default config as a table.
+pub(super) fn default_table() -> Result<Table, ConfigError> {
+    DEFAULT_CONFIG_TOML
+        .parse::<Table>()
+        .map_err(|e| ConfigError::Syntax {
+            file: "embedded default config".into(),
+            message: e.to_string(),
+        })
+}
+
+/// `prefix.key`, or `key` at the top level.
+pub(super) fn join(prefix: &str, key: &str) -> String {
+    if prefix.is_empty() {
+        key.to_string()
+    } else {
+        format!("{prefix}.{key}")
+    }
+}
+
+/// Checks every key of `user` against `defaults` (the default table at the same path) and
+/// deep-merges it into `target`.
+fn merge_checked(
+    target: &mut Table,
+    user: Table,
+    defaults: &Table,
+    prefix: &str,
+) -> Result<(), ConfigError> {
+    for (key, value) in user {
+        let path = join(prefix, &key);
+        match defaults.get(&key) {
+            None => return Err(unknown_key(&key, prefix, defaults)),
+            Some(Value::Table(default_sub)) => match value {
+                Value::Table(user_sub) => {
+                    let entry = target
+                        .entry(key)
+                        .or_insert_with(|| Value::Table(default_sub.clone()));
+                    if !entry.is_table() {
+                        *entry = Value::Table(default_sub.clone());
+                    }
+                    if let Value::Table(target_sub) = entry {
+                        merge_checked(target_sub, user_sub, default_sub, &path)?;
+                    }
+                }
+                other => {
+                    return Err(ConfigError::invalid(
+                        &path,
+                        &other,
+                        format!(
+                            "`{path}` is a table (section) with keys: {}",
+                            allowed_keys(&path, default_sub)
+                        ),
+                    ));
+                }
+            },
+            Some(_) => {
+                if value.is_table() {
+                    return Err(ConfigError::invalid(
+                        &path,
+                        &value,
+                        "expected a single value, not a table",
+                    ));
+                }
+                target.insert(key, value);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The unknown-key error for `key` in the table at `prefix` (whose default is `defaults`).
+fn unknown_key(key: &str, prefix: &str, defaults: &Table) -> ConfigError {
+    let candidates: Vec<&str> = defaults.keys().map(String::as_str).collect();
+    let suggestion = suggest(key, &candidates)
+        .map(|s| join(prefix, s))
+        .or_else(|| {
+            // The key may exist in another table (e.g. `general.n_links`).
+            let mut found = Vec::new();
+            if let Ok(root) = default_table() {
+                find_key(&root, "", key, &mut found);
+            }
+            found.into_iter().next()
+        });
+    ConfigError::UnknownKey {
+        key: join(prefix, key),
+        suggestion,
+        allowed: allowed_keys(prefix, defaults),
+    }
+}
+
+/// Full paths of every key named `key` anywhere in `table`.
+fn find_key(table: &Table, prefix: &str, key: &str, found: &mut Vec<String>) {
+    for (k, v) in table {
+        let path = join(prefix, k);
+        if k == key {
+            found.push(path.clone());
+        }
+        if let Value::Table(sub) = v {
+            find_key(sub, &path, key, found);
+        }
+    }
+}
+
+/// The closest candidate to `word`, if one is reasonably close.
+pub(super) fn suggest<'a>(word: &str, candidates: &[&'a str]) -> Option<&'a str> {
+    let word_lower = word.to_ascii_lowercase();
+    let mut best: Option<(f64, &'a str)> = None;
+    for &candidate in candidates {
+        let cand_lower = candidate.to_ascii_lowercase();
+        let ndl = strsim::normalized_damerau_levenshtein(&word_lower, &cand_lower);
+        let jw = strsim::jaro_winkler(&word_lower, &cand_lower);
+        let contains = word_lower.len() >= 3
+            && (cand_lower.contains(&word_lower) || word_lower.contains(&cand_lower));
+        if ndl >= 0.6 || jw >= 0.85 || contains {
+            let score = ndl.max(jw);
+            if best.is_none_or(|(s, _)| score > s) {
+                best = Some((score, candidate));
+            }
+        }
+    }
+    best.map(|(_, c)| c)
+}
+
+/// The keys allowed in the table at `prefix`, in the order of the default file.
+fn allowed_keys(prefix: &str, defaults: &Table) -> String {
+    let mut keys: Vec<String> = defaults.keys().cloned().collect();
+    if let Ok(doc) = toml::de::DeTable::parse(DEFAULT_CONFIG_TOML) {
+        let mut table = Some(doc.get_ref());
+        if !prefix.is_empty() {
+            for segment in prefix.split('.') {
+                table = table.and_then(|t| {
+                    t.iter()
+                        .find(|(k, _)| k.get_ref() == segment)
+                        .and_then(|(_, v)| match v.get_ref() {
+                            toml::de::DeValue::Table(sub) => Some(sub),
+                            _ => None,
+                        })
+                });
+            }
+        }
+        if let Some(table) = table {
+            let mut entries: Vec<(usize, String)> = table
+                .iter()
+                .map(|(k, _)| (k.span().start, k.get_ref().to_string()))
+                .collect();
+            entries.sort();
+            let ordered: Vec<String> = entries.into_iter().map(|(_, k)| k).collect();
+            if ordered.len() == keys.len() {
+                keys = ordered;
+            }
+        }
+    }
+    keys.join(", ")
+}
+
+/// Converts integers to floats wherever the default has a float (also inside arrays).
+fn ints_to_floats_table(target: &mut Table, defaults: &Table) {
+    for (key, value) in target.iter_mut() {
+        if let Some(default) = defaults.get(key) {
+            ints_to_floats(value, default);
+        }
+    }
+}
+
+fn ints_to_floats(value: &mut Value, default: &Value) {
+    match (value, default) {
+        (value @ Value::Integer(_), Value::Float(_)) => {
+            if let Value::Integer(i) = *value {
+                *value = Value::Float(i as f64);
+            }
+        }
+        (Value::Array(items), Value::Array(default_items)) => {
+            if let Some(first) = default_items.first() {
+                for item in items.iter_mut() {
+                    ints_to_floats(item, first);
+                }
+            }
+        }
+        (Value::Table(table), Value::Table(default_table)) => {
+            ints_to_floats_table(table, default_table)
+        }
+        _ => {}
+    }
+}
+
+/// The value at a serde path like `snake.torque_range_nm[1]`.
+pub(super) fn lookup<'a>(table: &'a Table, path: &str) -> Option<&'a Value> {
+    let mut current: Option<&Value> = None;
+    for segment in path.split('.') {
+        let (name, indices) = match segment.find('[') {
+            Some(i) => (&segment[..i], &segment[i..]),
+            None => (segment, ""),
+        };
+        current = match current {
+            None => table.get(name),
+            Some(Value::Table(t)) => t.get(name),
+            Some(_) => None,
+        };
+        for index in indices.split('[').filter(|s| !s.is_empty()) {
+            let index: usize = index.trim_end_matches(']').parse().ok()?;
+            current = current
+                .and_then(|v| v.as_array())
+                .and_then(|a| a.get(index));
+        }
+        current?;
+    }
+    current
+}
+
+/// Serde's expectation from its message (`invalid type: string "ten", expected f64`), in words.
+fn expectation(message: &str) -> String {
+    let message = message.trim();
+    let Some(start) = message.find("expected") else {
+        return message.to_string();
+    };
+    let expected = &message[start..];
+    let words = match expected {
+        "expected f64" | "expected f32" => "expected a number",
+        "expected usize" | "expected u64" | "expected u32" => "expected a non-negative integer",
+        "expected u8" => "expected an integer from 0 to 255",
+        "expected i64" => "expected an integer",
+        other => other,
+    };
+    words.to_string()
 }

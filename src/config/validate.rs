@@ -1,1 +1,473 @@
+//! [`Config::validate`]: ranges and consistency of a deserialized config.
+//!
+//! Checks run section by section in the order of the default file and stop at the first
+//! problem, reported as [`ConfigError::InvalidValue`] with the full key path, the value and
+//! what is allowed. Array values are reported whole (`snake.ground_friction = [0.5, -1.0,
+//! 0.0001]`), the message names the offending element.
+//!
+//! Every number must be finite (NaN and infinities are rejected everywhere). Rules that tie a
+//! section to another one are checked only when the section is in use:
+//! - the sine-wave amplitude and offset against `snake.joint_range_deg`: when
+//!   `gait.kind = "sine_wave"`;
+//! - the form-closure pattern against `snake.joint_range_deg`: when `gait.kind` or
+//!   `terrain.kind` is `"form_closure"`;
+//! - the corridor width against the snake's thickness: when `terrain.kind = "cylinder_path"`;
+//! - the record interval against the duration: when `recording.enabled`.
+//!
+//! The ranges of every other key are checked whatever is selected. Whether obstacles overlap the
+//! snake is checked by model generation, not here.
 
+use super::{Config, ConfigError, GaitKind, TerrainKind};
+
+type Check = Result<(), ConfigError>;
+
+/// A float as TOML writes it (`1.0`, `nan`, `inf`).
+fn fmt_f(v: f64) -> String {
+    if v.is_nan() {
+        "nan".into()
+    } else if v.is_infinite() {
+        if v > 0.0 { "inf".into() } else { "-inf".into() }
+    } else {
+        format!("{v:?}")
+    }
+}
+
+/// An array of floats as TOML writes it.
+fn fmt_a(values: &[f64]) -> String {
+    format!(
+        "[{}]",
+        values
+            .iter()
+            .map(|v| fmt_f(*v))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
+}
+
+fn fail(key: &str, value: impl std::fmt::Display, allowed: impl Into<String>) -> Check {
+    Err(ConfigError::invalid(key, value, allowed))
+}
+
+fn ensure(ok: bool, key: &str, value: impl std::fmt::Display, allowed: impl Into<String>) -> Check {
+    if ok {
+        Ok(())
+    } else {
+        fail(key, value, allowed)
+    }
+}
+
+fn finite(key: &str, v: f64) -> Check {
+    ensure(
+        v.is_finite(),
+        key,
+        fmt_f(v),
+        "must be a finite number (nan and inf are not allowed)",
+    )
+}
+
+fn positive(key: &str, v: f64) -> Check {
+    finite(key, v)?;
+    ensure(v > 0.0, key, fmt_f(v), "must be greater than 0")
+}
+
+fn non_negative(key: &str, v: f64) -> Check {
+    finite(key, v)?;
+    ensure(v >= 0.0, key, fmt_f(v), "must be at least 0")
+}
+
+/// Every element finite.
+fn all_finite(key: &str, values: &[f64]) -> Check {
+    for (i, v) in values.iter().enumerate() {
+        ensure(
+            v.is_finite(),
+            key,
+            fmt_a(values),
+            format!(
+                "every element must be a finite number (nan and inf are not allowed); element {} is {}",
+                i + 1,
+                fmt_f(*v)
+            ),
+        )?;
+    }
+    Ok(())
+}
+
+/// Friction coefficients `[sliding, torsional_m, rolling_m]`: finite and >= 0.
+fn friction(key: &str, values: &[f64; 3]) -> Check {
+    all_finite(key, values)?;
+    for (name, v) in ["sliding", "torsional", "rolling"].into_iter().zip(values) {
+        ensure(
+            *v >= 0.0,
+            key,
+            fmt_a(values),
+            format!(
+                "the {name} coefficient must be at least 0, not {}",
+                fmt_f(*v)
+            ),
+        )?;
+    }
+    Ok(())
+}
+
+impl Config {
+    /// Checks ranges and consistency; returns the first problem found.
+    ///
+    /// # Errors
+    /// [`ConfigError::InvalidValue`] naming the key path, its value and what is allowed, e.g.
+    /// `snake.n_links = 0: must be at least 1`.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.validate_general()?;
+        self.validate_physics()?;
+        self.validate_snake()?;
+        self.validate_sensors()?;
+        self.validate_control()?;
+        self.validate_gait()?;
+        self.validate_terrain()?;
+        self.validate_recording()
+    }
+
+    fn validate_general(&self) -> Check {
+        let g = &self.general;
+        ensure(
+            !g.run_name.is_empty()
+                && g.run_name
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-')),
+            "general.run_name",
+            format!("{:?}", g.run_name),
+            "must be non-empty and use only letters A-Z a-z, digits 0-9, `.`, `_` and `-` (it becomes part of a folder name)",
+        )?;
+        ensure(
+            !g.output_dir.trim().is_empty(),
+            "general.output_dir",
+            format!("{:?}", g.output_dir),
+            "must not be empty",
+        )?;
+        positive("general.duration_secs", g.duration_secs)?;
+        positive("general.timestep_secs", g.timestep_secs)?;
+        ensure(
+            g.timestep_secs <= g.duration_secs,
+            "general.timestep_secs",
+            fmt_f(g.timestep_secs),
+            format!(
+                "must not be longer than general.duration_secs ({})",
+                fmt_f(g.duration_secs)
+            ),
+        )?;
+        all_finite("general.gravity_m_per_s2", &g.gravity_m_per_s2)?;
+        ensure(
+            !g.plot,
+            "general.plot",
+            g.plot,
+            "plotting is not available in this build (planned); set general.plot = false",
+        )
+    }
+
+    fn validate_physics(&self) -> Check {
+        let p = &self.physics;
+        let key = "physics.contact_time_constant_secs";
+        positive(key, p.contact_time_constant_secs)?;
+        let min = 2.0 * self.general.timestep_secs;
+        ensure(
+            p.contact_time_constant_secs >= min,
+            key,
+            fmt_f(p.contact_time_constant_secs),
+            format!(
+                "must be at least 2 x general.timestep_secs = {} (MuJoCo's rule for stable contacts: the contact \
+                 time constant must span at least two timesteps)",
+                fmt_f(min)
+            ),
+        )?;
+        positive("physics.contact_damping_ratio", p.contact_damping_ratio)?;
+        ensure(
+            p.solver_iterations >= 1,
+            "physics.solver_iterations",
+            p.solver_iterations,
+            "must be at least 1",
+        )
+    }
+
+    fn validate_snake(&self) -> Check {
+        let s = &self.snake;
+        ensure(
+            s.n_links >= 1,
+            "snake.n_links",
+            s.n_links,
+            "must be at least 1",
+        )?;
+        ensure(
+            s.n_links <= 200,
+            "snake.n_links",
+            s.n_links,
+            "must be at most 200",
+        )?;
+        positive("snake.link_length_m", s.link_length_m)?;
+        positive("snake.link_radius_m", s.link_radius_m)?;
+        ensure(
+            s.link_length_m >= 2.0 * s.link_radius_m,
+            "snake.link_length_m",
+            fmt_f(s.link_length_m),
+            format!(
+                "must be at least the link diameter 2 x snake.link_radius_m = {}: the link length is the full \
+                 capsule length (end caps included) between neighbouring joints, and it must not be shorter than the \
+                 diameter or neighbouring links would overlap (equal to it gives spherical links)",
+                fmt_f(2.0 * s.link_radius_m)
+            ),
+        )?;
+        positive("snake.link_mass_kg", s.link_mass_kg)?;
+        positive("snake.joint_range_deg", s.joint_range_deg)?;
+        ensure(
+            s.joint_range_deg <= 180.0,
+            "snake.joint_range_deg",
+            fmt_f(s.joint_range_deg),
+            "must be at most 180",
+        )?;
+        non_negative(
+            "snake.joint_damping_nm_s_per_rad",
+            s.joint_damping_nm_s_per_rad,
+        )?;
+        non_negative("snake.joint_armature_kg_m2", s.joint_armature_kg_m2)?;
+
+        let key = "snake.torque_range_nm";
+        let [min, max] = s.torque_range_nm;
+        all_finite(key, &s.torque_range_nm)?;
+        ensure(
+            min < max,
+            key,
+            fmt_a(&s.torque_range_nm),
+            "must be [min, max] with min < max",
+        )?;
+        ensure(
+            min <= 0.0 && max >= 0.0,
+            key,
+            fmt_a(&s.torque_range_nm),
+            "must include 0 (min <= 0 <= max), so that the actuators can be idle",
+        )?;
+
+        friction("snake.ground_friction", &s.ground_friction)?;
+        friction("snake.link_friction", &s.link_friction)?;
+
+        let key = "snake.color_rgba";
+        all_finite(key, &s.color_rgba)?;
+        for (name, c) in ["red", "green", "blue", "alpha"]
+            .into_iter()
+            .zip(&s.color_rgba)
+        {
+            ensure(
+                (0.0..=1.0).contains(c),
+                key,
+                fmt_a(&s.color_rgba),
+                format!("every component must be in 0..1; {name} is {}", fmt_f(*c)),
+            )?;
+        }
+        all_finite("snake.head_position_m", &s.head_position_m)?;
+        all_finite("snake.head_rotation_deg", &s.head_rotation_deg)
+    }
+
+    fn validate_sensors(&self) -> Check {
+        let s = &self.sensors;
+        let stds = [
+            (
+                "sensors.accelerometer_std_m_per_s2",
+                s.accelerometer_std_m_per_s2,
+            ),
+            ("sensors.gyro_std_rad_per_s", s.gyro_std_rad_per_s),
+            ("sensors.velocimeter_std_m_per_s", s.velocimeter_std_m_per_s),
+            ("sensors.joint_angle_std_rad", s.joint_angle_std_rad),
+            (
+                "sensors.joint_velocity_std_rad_per_s",
+                s.joint_velocity_std_rad_per_s,
+            ),
+            ("sensors.joint_force_std_n", s.joint_force_std_n),
+            ("sensors.joint_torque_std_nm", s.joint_torque_std_nm),
+        ];
+        for (key, v) in stds {
+            non_negative(key, v)?;
+        }
+        Ok(())
+    }
+
+    fn validate_control(&self) -> Check {
+        let c = &self.control;
+        positive("control.torque_gear", c.torque_gear)?;
+        let gains = [
+            ("control.position_kp_nm_per_rad", c.position_kp_nm_per_rad),
+            (
+                "control.position_kv_nm_s_per_rad",
+                c.position_kv_nm_s_per_rad,
+            ),
+            (
+                "control.velocity_kv_nm_s_per_rad",
+                c.velocity_kv_nm_s_per_rad,
+            ),
+            (
+                "control.intvelocity_kp_nm_per_rad",
+                c.intvelocity_kp_nm_per_rad,
+            ),
+            ("control.pid_kp_nm_per_rad", c.pid_kp_nm_per_rad),
+            ("control.pid_ki_nm_per_rad_s", c.pid_ki_nm_per_rad_s),
+            ("control.pid_kd_nm_s_per_rad", c.pid_kd_nm_s_per_rad),
+        ];
+        for (key, v) in gains {
+            non_negative(key, v)?;
+        }
+        Ok(())
+    }
+
+    fn validate_gait(&self) -> Check {
+        let g = &self.gait;
+        let range = self.snake.joint_range_deg;
+        non_negative("gait.ramp_secs", g.ramp_secs)?;
+
+        let w = &g.sine_wave;
+        non_negative("gait.sine_wave.amplitude_deg", w.amplitude_deg)?;
+        non_negative("gait.sine_wave.frequency_hz", w.frequency_hz)?;
+        finite("gait.sine_wave.phase_lag_deg", w.phase_lag_deg)?;
+        finite("gait.sine_wave.offset_deg", w.offset_deg)?;
+        if g.kind == GaitKind::SineWave {
+            ensure(
+                w.amplitude_deg <= range,
+                "gait.sine_wave.amplitude_deg",
+                fmt_f(w.amplitude_deg),
+                format!("must not exceed snake.joint_range_deg ({})", fmt_f(range)),
+            )?;
+            ensure(
+                w.amplitude_deg + w.offset_deg.abs() <= range,
+                "gait.sine_wave.offset_deg",
+                fmt_f(w.offset_deg),
+                format!(
+                    "amplitude_deg + |offset_deg| = {} must not exceed snake.joint_range_deg ({})",
+                    fmt_f(w.amplitude_deg + w.offset_deg.abs()),
+                    fmt_f(range)
+                ),
+            )?;
+        }
+
+        let f = &g.form_closure;
+        let key = "gait.form_closure.pattern_deg";
+        ensure(
+            !f.pattern_deg.is_empty(),
+            key,
+            "[]",
+            "must list at least one joint angle",
+        )?;
+        all_finite(key, &f.pattern_deg)?;
+        if g.kind == GaitKind::FormClosure || self.terrain.kind == TerrainKind::FormClosure {
+            for (i, a) in f.pattern_deg.iter().enumerate() {
+                ensure(
+                    a.abs() < range,
+                    key,
+                    fmt_a(&f.pattern_deg),
+                    format!(
+                        "every |angle| must be less than snake.joint_range_deg ({}); element {} is {}",
+                        fmt_f(range),
+                        i + 1,
+                        fmt_f(*a)
+                    ),
+                )?;
+            }
+        }
+        positive("gait.form_closure.shift_period_secs", f.shift_period_secs)
+    }
+
+    fn validate_terrain(&self) -> Check {
+        let t = &self.terrain;
+        friction("terrain.obstacle_friction", &t.obstacle_friction)?;
+        positive("terrain.cylinder_height_m", t.cylinder_height_m)?;
+        positive("terrain.floor_size_m", t.floor_size_m)?;
+
+        positive(
+            "terrain.two_cylinders.distance_m",
+            t.two_cylinders.distance_m,
+        )?;
+        positive("terrain.two_cylinders.radius_m", t.two_cylinders.radius_m)?;
+
+        let r = &t.random_cylinders;
+        let key = "terrain.random_cylinders.radius_range_m";
+        all_finite(key, &r.radius_range_m)?;
+        ensure(
+            r.radius_range_m[0] > 0.0,
+            key,
+            fmt_a(&r.radius_range_m),
+            "the smallest radius must be greater than 0",
+        )?;
+        ensure(
+            r.radius_range_m[0] <= r.radius_range_m[1],
+            key,
+            fmt_a(&r.radius_range_m),
+            "must be [min, max] with min <= max",
+        )?;
+        positive("terrain.random_cylinders.half_size_m", r.half_size_m)?;
+        non_negative("terrain.random_cylinders.min_gap_m", r.min_gap_m)?;
+
+        let p = &t.cylinder_path;
+        ensure(
+            p.n_pairs >= 1,
+            "terrain.cylinder_path.n_pairs",
+            p.n_pairs,
+            "must be at least 1",
+        )?;
+        positive("terrain.cylinder_path.spacing_m", p.spacing_m)?;
+        positive("terrain.cylinder_path.radius_m", p.radius_m)?;
+        positive("terrain.cylinder_path.width_m", p.width_m)?;
+        ensure(
+            p.width_m > 2.0 * p.radius_m,
+            "terrain.cylinder_path.width_m",
+            fmt_f(p.width_m),
+            format!(
+                "must be greater than 2 x terrain.cylinder_path.radius_m = {} so that the two rows of pegs do not \
+                 touch",
+                fmt_f(2.0 * p.radius_m)
+            ),
+        )?;
+        finite("terrain.cylinder_path.start_m", p.start_m)?;
+        if t.kind == TerrainKind::CylinderPath {
+            let needed = 2.0 * self.snake.link_radius_m + 2.0 * p.radius_m;
+            ensure(
+                p.width_m > needed,
+                "terrain.cylinder_path.width_m",
+                fmt_f(p.width_m),
+                format!(
+                    "must be greater than 2 x snake.link_radius_m + 2 x terrain.cylinder_path.radius_m = {} so that \
+                     the snake fits between the rows",
+                    fmt_f(needed)
+                ),
+            )?;
+        }
+
+        let f = &t.form_closure;
+        ensure(
+            matches!(f.order, 1 | 2),
+            "terrain.form_closure.order",
+            f.order,
+            "must be 1 or 2",
+        )?;
+        positive("terrain.form_closure.radius_m", f.radius_m)
+    }
+
+    fn validate_recording(&self) -> Check {
+        let r = &self.recording;
+        ensure(
+            r.every_n_steps >= 1,
+            "recording.every_n_steps",
+            r.every_n_steps,
+            "must be at least 1",
+        )?;
+        if r.enabled {
+            // u64 -> f64 is exact up to 2^53; beyond that the interval is astronomically long anyway.
+            let interval = r.every_n_steps as f64 * self.general.timestep_secs;
+            ensure(
+                interval <= self.general.duration_secs,
+                "recording.every_n_steps",
+                r.every_n_steps,
+                format!(
+                    "the record interval every_n_steps x general.timestep_secs = {} s must not be longer than \
+                     general.duration_secs ({} s)",
+                    fmt_f(interval),
+                    fmt_f(self.general.duration_secs)
+                ),
+            )?;
+        }
+        Ok(())
+    }
+}

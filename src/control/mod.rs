@@ -1,0 +1,253 @@
+//! Control: the [`Controller`] trait, joint trajectories (gaits) and the built-in controllers.
+//!
+//! Pure Rust: controllers see an [`Observation`] (plain numbers) and write a [`Command`]; they
+//! never touch MuJoCo. The simulation calls [`Controller::update`] once per physics step, before
+//! the step, with the state at the start of that step (see ARCHITECTURE.md for the exact order).
+
+mod gait;
+mod pid;
+
+pub use gait::{FormClosureShift, JointTrajectory, SineWave, Still, trajectory_from_config};
+pub use pid::Pid;
+
+use crate::config::{Config, ControlMethod};
+
+/// What a controller sees at one step. All vectors are per joint (`n_joints`) or per link
+/// (`n_links`); world frame unless the name says otherwise.
+#[derive(Debug, Clone, Default)]
+pub struct Observation {
+    /// Simulated time of the state (s).
+    pub time_secs: f64,
+    /// Joint angles as measured by the encoders (rad; noise added when configured).
+    pub joint_angle_rad: Vec<f64>,
+    /// Joint velocities as measured (rad/s).
+    pub joint_velocity_rad_per_s: Vec<f64>,
+    /// Head (link 0) frame origin, the tip of its body axis (m), exact.
+    pub head_position_m: [f64; 3],
+    /// Head orientation quaternion (w, x, y, z), exact.
+    pub head_quat: [f64; 4],
+    /// Head linear velocity (m/s), exact.
+    pub head_velocity_m_per_s: [f64; 3],
+    /// Per link IMU: accelerometer (proper acceleration, link frame, m/s²) as measured.
+    pub imu_accel_m_per_s2: Vec<[f64; 3]>,
+    /// Per link IMU: gyro (link frame, rad/s) as measured.
+    pub imu_gyro_rad_per_s: Vec<[f64; 3]>,
+    /// Per joint force sensor (N, in the child link's frame at the joint) as measured.
+    pub joint_force_n: Vec<[f64; 3]>,
+    /// Per joint torque sensor (N·m, child link frame) as measured.
+    pub joint_torque_nm: Vec<[f64; 3]>,
+    /// Time of the sensor sample above (s): IMU and force/torque values come from the last
+    /// complete evaluation of the model, at most one step old (a sensor's latency).
+    pub sensor_time_secs: f64,
+}
+
+impl Observation {
+    /// An observation with all vectors sized for the robot.
+    pub fn new(n_links: usize, n_joints: usize) -> Self {
+        Self {
+            joint_angle_rad: vec![0.0; n_joints],
+            joint_velocity_rad_per_s: vec![0.0; n_joints],
+            imu_accel_m_per_s2: vec![[0.0; 3]; n_links],
+            imu_gyro_rad_per_s: vec![[0.0; 3]; n_links],
+            joint_force_n: vec![[0.0; 3]; n_joints],
+            joint_torque_nm: vec![[0.0; 3]; n_joints],
+            ..Self::default()
+        }
+    }
+
+    /// Copies every value of `other` (same sizes) without allocating.
+    pub fn copy_from(&mut self, other: &Observation) {
+        self.time_secs = other.time_secs;
+        self.joint_angle_rad.copy_from_slice(&other.joint_angle_rad);
+        self.joint_velocity_rad_per_s
+            .copy_from_slice(&other.joint_velocity_rad_per_s);
+        self.head_position_m = other.head_position_m;
+        self.head_quat = other.head_quat;
+        self.head_velocity_m_per_s = other.head_velocity_m_per_s;
+        self.imu_accel_m_per_s2
+            .copy_from_slice(&other.imu_accel_m_per_s2);
+        self.imu_gyro_rad_per_s
+            .copy_from_slice(&other.imu_gyro_rad_per_s);
+        self.joint_force_n.copy_from_slice(&other.joint_force_n);
+        self.joint_torque_nm.copy_from_slice(&other.joint_torque_nm);
+        self.sensor_time_secs = other.sensor_time_secs;
+    }
+
+    /// Number of joints.
+    pub fn n_joints(&self) -> usize {
+        self.joint_angle_rad.len()
+    }
+}
+
+/// What a controller writes: one command per joint for each actuator kind. Only the kind that
+/// the model's `control.method` gave non-zero gains has any effect; the others are sent too
+/// (a torque command always acts).
+#[derive(Debug, Clone, Default)]
+pub struct Command {
+    /// Torque motor commands (N·m before the gear).
+    pub torque_nm: Vec<f64>,
+    /// Position servo set-points (rad).
+    pub position_rad: Vec<f64>,
+    /// Velocity servo set-points (rad/s).
+    pub velocity_rad_per_s: Vec<f64>,
+    /// Integrated-velocity servo commands (rad/s; the actuator integrates them).
+    pub intvelocity_rad_per_s: Vec<f64>,
+}
+
+impl Command {
+    /// A zero command for `n_joints` joints.
+    pub fn new(n_joints: usize) -> Self {
+        Self {
+            torque_nm: vec![0.0; n_joints],
+            position_rad: vec![0.0; n_joints],
+            velocity_rad_per_s: vec![0.0; n_joints],
+            intvelocity_rad_per_s: vec![0.0; n_joints],
+        }
+    }
+
+    /// The command block of one actuator kind.
+    pub fn block(&self, kind: ControlMethod) -> &[f64] {
+        match kind {
+            ControlMethod::Torque => &self.torque_nm,
+            ControlMethod::Position => &self.position_rad,
+            ControlMethod::Velocity => &self.velocity_rad_per_s,
+            ControlMethod::Intvelocity => &self.intvelocity_rad_per_s,
+        }
+    }
+}
+
+/// A controller: called every physics step with the time and the observation, it writes the
+/// actuator commands. Implement this to drive the snake with your own code (see
+/// `examples/custom_controller.rs`).
+pub trait Controller {
+    /// Called once before the first step (and again if the simulation is reset).
+    fn reset(&mut self) {}
+    /// Computes the commands for the step starting at `obs.time_secs`. Must not allocate if it
+    /// is to keep the step loop fast.
+    fn update(&mut self, obs: &Observation, cmd: &mut Command);
+}
+
+/// The built-in controller: follows a joint trajectory with the configured actuator kind.
+/// `position` sends the target angle, `velocity` and `intvelocity` the target velocity, and
+/// `torque` runs a PID on the angle error per joint (thesis chapter 8.4), saturated at the
+/// torque range.
+pub struct TrajectoryController {
+    trajectory: Box<dyn JointTrajectory>,
+    method: ControlMethod,
+    pids: Vec<Pid>,
+    target_rad: Vec<f64>,
+    target_velocity_rad_per_s: Vec<f64>,
+    dt_secs: f64,
+}
+
+impl TrajectoryController {
+    /// Builds the controller that `config` describes for `n_joints` joints.
+    pub fn from_config(config: &Config, n_joints: usize) -> Self {
+        let c = &config.control;
+        let [lo, hi] = config.snake.torque_range_nm;
+        let gear = c.torque_gear;
+        let pid = Pid::new(
+            c.pid_kp_nm_per_rad,
+            c.pid_ki_nm_per_rad_s,
+            c.pid_kd_nm_s_per_rad,
+            lo / gear,
+            hi / gear,
+        );
+        Self::new(
+            trajectory_from_config(config),
+            c.method,
+            vec![pid; n_joints],
+            config.general.timestep_secs,
+        )
+    }
+
+    /// A controller from its parts: one PID per joint (used only with `method = torque`).
+    pub fn new(
+        trajectory: Box<dyn JointTrajectory>,
+        method: ControlMethod,
+        pids: Vec<Pid>,
+        dt_secs: f64,
+    ) -> Self {
+        let n = pids.len();
+        Self {
+            trajectory,
+            method,
+            pids,
+            target_rad: vec![0.0; n],
+            target_velocity_rad_per_s: vec![0.0; n],
+            dt_secs,
+        }
+    }
+}
+
+impl Controller for TrajectoryController {
+    fn reset(&mut self) {
+        self.pids.iter_mut().for_each(Pid::reset);
+    }
+
+    fn update(&mut self, obs: &Observation, cmd: &mut Command) {
+        self.trajectory.targets(
+            obs.time_secs,
+            &mut self.target_rad,
+            &mut self.target_velocity_rad_per_s,
+        );
+        match self.method {
+            ControlMethod::Position => cmd.position_rad.copy_from_slice(&self.target_rad),
+            ControlMethod::Velocity => cmd
+                .velocity_rad_per_s
+                .copy_from_slice(&self.target_velocity_rad_per_s),
+            ControlMethod::Intvelocity => cmd
+                .intvelocity_rad_per_s
+                .copy_from_slice(&self.target_velocity_rad_per_s),
+            ControlMethod::Torque => {
+                for (j, pid) in self.pids.iter_mut().enumerate() {
+                    let error = self.target_rad[j] - obs.joint_angle_rad[j];
+                    let error_rate =
+                        self.target_velocity_rad_per_s[j] - obs.joint_velocity_rad_per_s[j];
+                    cmd.torque_nm[j] = pid.update(error, error_rate, self.dt_secs);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn position_method_sends_trajectory_angles() {
+        let mut config = Config::default();
+        config.gait.ramp_secs = 0.0;
+        config.control.method = ControlMethod::Position;
+        let mut ctl = TrajectoryController::from_config(&config, 3);
+        let mut obs = Observation::new(4, 3);
+        obs.time_secs = 0.3;
+        let mut cmd = Command::new(3);
+        ctl.update(&obs, &mut cmd);
+        let w = &config.gait.sine_wave;
+        for (j, value) in cmd.position_rad.iter().enumerate() {
+            let expected = w.amplitude_deg.to_radians()
+                * (std::f64::consts::TAU * w.frequency_hz * 0.3
+                    - j as f64 * w.phase_lag_deg.to_radians())
+                .sin();
+            assert!((value - expected).abs() < 1e-12);
+        }
+        assert!(cmd.torque_nm.iter().all(|t| *t == 0.0));
+    }
+
+    #[test]
+    fn torque_method_pushes_toward_target_and_saturates() {
+        let mut config = Config::default();
+        config.gait.kind = crate::config::GaitKind::None;
+        config.control.method = ControlMethod::Torque;
+        config.control.pid_kp_nm_per_rad = 100.0;
+        let mut ctl = TrajectoryController::from_config(&config, 2);
+        let mut obs = Observation::new(3, 2);
+        obs.joint_angle_rad = vec![0.5, -0.001];
+        let mut cmd = Command::new(2);
+        ctl.update(&obs, &mut cmd);
+        assert_eq!(cmd.torque_nm[0], config.snake.torque_range_nm[0]);
+        assert!(cmd.torque_nm[1] > 0.0 && cmd.torque_nm[1] < config.snake.torque_range_nm[1]);
+    }
+}

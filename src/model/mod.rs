@@ -1,0 +1,506 @@
+//! World generation: the configuration becomes an MJCF model (thesis appendix 12.2), as text.
+//!
+//! Pure Rust: nothing here calls MuJoCo; the text is meant for `MjModel::from_xml_string` and can
+//! be saved and opened with MuJoCo's own tools.
+//!
+//! # The model
+//! - All lengths SI, `<compiler angle="radian" autolimits="true"/>`.
+//! - `<option>`: `general.timestep_secs`, `general.integrator`, `general.gravity_m_per_s2`,
+//!   `physics.friction_cone`, `physics.solver_iterations`. Default geom
+//!   `solref = "contact_time_constant_secs contact_damping_ratio"`.
+//! - Snake frame: the head's front tip at the origin, the body along −x, z up (the snake faces +x).
+//!   Body `link_00` is placed at `head_position_m + (0, 0, link_radius_m)` with
+//!   `euler = head_rotation_deg` (radians, `eulerseq="xyz"`: intrinsic x, then y, then z) and has
+//!   the free joint `head_free`. Link `i > 0` is a child of link `i − 1` at `(−L, 0, 0)`, with its
+//!   hinge `joint_ii` at its origin (axis z for all joints with `joint_axes = "yaw"`; z, y, z, y, …
+//!   for joints 1, 2, 3, 4, … with `"alternating"`), range ±`joint_range_deg`, damping, armature.
+//! - Link `i`'s geom spans exactly x ∈ [−L, 0] of its body frame, caps included: a capsule from
+//!   (−r, 0, 0) to (−(L − r), 0, 0) with radius r. `L = 2r` (allowed) gives a sphere of radius r at
+//!   (−L/2, 0, 0). Mass `link_mass_kg`, colour `color_rgba`.
+//! - Sites: `link_ii_imu` at the link centre (−L/2, 0, 0); `joint_jj_site` at the origin of link
+//!   `j` (the joint anchor).
+//! - Contacts: link geoms contype 1, conaffinity 3 (or 2 without `physics.self_collision`); floor
+//!   and obstacles contype 2, conaffinity 1. So the environment never collides with itself and
+//!   links collide with each other only with self-collision (MuJoCo already excludes parent–child
+//!   pairs). Friction: floor priority 1 with `snake.ground_friction`, obstacles priority 1 with
+//!   `terrain.obstacle_friction`, links priority 0 with `snake.link_friction` (MuJoCo takes the
+//!   friction of the higher-priority geom, and the maximum for equal priorities). `condim` per geom
+//!   from its own friction: 3, 4 if torsional > 0, 6 if rolling > 0.
+//! - Actuators, one of each kind per joint, in blocks: all `torque_jj` motors (gear
+//!   `torque_gear`, ctrl and force limited to `torque_range_nm / torque_gear`, so the joint torque
+//!   is limited to `torque_range_nm` for any gear), all `position_jj` servos (kp, kv, ctrlrange
+//!   ±joint range), all `velocity_jj` servos (kv), all `intvelocity_jj` servos (kp, actrange
+//!   ±joint range in radians); servos have `forcerange = torque_range_nm`. Only the kind equal to
+//!   `control.method` gets its gains; the other servo kinds get kp = kv = 0 (MuJoCo accepts zero
+//!   gains, and a servo with zero gains produces exactly zero force, whereas any non-zero gain acts
+//!   even at zero command).
+//! - Sensors (order): per link `link_ii_vel` (velocimeter), `link_ii_acc` (accelerometer),
+//!   `link_ii_gyro` (gyro), `link_ii_pos` (framepos), `link_ii_quat` (framequat), all of site
+//!   `link_ii_imu`; then per joint `joint_jj_force`, `joint_jj_torque` (at `joint_jj_site`: the
+//!   constraint force between link `j` and its parent, like Boa's force/torque sensors),
+//!   `joint_jj_angle` (jointpos), `joint_jj_angvel` (jointvel).
+//! - Floor: plane `floor` at z = 0, half-size `terrain.floor_size_m`. Obstacles: see
+//!   [`terrain`].
+//! - Keyframe `initial`: `qpos` = head position, head quaternion, initial joint angles (zero, or
+//!   with `gait.kind = "form_closure"` joint j at `pattern_deg[(j − 1) % len]`); `ctrl` = initial
+//!   angles for the position servos (zero otherwise); `act` = initial angles for the intvelocity
+//!   servos. Reset to it (`mj_resetDataKeyframe`) to start a run.
+//!
+//! # Checks
+//! [`generate`] rejects, with the key path responsible, an obstacle that overlaps the snake at its
+//! starting pose (the real capsule, seen from above, where the link's height range meets the
+//! cylinder's) and a snake that starts (partly) below the floor (a body-axis point lower than
+//! `link_radius_m`). Ranges of single values are
+//! checked by `Config::validate`; here only what would make the text invalid or the code panic is
+//! rechecked.
+
+mod geometry;
+pub mod names;
+mod snake;
+pub mod terrain;
+
+use std::fmt::{self, Write};
+
+pub use geometry::link_axis_segments_m;
+
+use crate::config::{Config, ConfigError, FrictionCone, GaitKind};
+use geometry::{V3, dist_xy_point_segment};
+
+/// A vertical cylinder obstacle standing on the floor.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cylinder {
+    /// Geom name (`obstacle_kk`, see [`names::obstacle`]).
+    pub name: String,
+    /// Centre of the cylinder's axis in the xy-plane (world), m.
+    pub center_m: [f64; 2],
+    /// Radius, m.
+    pub radius_m: f64,
+    /// Height, m (it spans z ∈ [0, height]).
+    pub height_m: f64,
+}
+
+/// The generated model and what the rest of the simulator needs to know about it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GeneratedModel {
+    /// The MJCF text.
+    pub xml: String,
+    /// The obstacles, in the order of their names (`obstacle_00`, `obstacle_01`, …).
+    pub obstacles: Vec<Cylinder>,
+    /// Starting angle of each joint (index `j - 1` for joint `j`), rad; also in the `initial` key.
+    pub initial_joint_angles_rad: Vec<f64>,
+}
+
+/// Why a model could not be generated.
+#[derive(thiserror::Error, Debug)]
+#[non_exhaustive]
+pub enum ModelError {
+    /// The configuration cannot give a valid model (the key path says which setting).
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// Writing the text failed (cannot happen when writing to a `String`; kept for `?`).
+    #[error("cannot write the MJCF text: {0}")]
+    Format(#[from] fmt::Error),
+}
+
+/// Generates the MJCF model of `cfg`: the snake, the floor, the obstacles of `terrain.kind`, the
+/// actuators, the sensors and the `initial` keyframe.
+///
+/// # Errors
+/// [`ModelError::Config`] with the key path when the configuration cannot give a consistent
+/// model: an obstacle overlapping the snake at its starting pose, a snake starting below the
+/// floor, random cylinders that do not fit, a form-closure terrain without bends, or values that
+/// would make invalid MJCF (non-finite numbers, link length below twice the radius, …).
+pub fn generate(cfg: &Config) -> Result<GeneratedModel, ModelError> {
+    sanity(cfg)?;
+    let angles = initial_joint_angles(cfg)?;
+    let segments = link_axis_segments_m(cfg, &angles);
+    check_above_floor(cfg, &segments)?;
+    let placed = terrain::place_obstacles(cfg, &segments)?;
+    check_obstacles_clear(cfg, &segments, &placed)?;
+    let obstacles: Vec<Cylinder> = placed.into_iter().map(|p| p.cylinder).collect();
+    let xml = write_xml(cfg, Body::Snake(&angles), &obstacles)?;
+    Ok(GeneratedModel {
+        xml,
+        obstacles,
+        initial_joint_angles_rad: angles,
+    })
+}
+
+/// A scene for a user's robot: the options, floor and obstacles of `cfg`, with the robot's MJCF
+/// file (`robot_file`, relative to where the scene file will be written) included unchanged by
+/// MuJoCo's `<include>`.
+///
+/// The robot keeps its own defaults; floor and obstacles get the configured contact `solref`
+/// directly. The terrain is laid out as for the configured snake (head tip, heading and straight
+/// body from the `snake` keys), since the robot's shape is unknown here; nothing checks that the
+/// robot is clear of the obstacles. `terrain.kind = "form_closure"` needs the snake's bent shape
+/// and is rejected. `initial_joint_angles_rad` is empty.
+///
+/// # Errors
+/// [`ModelError::Config`] as for [`generate`] (except the overlap and floor checks), and for
+/// `terrain.kind = "form_closure"`.
+pub fn scene_with_robot(robot_file: &str, cfg: &Config) -> Result<GeneratedModel, ModelError> {
+    sanity(cfg)?;
+    if cfg.terrain.kind == crate::config::TerrainKind::FormClosure {
+        return Err(ConfigError::invalid(
+            "terrain.kind",
+            "\"form_closure\"",
+            "the form-closure pegs are placed around the generated snake's bends; with your own robot use \
+             \"none\", \"two_cylinders\", \"random_cylinders\" or \"cylinder_path\"",
+        )
+        .into());
+    }
+    let segments = link_axis_segments_m(cfg, &[]);
+    let placed = terrain::place_obstacles(cfg, &segments)?;
+    let obstacles: Vec<Cylinder> = placed.into_iter().map(|p| p.cylinder).collect();
+    let xml = write_xml(cfg, Body::Include(robot_file), &obstacles)?;
+    Ok(GeneratedModel {
+        xml,
+        obstacles,
+        initial_joint_angles_rad: Vec::new(),
+    })
+}
+
+/// Starting joint angles (index `j - 1` for joint `j`), rad: zero, except with
+/// `gait.kind = "form_closure"`, where joint `j` starts at `pattern_deg[(j − 1) % len]`.
+pub(crate) fn initial_joint_angles(cfg: &Config) -> Result<Vec<f64>, ConfigError> {
+    let nj = cfg.snake.n_joints();
+    if cfg.gait.kind != GaitKind::FormClosure || nj == 0 {
+        return Ok(vec![0.0; nj]);
+    }
+    let pattern = &cfg.gait.form_closure.pattern_deg;
+    let key = "gait.form_closure.pattern_deg";
+    if pattern.is_empty() {
+        return Err(ConfigError::invalid(
+            key,
+            "[]",
+            "a non-empty list of joint angles (degrees)",
+        ));
+    }
+    let limit = cfg.snake.joint_range_deg;
+    if let Some(bad) = pattern
+        .iter()
+        .find(|a| !(a.is_finite() && a.abs() <= limit))
+    {
+        return Err(ConfigError::invalid(
+            key,
+            format!("{pattern:?}"),
+            format!(
+                "angles within the joint range ±{limit}° (snake.joint_range_deg); {bad} is not"
+            ),
+        ));
+    }
+    Ok((0..nj)
+        .map(|k| pattern[k % pattern.len()].to_radians())
+        .collect())
+}
+
+/// Rejects values that would make the MJCF text invalid or the generator misbehave.
+fn sanity(cfg: &Config) -> Result<(), ConfigError> {
+    let s = &cfg.snake;
+    if s.n_links == 0 || s.n_links > MAX_LINKS {
+        return Err(ConfigError::invalid(
+            "snake.n_links",
+            s.n_links,
+            format!("1 ..= {MAX_LINKS}"),
+        ));
+    }
+    let finite: &[(&str, &[f64])] = &[
+        ("general.timestep_secs", &[cfg.general.timestep_secs]),
+        ("general.gravity_m_per_s2", &cfg.general.gravity_m_per_s2),
+        (
+            "physics.contact_time_constant_secs",
+            &[cfg.physics.contact_time_constant_secs],
+        ),
+        (
+            "physics.contact_damping_ratio",
+            &[cfg.physics.contact_damping_ratio],
+        ),
+        ("snake.link_mass_kg", &[s.link_mass_kg]),
+        ("snake.joint_range_deg", &[s.joint_range_deg]),
+        (
+            "snake.joint_damping_nm_s_per_rad",
+            &[s.joint_damping_nm_s_per_rad],
+        ),
+        ("snake.joint_armature_kg_m2", &[s.joint_armature_kg_m2]),
+        ("snake.torque_range_nm", &s.torque_range_nm),
+        ("snake.ground_friction", &s.ground_friction),
+        ("snake.link_friction", &s.link_friction),
+        ("snake.color_rgba", &s.color_rgba),
+        ("snake.head_position_m", &s.head_position_m),
+        ("snake.head_rotation_deg", &s.head_rotation_deg),
+        ("terrain.obstacle_friction", &cfg.terrain.obstacle_friction),
+        (
+            "terrain.cylinder_height_m",
+            &[cfg.terrain.cylinder_height_m],
+        ),
+        ("terrain.floor_size_m", &[cfg.terrain.floor_size_m]),
+        ("control.torque_gear", &[cfg.control.torque_gear]),
+        (
+            "control.position_kp_nm_per_rad",
+            &[cfg.control.position_kp_nm_per_rad],
+        ),
+        (
+            "control.position_kv_nm_s_per_rad",
+            &[cfg.control.position_kv_nm_s_per_rad],
+        ),
+        (
+            "control.velocity_kv_nm_s_per_rad",
+            &[cfg.control.velocity_kv_nm_s_per_rad],
+        ),
+        (
+            "control.intvelocity_kp_nm_per_rad",
+            &[cfg.control.intvelocity_kp_nm_per_rad],
+        ),
+    ];
+    for &(key, values) in finite {
+        if let Some(v) = values.iter().find(|v| !v.is_finite()) {
+            return Err(ConfigError::invalid(key, v, "finite numbers"));
+        }
+    }
+    let (l, r) = (s.link_length_m, s.link_radius_m);
+    if !(r.is_finite() && r > 0.0) {
+        return Err(ConfigError::invalid(
+            "snake.link_radius_m",
+            r,
+            "a number > 0",
+        ));
+    }
+    if !(l.is_finite() && l >= 2.0 * r) {
+        return Err(ConfigError::invalid(
+            "snake.link_length_m",
+            l,
+            format!(
+                "at least 2 × link_radius_m = {} (the link is a capsule spanning its full length)",
+                2.0 * r
+            ),
+        ));
+    }
+    if cfg.control.torque_gear == 0.0 {
+        return Err(ConfigError::invalid(
+            "control.torque_gear",
+            0.0,
+            "a non-zero number",
+        ));
+    }
+    Ok(())
+}
+
+/// The largest snake the generator accepts (MJCF nests one body per link).
+pub const MAX_LINKS: usize = 400;
+
+fn check_above_floor(cfg: &Config, segments: &[[V3; 2]]) -> Result<(), ConfigError> {
+    let r = cfg.snake.link_radius_m;
+    let lowest = |segs: &[[V3; 2]]| {
+        segs.iter()
+            .flat_map(|s| [s[0][2], s[1][2]])
+            .fold(f64::INFINITY, f64::min)
+    };
+    let low = lowest(segments);
+    if low >= r - 1e-9 {
+        return Ok(());
+    }
+    let straight_low = lowest(&link_axis_segments_m(cfg, &[]));
+    if straight_low >= r - 1e-9 {
+        return Err(ConfigError::invalid(
+            "gait.form_closure.pattern_deg",
+            format!("{:?}", cfg.gait.form_closure.pattern_deg),
+            format!(
+                "the starting shape from this pattern puts part of the snake below the floor (lowest body-axis \
+                 point at z = {low} m, needs >= link_radius_m = {r} m); with joint_axes = \"alternating\" the \
+                 pattern also bends the pitch joints"
+            ),
+        ));
+    }
+    Err(ConfigError::invalid(
+        "snake.head_position_m",
+        format!("{:?}", cfg.snake.head_position_m),
+        format!(
+            "the snake must start on or above the floor: its lowest body-axis point would be at z = {low} m, \
+             below link_radius_m = {r} m (z = 0 puts a level snake on the floor; check head_position_m[2] and \
+             head_rotation_deg)"
+        ),
+    ))
+}
+
+/// Capsule core (segment whose r-neighbourhood is the capsule) of a link axis segment.
+fn capsule_core(seg: [V3; 2], r: f64) -> [V3; 2] {
+    let d = geometry::sub(seg[1], seg[0]);
+    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    if len <= 2.0 * r || len == 0.0 {
+        let mid = geometry::scale(geometry::add(seg[0], seg[1]), 0.5);
+        return [mid, mid];
+    }
+    let u = geometry::scale(d, r / len);
+    [geometry::add(seg[0], u), geometry::sub(seg[1], u)]
+}
+
+fn check_obstacles_clear(
+    cfg: &Config,
+    segments: &[[V3; 2]],
+    placed: &[terrain::Placed],
+) -> Result<(), ConfigError> {
+    let r = cfg.snake.link_radius_m;
+    for p in placed {
+        let c = &p.cylinder;
+        for (i, seg) in segments.iter().enumerate() {
+            let core = capsule_core(*seg, r);
+            let (zlo, zhi) = (
+                core[0][2].min(core[1][2]) - r,
+                core[0][2].max(core[1][2]) + r,
+            );
+            if zlo >= c.height_m || zhi <= 0.0 {
+                continue; // the link passes above the cylinder
+            }
+            let dist = dist_xy_point_segment(c.center_m, core[0], core[1]);
+            if dist < r + c.radius_m {
+                return Err(ConfigError::invalid(
+                    p.key,
+                    &p.value,
+                    format!(
+                        "{} (centre [{}, {}], radius {} m) would overlap {} of the snake at its starting pose: \
+                         its centre is {dist} m from the link, needs at least {} m; move the obstacle clear of \
+                         the snake",
+                        c.name,
+                        c.center_m[0],
+                        c.center_m[1],
+                        c.radius_m,
+                        names::link_body(i),
+                        r + c.radius_m
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Shortest round-trip decimal text of a number (Rust's `Display` for `f64`).
+pub(crate) fn fmt_num(x: f64) -> String {
+    format!("{x}")
+}
+
+/// Space-separated numbers.
+pub(crate) struct Nums<'a>(pub &'a [f64]);
+
+impl fmt::Display for Nums<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (k, x) in self.0.iter().enumerate() {
+            if k > 0 {
+                f.write_str(" ")?;
+            }
+            write!(f, "{x}")?;
+        }
+        Ok(())
+    }
+}
+
+/// What goes into the model besides the common header, floor and obstacles.
+enum Body<'a> {
+    /// The generated snake with its initial joint angles.
+    Snake(&'a [f64]),
+    /// A user's robot file, included unchanged.
+    Include(&'a str),
+}
+
+fn write_xml(cfg: &Config, body: Body<'_>, obstacles: &[Cylinder]) -> Result<String, fmt::Error> {
+    let n = fmt_num;
+    let mut out = String::with_capacity(4096 + 2048 * cfg.snake.n_links);
+    let cone = match cfg.physics.friction_cone {
+        FrictionCone::Elliptic => "elliptic",
+        FrictionCone::Pyramidal => "pyramidal",
+    };
+    let solref = format!(
+        "{} {}",
+        n(cfg.physics.contact_time_constant_secs),
+        n(cfg.physics.contact_damping_ratio)
+    );
+    out.push_str("<mujoco model=\"simserpent\">\n");
+    writeln!(
+        out,
+        "  <!-- Generated by SimSerpent {} from the resolved configuration. -->",
+        env!("CARGO_PKG_VERSION")
+    )?;
+    if let Body::Include(file) = body {
+        writeln!(out, "  <include file=\"{}\"/>", xml_escape(file))?;
+    }
+    out.push_str("  <compiler angle=\"radian\" autolimits=\"true\"/>\n");
+    writeln!(
+        out,
+        "  <option timestep=\"{}\" integrator=\"{}\" gravity=\"{}\" cone=\"{cone}\" iterations=\"{}\"/>",
+        n(cfg.general.timestep_secs),
+        cfg.general.integrator.mjcf_name(),
+        Nums(&cfg.general.gravity_m_per_s2),
+        cfg.physics.solver_iterations,
+    )?;
+    // With a user's robot its own defaults stay in force; floor and obstacles get the solref directly.
+    let env_solref = match body {
+        Body::Snake(_) => {
+            writeln!(
+                out,
+                "  <default>\n    <geom solref=\"{solref}\"/>\n  </default>"
+            )?;
+            String::new()
+        }
+        Body::Include(_) => format!(" solref=\"{solref}\""),
+    };
+    out.push_str(concat!(
+        "  <asset>\n",
+        "    <texture name=\"skybox\" type=\"skybox\" builtin=\"gradient\" rgb1=\"1 1 1\" rgb2=\"0 0 0\" width=\"100\" height=\"100\"/>\n",
+        "    <texture name=\"texplane\" type=\"2d\" builtin=\"checker\" rgb1=\"0 0 0\" rgb2=\"0.8 0.8 0.8\" width=\"100\" height=\"100\"/>\n",
+        "    <material name=\"MatPlane\" texture=\"texplane\" texuniform=\"true\" texrepeat=\"2 2\" reflectance=\"0.5\" shininess=\"1\" specular=\"1\"/>\n",
+        "  </asset>\n",
+        "  <worldbody>\n",
+        "    <light name=\"light\" directional=\"true\" pos=\"0 0 1.3\" dir=\"0 0 -1.3\" diffuse=\"1 1 1\" specular=\"0.1 0.1 0.1\" cutoff=\"100\" exponent=\"1\"/>\n",
+    ));
+    let env_attrs = |friction: [f64; 3]| {
+        format!(
+            "contype=\"{}\" conaffinity=\"{}\" priority=\"1\" friction=\"{}\" condim=\"{}\"{env_solref}",
+            snake::ENV_CONTYPE,
+            snake::ENV_CONAFFINITY,
+            Nums(&friction),
+            snake::condim(friction)
+        )
+    };
+    let fs = cfg.terrain.floor_size_m;
+    writeln!(
+        out,
+        "    <geom name=\"{}\" type=\"plane\" pos=\"0 0 0\" size=\"{} {} 0.1\" material=\"MatPlane\" {}/>",
+        names::FLOOR,
+        n(fs),
+        n(fs),
+        env_attrs(cfg.snake.ground_friction),
+    )?;
+    for c in obstacles {
+        writeln!(
+            out,
+            "    <geom name=\"{}\" type=\"cylinder\" pos=\"{} {} {}\" size=\"{} {}\" rgba=\"0.6 0.6 0.6 1\" {}/>",
+            c.name,
+            n(c.center_m[0]),
+            n(c.center_m[1]),
+            n(c.height_m / 2.0),
+            n(c.radius_m),
+            n(c.height_m / 2.0),
+            env_attrs(cfg.terrain.obstacle_friction),
+        )?;
+    }
+    match body {
+        Body::Snake(angles) => {
+            snake::write_bodies(&mut out, cfg, 2)?;
+            out.push_str("  </worldbody>\n");
+            snake::write_actuators(&mut out, cfg)?;
+            snake::write_sensors(&mut out, cfg)?;
+            snake::write_keyframe(&mut out, cfg, angles)?;
+        }
+        Body::Include(_) => out.push_str("  </worldbody>\n"),
+    }
+    out.push_str("</mujoco>\n");
+    Ok(out)
+}
+
+fn xml_escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('"', "&quot;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}

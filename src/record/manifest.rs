@@ -1,0 +1,74 @@
+//! `manifest.json`: what produced a run folder and how the run ended.
+
+use super::{RecordError, io_err};
+use serde::Serialize;
+use std::path::Path;
+
+/// How a run ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RunStatus {
+    /// Still running, or stopped without finishing (crash, signal): the tables hold every row
+    /// written up to then.
+    Incomplete,
+    /// Ran to the configured duration.
+    Complete,
+    /// Stopped by an error (see `error`).
+    Failed,
+}
+
+/// The manifest of a run folder.
+#[derive(Debug, Clone, Serialize)]
+pub struct Manifest {
+    /// SimSerpent version.
+    pub simserpent_version: String,
+    /// MuJoCo library version (as the library reports it).
+    pub mujoco_version: String,
+    /// mujoco-rs binding version.
+    pub mujoco_rs_version: String,
+    /// Seed of all random streams.
+    pub seed: u64,
+    /// Run status.
+    pub status: RunStatus,
+    /// Error message when failed.
+    pub error: Option<String>,
+    /// Start time (UTC, `YYYYMMDDTHHMMSSZ`).
+    pub started_utc: String,
+    /// Wall-clock time of the simulation (s).
+    pub wall_time_secs: f64,
+    /// Physics steps taken.
+    pub steps: u64,
+    /// Simulated time reached (s).
+    pub simulated_secs: f64,
+    /// Configured duration (s).
+    pub duration_secs: f64,
+    /// Record interval in steps.
+    pub record_every_n_steps: u64,
+    /// Command line that started the run.
+    pub command_line: Vec<String>,
+    /// Where the config came from (file path or "embedded default").
+    pub config_source: String,
+    /// The robot file, if a user's robot was simulated.
+    pub robot_file: Option<String>,
+    /// Tables and their row counts.
+    pub tables: Vec<(String, u64)>,
+    /// MuJoCo warnings raised during the run (kind, count).
+    pub mujoco_warnings: Vec<(String, i32)>,
+    /// Summary metrics.
+    pub summary: Option<crate::run::RunSummary>,
+}
+
+impl Manifest {
+    /// Writes `manifest.json` into `folder` atomically (write to a temporary file, then rename),
+    /// so a reader never sees half a manifest.
+    pub fn write(&self, folder: &Path) -> Result<(), RecordError> {
+        let path = folder.join("manifest.json");
+        let tmp = folder.join("manifest.json.tmp");
+        let text = serde_json::to_string_pretty(self).map_err(|e| RecordError::Io {
+            path: path.clone(),
+            source: std::io::Error::other(e),
+        })?;
+        std::fs::write(&tmp, text + "\n").map_err(io_err(&tmp))?;
+        std::fs::rename(&tmp, &path).map_err(io_err(&path))
+    }
+}

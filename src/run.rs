@@ -1,0 +1,326 @@
+//! One whole run: build the world, create the run folder, step and record, summarise.
+
+use crate::config::Config;
+use crate::control::Controller;
+use crate::record::{self, Manifest, RecordError, Recorder, RunStatus};
+use crate::sim::{SimError, Simulation, Snapshot, World};
+use serde::Serialize;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+/// What to run, beyond the config.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Where the config came from, for the manifest.
+    pub config_source: String,
+    /// A user's robot (MJCF or URDF) instead of the generated snake.
+    pub robot: Option<PathBuf>,
+    /// The command line, for the manifest.
+    pub command_line: Vec<String>,
+    /// Show a progress bar on runs that take more than two seconds (only on a terminal).
+    pub progress: bool,
+}
+
+/// Errors of a run; [`RunError::exit_code`] maps them to the documented exit codes.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum RunError {
+    /// Building the world or stepping it failed.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// Writing the run folder failed.
+    #[error(transparent)]
+    Record(#[from] RecordError),
+}
+
+impl RunError {
+    /// 2 for bad input (config, model or robot file), 1 for failures during the simulation.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            RunError::Sim(SimError::Config(_) | SimError::RobotFile { .. }) => 2,
+            _ => 1,
+        }
+    }
+}
+
+/// The short summary printed at the end and stored in the manifest.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct RunSummary {
+    /// The run folder.
+    pub run_folder: PathBuf,
+    /// Simulated time (s).
+    pub simulated_secs: f64,
+    /// Horizontal displacement of the robot's centre of mass from start to end (m).
+    pub distance_m: f64,
+    /// `distance_m` / simulated time (m/s).
+    pub mean_speed_m_per_s: f64,
+    /// Direction of that displacement in the xy-plane (degrees from +x).
+    pub heading_deg: f64,
+    /// Largest contact normal force seen at a recorded step (N).
+    pub peak_contact_force_n: f64,
+    /// Largest penetration seen at a recorded step (m).
+    pub max_penetration_m: f64,
+    /// Steps per second of wall time.
+    pub steps_per_wall_sec: f64,
+    /// Simulated seconds per wall second.
+    pub real_time_factor: f64,
+}
+
+/// Mass-weighted centre of the links in a snapshot.
+fn centre_of_mass(world: &World, s: &Snapshot) -> [f64; 3] {
+    let mut c = [0.0; 3];
+    let mut total = 0.0;
+    for (link, p) in world.index.links.iter().zip(&s.link_position_m) {
+        for k in 0..3 {
+            c[k] += link.mass_kg * p[k];
+        }
+        total += link.mass_kg;
+    }
+    if total > 0.0 { c.map(|x| x / total) } else { c }
+}
+
+/// Builds the world described by `config` (and `options.robot`). Fails before anything is
+/// written, so a bad config or robot never leaves a run folder behind.
+pub fn build_world(config: &Config, options: &RunOptions) -> Result<World, SimError> {
+    match &options.robot {
+        None => World::from_config(config),
+        Some(robot) => {
+            let scratch =
+                std::env::temp_dir().join(format!("simserpent-robot-{}", std::process::id()));
+            std::fs::create_dir_all(&scratch).map_err(|e| SimError::RobotFile {
+                file: scratch.display().to_string(),
+                message: format!("cannot create scratch folder ({e})"),
+            })?;
+            let world = World::from_robot_file(config, robot, &scratch);
+            let _ = std::fs::remove_dir_all(&scratch);
+            world
+        }
+    }
+}
+
+/// Runs the built-in controller of `config`.
+pub fn run(config: &Config, options: &RunOptions) -> Result<RunSummary, RunError> {
+    let world = build_world(config, options)?;
+    let sim = Simulation::new(config, world);
+    run_simulation(config, options, sim)
+}
+
+/// Runs a user's controller on the world of `config`.
+pub fn run_with_controller(
+    config: &Config,
+    options: &RunOptions,
+    controller: Box<dyn Controller>,
+) -> Result<RunSummary, RunError> {
+    let world = build_world(config, options)?;
+    let sim = Simulation::with_controller(config, world, controller);
+    run_simulation(config, options, sim)
+}
+
+/// Runs a prepared simulation for the configured duration, recording into a new run folder.
+pub fn run_simulation(
+    config: &Config,
+    options: &RunOptions,
+    mut sim: Simulation,
+) -> Result<RunSummary, RunError> {
+    let unix_secs = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0);
+    let stamp = record::utc_stamp(unix_secs);
+    let folder = record::create_run_folder(
+        Path::new(&config.general.output_dir),
+        &config.general.run_name,
+        &stamp,
+    )?;
+    let write = |name: &str, text: &str| -> Result<(), RecordError> {
+        let path = folder.join(name);
+        std::fs::write(&path, text).map_err(record::io_err(&path))
+    };
+    write("config.toml", &config.to_toml_string())?;
+    write("model.xml", &sim.world.mjcf)?;
+    let dt = config.general.timestep_secs;
+    let total_steps = (config.general.duration_secs / dt).round().max(1.0) as u64;
+    let mut manifest = Manifest {
+        simserpent_version: env!("CARGO_PKG_VERSION").to_string(),
+        mujoco_version: mujoco_rs::mujoco_version().to_string(),
+        mujoco_rs_version: "7.0.0".to_string(),
+        seed: config.general.seed,
+        status: RunStatus::Incomplete,
+        error: None,
+        started_utc: stamp,
+        wall_time_secs: 0.0,
+        steps: 0,
+        simulated_secs: 0.0,
+        duration_secs: config.general.duration_secs,
+        record_every_n_steps: config.recording.every_n_steps,
+        command_line: options.command_line.clone(),
+        config_source: options.config_source.clone(),
+        robot_file: options.robot.as_ref().map(|p| p.display().to_string()),
+        tables: Vec::new(),
+        mujoco_warnings: Vec::new(),
+        summary: None,
+    };
+    manifest.write(&folder)?;
+    let mut recorder = if config.recording.enabled {
+        Some(Recorder::create(
+            &folder,
+            &config.recording,
+            &sim.world.index,
+        )?)
+    } else {
+        None
+    };
+
+    let started = Instant::now();
+    let outcome = step_loop(
+        config,
+        options,
+        &mut sim,
+        recorder.as_mut(),
+        total_steps,
+        &folder,
+    );
+    let wall = started.elapsed().as_secs_f64();
+    manifest.wall_time_secs = wall;
+    manifest.steps = sim.steps();
+    manifest.simulated_secs = sim.world.data.time();
+    manifest.mujoco_warnings = sim.world.warning_counts();
+    let tables = match recorder {
+        Some(r) => r.finish(),
+        None => Ok(Vec::new()),
+    };
+    manifest.tables = tables.as_ref().map(Clone::clone).unwrap_or_default();
+    let result = match (outcome, tables) {
+        (Ok(summary), Ok(_)) => Ok(summary),
+        (Err(e), _) => Err(e),
+        (Ok(_), Err(e)) => Err(RunError::from(e)),
+    };
+    match result {
+        Ok(mut summary) => {
+            summary.steps_per_wall_sec = sim.steps() as f64 / wall.max(1e-9);
+            summary.real_time_factor = sim.world.data.time() / wall.max(1e-9);
+            manifest.status = RunStatus::Complete;
+            manifest.summary = Some(summary.clone());
+            manifest.write(&folder)?;
+            Ok(summary)
+        }
+        Err(e) => {
+            manifest.status = RunStatus::Failed;
+            manifest.error = Some(e.to_string());
+            manifest.write(&folder)?;
+            Err(e)
+        }
+    }
+}
+
+fn step_loop(
+    config: &Config,
+    options: &RunOptions,
+    sim: &mut Simulation,
+    mut recorder: Option<&mut Recorder>,
+    total_steps: u64,
+    folder: &Path,
+) -> Result<RunSummary, RunError> {
+    let every = config.recording.every_n_steps.max(1);
+    let mut snapshot = Snapshot::new(sim.world.n_links(), sim.world.n_joints());
+    let mut peak_force_n: f64 = 0.0;
+    let mut max_penetration_m: f64 = 0.0;
+    let mut start_com = None;
+    let mut end_com = [0.0; 3];
+    let progress = Progress::new(options.progress, total_steps);
+    for k in 0..=total_steps {
+        sim.control();
+        if k % every == 0 || k == total_steps {
+            sim.snapshot(&mut snapshot);
+            peak_force_n = peak_force_n.max(snapshot.peak_contact_force_n());
+            for c in &snapshot.contacts {
+                max_penetration_m = max_penetration_m.max(c.penetration_m());
+            }
+            end_com = centre_of_mass(&sim.world, &snapshot);
+            start_com.get_or_insert(end_com);
+            if let Some(r) = recorder.as_deref_mut() {
+                r.write(k, &snapshot)?;
+            }
+        }
+        if k == total_steps {
+            break;
+        }
+        if let Err(e) = sim.advance() {
+            if let Some(r) = recorder.as_deref_mut() {
+                r.flush()?;
+            }
+            return Err(e.into());
+        }
+        if k % 1024 == 0 {
+            progress.tick(k);
+        }
+    }
+    progress.finish();
+    let start = start_com.unwrap_or(end_com);
+    let (dx, dy) = (end_com[0] - start[0], end_com[1] - start[1]);
+    let distance_m = dx.hypot(dy);
+    let simulated_secs = sim.world.data.time();
+    Ok(RunSummary {
+        run_folder: folder.to_path_buf(),
+        simulated_secs,
+        distance_m,
+        mean_speed_m_per_s: if simulated_secs > 0.0 {
+            distance_m / simulated_secs
+        } else {
+            0.0
+        },
+        heading_deg: dy.atan2(dx).to_degrees(),
+        peak_contact_force_n: peak_force_n,
+        max_penetration_m,
+        steps_per_wall_sec: 0.0,
+        real_time_factor: 0.0,
+    })
+}
+
+/// A progress bar that appears only after two seconds and only on a terminal.
+struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+    started: Instant,
+    total: u64,
+    shown: std::cell::Cell<bool>,
+}
+
+impl Progress {
+    fn new(enabled: bool, total: u64) -> Self {
+        let bar = (enabled && std::io::stderr().is_terminal()).then(|| {
+            let bar = indicatif::ProgressBar::with_draw_target(
+                Some(total),
+                indicatif::ProgressDrawTarget::hidden(),
+            );
+            if let Ok(style) = indicatif::ProgressStyle::with_template(
+                "{bar:40} {percent:>3}% {pos}/{len} steps, ETA {eta}",
+            ) {
+                bar.set_style(style);
+            }
+            bar
+        });
+        Self {
+            bar,
+            started: Instant::now(),
+            total,
+            shown: std::cell::Cell::new(false),
+        }
+    }
+
+    fn tick(&self, step: u64) {
+        if let Some(bar) = &self.bar {
+            if !self.shown.get() && self.started.elapsed() > Duration::from_secs(2) {
+                bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+                self.shown.set(true);
+            }
+            bar.set_position(step.min(self.total));
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
+}

@@ -1,0 +1,368 @@
+//! The simulation: the only module that talks to MuJoCo.
+//!
+//! [`World`] holds the compiled model, the engine state and the resolved [`Index`].
+//! [`Simulation`] runs the step loop: observe → controller → actuators → `mj_step`, and on
+//! recorded steps a full `mj_forward` so that everything in a [`Snapshot`] describes one instant
+//! (see ARCHITECTURE.md, "Order of work in a step").
+
+mod index;
+mod noise;
+mod snapshot;
+
+pub use index::{Index, JointIndex, LinkIndex};
+pub use noise::SensorNoise;
+pub use snapshot::{ContactRow, Snapshot};
+
+use crate::config::{Config, ControlMethod};
+use crate::control::{Command, Controller, Observation, TrajectoryController};
+use crate::model::{self, GeneratedModel};
+use mujoco_rs::prelude::*;
+use std::path::Path;
+use std::sync::Arc;
+
+/// Errors of building or running a world.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SimError {
+    /// The configuration is inconsistent (exit code 2).
+    #[error(transparent)]
+    Config(#[from] crate::config::ConfigError),
+    /// MuJoCo rejected a model, or a model lacks what the run needs.
+    #[error("model: {0}")]
+    Model(String),
+    /// A user's robot file could not be used.
+    #[error("{message}: {file}")]
+    RobotFile {
+        /// The file.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The simulation became unstable.
+    #[error("simulation diverged at t = {time_secs:.6} s (step {step}): {what}")]
+    Diverged {
+        /// Simulated time.
+        time_secs: f64,
+        /// Step number.
+        step: u64,
+        /// What blew up.
+        what: String,
+    },
+}
+
+impl From<model::ModelError> for SimError {
+    fn from(e: model::ModelError) -> Self {
+        match e {
+            model::ModelError::Config(c) => SimError::Config(c),
+            other => SimError::Model(other.to_string()),
+        }
+    }
+}
+
+/// A compiled world: model, engine state and the index of the robot in it.
+pub struct World {
+    /// The compiled model (shared, read-only).
+    pub model: Arc<MjModel>,
+    /// The engine state.
+    pub data: MjData<Arc<MjModel>>,
+    /// Resolved ids and addresses.
+    pub index: Index,
+    /// The MJCF the world was compiled from.
+    pub mjcf: String,
+    /// Initial joint angles (rad) the world starts from.
+    pub initial_joint_angles_rad: Vec<f64>,
+    /// Simulated time that `sensordata` describes (the last complete model evaluation).
+    sensor_time_secs: f64,
+}
+
+impl World {
+    /// Generates the snake world that `config` describes and compiles it.
+    pub fn from_config(config: &Config) -> Result<Self, SimError> {
+        let generated = model::generate(config)?;
+        Self::from_generated(config, generated)
+    }
+
+    /// Compiles a generated model.
+    pub fn from_generated(config: &Config, generated: GeneratedModel) -> Result<Self, SimError> {
+        let model = MjModel::from_xml_string(&generated.xml)
+            .map_err(|e| SimError::Model(format!("MuJoCo rejected the generated model: {e}")))?;
+        let model = Arc::new(model);
+        let index = Index::for_snake(&model, config.snake.n_links)?;
+        let mut world = Self {
+            data: MjData::new(model.clone()),
+            model,
+            index,
+            mjcf: generated.xml,
+            initial_joint_angles_rad: generated.initial_joint_angles_rad,
+            sensor_time_secs: 0.0,
+        };
+        world.reset()?;
+        Ok(world)
+    }
+
+    /// A user's robot (MJCF or URDF, as MuJoCo's loader reads them) placed in the terrain that
+    /// `config` describes. The robot file is included unchanged into a scene file; a URDF is
+    /// first converted to MJCF by MuJoCo.
+    pub fn from_robot_file(
+        config: &Config,
+        robot: &Path,
+        scratch_dir: &Path,
+    ) -> Result<Self, SimError> {
+        let file = robot.display().to_string();
+        let robot_err = |message: String| SimError::RobotFile {
+            file: file.clone(),
+            message,
+        };
+        if !robot.is_file() {
+            return Err(robot_err("robot file does not exist".into()));
+        }
+        let robot_model = MjModel::from_xml(robot)
+            .map_err(|e| robot_err(format!("MuJoCo cannot load the robot ({e})")))?;
+        // Canonical MJCF of the robot (URDF converted), with absolute asset paths kept by MuJoCo.
+        let robot_mjcf = scratch_dir.join("robot.xml");
+        robot_model
+            .save_last_xml(&robot_mjcf)
+            .map_err(|e| robot_err(format!("cannot convert the robot to MJCF ({e})")))?;
+        drop(robot_model);
+        let scene = model::scene_with_robot("robot.xml", config)?;
+        let scene_path = scratch_dir.join("model.xml");
+        std::fs::write(&scene_path, &scene.xml)
+            .map_err(|e| robot_err(format!("cannot write {} ({e})", scene_path.display())))?;
+        let model = MjModel::from_xml(&scene_path).map_err(|e| {
+            robot_err(format!(
+                "MuJoCo cannot load the robot inside the terrain ({e})"
+            ))
+        })?;
+        let model = Arc::new(model);
+        let index = Index::for_robot(&model, config.control.method);
+        let mut world = Self {
+            data: MjData::new(model.clone()),
+            model,
+            mjcf: scene.xml,
+            initial_joint_angles_rad: vec![0.0; index.joints.len()],
+            index,
+            sensor_time_secs: 0.0,
+        };
+        world.reset()?;
+        Ok(world)
+    }
+
+    /// Resets the state to the model's "initial" keyframe (or its default pose) and computes
+    /// all derived quantities.
+    pub fn reset(&mut self) -> Result<(), SimError> {
+        match self
+            .model
+            .name_to_id(MjtObjBase::mjOBJ_KEY, model::names::INITIAL_KEYFRAME)
+        {
+            Some(key) => self
+                .data
+                .reset_keyframe(key)
+                .map_err(|e| SimError::Model(format!("cannot reset to keyframe: {e}")))?,
+            None => self.data.reset(),
+        }
+        self.forward();
+        Ok(())
+    }
+
+    /// MuJoCo's forward pass at the current state and controls.
+    pub fn forward(&mut self) {
+        self.data.forward();
+        self.sensor_time_secs = self.data.time();
+    }
+
+    /// One `mj_step`. Afterwards `sensordata` describes the state at the start of the step
+    /// (MuJoCo evaluates sensors in the step's first forward pass, also with RK4).
+    pub fn step(&mut self) {
+        self.sensor_time_secs = self.data.time();
+        self.data.step();
+    }
+
+    /// Number of links and joints.
+    pub fn n_links(&self) -> usize {
+        self.index.links.len()
+    }
+    /// Number of 1-DOF joints.
+    pub fn n_joints(&self) -> usize {
+        self.index.joints.len()
+    }
+
+    /// Writes a command into MuJoCo's `ctrl`.
+    pub fn apply_command(&mut self, cmd: &Command) {
+        let ctrl = self.data.ctrl_mut();
+        for (j, joint) in self.index.joints.iter().enumerate() {
+            for (slot, kind) in joint.actuators.iter().zip(ControlMethod::ALL) {
+                if let Some(a) = *slot {
+                    ctrl[a] = cmd.block(kind)[j];
+                }
+            }
+        }
+    }
+
+    /// Fills the exact (noise-free) observation from the current state.
+    pub fn observe_true(&self, obs: &mut Observation) {
+        let d = &self.data;
+        let qpos = d.qpos();
+        let qvel = d.qvel();
+        let sensordata = d.sensordata();
+        obs.time_secs = d.time();
+        for (j, joint) in self.index.joints.iter().enumerate() {
+            obs.joint_angle_rad[j] = qpos[joint.qpos_adr];
+            obs.joint_velocity_rad_per_s[j] = qvel[joint.dof_adr];
+            if let Some(a) = joint.force_adr {
+                obs.joint_force_n[j].copy_from_slice(&sensordata[a..a + 3]);
+            }
+            if let Some(a) = joint.torque_adr {
+                obs.joint_torque_nm[j].copy_from_slice(&sensordata[a..a + 3]);
+            }
+        }
+        for (i, link) in self.index.links.iter().enumerate() {
+            if let Some(a) = link.accelerometer_adr {
+                obs.imu_accel_m_per_s2[i].copy_from_slice(&sensordata[a..a + 3]);
+            }
+            if let Some(a) = link.gyro_adr {
+                obs.imu_gyro_rad_per_s[i].copy_from_slice(&sensordata[a..a + 3]);
+            }
+        }
+        if let Some(head) = self.index.links.first() {
+            obs.head_position_m = d.xpos()[head.body];
+            obs.head_quat = d.xquat()[head.body];
+            let v = d.object_velocity(MjtObjBase::mjOBJ_BODY, head.body, false);
+            obs.head_velocity_m_per_s = [v[3], v[4], v[5]];
+        }
+        // Sensor values come from the last complete evaluation: the start of the previous step,
+        // unless a forward pass ran at this state (see ARCHITECTURE.md).
+        obs.sensor_time_secs = self.sensor_time_secs;
+    }
+
+    /// Checks the state for NaN or infinite values and MuJoCo's own instability warnings.
+    pub fn check_finite(&self, step: u64) -> Result<(), SimError> {
+        let d = &self.data;
+        let diverged = |what: String| SimError::Diverged {
+            time_secs: d.time(),
+            step,
+            what,
+        };
+        if let Some(i) = d.qpos().iter().position(|x| !x.is_finite()) {
+            return Err(diverged(format!("qpos[{i}] is not finite")));
+        }
+        if let Some(i) = d.qvel().iter().position(|x| !x.is_finite()) {
+            return Err(diverged(format!("qvel[{i}] is not finite")));
+        }
+        let warnings = d.warning();
+        for (kind, label) in [
+            (
+                MjtWarning::mjWARN_BADQACC,
+                "MuJoCo reset the state: bad acceleration (mjWARN_BADQACC)",
+            ),
+            (
+                MjtWarning::mjWARN_BADQPOS,
+                "MuJoCo reset the state: bad position (mjWARN_BADQPOS)",
+            ),
+            (
+                MjtWarning::mjWARN_BADQVEL,
+                "MuJoCo reset the state: bad velocity (mjWARN_BADQVEL)",
+            ),
+        ] {
+            if warnings[kind as usize].number > 0 {
+                return Err(diverged(label.to_string()));
+            }
+        }
+        Ok(())
+    }
+
+    /// Count of every MuJoCo warning kind raised so far, by name (for the manifest).
+    pub fn warning_counts(&self) -> Vec<(String, i32)> {
+        self.data
+            .warning()
+            .iter()
+            .enumerate()
+            .filter(|(_, w)| w.number > 0)
+            .map(|(i, w)| (format!("warning_{i}"), w.number))
+            .collect()
+    }
+}
+
+/// A world with its controller and sensor noise: the step loop.
+pub struct Simulation {
+    /// The world.
+    pub world: World,
+    controller: Box<dyn Controller>,
+    noise: SensorNoise,
+    obs_true: Observation,
+    /// What the controller saw at the latest step (measured values).
+    pub obs: Observation,
+    cmd: Command,
+    steps: u64,
+}
+
+impl Simulation {
+    /// The world with the built-in controller that `config` describes.
+    pub fn new(config: &Config, world: World) -> Self {
+        let controller = Box::new(TrajectoryController::from_config(config, world.n_joints()));
+        Self::with_controller(config, world, controller)
+    }
+
+    /// The world with a controller of your own.
+    pub fn with_controller(
+        config: &Config,
+        world: World,
+        mut controller: Box<dyn Controller>,
+    ) -> Self {
+        let (nl, nj) = (world.n_links(), world.n_joints());
+        controller.reset();
+        Self {
+            noise: SensorNoise::new(&config.sensors, config.general.seed, nl, nj),
+            obs_true: Observation::new(nl, nj),
+            obs: Observation::new(nl, nj),
+            cmd: Command::new(nj),
+            controller,
+            world,
+            steps: 0,
+        }
+    }
+
+    /// Steps taken so far.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// The noise-free observation at the latest step.
+    pub fn true_observation(&self) -> &Observation {
+        &self.obs_true
+    }
+
+    /// The controller's command at the latest step.
+    pub fn command(&self) -> &Command {
+        &self.cmd
+    }
+
+    /// Observe, run the controller and write `ctrl` for the step that starts now. Called by
+    /// [`Simulation::step`]; separate so a forward pass for recording can see the new controls.
+    pub fn control(&mut self) {
+        self.world.observe_true(&mut self.obs_true);
+        self.noise.measure(&self.obs_true, &mut self.obs);
+        self.controller.update(&self.obs, &mut self.cmd);
+        self.world.apply_command(&self.cmd);
+    }
+
+    /// Advances the physics by one timestep with the controls already written.
+    pub fn advance(&mut self) -> Result<(), SimError> {
+        self.world.step();
+        self.steps += 1;
+        self.world.check_finite(self.steps)
+    }
+
+    /// One full step: [`Simulation::control`] then [`Simulation::advance`].
+    pub fn step(&mut self) -> Result<(), SimError> {
+        self.control();
+        self.advance()
+    }
+
+    /// Runs MuJoCo's forward pass at the current state and controls, so that positions,
+    /// velocities, accelerations, contacts, sensors and constraint forces all describe this
+    /// instant, and reads them into `snapshot`.
+    pub fn snapshot(&mut self, snapshot: &mut Snapshot) {
+        self.world.forward();
+        snapshot.read(&self.world, &self.obs_true, &self.obs);
+    }
+}
