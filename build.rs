@@ -35,15 +35,9 @@ fn main() {
             Err(why) => fail(&why),
         },
     };
-    let lib_file = [SONAME, "libmujoco.so"]
-        .iter()
-        .map(|name| lib_dir.join(name))
-        .find(|p| p.exists())
-        .unwrap_or_else(|| {
-            fail(&format!(
-                "no libmujoco.so in {} (from MUJOCO_DYNAMIC_LINK_DIR or .mujoco/lib)",
-                lib_dir.display()
-            ))
+    let lib_file =
+        [SONAME, "libmujoco.so"].iter().map(|name| lib_dir.join(name)).find(|p| p.exists()).unwrap_or_else(|| {
+            fail(&format!("no libmujoco.so in {} (from MUJOCO_DYNAMIC_LINK_DIR or .mujoco/lib)", lib_dir.display()))
         });
     println!("cargo::rerun-if-changed={}", lib_file.display());
 
@@ -59,14 +53,8 @@ fn main() {
             let _ = fs::copy(&lib_file, &dest);
         }
     }
-    println!(
-        "cargo::rustc-link-arg=-Wl,-rpath,$ORIGIN:$ORIGIN/..:{}",
-        lib_dir.display()
-    );
-    println!(
-        "cargo::rustc-env=SIMSERPENT_MUJOCO_LIB={}",
-        lib_file.display()
-    );
+    println!("cargo::rustc-link-arg=-Wl,-rpath,$ORIGIN:$ORIGIN/..:{}", lib_dir.display());
+    println!("cargo::rustc-env=SIMSERPENT_MUJOCO_LIB={}", lib_file.display());
 }
 
 /// The `target/<profile>` directory, derived from `OUT_DIR` (`target/<profile>/build/<pkg>/out`).
@@ -88,8 +76,7 @@ fn provision(manifest_dir: &Path) -> Result<PathBuf, String> {
     }
     let link = lib_dir.join("libmujoco.so");
     if fs::symlink_metadata(&link).is_err() {
-        std::os::unix::fs::symlink(SONAME, &link)
-            .map_err(|e| format!("cannot create {}: {e}", link.display()))?;
+        std::os::unix::fs::symlink(SONAME, &link).map_err(|e| format!("cannot create {}: {e}", link.display()))?;
     }
     Ok(lib_dir)
 }
@@ -113,11 +100,7 @@ fn find_wheel(dir: &Path) -> Option<PathBuf> {
         .ok()?
         .flatten()
         .map(|e| e.path())
-        .find(|p| {
-            p.file_name()
-                .and_then(|n| n.to_str())
-                .is_some_and(|n| n.starts_with(&prefix) && n.ends_with(".whl"))
-        })
+        .find(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with(&prefix) && n.ends_with(".whl")))
 }
 
 fn cached_wheel() -> Result<PathBuf, String> {
@@ -126,19 +109,9 @@ fn cached_wheel() -> Result<PathBuf, String> {
         return Ok(wheel);
     }
     fs::create_dir_all(&dir).map_err(|e| format!("cannot create cache {}: {e}", dir.display()))?;
-    println!(
-        "cargo::warning=downloading mujoco=={MUJOCO_VERSION} from PyPI (once, into {})",
-        dir.display()
-    );
+    println!("cargo::warning=downloading mujoco=={MUJOCO_VERSION} from PyPI (once, into {})", dir.display());
     let output = Command::new("python3")
-        .args([
-            "-m",
-            "pip",
-            "download",
-            "--no-deps",
-            "--only-binary=:all:",
-            "--disable-pip-version-check",
-        ])
+        .args(["-m", "pip", "download", "--no-deps", "--only-binary=:all:", "--disable-pip-version-check"])
         .arg(format!("mujoco=={MUJOCO_VERSION}"))
         .arg("-d")
         .arg(&dir)
@@ -150,8 +123,7 @@ fn cached_wheel() -> Result<PathBuf, String> {
             String::from_utf8_lossy(&output.stderr)
         ));
     }
-    find_wheel(&dir)
-        .ok_or_else(|| format!("pip reported success but no wheel is in {}", dir.display()))
+    find_wheel(&dir).ok_or_else(|| format!("pip reported success but no wheel is in {}", dir.display()))
 }
 
 /// Unpacks the library and headers from the wheel (a zip file) with Python's zipfile module.
@@ -178,11 +150,7 @@ with zipfile.ZipFile(wheel) as z:
         .arg(root)
         .status()
         .map_err(|e| format!("cannot run python3 to unpack {} ({e})", wheel.display()))?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!("unpacking {} failed", wheel.display()))
-    }
+    if status.success() { Ok(()) } else { Err(format!("unpacking {} failed", wheel.display())) }
 }
 
 fn fail(why: &str) -> ! {

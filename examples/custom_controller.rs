@@ -25,8 +25,7 @@ impl Controller for CalmUndulation {
         let head_yaw_rate = obs.imu_gyro_rad_per_s[0][2].abs();
         let amplitude = self.amplitude_rad / (1.0 + head_yaw_rate);
         for (j, target) in cmd.position_rad.iter_mut().enumerate() {
-            *target = amplitude
-                * (self.omega_rad_per_s * obs.time_secs - j as f64 * self.phase_lag_rad).sin();
+            *target = amplitude * (self.omega_rad_per_s * obs.time_secs - j as f64 * self.phase_lag_rad).sin();
         }
     }
 }
@@ -38,23 +37,11 @@ fn main() -> anyhow::Result<()> {
         "general.duration_secs=5".to_string(),
         "control.method=position".to_string(),
     ];
-    let config =
-        config::load_config_str(config::DEFAULT_CONFIG_TOML, ConfigSource::Toml, &overrides)?;
+    let config = config::load_config_str(config::DEFAULT_CONFIG_TOML, ConfigSource::Toml, &overrides)?;
     assert_eq!(config.control.method, ControlMethod::Position);
-    let controller = CalmUndulation {
-        amplitude_rad: 0.5,
-        omega_rad_per_s: 3.0,
-        phase_lag_rad: 0.7,
-    };
-    let options = RunOptions {
-        config_source: "examples/custom_controller.rs".into(),
-        ..RunOptions::default()
-    };
+    let controller = CalmUndulation { amplitude_rad: 0.5, omega_rad_per_s: 3.0, phase_lag_rad: 0.7 };
+    let options = RunOptions { config_source: "examples/custom_controller.rs".into(), ..RunOptions::default() };
     let summary = run::run_with_controller(&config, &options, Box::new(controller))?;
-    println!(
-        "recorded in {}; moved {:.3} m",
-        summary.run_folder.display(),
-        summary.distance_m
-    );
+    println!("recorded in {}; moved {:.3} m", summary.run_folder.display(), summary.distance_m);
     Ok(())
 }

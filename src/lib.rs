@@ -3,8 +3,9 @@
 //! Map (see ARCHITECTURE.md):
 //! - pure core, no MuJoCo and no I/O: [`config`], [`model`] (MJCF generation), [`control`];
 //! - the engine: [`sim`] (the only module that calls MuJoCo);
-//! - I/O: [`record`] (run folder, manifest, tables), [`run`] (one whole run);
+//! - I/O: [`record`] (run folder, manifest, tables), [`run`] (one whole run), [`bench`];
 //! - the command line lives in `src/main.rs`.
+pub mod bench;
 pub mod config;
 pub mod control;
 pub mod model;

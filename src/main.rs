@@ -9,11 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Parser, Debug)]
-#[command(
-    name = "simserpent",
-    version,
-    about = "Physics-based snake-robot simulator on MuJoCo 3.17"
-)]
+#[command(name = "simserpent", version, about = "Physics-based snake-robot simulator on MuJoCo 3.17")]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -65,6 +61,20 @@ enum Command {
         #[command(flatten)]
         config: ConfigArgs,
     },
+    /// Measure steps per second: bare engine against the full pipeline (see BENCHMARKS.md).
+    Bench {
+        #[command(flatten)]
+        config: ConfigArgs,
+        /// Snake sizes to measure.
+        #[arg(long, value_delimiter = ',', default_value = "10,30")]
+        links: Vec<usize>,
+        /// Simulated seconds per measurement.
+        #[arg(long, default_value_t = 20.0)]
+        duration_secs: f64,
+        /// Where the full-pipeline runs are recorded.
+        #[arg(long, default_value = "target/bench-runs")]
+        output_dir: String,
+    },
 }
 
 /// An error that has already been given its exit code.
@@ -75,33 +85,20 @@ struct Failure {
 
 impl<E: Into<anyhow::Error>> From<E> for Failure {
     fn from(e: E) -> Self {
-        Self {
-            code: 1,
-            error: e.into(),
-        }
+        Self { code: 1, error: e.into() }
     }
 }
 
 fn bad_input(e: impl Into<anyhow::Error>) -> Failure {
-    Failure {
-        code: 2,
-        error: e.into(),
-    }
+    Failure { code: 2, error: e.into() }
 }
 
 fn load(args: &ConfigArgs) -> Result<(Config, String), Failure> {
     let result: Result<Config, ConfigError> = match &args.config {
         Some(path) => config::load_config(path, &args.overrides),
-        None => config::load_config_str(
-            config::DEFAULT_CONFIG_TOML,
-            config::ConfigSource::Toml,
-            &args.overrides,
-        ),
+        None => config::load_config_str(config::DEFAULT_CONFIG_TOML, config::ConfigSource::Toml, &args.overrides),
     };
-    let source = args
-        .config
-        .as_ref()
-        .map_or("embedded default".to_string(), |p| p.display().to_string());
+    let source = args.config.as_ref().map_or("embedded default".to_string(), |p| p.display().to_string());
     result
         .map(|c| (c, source.clone()))
         .map_err(|e| bad_input(anyhow::Error::new(e).context(format!("config {source}"))))
@@ -109,16 +106,10 @@ fn load(args: &ConfigArgs) -> Result<(Config, String), Failure> {
 
 fn run_command(args: &ConfigArgs, robot: Option<PathBuf>, quiet: bool) -> Result<(), Failure> {
     let (config, source) = load(args)?;
-    let options = RunOptions {
-        config_source: source,
-        robot,
-        command_line: std::env::args().collect(),
-        progress: !quiet,
-    };
-    let summary = run::run(&config, &options).map_err(|e: RunError| Failure {
-        code: e.exit_code(),
-        error: e.into(),
-    })?;
+    let options =
+        RunOptions { config_source: source, robot, command_line: std::env::args().collect(), progress: !quiet };
+    let summary =
+        run::run(&config, &options).map_err(|e: RunError| Failure { code: e.exit_code(), error: e.into() })?;
     println!("run folder:        {}", summary.run_folder.display());
     println!(
         "simulated:         {:.3} s in {} steps",
@@ -143,13 +134,9 @@ fn run_command(args: &ConfigArgs, robot: Option<PathBuf>, quiet: bool) -> Result
 
 fn init(path: &Path, force: bool) -> Result<(), Failure> {
     if path.exists() && !force {
-        return Err(bad_input(anyhow::anyhow!(
-            "{} exists already; use --force to overwrite it",
-            path.display()
-        )));
+        return Err(bad_input(anyhow::anyhow!("{} exists already; use --force to overwrite it", path.display())));
     }
-    std::fs::write(path, config::DEFAULT_CONFIG_TOML)
-        .with_context(|| format!("cannot write {}", path.display()))?;
+    std::fs::write(path, config::DEFAULT_CONFIG_TOML).with_context(|| format!("cannot write {}", path.display()))?;
     println!("wrote {}", path.display());
     Ok(())
 }
@@ -159,11 +146,37 @@ fn model(args: &ConfigArgs, output: Option<&Path>) -> Result<(), Failure> {
     let generated = simserpent::model::generate(&config).map_err(bad_input)?;
     match output {
         Some(path) => {
-            std::fs::write(path, &generated.xml)
-                .with_context(|| format!("cannot write {}", path.display()))?;
+            std::fs::write(path, &generated.xml).with_context(|| format!("cannot write {}", path.display()))?;
             eprintln!("wrote {}", path.display());
         }
         None => print!("{}", generated.xml),
+    }
+    Ok(())
+}
+
+fn bench(args: &ConfigArgs, links: &[usize], duration_secs: f64, output_dir: &str) -> Result<(), Failure> {
+    let (config, source) = load(args)?;
+    let rows = simserpent::bench::run_bench(&config, links, duration_secs, output_dir)
+        .map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
+    println!(
+        "config: {source}; timestep {} s, integrator {:?}, {} s simulated per row",
+        config.general.timestep_secs, config.general.integrator, duration_secs
+    );
+    println!("| links | mode | steps/s | real-time factor | vs bare still | vs bare gait |");
+    println!("|---|---|---|---|---|---|");
+    for chunk in rows.chunks(3) {
+        let (still, gait) = (chunk[0].steps_per_sec, chunk[1].steps_per_sec);
+        for r in chunk {
+            println!(
+                "| {} | {} | {:.0} | {:.1} | {:.0}% | {:.0}% |",
+                r.n_links,
+                r.mode,
+                r.steps_per_sec,
+                r.steps_per_sec * config.general.timestep_secs,
+                100.0 * r.steps_per_sec / still,
+                100.0 * r.steps_per_sec / gait
+            );
+        }
     }
     Ok(())
 }
@@ -179,15 +192,12 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         None => run_command(&ConfigArgs::default(), None, false),
-        Some(Command::Run {
-            config,
-            robot,
-            quiet,
-        }) => run_command(&config, robot, quiet),
+        Some(Command::Run { config, robot, quiet }) => run_command(&config, robot, quiet),
         Some(Command::Init { path, force }) => init(&path, force),
         Some(Command::Model { config, output }) => model(&config, output.as_deref()),
-        Some(Command::Check { config }) => {
-            load(&config).map(|(c, _)| print!("{}", c.to_toml_string()))
+        Some(Command::Check { config }) => load(&config).map(|(c, _)| print!("{}", c.to_toml_string())),
+        Some(Command::Bench { config, links, duration_secs, output_dir }) => {
+            bench(&config, &links, duration_secs, &output_dir)
         }
     };
     match result {

@@ -86,8 +86,7 @@ pub fn build_world(config: &Config, options: &RunOptions) -> Result<World, SimEr
     match &options.robot {
         None => World::from_config(config),
         Some(robot) => {
-            let scratch =
-                std::env::temp_dir().join(format!("simserpent-robot-{}", std::process::id()));
+            let scratch = std::env::temp_dir().join(format!("simserpent-robot-{}", std::process::id()));
             std::fs::create_dir_all(&scratch).map_err(|e| SimError::RobotFile {
                 file: scratch.display().to_string(),
                 message: format!("cannot create scratch folder ({e})"),
@@ -118,21 +117,10 @@ pub fn run_with_controller(
 }
 
 /// Runs a prepared simulation for the configured duration, recording into a new run folder.
-pub fn run_simulation(
-    config: &Config,
-    options: &RunOptions,
-    mut sim: Simulation,
-) -> Result<RunSummary, RunError> {
-    let unix_secs = SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map(|d| d.as_secs())
-        .unwrap_or(0);
+pub fn run_simulation(config: &Config, options: &RunOptions, mut sim: Simulation) -> Result<RunSummary, RunError> {
+    let unix_secs = SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
     let stamp = record::utc_stamp(unix_secs);
-    let folder = record::create_run_folder(
-        Path::new(&config.general.output_dir),
-        &config.general.run_name,
-        &stamp,
-    )?;
+    let folder = record::create_run_folder(Path::new(&config.general.output_dir), &config.general.run_name, &stamp)?;
     let write = |name: &str, text: &str| -> Result<(), RecordError> {
         let path = folder.join(name);
         std::fs::write(&path, text).map_err(record::io_err(&path))
@@ -163,24 +151,13 @@ pub fn run_simulation(
     };
     manifest.write(&folder)?;
     let mut recorder = if config.recording.enabled {
-        Some(Recorder::create(
-            &folder,
-            &config.recording,
-            &sim.world.index,
-        )?)
+        Some(Recorder::create(&folder, &config.recording, &sim.world.index)?)
     } else {
         None
     };
 
     let started = Instant::now();
-    let outcome = step_loop(
-        config,
-        options,
-        &mut sim,
-        recorder.as_mut(),
-        total_steps,
-        &folder,
-    );
+    let outcome = step_loop(config, options, &mut sim, recorder.as_mut(), total_steps, &folder);
     let wall = started.elapsed().as_secs_f64();
     manifest.wall_time_secs = wall;
     manifest.steps = sim.steps();
@@ -265,11 +242,7 @@ fn step_loop(
         run_folder: folder.to_path_buf(),
         simulated_secs,
         distance_m,
-        mean_speed_m_per_s: if simulated_secs > 0.0 {
-            distance_m / simulated_secs
-        } else {
-            0.0
-        },
+        mean_speed_m_per_s: if simulated_secs > 0.0 { distance_m / simulated_secs } else { 0.0 },
         heading_deg: dy.atan2(dx).to_degrees(),
         peak_contact_force_n: peak_force_n,
         max_penetration_m,
@@ -289,23 +262,15 @@ struct Progress {
 impl Progress {
     fn new(enabled: bool, total: u64) -> Self {
         let bar = (enabled && std::io::stderr().is_terminal()).then(|| {
-            let bar = indicatif::ProgressBar::with_draw_target(
-                Some(total),
-                indicatif::ProgressDrawTarget::hidden(),
-            );
-            if let Ok(style) = indicatif::ProgressStyle::with_template(
-                "{bar:40} {percent:>3}% {pos}/{len} steps, ETA {eta}",
-            ) {
+            let bar = indicatif::ProgressBar::with_draw_target(Some(total), indicatif::ProgressDrawTarget::hidden());
+            if let Ok(style) =
+                indicatif::ProgressStyle::with_template("{bar:40} {percent:>3}% {pos}/{len} steps, ETA {eta}")
+            {
                 bar.set_style(style);
             }
             bar
         });
-        Self {
-            bar,
-            started: Instant::now(),
-            total,
-            shown: std::cell::Cell::new(false),
-        }
+        Self { bar, started: Instant::now(), total, shown: std::cell::Cell::new(false) }
     }
 
     fn tick(&self, step: u64) {

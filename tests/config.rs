@@ -33,11 +33,7 @@ fn error_key(e: &ConfigError) -> &str {
 
 fn invalid(result: Result<Config, ConfigError>) -> (String, String, String) {
     match result {
-        Err(ConfigError::InvalidValue {
-            key,
-            value,
-            allowed,
-        }) => (key, value, allowed),
+        Err(ConfigError::InvalidValue { key, value, allowed }) => (key, value, allowed),
         other => panic!("expected InvalidValue, got {other:?}"),
     }
 }
@@ -81,10 +77,7 @@ fn empty_toml_is_all_defaults() {
     let path = write(dir.path(), "empty.toml", "");
     assert_eq!(load_config(&path, &[]).unwrap(), Config::default());
     assert_eq!(load_toml("", &[]).unwrap(), Config::default());
-    assert_eq!(
-        load_toml("# only a comment\n", &[]).unwrap(),
-        Config::default()
-    );
+    assert_eq!(load_toml("# only a comment\n", &[]).unwrap(), Config::default());
 }
 
 #[test]
@@ -289,43 +282,18 @@ fn all_fields_expected() -> Config {
     let w = &mut c.gait;
     w.kind = GaitKind::FormClosure;
     w.ramp_secs = 0.5;
-    w.sine_wave = SineWave {
-        amplitude_deg: 20.0,
-        frequency_hz: 1.5,
-        phase_lag_deg: 30.0,
-        offset_deg: 5.0,
-    };
-    w.form_closure = FormClosureGait {
-        pattern_deg: vec![10.0, -10.0, 20.0],
-        shift_period_secs: 3.0,
-    };
+    w.sine_wave = SineWave { amplitude_deg: 20.0, frequency_hz: 1.5, phase_lag_deg: 30.0, offset_deg: 5.0 };
+    w.form_closure = FormClosureGait { pattern_deg: vec![10.0, -10.0, 20.0], shift_period_secs: 3.0 };
 
     let t = &mut c.terrain;
     t.kind = TerrainKind::RandomCylinders;
     t.obstacle_friction = [0.7, 0.02, 0.002];
     t.cylinder_height_m = 0.4;
     t.floor_size_m = 30.0;
-    t.two_cylinders = TwoCylinders {
-        distance_m: 3.0,
-        radius_m: 0.3,
-    };
-    t.random_cylinders = RandomCylinders {
-        count: 5,
-        radius_range_m: [0.1, 0.2],
-        half_size_m: 2.0,
-        min_gap_m: 0.2,
-    };
-    t.cylinder_path = CylinderPath {
-        n_pairs: 4,
-        spacing_m: 0.6,
-        width_m: 1.0,
-        radius_m: 0.06,
-        start_m: 1.0,
-    };
-    t.form_closure = FormClosureTerrain {
-        order: 1,
-        radius_m: 0.07,
-    };
+    t.two_cylinders = TwoCylinders { distance_m: 3.0, radius_m: 0.3 };
+    t.random_cylinders = RandomCylinders { count: 5, radius_range_m: [0.1, 0.2], half_size_m: 2.0, min_gap_m: 0.2 };
+    t.cylinder_path = CylinderPath { n_pairs: 4, spacing_m: 0.6, width_m: 1.0, radius_m: 0.06, start_m: 1.0 };
+    t.form_closure = FormClosureTerrain { order: 1, radius_m: 0.07 };
 
     c.recording = Recording {
         enabled: false,
@@ -353,15 +321,9 @@ fn all_fields_expected() -> Config {
 /// Leaf paths whose values differ between two tables.
 fn differing_leaves(a: &toml::Table, b: &toml::Table, prefix: &str, out: &mut Vec<String>) {
     for (k, va) in a {
-        let path = if prefix.is_empty() {
-            k.clone()
-        } else {
-            format!("{prefix}.{k}")
-        };
+        let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
         match (va, b.get(k)) {
-            (toml::Value::Table(ta), Some(toml::Value::Table(tb))) => {
-                differing_leaves(ta, tb, &path, out)
-            }
+            (toml::Value::Table(ta), Some(toml::Value::Table(tb))) => differing_leaves(ta, tb, &path, out),
             (va, Some(vb)) if va == vb => {}
             _ => out.push(path),
         }
@@ -371,11 +333,7 @@ fn differing_leaves(a: &toml::Table, b: &toml::Table, prefix: &str, out: &mut Ve
 /// All leaf paths of a table.
 fn leaves(t: &toml::Table, prefix: &str, out: &mut Vec<String>) {
     for (k, v) in t {
-        let path = if prefix.is_empty() {
-            k.clone()
-        } else {
-            format!("{prefix}.{k}")
-        };
+        let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
         match v {
             toml::Value::Table(sub) => leaves(sub, &path, out),
             _ => out.push(path),
@@ -400,10 +358,7 @@ fn every_field_can_be_set_from_toml() {
     leaves(&file, "", &mut in_file);
     all.sort();
     in_file.sort();
-    assert_eq!(
-        all, in_file,
-        "ALL_FIELDS must set every key of the default config"
-    );
+    assert_eq!(all, in_file, "ALL_FIELDS must set every key of the default config");
     let mut changed = Vec::new();
     differing_leaves(&defaults, &file, "", &mut changed);
     let unchanged: Vec<&String> = all.iter().filter(|k| !changed.contains(k)).collect();
@@ -425,32 +380,14 @@ const RULES: &[(&[&str], &str)] = &[
     (&["general.run_name=\"a b\""], "general.run_name"),
     (&["general.run_name=\"a/b\""], "general.run_name"),
     (&["general.output_dir=\"\""], "general.output_dir"),
-    (
-        &["general.gravity_m_per_s2=[0, 0, nan]"],
-        "general.gravity_m_per_s2",
-    ),
+    (&["general.gravity_m_per_s2=[0, 0, nan]"], "general.gravity_m_per_s2"),
     (&["general.plot=true"], "general.plot"),
     // physics
-    (
-        &["physics.contact_time_constant_secs=0"],
-        "physics.contact_time_constant_secs",
-    ),
-    (
-        &["physics.contact_time_constant_secs=0.0015"],
-        "physics.contact_time_constant_secs",
-    ),
-    (
-        &["general.timestep_secs=0.011"],
-        "physics.contact_time_constant_secs",
-    ),
-    (
-        &["physics.contact_damping_ratio=0"],
-        "physics.contact_damping_ratio",
-    ),
-    (
-        &["physics.solver_iterations=0"],
-        "physics.solver_iterations",
-    ),
+    (&["physics.contact_time_constant_secs=0"], "physics.contact_time_constant_secs"),
+    (&["physics.contact_time_constant_secs=0.0015"], "physics.contact_time_constant_secs"),
+    (&["general.timestep_secs=0.011"], "physics.contact_time_constant_secs"),
+    (&["physics.contact_damping_ratio=0"], "physics.contact_damping_ratio"),
+    (&["physics.solver_iterations=0"], "physics.solver_iterations"),
     // snake
     (&["snake.n_links=0"], "snake.n_links"),
     (&["snake.n_links=201"], "snake.n_links"),
@@ -462,237 +399,75 @@ const RULES: &[(&[&str], &str)] = &[
     (&["snake.link_mass_kg=0"], "snake.link_mass_kg"),
     (&["snake.joint_range_deg=0"], "snake.joint_range_deg"),
     (&["snake.joint_range_deg=180.5"], "snake.joint_range_deg"),
-    (
-        &["snake.joint_damping_nm_s_per_rad=-0.1"],
-        "snake.joint_damping_nm_s_per_rad",
-    ),
-    (
-        &["snake.joint_armature_kg_m2=-0.1"],
-        "snake.joint_armature_kg_m2",
-    ),
+    (&["snake.joint_damping_nm_s_per_rad=-0.1"], "snake.joint_damping_nm_s_per_rad"),
+    (&["snake.joint_armature_kg_m2=-0.1"], "snake.joint_armature_kg_m2"),
     (&["snake.torque_range_nm=[3, -3]"], "snake.torque_range_nm"),
     (&["snake.torque_range_nm=[2, 2]"], "snake.torque_range_nm"),
     (&["snake.torque_range_nm=[1, 3]"], "snake.torque_range_nm"),
     (&["snake.torque_range_nm=[-3, -1]"], "snake.torque_range_nm"),
     (&["snake.torque_range_nm=[nan, 3]"], "snake.torque_range_nm"),
-    (
-        &["snake.ground_friction=[-0.1, 0.005, 0.0001]"],
-        "snake.ground_friction",
-    ),
-    (
-        &["snake.ground_friction=[0.5, -0.005, 0.0001]"],
-        "snake.ground_friction",
-    ),
-    (
-        &["snake.ground_friction=[0.5, 0.005, -0.0001]"],
-        "snake.ground_friction",
-    ),
+    (&["snake.ground_friction=[-0.1, 0.005, 0.0001]"], "snake.ground_friction"),
+    (&["snake.ground_friction=[0.5, -0.005, 0.0001]"], "snake.ground_friction"),
+    (&["snake.ground_friction=[0.5, 0.005, -0.0001]"], "snake.ground_friction"),
     (&["snake.link_friction=[-1, 0, 0]"], "snake.link_friction"),
-    (
-        &["snake.link_friction=[0.5, inf, 0]"],
-        "snake.link_friction",
-    ),
+    (&["snake.link_friction=[0.5, inf, 0]"], "snake.link_friction"),
     (&["snake.color_rgba=[1.5, 0, 0, 1]"], "snake.color_rgba"),
     (&["snake.color_rgba=[0, 0, 0, -0.1]"], "snake.color_rgba"),
-    (
-        &["snake.head_position_m=[inf, 0, 0]"],
-        "snake.head_position_m",
-    ),
-    (
-        &["snake.head_rotation_deg=[0, nan, 0]"],
-        "snake.head_rotation_deg",
-    ),
+    (&["snake.head_position_m=[inf, 0, 0]"], "snake.head_position_m"),
+    (&["snake.head_rotation_deg=[0, nan, 0]"], "snake.head_rotation_deg"),
     // sensors
-    (
-        &["sensors.accelerometer_std_m_per_s2=-0.01"],
-        "sensors.accelerometer_std_m_per_s2",
-    ),
-    (
-        &["sensors.gyro_std_rad_per_s=-0.01"],
-        "sensors.gyro_std_rad_per_s",
-    ),
-    (
-        &["sensors.velocimeter_std_m_per_s=-0.01"],
-        "sensors.velocimeter_std_m_per_s",
-    ),
-    (
-        &["sensors.joint_angle_std_rad=-0.01"],
-        "sensors.joint_angle_std_rad",
-    ),
-    (
-        &["sensors.joint_velocity_std_rad_per_s=-0.01"],
-        "sensors.joint_velocity_std_rad_per_s",
-    ),
-    (
-        &["sensors.joint_force_std_n=-0.01"],
-        "sensors.joint_force_std_n",
-    ),
-    (
-        &["sensors.joint_torque_std_nm=nan"],
-        "sensors.joint_torque_std_nm",
-    ),
+    (&["sensors.accelerometer_std_m_per_s2=-0.01"], "sensors.accelerometer_std_m_per_s2"),
+    (&["sensors.gyro_std_rad_per_s=-0.01"], "sensors.gyro_std_rad_per_s"),
+    (&["sensors.velocimeter_std_m_per_s=-0.01"], "sensors.velocimeter_std_m_per_s"),
+    (&["sensors.joint_angle_std_rad=-0.01"], "sensors.joint_angle_std_rad"),
+    (&["sensors.joint_velocity_std_rad_per_s=-0.01"], "sensors.joint_velocity_std_rad_per_s"),
+    (&["sensors.joint_force_std_n=-0.01"], "sensors.joint_force_std_n"),
+    (&["sensors.joint_torque_std_nm=nan"], "sensors.joint_torque_std_nm"),
     // control
     (&["control.torque_gear=0"], "control.torque_gear"),
-    (
-        &["control.position_kp_nm_per_rad=-1"],
-        "control.position_kp_nm_per_rad",
-    ),
-    (
-        &["control.position_kv_nm_s_per_rad=-1"],
-        "control.position_kv_nm_s_per_rad",
-    ),
-    (
-        &["control.velocity_kv_nm_s_per_rad=-1"],
-        "control.velocity_kv_nm_s_per_rad",
-    ),
-    (
-        &["control.intvelocity_kp_nm_per_rad=-1"],
-        "control.intvelocity_kp_nm_per_rad",
-    ),
-    (
-        &["control.pid_kp_nm_per_rad=-1"],
-        "control.pid_kp_nm_per_rad",
-    ),
-    (
-        &["control.pid_ki_nm_per_rad_s=-1"],
-        "control.pid_ki_nm_per_rad_s",
-    ),
-    (
-        &["control.pid_kd_nm_s_per_rad=-1"],
-        "control.pid_kd_nm_s_per_rad",
-    ),
+    (&["control.position_kp_nm_per_rad=-1"], "control.position_kp_nm_per_rad"),
+    (&["control.position_kv_nm_s_per_rad=-1"], "control.position_kv_nm_s_per_rad"),
+    (&["control.velocity_kv_nm_s_per_rad=-1"], "control.velocity_kv_nm_s_per_rad"),
+    (&["control.intvelocity_kp_nm_per_rad=-1"], "control.intvelocity_kp_nm_per_rad"),
+    (&["control.pid_kp_nm_per_rad=-1"], "control.pid_kp_nm_per_rad"),
+    (&["control.pid_ki_nm_per_rad_s=-1"], "control.pid_ki_nm_per_rad_s"),
+    (&["control.pid_kd_nm_s_per_rad=-1"], "control.pid_kd_nm_s_per_rad"),
     // gait
     (&["gait.ramp_secs=-1"], "gait.ramp_secs"),
-    (
-        &["gait.sine_wave.amplitude_deg=-1"],
-        "gait.sine_wave.amplitude_deg",
-    ),
-    (
-        &["gait.sine_wave.amplitude_deg=91"],
-        "gait.sine_wave.amplitude_deg",
-    ),
-    (
-        &["snake.joint_range_deg=20"],
-        "gait.sine_wave.amplitude_deg",
-    ),
-    (
-        &["gait.sine_wave.offset_deg=70"],
-        "gait.sine_wave.offset_deg",
-    ),
-    (
-        &["gait.sine_wave.offset_deg=-61"],
-        "gait.sine_wave.offset_deg",
-    ),
-    (
-        &["gait.sine_wave.frequency_hz=-0.5"],
-        "gait.sine_wave.frequency_hz",
-    ),
-    (
-        &["gait.sine_wave.phase_lag_deg=nan"],
-        "gait.sine_wave.phase_lag_deg",
-    ),
-    (
-        &["gait.form_closure.pattern_deg=[]"],
-        "gait.form_closure.pattern_deg",
-    ),
-    (
-        &["gait.form_closure.pattern_deg=[0, nan]"],
-        "gait.form_closure.pattern_deg",
-    ),
-    (
-        &[
-            "gait.kind=\"form_closure\"",
-            "gait.form_closure.pattern_deg=[0, 90]",
-        ],
-        "gait.form_closure.pattern_deg",
-    ),
-    (
-        &[
-            "terrain.kind=\"form_closure\"",
-            "gait.form_closure.pattern_deg=[-100]",
-        ],
-        "gait.form_closure.pattern_deg",
-    ),
-    (
-        &["gait.form_closure.shift_period_secs=0"],
-        "gait.form_closure.shift_period_secs",
-    ),
+    (&["gait.sine_wave.amplitude_deg=-1"], "gait.sine_wave.amplitude_deg"),
+    (&["gait.sine_wave.amplitude_deg=91"], "gait.sine_wave.amplitude_deg"),
+    (&["snake.joint_range_deg=20"], "gait.sine_wave.amplitude_deg"),
+    (&["gait.sine_wave.offset_deg=70"], "gait.sine_wave.offset_deg"),
+    (&["gait.sine_wave.offset_deg=-61"], "gait.sine_wave.offset_deg"),
+    (&["gait.sine_wave.frequency_hz=-0.5"], "gait.sine_wave.frequency_hz"),
+    (&["gait.sine_wave.phase_lag_deg=nan"], "gait.sine_wave.phase_lag_deg"),
+    (&["gait.form_closure.pattern_deg=[]"], "gait.form_closure.pattern_deg"),
+    (&["gait.form_closure.pattern_deg=[0, nan]"], "gait.form_closure.pattern_deg"),
+    (&["gait.kind=\"form_closure\"", "gait.form_closure.pattern_deg=[0, 90]"], "gait.form_closure.pattern_deg"),
+    (&["terrain.kind=\"form_closure\"", "gait.form_closure.pattern_deg=[-100]"], "gait.form_closure.pattern_deg"),
+    (&["gait.form_closure.shift_period_secs=0"], "gait.form_closure.shift_period_secs"),
     // terrain
-    (
-        &["terrain.obstacle_friction=[-0.5, 0, 0]"],
-        "terrain.obstacle_friction",
-    ),
-    (
-        &["terrain.cylinder_height_m=0"],
-        "terrain.cylinder_height_m",
-    ),
+    (&["terrain.obstacle_friction=[-0.5, 0, 0]"], "terrain.obstacle_friction"),
+    (&["terrain.cylinder_height_m=0"], "terrain.cylinder_height_m"),
     (&["terrain.floor_size_m=0"], "terrain.floor_size_m"),
-    (
-        &["terrain.two_cylinders.distance_m=0"],
-        "terrain.two_cylinders.distance_m",
-    ),
-    (
-        &["terrain.two_cylinders.radius_m=0"],
-        "terrain.two_cylinders.radius_m",
-    ),
-    (
-        &["terrain.random_cylinders.radius_range_m=[0.2, 0.1]"],
-        "terrain.random_cylinders.radius_range_m",
-    ),
-    (
-        &["terrain.random_cylinders.radius_range_m=[0, 0.1]"],
-        "terrain.random_cylinders.radius_range_m",
-    ),
-    (
-        &["terrain.random_cylinders.half_size_m=0"],
-        "terrain.random_cylinders.half_size_m",
-    ),
-    (
-        &["terrain.random_cylinders.min_gap_m=-0.1"],
-        "terrain.random_cylinders.min_gap_m",
-    ),
-    (
-        &["terrain.cylinder_path.n_pairs=0"],
-        "terrain.cylinder_path.n_pairs",
-    ),
-    (
-        &["terrain.cylinder_path.spacing_m=0"],
-        "terrain.cylinder_path.spacing_m",
-    ),
-    (
-        &["terrain.cylinder_path.radius_m=0"],
-        "terrain.cylinder_path.radius_m",
-    ),
-    (
-        &["terrain.cylinder_path.width_m=0.1"],
-        "terrain.cylinder_path.width_m",
-    ),
-    (
-        &["terrain.cylinder_path.width_m=0.15"],
-        "terrain.cylinder_path.width_m",
-    ),
-    (
-        &["terrain.cylinder_path.start_m=nan"],
-        "terrain.cylinder_path.start_m",
-    ),
-    (
-        &["terrain.form_closure.order=0"],
-        "terrain.form_closure.order",
-    ),
-    (
-        &["terrain.form_closure.order=3"],
-        "terrain.form_closure.order",
-    ),
-    (
-        &["terrain.form_closure.radius_m=0"],
-        "terrain.form_closure.radius_m",
-    ),
+    (&["terrain.two_cylinders.distance_m=0"], "terrain.two_cylinders.distance_m"),
+    (&["terrain.two_cylinders.radius_m=0"], "terrain.two_cylinders.radius_m"),
+    (&["terrain.random_cylinders.radius_range_m=[0.2, 0.1]"], "terrain.random_cylinders.radius_range_m"),
+    (&["terrain.random_cylinders.radius_range_m=[0, 0.1]"], "terrain.random_cylinders.radius_range_m"),
+    (&["terrain.random_cylinders.half_size_m=0"], "terrain.random_cylinders.half_size_m"),
+    (&["terrain.random_cylinders.min_gap_m=-0.1"], "terrain.random_cylinders.min_gap_m"),
+    (&["terrain.cylinder_path.n_pairs=0"], "terrain.cylinder_path.n_pairs"),
+    (&["terrain.cylinder_path.spacing_m=0"], "terrain.cylinder_path.spacing_m"),
+    (&["terrain.cylinder_path.radius_m=0"], "terrain.cylinder_path.radius_m"),
+    (&["terrain.cylinder_path.width_m=0.1"], "terrain.cylinder_path.width_m"),
+    (&["terrain.cylinder_path.width_m=0.15"], "terrain.cylinder_path.width_m"),
+    (&["terrain.cylinder_path.start_m=nan"], "terrain.cylinder_path.start_m"),
+    (&["terrain.form_closure.order=0"], "terrain.form_closure.order"),
+    (&["terrain.form_closure.order=3"], "terrain.form_closure.order"),
+    (&["terrain.form_closure.radius_m=0"], "terrain.form_closure.radius_m"),
     // recording
     (&["recording.every_n_steps=0"], "recording.every_n_steps"),
-    (
-        &["recording.every_n_steps=20001"],
-        "recording.every_n_steps",
-    ),
+    (&["recording.every_n_steps=20001"], "recording.every_n_steps"),
 ];
 
 #[test]
@@ -702,10 +477,7 @@ fn every_validation_rule_rejects_with_key_path() {
         let Err(e) = result else {
             panic!("{overrides:?} was accepted, expected an error at `{key}`");
         };
-        assert!(
-            matches!(e, ConfigError::InvalidValue { .. }),
-            "{overrides:?}: {e:?}"
-        );
+        assert!(matches!(e, ConfigError::InvalidValue { .. }), "{overrides:?}: {e:?}");
         assert_eq!(error_key(&e), *key, "{overrides:?}: {e}");
         let message = e.to_string();
         assert!(message.contains(key), "{message}");
@@ -732,21 +504,11 @@ fn validate_on_a_built_config() {
 fn validation_messages_explain() {
     let (_, value, allowed) = invalid(load_toml("", &["snake.link_length_m=0.05"]));
     assert_eq!(value, "0.05");
-    assert!(
-        allowed.contains("diameter") && allowed.contains("between neighbouring joints"),
-        "{allowed}"
-    );
+    assert!(allowed.contains("diameter") && allowed.contains("between neighbouring joints"), "{allowed}");
     let (_, _, allowed) = invalid(load_toml("", &["physics.contact_time_constant_secs=0.001"]));
-    assert!(
-        allowed.contains("MuJoCo") && allowed.contains("0.002"),
-        "{allowed}"
-    );
+    assert!(allowed.contains("MuJoCo") && allowed.contains("0.002"), "{allowed}");
     let (_, _, allowed) = invalid(load_toml("", &["general.plot=true"]));
-    assert!(
-        allowed.contains(
-            "plotting is not available in this build (planned); set general.plot = false"
-        )
-    );
+    assert!(allowed.contains("plotting is not available in this build (planned); set general.plot = false"));
     let (_, _, allowed) = invalid(load_toml("", &["terrain.cylinder_path.width_m=0.15"]));
     assert!(allowed.contains("snake fits between the rows"), "{allowed}");
 }
@@ -768,22 +530,11 @@ fn consistency_rules_apply_only_to_sections_in_use() {
     .unwrap();
     assert_eq!(config.gait.sine_wave.amplitude_deg, 100.0);
     // Plain ranges apply even when unused.
-    let e = load_toml(
-        "",
-        &["terrain.kind=none", "terrain.cylinder_path.radius_m=0"],
-    )
-    .unwrap_err();
+    let e = load_toml("", &["terrain.kind=none", "terrain.cylinder_path.radius_m=0"]).unwrap_err();
     assert_eq!(error_key(&e), "terrain.cylinder_path.radius_m");
     // Boundaries that are allowed.
-    load_toml(
-        "",
-        &[
-            "gait.sine_wave.amplitude_deg=90",
-            "snake.joint_range_deg=180",
-            "snake.torque_range_nm=[0, 3]",
-        ],
-    )
-    .unwrap();
+    load_toml("", &["gait.sine_wave.amplitude_deg=90", "snake.joint_range_deg=180", "snake.torque_range_nm=[0, 3]"])
+        .unwrap();
     load_toml("", &["general.timestep_secs=0.01"]).unwrap(); // 0.02 >= 2 x 0.01
 }
 
@@ -802,37 +553,17 @@ fn nan_in_toml_is_rejected() {
 #[test]
 fn unknown_key_suggests_the_closest() {
     let e = load_toml("[snake]\nn_link = 3\n", &[]).unwrap_err();
-    let ConfigError::UnknownKey {
-        key,
-        suggestion,
-        allowed,
-    } = &e
-    else {
-        panic!("{e:?}")
-    };
+    let ConfigError::UnknownKey { key, suggestion, allowed } = &e else { panic!("{e:?}") };
     assert_eq!(key, "snake.n_link");
     assert_eq!(suggestion.as_deref(), Some("snake.n_links"));
     assert!(allowed.starts_with("n_links, link_length_m, "), "{allowed}");
-    assert!(
-        e.to_string().contains("did you mean `snake.n_links`"),
-        "{e}"
-    );
+    assert!(e.to_string().contains("did you mean `snake.n_links`"), "{e}");
 
     let e = load_toml("[snak]\nn_links = 3\n", &[]).unwrap_err();
-    let ConfigError::UnknownKey {
-        key,
-        suggestion,
-        allowed,
-    } = &e
-    else {
-        panic!("{e:?}")
-    };
+    let ConfigError::UnknownKey { key, suggestion, allowed } = &e else { panic!("{e:?}") };
     assert_eq!(key, "snak");
     assert_eq!(suggestion.as_deref(), Some("snake"));
-    assert!(
-        allowed.contains("general") && allowed.contains("recording"),
-        "{allowed}"
-    );
+    assert!(allowed.contains("general") && allowed.contains("recording"), "{allowed}");
 
     let e = load_toml("[gait.sine_wave]\namplitude = 3\n", &[]).unwrap_err();
     assert!(
@@ -842,23 +573,11 @@ fn unknown_key_suggests_the_closest() {
 
     // A key of another table points there.
     let e = load_toml("[general]\nn_links = 3\n", &[]).unwrap_err();
-    assert!(
-        matches!(&e, ConfigError::UnknownKey { suggestion: Some(s), .. } if s == "snake.n_links"),
-        "{e:?}"
-    );
+    assert!(matches!(&e, ConfigError::UnknownKey { suggestion: Some(s), .. } if s == "snake.n_links"), "{e:?}");
 
     // Nothing close: no suggestion.
     let e = load_toml("[snake]\nzzzzzzzz = 3\n", &[]).unwrap_err();
-    assert!(
-        matches!(
-            &e,
-            ConfigError::UnknownKey {
-                suggestion: None,
-                ..
-            }
-        ),
-        "{e:?}"
-    );
+    assert!(matches!(&e, ConfigError::UnknownKey { suggestion: None, .. }), "{e:?}");
 }
 
 #[test]
@@ -873,37 +592,18 @@ fn table_and_value_mixups_are_invalid_values() {
 #[test]
 fn wrong_type_names_key_and_value() {
     let e = load_toml("[general]\nduration_secs = \"ten\"\n", &[]).unwrap_err();
-    let ConfigError::InvalidValue {
-        key,
-        value,
-        allowed,
-    } = &e
-    else {
-        panic!("{e:?}")
-    };
+    let ConfigError::InvalidValue { key, value, allowed } = &e else { panic!("{e:?}") };
     assert_eq!(key, "general.duration_secs");
     assert_eq!(value, "\"ten\"");
     assert!(allowed.contains("number"), "{allowed}");
-    assert!(
-        e.to_string().contains("general.duration_secs") && e.to_string().contains("ten"),
-        "{e}"
-    );
+    assert!(e.to_string().contains("general.duration_secs") && e.to_string().contains("ten"), "{e}");
 
     let (key, value, allowed) = invalid(load_toml("[control]\nmethod = \"torq\"\n", &[]));
-    assert_eq!(
-        (key.as_str(), value.as_str()),
-        ("control.method", "\"torq\"")
-    );
-    assert!(
-        allowed.contains("`torque`") && allowed.contains("`intvelocity`"),
-        "{allowed}"
-    );
+    assert_eq!((key.as_str(), value.as_str()), ("control.method", "\"torq\""));
+    assert!(allowed.contains("`torque`") && allowed.contains("`intvelocity`"), "{allowed}");
 
     let (key, value, _) = invalid(load_toml("[snake]\ntorque_range_nm = [1]\n", &[]));
-    assert_eq!(
-        (key.as_str(), value.as_str()),
-        ("snake.torque_range_nm", "[1]")
-    );
+    assert_eq!((key.as_str(), value.as_str()), ("snake.torque_range_nm", "[1]"));
 
     let (key, _, _) = invalid(load_toml("[snake]\ntorque_range_nm = [1, \"a\"]\n", &[]));
     assert_eq!(key, "snake.torque_range_nm[1]");
@@ -933,9 +633,7 @@ fn toml_syntax_error_names_file_and_position() {
     let dir = tempfile::tempdir().unwrap();
     let path = write(dir.path(), "bad.toml", "[snake]\nn_links = = 3\n");
     let e = load_config(&path, &[]).unwrap_err();
-    let ConfigError::Syntax { file, message } = &e else {
-        panic!("{e:?}")
-    };
+    let ConfigError::Syntax { file, message } = &e else { panic!("{e:?}") };
     assert!(file.ends_with("bad.toml"), "{file}");
     assert!(message.contains("line 2"), "{message}");
 }
@@ -946,36 +644,18 @@ fn toml_syntax_error_names_file_and_position() {
 fn parse_override_keeps_types() {
     use toml::Value;
     let v = |s: &str| parse_override(s).unwrap();
-    assert_eq!(
-        v("snake.n_links=15"),
-        ("snake.n_links".into(), Value::Integer(15))
-    );
+    assert_eq!(v("snake.n_links=15"), ("snake.n_links".into(), Value::Integer(15)));
     assert_eq!(v("general.duration_secs=0.5").1, Value::Float(0.5));
     assert_eq!(v("general.plot=true").1, Value::Boolean(true));
     assert_eq!(v("general.run_name=\"s\"").1, Value::String("s".into()));
-    assert_eq!(
-        v("a.b=[1,2]").1,
-        Value::Array(vec![Value::Integer(1), Value::Integer(2)])
-    );
+    assert_eq!(v("a.b=[1,2]").1, Value::Array(vec![Value::Integer(1), Value::Integer(2)]));
     assert_eq!(v("control.method=torque").1, Value::String("torque".into()));
     assert_eq!(v(" control.method = torque ").0, "control.method");
-    assert_eq!(
-        v("general.run_name=my-run_2").1,
-        Value::String("my-run_2".into())
-    );
+    assert_eq!(v("general.run_name=my-run_2").1, Value::String("my-run_2".into()));
 
-    for bad in [
-        "snake.n_links",
-        "=3",
-        "snake..n_links=3",
-        "snake.n_links=",
-        "snake.n_links=[1,",
-        "a b=1",
-    ] {
+    for bad in ["snake.n_links", "=3", "snake..n_links=3", "snake.n_links=", "snake.n_links=[1,", "a b=1"] {
         let e = parse_override(bad).unwrap_err();
-        let ConfigError::Syntax { file, .. } = &e else {
-            panic!("{bad}: {e:?}")
-        };
+        let ConfigError::Syntax { file, .. } = &e else { panic!("{bad}: {e:?}") };
         assert!(file.contains(bad), "{file}");
     }
 }
@@ -1003,10 +683,7 @@ fn overrides_apply_in_order_on_top_of_the_file() {
     assert_eq!(config.snake.torque_range_nm, [-2.0, 2.5]);
     assert_eq!(config.general.run_name, "my-run");
     assert_eq!(config.gait.sine_wave.amplitude_deg, 10.0);
-    assert_eq!(
-        config.gait.sine_wave.frequency_hz,
-        Config::default().gait.sine_wave.frequency_hz
-    );
+    assert_eq!(config.gait.sine_wave.frequency_hz, Config::default().gait.sine_wave.frequency_hz);
 }
 
 #[test]
@@ -1039,43 +716,26 @@ fn file_types_and_io_errors() {
 
     let path = write(dir.path(), "config.yaml", "snake: 1\n");
     let e = load_config(&path, &[]).unwrap_err();
-    let ConfigError::Syntax { file, message } = &e else {
-        panic!("{e:?}")
-    };
+    let ConfigError::Syntax { file, message } = &e else { panic!("{e:?}") };
     assert!(file.ends_with("config.yaml"));
-    assert!(
-        message.contains(".yaml") && message.contains(".toml") && message.contains(".json"),
-        "{message}"
-    );
+    assert!(message.contains(".yaml") && message.contains(".toml") && message.contains(".json"), "{message}");
 
     let path = write(dir.path(), "config", "");
-    assert!(matches!(
-        load_config(&path, &[]),
-        Err(ConfigError::Syntax { .. })
-    ));
+    assert!(matches!(load_config(&path, &[]), Err(ConfigError::Syntax { .. })));
 
     let e = load_config(&dir.path().join("missing.toml"), &[]).unwrap_err();
-    assert!(
-        matches!(&e, ConfigError::Io { file, .. } if file.ends_with("missing.toml")),
-        "{e:?}"
-    );
+    assert!(matches!(&e, ConfigError::Io { file, .. } if file.ends_with("missing.toml")), "{e:?}");
 
     let path = write(dir.path(), "UPPER.TOML", "[snake]\nn_links = 3\n");
     assert_eq!(load_config(&path, &[]).unwrap().snake.n_links, 3);
 
     let path = write(dir.path(), "empty.json", "");
     let e = load_config(&path, &[]).unwrap_err();
-    assert!(
-        matches!(&e, ConfigError::Syntax { file, .. } if file.ends_with("empty.json")),
-        "{e:?}"
-    );
+    assert!(matches!(&e, ConfigError::Syntax { file, .. } if file.ends_with("empty.json")), "{e:?}");
 
     let path = write(dir.path(), "bad.json", "{ \"simulation_time\": 1, }");
     let e = load_config(&path, &[]).unwrap_err();
-    assert!(
-        matches!(&e, ConfigError::Syntax { message, .. } if message.contains("line 1")),
-        "{e:?}"
-    );
+    assert!(matches!(&e, ConfigError::Syntax { message, .. } if message.contains("line 1")), "{e:?}");
 }
 
 // --- the original tool's config.json --------------------------------------------------------
@@ -1091,13 +751,7 @@ fn thesis_config_json_maps_as_documented() {
     assert!(!config.general.plot);
     assert_eq!(config.general.run_name, d.general.run_name);
 
-    assert_eq!(
-        config.visual,
-        Visual {
-            show_contact_forces: false,
-            ..d.visual.clone()
-        }
-    );
+    assert_eq!(config.visual, Visual { show_contact_forces: false, ..d.visual.clone() });
 
     let s = &config.snake;
     assert_eq!(s.n_links, 2);
@@ -1105,22 +759,9 @@ fn thesis_config_json_maps_as_documented() {
     assert_eq!(s.link_length_m, 0.2); // 2 x the original half length 0.10
     assert_eq!(s.link_radius_m, 0.08);
     assert_eq!(s.torque_range_nm, [-3.0, 3.0]);
-    assert_eq!(
-        s.ground_friction,
-        [0.5, d.snake.ground_friction[1], d.snake.ground_friction[2]]
-    );
-    assert_eq!(
-        s.link_friction,
-        [0.5, d.snake.link_friction[1], d.snake.link_friction[2]]
-    );
-    assert_eq!(
-        config.terrain.obstacle_friction,
-        [
-            0.5,
-            d.terrain.obstacle_friction[1],
-            d.terrain.obstacle_friction[2]
-        ]
-    );
+    assert_eq!(s.ground_friction, [0.5, d.snake.ground_friction[1], d.snake.ground_friction[2]]);
+    assert_eq!(s.link_friction, [0.5, d.snake.link_friction[1], d.snake.link_friction[2]]);
+    assert_eq!(config.terrain.obstacle_friction, [0.5, d.terrain.obstacle_friction[1], d.terrain.obstacle_friction[2]]);
     assert_eq!(s.joint_damping_nm_s_per_rad, 0.5);
     assert_eq!(s.joint_armature_kg_m2, 0.2);
     assert_eq!(s.color_rgba, [0.0, 0.2, 1.0, 1.0]);
@@ -1147,18 +788,8 @@ fn thesis_config_json_maps_as_documented() {
     assert_eq!(c.position_kp_nm_per_rad, 0.7);
     assert_eq!(c.velocity_kv_nm_s_per_rad, 0.0);
     assert_eq!(c.intvelocity_kp_nm_per_rad, 50.0);
-    assert_eq!(
-        [
-            c.pid_kp_nm_per_rad,
-            c.pid_ki_nm_per_rad_s,
-            c.pid_kd_nm_s_per_rad
-        ],
-        [0.4, 0.0, 0.0]
-    );
-    assert_eq!(
-        c.position_kv_nm_s_per_rad,
-        d.control.position_kv_nm_s_per_rad
-    );
+    assert_eq!([c.pid_kp_nm_per_rad, c.pid_ki_nm_per_rad_s, c.pid_kd_nm_s_per_rad], [0.4, 0.0, 0.0]);
+    assert_eq!(c.position_kv_nm_s_per_rad, d.control.position_kv_nm_s_per_rad);
 
     assert_eq!(config.terrain.kind, TerrainKind::None);
     assert_eq!(config.gait.kind, GaitKind::None);
@@ -1197,13 +828,13 @@ fn empty_legacy_object_is_all_defaults() {
 
 #[test]
 fn legacy_experiments_and_terrain() {
-    let c = load_json(r#"{"prebuilt_experiments": {"do_sinus": true, "form_closure": false}}"#)
-        .unwrap();
+    let c = load_json(r#"{"prebuilt_experiments": {"do_sinus": true, "form_closure": false}}"#).unwrap();
     assert_eq!(c.gait.kind, GaitKind::SineWave);
     assert_eq!(c.terrain.kind, Config::default().terrain.kind); // no terrain section: default
 
-    let c = load_json(r#"{"prebuilt_experiments": {"form_closure": true}, "terrain": {"generate_two_cylinders": false}}"#)
-        .unwrap();
+    let c =
+        load_json(r#"{"prebuilt_experiments": {"form_closure": true}, "terrain": {"generate_two_cylinders": false}}"#)
+            .unwrap();
     assert_eq!(c.gait.kind, GaitKind::FormClosure);
     assert_eq!(c.terrain.kind, TerrainKind::FormClosure);
 
@@ -1220,28 +851,17 @@ fn legacy_experiments_and_terrain() {
         r#"{"terrain": {"generate_two_cylinders": true, "generate_random_cylinders": false, "generate_cylinder_path": true}}"#,
     ));
     assert_eq!(key, "terrain.generate_cylinder_path");
-    assert!(
-        allowed.contains("terrain.generate_two_cylinders"),
-        "{allowed}"
-    );
+    assert!(allowed.contains("terrain.generate_two_cylinders"), "{allowed}");
 
-    let (key, _, allowed) = invalid(load_json(
-        r#"{"prebuilt_experiments": {"form_closure": true, "do_sinus": true}}"#,
-    ));
+    let (key, _, allowed) = invalid(load_json(r#"{"prebuilt_experiments": {"form_closure": true, "do_sinus": true}}"#));
     assert_eq!(key, "prebuilt_experiments.form_closure");
-    assert!(
-        allowed.contains("prebuilt_experiments.do_sinus"),
-        "{allowed}"
-    );
+    assert!(allowed.contains("prebuilt_experiments.do_sinus"), "{allowed}");
 
     let (key, _, allowed) = invalid(load_json(
         r#"{"prebuilt_experiments": {"form_closure": true}, "terrain": {"generate_random_cylinders": true}}"#,
     ));
     assert_eq!(key, "prebuilt_experiments.form_closure");
-    assert!(
-        allowed.contains("terrain.generate_random_cylinders"),
-        "{allowed}"
-    );
+    assert!(allowed.contains("terrain.generate_random_cylinders"), "{allowed}");
 }
 
 #[test]
@@ -1273,10 +893,7 @@ fn legacy_values_map() {
         ("intvelocity", ControlMethod::Intvelocity),
         ("Position", ControlMethod::Position),
     ] {
-        let c = load_json(&format!(
-            r#"{{"control_parameters": {{"control_method": "{method}"}}}}"#
-        ))
-        .unwrap();
+        let c = load_json(&format!(r#"{{"control_parameters": {{"control_method": "{method}"}}}}"#)).unwrap();
         assert_eq!(c.control.method, expected);
     }
 }
@@ -1284,51 +901,25 @@ fn legacy_values_map() {
 #[test]
 fn legacy_errors_use_legacy_names() {
     let e = load_json(r#"{"snake_specifications": {"link_length_in_m": 0.1}}"#).unwrap_err();
-    let ConfigError::UnknownKey {
-        key,
-        suggestion,
-        allowed,
-    } = &e
-    else {
-        panic!("{e:?}")
-    };
+    let ConfigError::UnknownKey { key, suggestion, allowed } = &e else { panic!("{e:?}") };
     assert_eq!(key, "snake_specifications.link_length_in_m");
-    assert_eq!(
-        suggestion.as_deref(),
-        Some("snake_specifications.link_lenght_in_m")
-    );
+    assert_eq!(suggestion.as_deref(), Some("snake_specifications.link_lenght_in_m"));
     assert!(allowed.starts_with("nr_of_links, "), "{allowed}");
 
     let e = load_json(r#"{"simulation_tim": 3}"#).unwrap_err();
-    assert!(
-        matches!(&e, ConfigError::UnknownKey { suggestion: Some(s), .. } if s == "simulation_time"),
-        "{e:?}"
-    );
+    assert!(matches!(&e, ConfigError::UnknownKey { suggestion: Some(s), .. } if s == "simulation_time"), "{e:?}");
     let e = load_json(r#"{"snake_specification": {}}"#).unwrap_err();
-    assert!(
-        matches!(&e, ConfigError::UnknownKey { suggestion: Some(s), .. } if s == "snake_specifications"),
-        "{e:?}"
-    );
+    assert!(matches!(&e, ConfigError::UnknownKey { suggestion: Some(s), .. } if s == "snake_specifications"), "{e:?}");
 
-    let (key, _, _) = invalid(load_json(
-        r#"{"control_parameters": {"control_method": "pid"}}"#,
-    ));
+    let (key, _, _) = invalid(load_json(r#"{"control_parameters": {"control_method": "pid"}}"#));
     assert_eq!(key, "control_parameters.control_method");
-    let (key, _, _) = invalid(load_json(
-        r#"{"snake_specifications": {"sensor_noise": "maybe"}}"#,
-    ));
+    let (key, _, _) = invalid(load_json(r#"{"snake_specifications": {"sensor_noise": "maybe"}}"#));
     assert_eq!(key, "snake_specifications.sensor_noise");
-    let (key, _, _) = invalid(load_json(
-        r#"{"control_parameters": {"PID_parameters_Kp_Ki_Kd": [1, 2]}}"#,
-    ));
+    let (key, _, _) = invalid(load_json(r#"{"control_parameters": {"PID_parameters_Kp_Ki_Kd": [1, 2]}}"#));
     assert_eq!(key, "control_parameters.PID_parameters_Kp_Ki_Kd");
-    let (key, _, _) = invalid(load_json(
-        r#"{"snake_specifications": {"friction": "high"}}"#,
-    ));
+    let (key, _, _) = invalid(load_json(r#"{"snake_specifications": {"friction": "high"}}"#));
     assert_eq!(key, "snake_specifications.friction");
-    let (key, _, _) = invalid(load_json(
-        r#"{"terrain": {"generate_two_cylinders": "yes"}}"#,
-    ));
+    let (key, _, _) = invalid(load_json(r#"{"terrain": {"generate_two_cylinders": "yes"}}"#));
     assert_eq!(key, "terrain.generate_two_cylinders");
     let (key, _, _) = invalid(load_json(r#"{"snake_specifications": 3}"#));
     assert_eq!(key, "snake_specifications");
@@ -1338,17 +929,9 @@ fn legacy_errors_use_legacy_names() {
     // Errors found after conversion name the new key and the config.json key it came from.
     let (key, _, allowed) = invalid(load_json(r#"{"snake_specifications": {"nr_of_links": 0}}"#));
     assert_eq!(key, "snake.n_links");
-    assert!(
-        allowed.contains("snake_specifications.nr_of_links"),
-        "{allowed}"
-    );
-    let (key, value, allowed) = invalid(load_json(
-        r#"{"snake_specifications": {"link_lenght_in_m": 0.03}}"#,
-    ));
-    assert_eq!(
-        (key.as_str(), value.as_str()),
-        ("snake.link_length_m", "0.06")
-    );
+    assert!(allowed.contains("snake_specifications.nr_of_links"), "{allowed}");
+    let (key, value, allowed) = invalid(load_json(r#"{"snake_specifications": {"link_lenght_in_m": 0.03}}"#));
+    assert_eq!((key.as_str(), value.as_str()), ("snake.link_length_m", "0.06"));
     assert!(allowed.contains("link_lenght_in_m"), "{allowed}");
     let (key, _, allowed) = invalid(load_json(r#"{"plot_data": true}"#));
     assert_eq!(key, "general.plot");

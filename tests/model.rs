@@ -4,9 +4,7 @@
 
 use mujoco_rs::prelude::*;
 use mujoco_rs::wrappers::mj_model::{MjtCone, MjtGeomBase, MjtJoint, MjtObjBase, MjtSensor};
-use simserpent::config::{
-    Config, ConfigError, ControlMethod, FrictionCone, GaitKind, JointAxes, TerrainKind,
-};
+use simserpent::config::{Config, ConfigError, ControlMethod, FrictionCone, GaitKind, JointAxes, TerrainKind};
 use simserpent::model::{self, GeneratedModel, ModelError, link_axis_segments_m, names};
 
 const TOL: f64 = 1e-9;
@@ -20,8 +18,7 @@ fn base() -> Config {
 }
 
 fn load(xml: &str) -> MjModel {
-    MjModel::from_xml_string(xml)
-        .unwrap_or_else(|e| panic!("MuJoCo rejected the model: {e}\n{xml}"))
+    MjModel::from_xml_string(xml).unwrap_or_else(|e| panic!("MuJoCo rejected the model: {e}\n{xml}"))
 }
 
 fn gen_load(cfg: &Config) -> (GeneratedModel, MjModel) {
@@ -31,15 +28,13 @@ fn gen_load(cfg: &Config) -> (GeneratedModel, MjModel) {
 }
 
 fn id(m: &MjModel, t: MjtObjBase, name: &str) -> usize {
-    m.name_to_id(t, name)
-        .unwrap_or_else(|| panic!("no {t:?} named {name}"))
+    m.name_to_id(t, name).unwrap_or_else(|| panic!("no {t:?} named {name}"))
 }
 
 /// Data reset to the `initial` keyframe, forward computed.
 fn initial_data(m: &MjModel) -> MjData<&MjModel> {
     let mut d = MjData::new(m);
-    d.reset_keyframe(id(m, MjtObjBase::mjOBJ_KEY, names::INITIAL_KEYFRAME))
-        .unwrap();
+    d.reset_keyframe(id(m, MjtObjBase::mjOBJ_KEY, names::INITIAL_KEYFRAME)).unwrap();
     d.forward();
     d
 }
@@ -54,21 +49,9 @@ fn assert_close(a: &[f64], b: &[f64], tol: f64, what: &str) {
 /// Independent Rx(a)·Ry(b)·Rz(c) applied to v.
 fn rotate(e_deg: [f64; 3], v: [f64; 3]) -> [f64; 3] {
     let [a, b, c] = e_deg.map(f64::to_radians);
-    let rz = [
-        c.cos() * v[0] - c.sin() * v[1],
-        c.sin() * v[0] + c.cos() * v[1],
-        v[2],
-    ];
-    let ry = [
-        b.cos() * rz[0] + b.sin() * rz[2],
-        rz[1],
-        -b.sin() * rz[0] + b.cos() * rz[2],
-    ];
-    [
-        ry[0],
-        a.cos() * ry[1] - a.sin() * ry[2],
-        a.sin() * ry[1] + a.cos() * ry[2],
-    ]
+    let rz = [c.cos() * v[0] - c.sin() * v[1], c.sin() * v[0] + c.cos() * v[1], v[2]];
+    let ry = [b.cos() * rz[0] + b.sin() * rz[2], rz[1], -b.sin() * rz[0] + b.cos() * rz[2]];
+    [ry[0], a.cos() * ry[1] - a.sin() * ry[2], a.sin() * ry[1] + a.cos() * ry[2]]
 }
 
 fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -79,18 +62,12 @@ fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 fn dist_seg(p: [f64; 2], a: [f64; 3], b: [f64; 3]) -> f64 {
     let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
     let l2 = dx * dx + dy * dy;
-    let t = if l2 > 0.0 {
-        (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
+    let t = if l2 > 0.0 { (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / l2).clamp(0.0, 1.0) } else { 0.0 };
     (p[0] - a[0] - t * dx).hypot(p[1] - a[1] - t * dy)
 }
 
 fn dist_body(p: [f64; 2], segs: &[[[f64; 3]; 2]]) -> f64 {
-    segs.iter()
-        .map(|s| dist_seg(p, s[0], s[1]))
-        .fold(f64::INFINITY, f64::min)
+    segs.iter().map(|s| dist_seg(p, s[0], s[1])).fold(f64::INFINITY, f64::min)
 }
 
 fn config_error(r: Result<GeneratedModel, ModelError>) -> (String, String) {
@@ -109,33 +86,9 @@ type Row = (&'static str, usize, f64, f64, [f64; 3], [f64; 3], [f64; 4]);
 
 fn experiment_one() -> Vec<(&'static str, Config)> {
     let rows: [Row; 3] = [
-        (
-            "A",
-            2,
-            0.8,
-            0.25,
-            [0.0, 0.0, 0.0],
-            [0.0, 0.0, 0.0],
-            [0.0, 0.0, 0.8, 1.0],
-        ),
-        (
-            "B",
-            5,
-            2.0,
-            0.5,
-            [10.0, 5.0, 0.0],
-            [0.0, 0.0, 180.0],
-            [1.0, 0.0, 0.0, 1.0],
-        ),
-        (
-            "C",
-            15,
-            1.0,
-            1.0,
-            [0.0, 0.0, 5.0],
-            [180.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0, 1.0],
-        ),
+        ("A", 2, 0.8, 0.25, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.8, 1.0]),
+        ("B", 5, 2.0, 0.5, [10.0, 5.0, 0.0], [0.0, 0.0, 180.0], [1.0, 0.0, 0.0, 1.0]),
+        ("C", 15, 1.0, 1.0, [0.0, 0.0, 5.0], [180.0, 0.0, 0.0], [0.0, 1.0, 0.0, 1.0]),
     ];
     rows.into_iter()
         .map(|(name, n, half_len, r, pos, rot, rgba)| {
@@ -160,18 +113,8 @@ fn experiment_one_configurations_are_placed_exactly() {
         let s = &cfg.snake;
         let (n, l, r) = (s.n_links, s.link_length_m, s.link_radius_m);
         let tip = add(s.head_position_m, [0.0, 0.0, r]);
-        let anchor = |i: usize| {
-            add(
-                tip,
-                rotate(s.head_rotation_deg, [-(i as f64) * l, 0.0, 0.0]),
-            )
-        };
-        let centre = |i: usize| {
-            add(
-                tip,
-                rotate(s.head_rotation_deg, [-(i as f64 + 0.5) * l, 0.0, 0.0]),
-            )
-        };
+        let anchor = |i: usize| add(tip, rotate(s.head_rotation_deg, [-(i as f64) * l, 0.0, 0.0]));
+        let centre = |i: usize| add(tip, rotate(s.head_rotation_deg, [-(i as f64 + 0.5) * l, 0.0, 0.0]));
         let axis = rotate(s.head_rotation_deg, [0.0, 0.0, 1.0]);
         let what = |x: &str| format!("config {label}: {x}");
 
@@ -183,60 +126,20 @@ fn experiment_one_configurations_are_placed_exactly() {
         assert_eq!(segs.len(), n);
         for (i, seg) in segs.iter().enumerate() {
             let b = id(&m, MjtObjBase::mjOBJ_BODY, &names::link_body(i));
-            assert_close(
-                &d.xpos()[b],
-                &anchor(i),
-                TOL,
-                &what(&format!("link {i} position")),
-            );
-            assert_close(
-                &seg[0],
-                &anchor(i),
-                TOL,
-                &what(&format!("segment {i} front")),
-            );
-            assert_close(
-                &seg[1],
-                &anchor(i + 1),
-                TOL,
-                &what(&format!("segment {i} back")),
-            );
+            assert_close(&d.xpos()[b], &anchor(i), TOL, &what(&format!("link {i} position")));
+            assert_close(&seg[0], &anchor(i), TOL, &what(&format!("segment {i} front")));
+            assert_close(&seg[1], &anchor(i + 1), TOL, &what(&format!("segment {i} back")));
             let site = id(&m, MjtObjBase::mjOBJ_SITE, &names::link_site(i));
-            assert_close(
-                &d.site_xpos()[site],
-                &centre(i),
-                TOL,
-                &what(&format!("imu site {i}")),
-            );
+            assert_close(&d.site_xpos()[site], &centre(i), TOL, &what(&format!("imu site {i}")));
             let geom = id(&m, MjtObjBase::mjOBJ_GEOM, &names::link_geom(i));
             assert_eq!(m.geom_bodyid()[geom] as usize, b);
-            assert_close(
-                &d.geom_xpos()[geom],
-                &centre(i),
-                TOL,
-                &what(&format!("geom {i} centre")),
-            );
+            assert_close(&d.geom_xpos()[geom], &centre(i), TOL, &what(&format!("geom {i} centre")));
             if l == 2.0 * r {
-                assert_eq!(
-                    m.geom_type()[geom],
-                    MjtGeomBase::mjGEOM_SPHERE,
-                    "{}",
-                    what("sphere")
-                );
+                assert_eq!(m.geom_type()[geom], MjtGeomBase::mjGEOM_SPHERE, "{}", what("sphere"));
                 assert!((m.geom_size()[geom][0] - r).abs() <= TOL);
             } else {
-                assert_eq!(
-                    m.geom_type()[geom],
-                    MjtGeomBase::mjGEOM_CAPSULE,
-                    "{}",
-                    what("capsule")
-                );
-                assert_close(
-                    &m.geom_size()[geom][..2],
-                    &[r, l / 2.0 - r],
-                    TOL,
-                    &what("capsule size"),
-                );
+                assert_eq!(m.geom_type()[geom], MjtGeomBase::mjGEOM_CAPSULE, "{}", what("capsule"));
+                assert_close(&m.geom_size()[geom][..2], &[r, l / 2.0 - r], TOL, &what("capsule size"));
                 // The capsule's axis (geom z) lies along the link's x axis.
                 let gm = d.geom_xmat()[geom];
                 let link_x = rotate(s.head_rotation_deg, [1.0, 0.0, 0.0]);
@@ -246,42 +149,18 @@ fn experiment_one_configurations_are_placed_exactly() {
             }
             let rgba: Vec<f64> = m.geom_rgba()[geom].iter().map(|&x| f64::from(x)).collect();
             assert_close(&rgba, &s.color_rgba, 1e-7, &what("rgba"));
-            assert!(
-                (m.body_mass()[b] - s.link_mass_kg).abs() <= TOL,
-                "{}",
-                what("mass")
-            );
+            assert!((m.body_mass()[b] - s.link_mass_kg).abs() <= TOL, "{}", what("mass"));
             total += m.body_mass()[b];
             if i > 0 {
                 let js = id(&m, MjtObjBase::mjOBJ_SITE, &names::joint_site(i));
-                assert_close(
-                    &d.site_xpos()[js],
-                    &anchor(i),
-                    TOL,
-                    &what(&format!("joint site {i}")),
-                );
+                assert_close(&d.site_xpos()[js], &anchor(i), TOL, &what(&format!("joint site {i}")));
                 let jid = id(&m, MjtObjBase::mjOBJ_JOINT, &names::joint(i));
                 assert_eq!(m.jnt_type()[jid], MjtJoint::mjJNT_HINGE);
                 assert_eq!(m.jnt_bodyid()[jid] as usize, b);
-                assert_close(
-                    &d.xanchor()[jid],
-                    &anchor(i),
-                    TOL,
-                    &what(&format!("joint {i} anchor")),
-                );
-                assert_close(
-                    &d.xaxis()[jid],
-                    &axis,
-                    TOL,
-                    &what(&format!("joint {i} axis")),
-                );
+                assert_close(&d.xanchor()[jid], &anchor(i), TOL, &what(&format!("joint {i} anchor")));
+                assert_close(&d.xaxis()[jid], &axis, TOL, &what(&format!("joint {i} axis")));
                 let range = s.joint_range_deg.to_radians();
-                assert_close(
-                    &m.jnt_range()[jid],
-                    &[-range, range],
-                    TOL,
-                    &what("joint range"),
-                );
+                assert_close(&m.jnt_range()[jid], &[-range, range], TOL, &what("joint range"));
             }
         }
         assert!((total - n as f64 * s.link_mass_kg).abs() <= TOL);
@@ -301,11 +180,7 @@ fn experiment_one_configurations_are_placed_exactly() {
         for _ in 0..200 {
             d.step();
         }
-        assert!(
-            d.qpos().iter().all(|x| x.is_finite()),
-            "{}",
-            what("finite after steps")
-        );
+        assert!(d.qpos().iter().all(|x| x.is_finite()), "{}", what("finite after steps"));
     }
 }
 
@@ -320,10 +195,7 @@ fn check_actuators(cfg: &Config, m: &MjModel, label: &str) {
         for j in 1..=nj {
             let a = id(m, MjtObjBase::mjOBJ_ACTUATOR, &names::actuator(kind, j));
             assert_eq!(a, block * nj + j - 1, "thesis ordering: blocks of kinds");
-            assert_eq!(
-                m.actuator_trnid()[a][0] as usize,
-                id(m, MjtObjBase::mjOBJ_JOINT, &names::joint(j))
-            );
+            assert_eq!(m.actuator_trnid()[a][0] as usize, id(m, MjtObjBase::mjOBJ_JOINT, &names::joint(j)));
             assert!(m.actuator_forcelimited()[a]);
             let gain = m.actuator_gainprm()[a][0];
             let bias = &m.actuator_biasprm()[a][..3];
@@ -332,33 +204,14 @@ fn check_actuators(cfg: &Config, m: &MjModel, label: &str) {
                     let g = c.torque_gear;
                     assert_eq!(gain, 1.0);
                     assert_eq!(m.actuator_gear()[a][0], g);
-                    assert_close(
-                        &m.actuator_ctrlrange()[a],
-                        &[lo / g, hi / g],
-                        TOL,
-                        "motor ctrlrange",
-                    );
-                    assert_close(
-                        &m.actuator_forcerange()[a],
-                        &[lo / g, hi / g],
-                        TOL,
-                        "motor forcerange",
-                    );
+                    assert_close(&m.actuator_ctrlrange()[a], &[lo / g, hi / g], TOL, "motor ctrlrange");
+                    assert_close(&m.actuator_forcerange()[a], &[lo / g, hi / g], TOL, "motor forcerange");
                 }
                 ControlMethod::Position => {
-                    let (kp, kv) = if on {
-                        (c.position_kp_nm_per_rad, c.position_kv_nm_s_per_rad)
-                    } else {
-                        (0.0, 0.0)
-                    };
+                    let (kp, kv) = if on { (c.position_kp_nm_per_rad, c.position_kv_nm_s_per_rad) } else { (0.0, 0.0) };
                     assert_eq!(gain, kp, "config {label}: position kp");
                     assert_close(bias, &[0.0, -kp, -kv], 0.0, "position bias");
-                    assert_close(
-                        &m.actuator_ctrlrange()[a],
-                        &[-range, range],
-                        TOL,
-                        "position ctrlrange",
-                    );
+                    assert_close(&m.actuator_ctrlrange()[a], &[-range, range], TOL, "position ctrlrange");
                 }
                 ControlMethod::Velocity => {
                     let kv = if on { c.velocity_kv_nm_s_per_rad } else { 0.0 };
@@ -369,21 +222,11 @@ fn check_actuators(cfg: &Config, m: &MjModel, label: &str) {
                     let kp = if on { c.intvelocity_kp_nm_per_rad } else { 0.0 };
                     assert_eq!(gain, kp, "config {label}: intvelocity kp");
                     assert_close(bias, &[0.0, -kp, 0.0], 0.0, "intvelocity bias");
-                    assert_close(
-                        &m.actuator_actrange()[a],
-                        &[-range, range],
-                        TOL,
-                        "intvelocity actrange (rad)",
-                    );
+                    assert_close(&m.actuator_actrange()[a], &[-range, range], TOL, "intvelocity actrange (rad)");
                 }
             }
             if kind != ControlMethod::Torque {
-                assert_close(
-                    &m.actuator_forcerange()[a],
-                    &[lo, hi],
-                    TOL,
-                    "servo forcerange",
-                );
+                assert_close(&m.actuator_forcerange()[a], &[lo, hi], TOL, "servo forcerange");
             }
         }
     }
@@ -392,11 +235,7 @@ fn check_actuators(cfg: &Config, m: &MjModel, label: &str) {
 fn check_sensors(cfg: &Config, m: &MjModel, label: &str) {
     use names::SensorKind as K;
     let (n, nj) = (cfg.snake.n_links, cfg.snake.n_joints());
-    assert_eq!(
-        m.ffi().nsensor as usize,
-        5 * n + 4 * nj,
-        "config {label}: sensors"
-    );
+    assert_eq!(m.ffi().nsensor as usize, 5 * n + 4 * nj, "config {label}: sensors");
     let types = m.sensor_type();
     let count = |t: MjtSensor| types.iter().filter(|&&x| x == t).count();
     assert_eq!(count(MjtSensor::mjSENS_VELOCIMETER), n);
@@ -416,12 +255,7 @@ fn check_sensors(cfg: &Config, m: &MjModel, label: &str) {
             assert_eq!(s, expected_id, "sensor order");
             expected_id += 1;
             assert_eq!(m.sensor_objtype()[s], MjtObjBase::mjOBJ_SITE);
-            assert_eq!(
-                m.sensor_objid()[s] as usize,
-                site,
-                "{} on its site",
-                names::sensor(kind, i)
-            );
+            assert_eq!(m.sensor_objid()[s] as usize, site, "{} on its site", names::sensor(kind, i));
             assert_eq!(m.sensor_dim()[s] as usize, kind.dim());
         }
     }
@@ -441,10 +275,7 @@ fn check_sensors(cfg: &Config, m: &MjModel, label: &str) {
             assert_eq!(m.sensor_dim()[s] as usize, kind.dim());
         }
     }
-    assert_eq!(
-        names::link_velocimeter(1),
-        names::sensor(K::LinkVelocity, 1)
-    );
+    assert_eq!(names::link_velocimeter(1), names::sensor(K::LinkVelocity, 1));
     assert_eq!(names::joint_angvel(2), "joint_02_angvel");
 }
 
@@ -480,11 +311,7 @@ fn motor_limits_joint_torque_to_torque_range_for_any_gear() {
     cfg.control.torque_gear = 0.5;
     let (_, m) = gen_load(&cfg);
     let mut d = initial_data(&m);
-    let a = id(
-        &m,
-        MjtObjBase::mjOBJ_ACTUATOR,
-        &names::actuator(ControlMethod::Torque, 1),
-    );
+    let a = id(&m, MjtObjBase::mjOBJ_ACTUATOR, &names::actuator(ControlMethod::Torque, 1));
     d.ctrl_mut()[a] = 1e6; // clamped by ctrlrange
     d.forward();
     let dof = m.jnt_dofadr()[id(&m, MjtObjBase::mjOBJ_JOINT, &names::joint(1))] as usize;
@@ -504,12 +331,8 @@ fn round_trip_through_a_file_gives_the_same_model() {
     let b = MjModel::from_xml(&path).unwrap();
     let (fa, fb) = (a.ffi(), b.ffi());
     assert_eq!(
-        (
-            fa.nbody, fa.njnt, fa.ngeom, fa.nsite, fa.nu, fa.nsensor, fa.nkey, fa.nq
-        ),
-        (
-            fb.nbody, fb.njnt, fb.ngeom, fb.nsite, fb.nu, fb.nsensor, fb.nkey, fb.nq
-        )
+        (fa.nbody, fa.njnt, fa.ngeom, fa.nsite, fa.nu, fa.nsensor, fa.nkey, fa.nq),
+        (fb.nbody, fb.njnt, fb.ngeom, fb.nsite, fb.nu, fb.nsensor, fb.nkey, fb.nq)
     );
     assert_eq!(a.body_pos(), b.body_pos());
     assert_eq!(a.body_quat(), b.body_quat());
@@ -521,24 +344,11 @@ fn round_trip_through_a_file_gives_the_same_model() {
     assert_eq!(a.key_qpos(), b.key_qpos());
     // The keyframe holds the head pose and the bent start.
     let key = a.key_qpos();
-    let tip = add(
-        cfg.snake.head_position_m,
-        [0.0, 0.0, cfg.snake.link_radius_m],
-    );
+    let tip = add(cfg.snake.head_position_m, [0.0, 0.0, cfg.snake.link_radius_m]);
     assert_close(&key[..3], &tip, 0.0, "key head position");
     let half = 33f64.to_radians() / 2.0;
-    assert_close(
-        &key[3..7],
-        &[half.cos(), 0.0, 0.0, half.sin()],
-        1e-15,
-        "key head quaternion",
-    );
-    assert_close(
-        &key[7..],
-        &g.initial_joint_angles_rad,
-        0.0,
-        "key joint angles",
-    );
+    assert_close(&key[3..7], &[half.cos(), 0.0, 0.0, half.sin()], 1e-15, "key head quaternion");
+    assert_close(&key[7..], &g.initial_joint_angles_rad, 0.0, "key joint angles");
     let pattern = &cfg.gait.form_closure.pattern_deg;
     for (k, q) in g.initial_joint_angles_rad.iter().enumerate() {
         assert_eq!(*q, pattern[k % pattern.len()].to_radians());
@@ -550,11 +360,7 @@ fn round_trip_through_a_file_gives_the_same_model() {
         let body = id(&a, MjtObjBase::mjOBJ_BODY, &names::link_body(i));
         assert_close(&d.xpos()[body], &s[0], TOL, "bent start");
         let site = id(&a, MjtObjBase::mjOBJ_SITE, &names::link_site(i));
-        let mid = [
-            (s[0][0] + s[1][0]) / 2.0,
-            (s[0][1] + s[1][1]) / 2.0,
-            (s[0][2] + s[1][2]) / 2.0,
-        ];
+        let mid = [(s[0][0] + s[1][0]) / 2.0, (s[0][1] + s[1][1]) / 2.0, (s[0][2] + s[1][2]) / 2.0];
         assert_close(&d.site_xpos()[site], &mid, TOL, "bent start centre");
     }
 }
@@ -564,18 +370,8 @@ fn check_obstacles_in_model(g: &GeneratedModel, m: &MjModel) {
         assert_eq!(c.name, names::obstacle(k));
         let geom = id(m, MjtObjBase::mjOBJ_GEOM, &c.name);
         assert_eq!(m.geom_type()[geom], MjtGeomBase::mjGEOM_CYLINDER);
-        assert_close(
-            &m.geom_pos()[geom],
-            &[c.center_m[0], c.center_m[1], c.height_m / 2.0],
-            0.0,
-            "obstacle pos",
-        );
-        assert_close(
-            &m.geom_size()[geom][..2],
-            &[c.radius_m, c.height_m / 2.0],
-            0.0,
-            "obstacle size",
-        );
+        assert_close(&m.geom_pos()[geom], &[c.center_m[0], c.center_m[1], c.height_m / 2.0], 0.0, "obstacle pos");
+        assert_close(&m.geom_size()[geom][..2], &[c.radius_m, c.height_m / 2.0], 0.0, "obstacle size");
     }
 }
 
@@ -601,18 +397,10 @@ fn every_terrain_kind_compiles() {
         cfg.terrain.kind = kind;
         let (g, m) = gen_load(&cfg);
         check_obstacles_in_model(&g, &m);
-        assert_eq!(
-            m.ffi().ngeom as usize,
-            1 + cfg.snake.n_links + g.obstacles.len()
-        );
+        assert_eq!(m.ffi().ngeom as usize, 1 + cfg.snake.n_links + g.obstacles.len());
         let floor = id(&m, MjtObjBase::mjOBJ_GEOM, names::FLOOR);
         assert_eq!(m.geom_type()[floor], MjtGeomBase::mjGEOM_PLANE);
-        assert_close(
-            &m.geom_size()[floor][..2],
-            &[cfg.terrain.floor_size_m; 2],
-            0.0,
-            "floor size",
-        );
+        assert_close(&m.geom_size()[floor][..2], &[cfg.terrain.floor_size_m; 2], 0.0, "floor size");
     }
 }
 
@@ -627,10 +415,7 @@ fn random_cylinders_are_seeded_clear_and_inside() {
     assert_eq!(a.obstacles, b.obstacles, "same seed, same terrain");
     cfg.general.seed = 2;
     let c = model::generate(&cfg).unwrap();
-    assert_ne!(
-        a.obstacles, c.obstacles,
-        "different seed, different terrain"
-    );
+    assert_ne!(a.obstacles, c.obstacles, "different seed, different terrain");
     let rc = &cfg.terrain.random_cylinders;
     let r = cfg.snake.link_radius_m;
     let segs = link_axis_segments_m(&cfg, &[]);
@@ -640,18 +425,12 @@ fn random_cylinders_are_seeded_clear_and_inside() {
         for (k, o) in g.obstacles.iter().enumerate() {
             assert!(o.radius_m >= rc.radius_range_m[0] && o.radius_m <= rc.radius_range_m[1]);
             assert!(
-                (o.center_m[0] - tip[0]).abs() <= rc.half_size_m
-                    && (o.center_m[1] - tip[1]).abs() <= rc.half_size_m
+                (o.center_m[0] - tip[0]).abs() <= rc.half_size_m && (o.center_m[1] - tip[1]).abs() <= rc.half_size_m
             );
-            assert!(
-                dist_body(o.center_m, &segs) - r - o.radius_m >= rc.min_gap_m,
-                "{} clear of the snake",
-                o.name
-            );
+            assert!(dist_body(o.center_m, &segs) - r - o.radius_m >= rc.min_gap_m, "{} clear of the snake", o.name);
             for p in &g.obstacles[k + 1..] {
-                let gap = (o.center_m[0] - p.center_m[0]).hypot(o.center_m[1] - p.center_m[1])
-                    - o.radius_m
-                    - p.radius_m;
+                let gap =
+                    (o.center_m[0] - p.center_m[0]).hypot(o.center_m[1] - p.center_m[1]) - o.radius_m - p.radius_m;
                 assert!(gap >= rc.min_gap_m, "{} and {} gap {gap}", o.name, p.name);
             }
         }
@@ -707,19 +486,9 @@ fn two_cylinders_gaps_are_exact() {
         let l = cfg.snake.link_length_m;
         let [a, b] = [&g.obstacles[0], &g.obstacles[1]];
         // Ahead: surface gap to the head tip (which is the capsule's front surface point).
-        assert_close(
-            &a.center_m,
-            &[tc.distance_m + tc.radius_m, 0.0],
-            1e-12,
-            "ahead",
-        );
+        assert_close(&a.center_m, &[tc.distance_m + tc.radius_m, 0.0], 1e-12, "ahead");
         // Beside the middle of the body, on the left (+y): surface gap to the body axis ± r.
-        assert_close(
-            &b.center_m,
-            &[-(n_links as f64) * l / 2.0, r + tc.distance_m + tc.radius_m],
-            1e-12,
-            "beside",
-        );
+        assert_close(&b.center_m, &[-(n_links as f64) * l / 2.0, r + tc.distance_m + tc.radius_m], 1e-12, "beside");
         let segs = link_axis_segments_m(&cfg, &[]);
         assert!((dist_body(b.center_m, &segs) - r - tc.radius_m - tc.distance_m).abs() <= TOL);
         // MuJoCo's own distance between the geoms equals the configured gap.
@@ -735,10 +504,7 @@ fn two_cylinders_gaps_are_exact() {
             assert!((db - tc.distance_m).abs() < 1e-6, "gap beside {db}");
         } else {
             // Beside a joint the two rounded caps leave a slightly larger gap.
-            assert!(
-                db > tc.distance_m && db < tc.distance_m + 0.002,
-                "gap beside {db}"
-            );
+            assert!(db > tc.distance_m && db < tc.distance_m + 0.002, "gap beside {db}");
         }
     }
 }
@@ -748,11 +514,7 @@ fn form_closure_pegs_touch_the_body() {
     let two = model::generate(&form_closure_cfg(2)).unwrap();
     let one = model::generate(&form_closure_cfg(1)).unwrap();
     assert_eq!(one.obstacles.len(), two.obstacles.len() + 2);
-    assert_eq!(
-        one.obstacles[..two.obstacles.len()],
-        two.obstacles[..],
-        "order 1 = order 2 + head and tail pegs"
-    );
+    assert_eq!(one.obstacles[..two.obstacles.len()], two.obstacles[..], "order 1 = order 2 + head and tail pegs");
     // Default pattern [0, 35, 35, 0, -35, -35] over 15 joints: bends (2,3), (5,6), (8,9), (11,12), (14,15).
     assert_eq!(two.obstacles.len(), 5);
     for (order, g) in [(2, &two), (1, &one)] {
@@ -761,32 +523,19 @@ fn form_closure_pegs_touch_the_body() {
         let want = cfg.snake.link_radius_m + cfg.terrain.form_closure.radius_m + 0.001;
         for o in &g.obstacles {
             let dist = dist_body(o.center_m, &segs);
-            assert!(
-                (dist - want).abs() <= TOL,
-                "{}: {dist} from the body axis, want {want}",
-                o.name
-            );
+            assert!((dist - want).abs() <= TOL, "{}: {dist} from the body axis, want {want}", o.name);
         }
         let m = load(&g.xml);
         check_obstacles_in_model(g, &m);
         // MuJoCo agrees: nothing touches at the start.
         let d = initial_data(&m);
         let floor = id(&m, MjtObjBase::mjOBJ_GEOM, names::FLOOR) as i32;
-        assert!(
-            d.contact()
-                .iter()
-                .all(|c| c.geom[0] == floor || c.geom[1] == floor),
-            "only floor contacts"
-        );
+        assert!(d.contact().iter().all(|c| c.geom[0] == floor || c.geom[1] == floor), "only floor contacts");
     }
     // Pegs on the concave side: the bend at joints 2-3 (positive angles) turns the tail toward -y
     // for a snake facing +x, so its peg is at negative y.
     assert!(two.obstacles[0].center_m[1] < 0.0);
-    check_concave(
-        &form_closure_cfg(2),
-        &two,
-        &[(2, 3), (5, 6), (8, 9), (11, 12), (14, 15)],
-    );
+    check_concave(&form_closure_cfg(2), &two, &[(2, 3), (5, 6), (8, 9), (11, 12), (14, 15)]);
     // Odd runs: the apex is a joint; the peg touches both links that meet there.
     let mut cfg = form_closure_cfg(1);
     cfg.gait.form_closure.pattern_deg = vec![0.0, 30.0, 30.0, 30.0, 0.0, -30.0, -30.0, -30.0];
@@ -795,22 +544,14 @@ fn form_closure_pegs_touch_the_body() {
     let segs = link_axis_segments_m(&cfg, &g.initial_joint_angles_rad);
     let want = cfg.snake.link_radius_m + cfg.terrain.form_closure.radius_m + 0.001;
     for o in &g.obstacles {
-        assert!(
-            (dist_body(o.center_m, &segs) - want).abs() <= TOL,
-            "{}",
-            o.name
-        );
+        assert!((dist_body(o.center_m, &segs) - want).abs() <= TOL, "{}", o.name);
     }
     check_concave(&cfg, &g, &[(2, 4), (6, 8), (10, 12), (14, 15)]);
     for (peg, joint) in g.obstacles.iter().zip([3, 7, 11]) {
         // Equal distance to the two links meeting at the apex joint.
         let before = dist_seg(peg.center_m, segs[joint - 1][0], segs[joint - 1][1]);
         let after = dist_seg(peg.center_m, segs[joint][0], segs[joint][1]);
-        assert!(
-            (before - want).abs() <= TOL && (after - want).abs() <= TOL,
-            "{}",
-            peg.name
-        );
+        assert!((before - want).abs() <= TOL && (after - want).abs() <= TOL, "{}", peg.name);
     }
     gen_load(&cfg);
 }
@@ -824,15 +565,8 @@ fn check_concave(cfg: &Config, g: &GeneratedModel, bends: &[(usize, usize)]) {
         // Joint j is the front of link j: the run turns from link first-1 to link last.
         let turn = cross(dir(first - 1), dir(last));
         let apex = segs[(first + last) / 2][0];
-        let side = cross(
-            dir(first - 1),
-            [peg.center_m[0] - apex[0], peg.center_m[1] - apex[1]],
-        );
-        assert!(
-            turn * side > 0.0,
-            "{} on the concave side of bend {first}-{last}",
-            peg.name
-        );
+        let side = cross(dir(first - 1), [peg.center_m[0] - apex[0], peg.center_m[1] - apex[1]]);
+        assert!(turn * side > 0.0, "{} on the concave side of bend {first}-{last}", peg.name);
     }
 }
 
@@ -843,10 +577,7 @@ fn form_closure_needs_a_bent_start() {
     assert_eq!(config_error(model::generate(&cfg)).0, "terrain.kind");
     let mut cfg = form_closure_cfg(2);
     cfg.gait.form_closure.pattern_deg = vec![0.0];
-    assert_eq!(
-        config_error(model::generate(&cfg)).0,
-        "gait.form_closure.pattern_deg"
-    );
+    assert_eq!(config_error(model::generate(&cfg)).0, "gait.form_closure.pattern_deg");
 }
 
 #[test]
@@ -859,10 +590,7 @@ fn obstacles_inside_the_snake_are_rejected_with_the_key() {
     cfg.terrain.cylinder_path.radius_m = 0.02;
     let (key, msg) = config_error(model::generate(&cfg));
     assert_eq!(key, "terrain.cylinder_path.width_m");
-    assert!(
-        msg.contains("obstacle_00") && msg.contains("link_00"),
-        "{msg}"
-    );
+    assert!(msg.contains("obstacle_00") && msg.contains("link_00"), "{msg}");
     // A bent snake (form-closure start) reaching the side cylinder.
     let mut cfg = base();
     cfg.terrain.kind = TerrainKind::TwoCylinders;
@@ -879,17 +607,11 @@ fn obstacles_inside_the_snake_are_rejected_with_the_key() {
 fn snake_below_the_floor_is_rejected() {
     let mut cfg = base();
     cfg.snake.head_position_m = [0.0, 0.0, -0.01];
-    assert_eq!(
-        config_error(model::generate(&cfg)).0,
-        "snake.head_position_m"
-    );
+    assert_eq!(config_error(model::generate(&cfg)).0, "snake.head_position_m");
     // Pitched so that the body goes down behind the head.
     let mut cfg = base();
     cfg.snake.head_rotation_deg = [0.0, -30.0, 0.0];
-    assert_eq!(
-        config_error(model::generate(&cfg)).0,
-        "snake.head_position_m"
-    );
+    assert_eq!(config_error(model::generate(&cfg)).0, "snake.head_position_m");
     // Lifted high enough, the same pitch is fine.
     cfg.snake.head_position_m = [0.0, 0.0, 1.0];
     gen_load(&cfg);
@@ -906,58 +628,37 @@ fn self_collision_cone_and_axes() {
     assert_eq!(m.opt().cone, MjtCone::mjCONE_PYRAMIDAL as i32);
     let floor = id(&m, MjtObjBase::mjOBJ_GEOM, names::FLOOR);
     let collide = |a: usize, b: usize| {
-        (m.geom_contype()[a] & m.geom_conaffinity()[b]) != 0
-            || (m.geom_contype()[b] & m.geom_conaffinity()[a]) != 0
+        (m.geom_contype()[a] & m.geom_conaffinity()[b]) != 0 || (m.geom_contype()[b] & m.geom_conaffinity()[a]) != 0
     };
-    let links: Vec<usize> = (0..cfg.snake.n_links)
-        .map(|i| id(&m, MjtObjBase::mjOBJ_GEOM, &names::link_geom(i)))
-        .collect();
-    assert!(
-        !collide(links[0], links[2]),
-        "no link-link contacts without self-collision"
-    );
+    let links: Vec<usize> =
+        (0..cfg.snake.n_links).map(|i| id(&m, MjtObjBase::mjOBJ_GEOM, &names::link_geom(i))).collect();
+    assert!(!collide(links[0], links[2]), "no link-link contacts without self-collision");
     assert!(collide(links[0], floor));
     cfg.physics.self_collision = true;
     cfg.physics.friction_cone = FrictionCone::Elliptic;
     cfg.terrain.kind = TerrainKind::CylinderPath;
     let (_, m) = gen_load(&cfg);
     assert_eq!(m.opt().cone, MjtCone::mjCONE_ELLIPTIC as i32);
-    let links: Vec<usize> = (0..cfg.snake.n_links)
-        .map(|i| id(&m, MjtObjBase::mjOBJ_GEOM, &names::link_geom(i)))
-        .collect();
+    let links: Vec<usize> =
+        (0..cfg.snake.n_links).map(|i| id(&m, MjtObjBase::mjOBJ_GEOM, &names::link_geom(i))).collect();
     let collide = |a: usize, b: usize| {
-        (m.geom_contype()[a] & m.geom_conaffinity()[b]) != 0
-            || (m.geom_contype()[b] & m.geom_conaffinity()[a]) != 0
+        (m.geom_contype()[a] & m.geom_conaffinity()[b]) != 0 || (m.geom_contype()[b] & m.geom_conaffinity()[a]) != 0
     };
     let floor = id(&m, MjtObjBase::mjOBJ_GEOM, names::FLOOR);
     let peg = id(&m, MjtObjBase::mjOBJ_GEOM, &names::obstacle(0));
-    assert!(
-        collide(links[0], links[2]),
-        "link-link contacts with self-collision"
-    );
+    assert!(collide(links[0], links[2]), "link-link contacts with self-collision");
     assert!(collide(links[0], peg) && !collide(peg, floor));
     // Friction and condim per geom, priorities: floor and obstacles win over links.
     assert_eq!(m.geom_priority()[floor], 1);
     assert_eq!(m.geom_priority()[peg], 1);
     assert_eq!(m.geom_priority()[links[0]], 0);
-    assert_close(
-        &m.geom_friction()[floor],
-        &cfg.snake.ground_friction,
-        0.0,
-        "floor friction",
-    );
-    assert_close(
-        &m.geom_friction()[peg],
-        &cfg.terrain.obstacle_friction,
-        0.0,
-        "peg friction",
-    );
-    assert_close(
-        &m.geom_friction()[links[0]],
-        &cfg.snake.link_friction,
-        0.0,
-        "link friction",
-    );
+    assert_close(&m.geom_friction()[floor], &cfg.snake.ground_friction, 0.0, "floor friction");
+    assert_close(&m.geom_friction()[peg], &cfg.terrain.obstacle_friction, 0.0, "peg friction");
+    assert_close(&m.geom_friction()[links[0]], &cfg.snake.link_friction, 0.0, "link friction");
+    assert_eq!(m.geom_condim()[floor], 3, "default: sliding friction only");
+    cfg.snake.ground_friction = [0.5, 0.005, 0.0001];
+    let (_, m) = gen_load(&cfg);
+    let floor = id(&m, MjtObjBase::mjOBJ_GEOM, names::FLOOR);
     assert_eq!(m.geom_condim()[floor], 6, "rolling friction > 0");
     cfg.snake.ground_friction = [0.5, 0.01, 0.0];
     cfg.snake.link_friction = [0.5, 0.0, 0.0];
@@ -973,11 +674,7 @@ fn self_collision_cone_and_axes() {
     let (_, m) = gen_load(&cfg);
     for j in 1..cfg.snake.n_links {
         let jid = id(&m, MjtObjBase::mjOBJ_JOINT, &names::joint(j));
-        let want = if j % 2 == 0 {
-            [0.0, 1.0, 0.0]
-        } else {
-            [0.0, 0.0, 1.0]
-        };
+        let want = if j % 2 == 0 { [0.0, 1.0, 0.0] } else { [0.0, 0.0, 1.0] };
         assert_eq!(m.jnt_axis()[jid], want, "joint {j} axis");
     }
 }
@@ -1005,12 +702,7 @@ fn one_link_and_many_links() {
     let d = initial_data(&m);
     let segs = link_axis_segments_m(&cfg, &g.initial_joint_angles_rad);
     let tail = id(&m, MjtObjBase::mjOBJ_BODY, &names::link_body(119));
-    assert_close(
-        &d.xpos()[tail],
-        &segs[119][0],
-        1e-9,
-        "tail of a long bent snake",
-    );
+    assert_close(&d.xpos()[tail], &segs[119][0], 1e-9, "tail of a long bent snake");
 
     let mut cfg = base();
     cfg.snake.n_links = model::MAX_LINKS;
@@ -1045,12 +737,7 @@ fn the_initial_key_holds_the_servo_set_points() {
     for f in d.actuator_force() {
         assert!(f.abs() <= 1e-12, "{f}");
     }
-    assert_close(
-        d.act(),
-        &g.initial_joint_angles_rad,
-        0.0,
-        "intvelocity set-points",
-    );
+    assert_close(d.act(), &g.initial_joint_angles_rad, 0.0, "intvelocity set-points");
 }
 
 #[test]
@@ -1084,9 +771,7 @@ fn strange_values_give_errors_not_panics() {
         ("snake.link_radius_m", |c| c.snake.link_radius_m = -1.0),
         ("snake.link_length_m", |c| c.snake.link_length_m = 0.01),
         ("control.torque_gear", |c| c.control.torque_gear = 0.0),
-        ("snake.head_position_m", |c| {
-            c.snake.head_position_m[0] = f64::INFINITY
-        }),
+        ("snake.head_position_m", |c| c.snake.head_position_m[0] = f64::INFINITY),
         ("gait.form_closure.pattern_deg", |c| {
             c.gait.kind = GaitKind::FormClosure;
             c.gait.form_closure.pattern_deg.clear();

@@ -30,11 +30,7 @@ fn free_fall_follows_g_t_squared_over_two() {
     c.general.timestep_secs = 0.001;
     let world = World::from_config(&c).unwrap();
     let mut sim = Simulation::new(&c, world);
-    let z0: Vec<f64> = snapshot(&mut sim)
-        .link_position_m
-        .iter()
-        .map(|p| p[2])
-        .collect();
+    let z0: Vec<f64> = snapshot(&mut sim).link_position_m.iter().map(|p| p[2]).collect();
     let g = 9.81;
     for _ in 0..400 {
         sim.step().unwrap();
@@ -44,25 +40,12 @@ fn free_fall_follows_g_t_squared_over_two() {
     assert!((t - 0.4).abs() < 1e-9);
     for (i, p) in s.link_position_m.iter().enumerate() {
         let expected = z0[i] - 0.5 * g * t * t;
-        assert!(
-            (p[2] - expected).abs() < 1e-9,
-            "link {i}: z = {} expected {expected}",
-            p[2]
-        );
-        assert!(
-            (s.link_acceleration_m_per_s2[i][2] + g).abs() < 1e-6,
-            "link {i} acceleration"
-        );
-        assert!(
-            (s.link_velocity_m_per_s[i][2] + g * t).abs() < 1e-9,
-            "link {i} velocity"
-        );
+        assert!((p[2] - expected).abs() < 1e-9, "link {i}: z = {} expected {expected}", p[2]);
+        assert!((s.link_acceleration_m_per_s2[i][2] + g).abs() < 1e-6, "link {i} acceleration");
+        assert!((s.link_velocity_m_per_s[i][2] + g * t).abs() < 1e-9, "link {i} velocity");
         // An accelerometer in free fall reads zero (proper acceleration).
         let acc = s.observation_true.imu_accel_m_per_s2[i];
-        assert!(
-            acc.iter().all(|a| a.abs() < 1e-6),
-            "link {i} accelerometer {acc:?}"
-        );
+        assert!(acc.iter().all(|a| a.abs() < 1e-6), "link {i} accelerometer {acc:?}");
     }
     assert!(s.contacts.is_empty());
 }
@@ -100,9 +83,8 @@ fn floating_momentum_error(timestep_secs: f64) -> (f64, f64, f64) {
         sim.snapshot(&mut s);
         let (p, l) = momenta(&mut sim.world);
         let m = c.snake.link_mass_kg;
-        let com = s.link_position_m.iter().fold([0.0; 3], |a, x| {
-            [a[0] + x[0] / 6.0, a[1] + x[1] / 6.0, a[2] + x[2] / 6.0]
-        });
+        let com =
+            s.link_position_m.iter().fold([0.0; 3], |a, x| [a[0] + x[0] / 6.0, a[1] + x[1] / 6.0, a[2] + x[2] / 6.0]);
         let (mut p_scale, mut l_scale) = (0.0, 0.0);
         for (x, v) in s.link_position_m.iter().zip(&s.link_velocity_m_per_s) {
             let r = [x[0] - com[0], x[1] - com[1], x[2] - com[2]];
@@ -116,10 +98,7 @@ fn floating_momentum_error(timestep_secs: f64) -> (f64, f64, f64) {
             worst_p = worst_p.max(norm(p) / p_scale);
             worst_l = worst_l.max(norm(l) / l_scale);
         }
-        max_joint_speed = s
-            .joint_velocity_rad_per_s
-            .iter()
-            .fold(max_joint_speed, |acc, v| acc.max(v.abs()));
+        max_joint_speed = s.joint_velocity_rad_per_s.iter().fold(max_joint_speed, |acc, v| acc.max(v.abs()));
     }
     (worst_p, worst_l, max_joint_speed)
 }
@@ -132,10 +111,7 @@ fn floating_snake_conserves_momentum_while_joints_move() {
     let (p_coarse, l_coarse, speed) = floating_momentum_error(0.002);
     let (p_fine, l_fine, _) = floating_momentum_error(0.001);
     assert!(speed > 1.0, "joints barely moved: {speed} rad/s");
-    assert!(
-        p_fine < 1e-6 && l_fine < 1e-6,
-        "relative momentum error {p_fine:e}, {l_fine:e}"
-    );
+    assert!(p_fine < 1e-6 && l_fine < 1e-6, "relative momentum error {p_fine:e}, {l_fine:e}");
     // Measured: 1.2e-6 -> 7.6e-8 (linear), 3.1e-8 -> 1.9e-9 (angular): a factor 16 = 2^4 for
     // halving dt, RK4's order. Require at least 8.
     assert!(
@@ -158,27 +134,15 @@ fn unactuated_snake_at_rest_stays_at_rest_and_floor_carries_its_weight() {
     }
     let s = snapshot(&mut sim);
     for (i, (p, p0)) in s.link_position_m.iter().zip(&start).enumerate() {
-        let moved =
-            ((p[0] - p0[0]).powi(2) + (p[1] - p0[1]).powi(2) + (p[2] - p0[2]).powi(2)).sqrt();
+        let moved = ((p[0] - p0[0]).powi(2) + (p[1] - p0[1]).powi(2) + (p[2] - p0[2]).powi(2)).sqrt();
         assert!(moved < 1e-4, "link {i} moved {moved} m");
-        let speed = s.link_velocity_m_per_s[i]
-            .iter()
-            .map(|v| v * v)
-            .sum::<f64>()
-            .sqrt();
+        let speed = s.link_velocity_m_per_s[i].iter().map(|v| v * v).sum::<f64>().sqrt();
         assert!(speed < 1e-4, "link {i} speed {speed}");
     }
     let weight = 5.0 * c.snake.link_mass_kg * 9.81;
     let support: f64 = s.contacts.iter().map(|c| c.force_on_geom2_n[2].abs()).sum();
-    assert!(
-        (support - weight).abs() < 0.01 * weight,
-        "floor carries {support} N of {weight} N"
-    );
-    let penetration = s
-        .contacts
-        .iter()
-        .map(|c| c.penetration_m())
-        .fold(0.0, f64::max);
+    assert!((support - weight).abs() < 0.01 * weight, "floor carries {support} N of {weight} N");
+    let penetration = s.contacts.iter().map(|c| c.penetration_m()).fold(0.0, f64::max);
     assert!(penetration < 1e-3, "penetration {penetration} m");
     // Contact forces on links add up the same way.
     let on_links: f64 = s.link_contact_force_n.iter().map(|f| f[2]).sum();
@@ -207,11 +171,7 @@ fn position_servo_reaches_its_set_point() {
         sim.step().unwrap();
     }
     let s = snapshot(&mut sim);
-    assert!(
-        (s.joint_angle_rad[0] - 0.3).abs() < 1e-3,
-        "angle {}",
-        s.joint_angle_rad[0]
-    );
+    assert!((s.joint_angle_rad[0] - 0.3).abs() < 1e-3, "angle {}", s.joint_angle_rad[0]);
     assert!(s.joint_velocity_rad_per_s[0].abs() < 1e-3);
     // At rest the servo force vanishes: kp (target - q) - kv qdot = 0.
     assert!(s.actuator_force_nm[0][1].abs() < 5.0 * 1e-3 + 1e-6);

@@ -63,13 +63,7 @@ use serde_json::{Map, Value as Json};
 use toml::{Table, Value};
 
 /// Top-level legacy keys that are single values.
-const TOP_VALUES: [&str; 5] = [
-    "xml_path",
-    "simulation_time",
-    "simulation_timestep",
-    "integrator_type",
-    "plot_data",
-];
+const TOP_VALUES: [&str; 5] = ["xml_path", "simulation_time", "simulation_timestep", "integrator_type", "plot_data"];
 
 /// Legacy sections and their keys, in the order of the thesis listing.
 const SECTIONS: &[(&str, &[&str])] = &[
@@ -113,14 +107,7 @@ const SECTIONS: &[(&str, &[&str])] = &[
             "PID_parameters_Kp_Ki_Kd",
         ],
     ),
-    (
-        "terrain",
-        &[
-            "generate_two_cylinders",
-            "generate_random_cylinders",
-            "generate_cylinder_path",
-        ],
-    ),
+    ("terrain", &["generate_two_cylinders", "generate_random_cylinders", "generate_cylinder_path"]),
     ("prebuilt_experiments", &["form_closure", "do_sinus"]),
     (
         "store_data_to_csv",
@@ -181,25 +168,13 @@ pub(super) fn convert(json: &Json, defaults: &Table) -> Result<Table, ConfigErro
 
     // Top level.
     if let Some(v) = root.get("simulation_time") {
-        set(
-            &mut out,
-            "general.duration_secs",
-            to_toml("simulation_time", v)?,
-        );
+        set(&mut out, "general.duration_secs", to_toml("simulation_time", v)?);
     }
     if let Some(v) = root.get("simulation_timestep") {
-        set(
-            &mut out,
-            "general.timestep_secs",
-            to_toml("simulation_timestep", v)?,
-        );
+        set(&mut out, "general.timestep_secs", to_toml("simulation_timestep", v)?);
     }
     if let Some(v) = root.get("integrator_type") {
-        set(
-            &mut out,
-            "general.integrator",
-            to_toml("integrator_type", v)?,
-        );
+        set(&mut out, "general.integrator", to_toml("integrator_type", v)?);
     }
     if let Some(v) = root.get("plot_data") {
         set(&mut out, "general.plot", to_toml("plot_data", v)?);
@@ -208,16 +183,8 @@ pub(super) fn convert(json: &Json, defaults: &Table) -> Result<Table, ConfigErro
     // visual_options: 1:1.
     if let Some(section) = section(root, "visual_options") {
         for (key, v) in section {
-            let new_key = if key == "show_contact_force" {
-                "show_contact_forces"
-            } else {
-                key.as_str()
-            };
-            set(
-                &mut out,
-                &format!("visual.{new_key}"),
-                to_toml(&format!("visual_options.{key}"), v)?,
-            );
+            let new_key = if key == "show_contact_force" { "show_contact_forces" } else { key.as_str() };
+            set(&mut out, &format!("visual.{new_key}"), to_toml(&format!("visual_options.{key}"), v)?);
         }
     }
 
@@ -239,11 +206,7 @@ pub(super) fn convert(json: &Json, defaults: &Table) -> Result<Table, ConfigErro
         for (legacy_key, new_key) in RECORDING {
             if let Some(v) = section.get(legacy_key) {
                 let key = format!("store_data_to_csv.{legacy_key}");
-                set(
-                    &mut out,
-                    &format!("recording.{new_key}"),
-                    Value::Boolean(boolean(&key, v)?),
-                );
+                set(&mut out, &format!("recording.{new_key}"), Value::Boolean(boolean(&key, v)?));
             }
         }
     }
@@ -252,11 +215,7 @@ pub(super) fn convert(json: &Json, defaults: &Table) -> Result<Table, ConfigErro
 
 /// Rejects unknown legacy keys and sections that are not objects.
 fn check_keys(root: &Map<String, Json>) -> Result<(), ConfigError> {
-    let top: Vec<&str> = TOP_VALUES
-        .iter()
-        .copied()
-        .chain(SECTIONS.iter().map(|(name, _)| *name))
-        .collect();
+    let top: Vec<&str> = TOP_VALUES.iter().copied().chain(SECTIONS.iter().map(|(name, _)| *name)).collect();
     for (key, value) in root {
         if let Some((name, keys)) = SECTIONS.iter().find(|(name, _)| name == key) {
             let Json::Object(section) = value else {
@@ -282,21 +241,13 @@ fn check_keys(root: &Map<String, Json>) -> Result<(), ConfigError> {
                 allowed: top.join(", "),
             });
         } else if value.is_object() {
-            return Err(ConfigError::invalid(
-                key,
-                value,
-                "expected a single value, not an object",
-            ));
+            return Err(ConfigError::invalid(key, value, "expected a single value, not an object"));
         }
     }
     Ok(())
 }
 
-fn convert_snake(
-    section: &Map<String, Json>,
-    defaults: &Table,
-    out: &mut Table,
-) -> Result<(), ConfigError> {
+fn convert_snake(section: &Map<String, Json>, defaults: &Table, out: &mut Table) -> Result<(), ConfigError> {
     const DIRECT: [(&str, &str); 7] = [
         ("nr_of_links", "snake.n_links"),
         ("link_mass_in_kg", "snake.link_mass_kg"),
@@ -308,11 +259,7 @@ fn convert_snake(
     ];
     for (legacy_key, new_key) in DIRECT {
         if let Some(v) = section.get(legacy_key) {
-            set(
-                out,
-                new_key,
-                to_toml(&format!("snake_specifications.{legacy_key}"), v)?,
-            );
+            set(out, new_key, to_toml(&format!("snake_specifications.{legacy_key}"), v)?);
         }
     }
     if let Some(v) = section.get("link_lenght_in_m") {
@@ -332,11 +279,7 @@ fn convert_snake(
     }
     if let Some(v) = section.get("friction") {
         let sliding = number("snake_specifications.friction", v)?;
-        for key in [
-            "snake.ground_friction",
-            "snake.link_friction",
-            "terrain.obstacle_friction",
-        ] {
+        for key in ["snake.ground_friction", "snake.link_friction", "terrain.obstacle_friction"] {
             let mut triple = match lookup(defaults, key) {
                 Some(Value::Array(a)) => a.clone(),
                 _ => Vec::new(),
@@ -355,11 +298,7 @@ fn convert_snake(
             Json::String(s) if s.eq_ignore_ascii_case("enable") => true,
             Json::String(s) if s.eq_ignore_ascii_case("disable") => false,
             _ => {
-                return Err(ConfigError::invalid(
-                    key,
-                    v,
-                    "expected \"enable\" or \"disable\"",
-                ));
+                return Err(ConfigError::invalid(key, v, "expected \"enable\" or \"disable\""));
             }
         };
         set(out, "sensors.noise_enabled", Value::Boolean(enabled));
@@ -390,15 +329,11 @@ fn convert_control(section: &Map<String, Json>, out: &mut Table) -> Result<(), C
         ("torque_actuator_KP", "control.torque_gear"),
         ("position_actuator_KP", "control.position_kp_nm_per_rad"),
         ("velocity_actuator_KP", "control.velocity_kv_nm_s_per_rad"),
-        (
-            "IntVelocity_actuator_KP",
-            "control.intvelocity_kp_nm_per_rad",
-        ),
+        ("IntVelocity_actuator_KP", "control.intvelocity_kp_nm_per_rad"),
     ];
     if let Some(v) = section.get("control_method") {
         let key = "control_parameters.control_method";
-        let allowed =
-            "expected one of \"position\", \"torque\", \"velocity\", \"IntVelocity\" (any case)";
+        let allowed = "expected one of \"position\", \"torque\", \"velocity\", \"IntVelocity\" (any case)";
         let Json::String(s) = v else {
             return Err(ConfigError::invalid(key, v, allowed));
         };
@@ -413,11 +348,7 @@ fn convert_control(section: &Map<String, Json>, out: &mut Table) -> Result<(), C
     }
     for (legacy_key, new_key) in DIRECT {
         if let Some(v) = section.get(legacy_key) {
-            set(
-                out,
-                new_key,
-                to_toml(&format!("control_parameters.{legacy_key}"), v)?,
-            );
+            set(out, new_key, to_toml(&format!("control_parameters.{legacy_key}"), v)?);
         }
     }
     if let Some(v) = section.get("PID_parameters_Kp_Ki_Kd") {
@@ -429,25 +360,16 @@ fn convert_control(section: &Map<String, Json>, out: &mut Table) -> Result<(), C
         if items.len() != 3 {
             return Err(ConfigError::invalid(key, v, allowed));
         }
-        let names = [
-            "control.pid_kp_nm_per_rad",
-            "control.pid_ki_nm_per_rad_s",
-            "control.pid_kd_nm_s_per_rad",
-        ];
+        let names = ["control.pid_kp_nm_per_rad", "control.pid_ki_nm_per_rad_s", "control.pid_kd_nm_s_per_rad"];
         for (name, item) in names.into_iter().zip(items) {
-            let gain = item
-                .as_f64()
-                .ok_or_else(|| ConfigError::invalid(key, v, allowed))?;
+            let gain = item.as_f64().ok_or_else(|| ConfigError::invalid(key, v, allowed))?;
             set(out, name, Value::Float(gain));
         }
     }
     Ok(())
 }
 
-fn convert_terrain_and_experiments(
-    root: &Map<String, Json>,
-    out: &mut Table,
-) -> Result<(), ConfigError> {
+fn convert_terrain_and_experiments(root: &Map<String, Json>, out: &mut Table) -> Result<(), ConfigError> {
     // terrain: at most one generator.
     let mut terrain: Option<(String, &str)> = None; // (legacy key that chose it, kind)
     if let Some(section) = section(root, "terrain") {
@@ -462,9 +384,7 @@ fn convert_terrain_and_experiments(
                     return Err(ConfigError::invalid(
                         &key,
                         "true",
-                        format!(
-                            "at most one terrain generator may be true, but `{first}` is true as well"
-                        ),
+                        format!("at most one terrain generator may be true, but `{first}` is true as well"),
                     ));
                 }
                 terrain = Some((key.clone(), kind));
@@ -480,23 +400,13 @@ fn convert_terrain_and_experiments(
     if let Some(section) = section(root, "prebuilt_experiments") {
         let key_fc = "prebuilt_experiments.form_closure";
         let key_sin = "prebuilt_experiments.do_sinus";
-        let form_closure = section
-            .get("form_closure")
-            .map(|v| boolean(key_fc, v))
-            .transpose()?
-            .unwrap_or(false);
-        let do_sinus = section
-            .get("do_sinus")
-            .map(|v| boolean(key_sin, v))
-            .transpose()?
-            .unwrap_or(false);
+        let form_closure = section.get("form_closure").map(|v| boolean(key_fc, v)).transpose()?.unwrap_or(false);
+        let do_sinus = section.get("do_sinus").map(|v| boolean(key_sin, v)).transpose()?.unwrap_or(false);
         if form_closure && do_sinus {
             return Err(ConfigError::invalid(
                 key_fc,
                 "true",
-                format!(
-                    "at most one prebuilt experiment may be true, but `{key_sin}` is true as well"
-                ),
+                format!("at most one prebuilt experiment may be true, but `{key_sin}` is true as well"),
             ));
         }
         let gait = if form_closure {
@@ -544,9 +454,7 @@ fn set(out: &mut Table, path: &str, value: Value) {
             table.insert(segment.to_string(), value);
             return;
         }
-        let entry = table
-            .entry(segment.to_string())
-            .or_insert_with(|| Value::Table(Table::new()));
+        let entry = table.entry(segment.to_string()).or_insert_with(|| Value::Table(Table::new()));
         if !entry.is_table() {
             *entry = Value::Table(Table::new());
         }
@@ -573,30 +481,19 @@ fn to_toml(key: &str, v: &Json) -> Result<Value, ConfigError> {
             None => Value::Float(n.as_f64().unwrap_or(f64::NAN)),
         },
         Json::String(s) => Value::String(s.clone()),
-        Json::Array(items) => Value::Array(
-            items
-                .iter()
-                .map(|item| to_toml(key, item))
-                .collect::<Result<_, _>>()?,
-        ),
+        Json::Array(items) => Value::Array(items.iter().map(|item| to_toml(key, item)).collect::<Result<_, _>>()?),
         Json::Object(_) => {
-            return Err(ConfigError::invalid(
-                key,
-                v,
-                "expected a single value, not an object",
-            ));
+            return Err(ConfigError::invalid(key, v, "expected a single value, not an object"));
         }
     })
 }
 
 fn number(key: &str, v: &Json) -> Result<f64, ConfigError> {
-    v.as_f64()
-        .ok_or_else(|| ConfigError::invalid(key, v, "expected a number"))
+    v.as_f64().ok_or_else(|| ConfigError::invalid(key, v, "expected a number"))
 }
 
 fn boolean(key: &str, v: &Json) -> Result<bool, ConfigError> {
-    v.as_bool()
-        .ok_or_else(|| ConfigError::invalid(key, v, "expected true or false"))
+    v.as_bool().ok_or_else(|| ConfigError::invalid(key, v, "expected true or false"))
 }
 
 /// A short description of a JSON value's kind.
@@ -614,12 +511,7 @@ fn kind_of(v: &Json) -> &'static str {
 /// Adds the config.json key a SimSerpent key was converted from to an [`ConfigError::InvalidValue`]
 /// about a converted value (unless a `--set` override set that key).
 pub(super) fn annotate(error: ConfigError, converted: &Table, overrides: &[String]) -> ConfigError {
-    let ConfigError::InvalidValue {
-        key,
-        value,
-        allowed,
-    } = error
-    else {
+    let ConfigError::InvalidValue { key, value, allowed } = error else {
         return error;
     };
     let base = key.split('[').next().unwrap_or(&key);
@@ -633,11 +525,7 @@ pub(super) fn annotate(error: ConfigError, converted: &Table, overrides: &[Strin
         }
         _ => allowed,
     };
-    ConfigError::InvalidValue {
-        key,
-        value,
-        allowed,
-    }
+    ConfigError::InvalidValue { key, value, allowed }
 }
 
 /// Which config.json key a SimSerpent key is converted from, as a note for error messages.

@@ -32,9 +32,7 @@ const TEXT_NAME: &str = "<config text>";
 /// keys and values.
 pub fn load_config(path: &Path, overrides: &[String]) -> Result<Config, ConfigError> {
     let file = path.display().to_string();
-    let extension = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    let extension = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
     let source = match extension.as_deref() {
         Some("toml") => ConfigSource::Toml,
         Some("json") => ConfigSource::LegacyJson,
@@ -52,10 +50,8 @@ pub fn load_config(path: &Path, overrides: &[String]) -> Result<Config, ConfigEr
             });
         }
     };
-    let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
-        file: file.clone(),
-        message: e.to_string(),
-    })?;
+    let text =
+        std::fs::read_to_string(path).map_err(|e| ConfigError::Io { file: file.clone(), message: e.to_string() })?;
     load_named(&text, source, overrides, &file)
 }
 
@@ -63,11 +59,7 @@ pub fn load_config(path: &Path, overrides: &[String]) -> Result<Config, ConfigEr
 ///
 /// # Errors
 /// As [`load_config`], without the file-related ones.
-pub fn load_config_str(
-    text: &str,
-    source: ConfigSource,
-    overrides: &[String],
-) -> Result<Config, ConfigError> {
+pub fn load_config_str(text: &str, source: ConfigSource, overrides: &[String]) -> Result<Config, ConfigError> {
     load_named(text, source, overrides, TEXT_NAME)
 }
 
@@ -81,28 +73,17 @@ pub fn load_config_str(
 /// [`ConfigError::Syntax`] (naming the argument) when there is no `=`, the key is not a dotted
 /// path of bare keys, the value is missing, or the value looks like TOML but does not parse.
 pub fn parse_override(s: &str) -> Result<(String, Value), ConfigError> {
-    let syntax = |message: String| ConfigError::Syntax {
-        file: format!("--set {s}"),
-        message,
-    };
+    let syntax = |message: String| ConfigError::Syntax { file: format!("--set {s}"), message };
     let Some((key, value)) = s.split_once('=') else {
-        return Err(syntax(
-            "expected `key.path=value`, e.g. `snake.n_links=15`".into(),
-        ));
+        return Err(syntax("expected `key.path=value`, e.g. `snake.n_links=15`".into()));
     };
     let key = key.trim();
     let value = value.trim();
     if key.is_empty() {
-        return Err(syntax(
-            "missing key before `=`; expected `key.path=value`".into(),
-        ));
+        return Err(syntax("missing key before `=`; expected `key.path=value`".into()));
     }
     for segment in key.split('.') {
-        if segment.is_empty()
-            || !segment
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
-        {
+        if segment.is_empty() || !segment.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
             return Err(syntax(format!(
                 "invalid key `{key}`: expected a dotted path of keys made of letters, digits, `_` and `-`, \
                  e.g. `general.duration_secs`"
@@ -117,10 +98,7 @@ pub fn parse_override(s: &str) -> Result<(String, Value), ConfigError> {
         Err(e) => {
             // Values that start like a TOML string, array or inline table must be valid TOML.
             if value.starts_with(['"', '\'', '[', '{']) {
-                return Err(syntax(format!(
-                    "invalid value `{value}`: {}",
-                    e.message().trim()
-                )));
+                return Err(syntax(format!("invalid value `{value}`: {}", e.message().trim())));
             }
             Value::String(value.to_string())
         }
@@ -129,22 +107,14 @@ pub fn parse_override(s: &str) -> Result<(String, Value), ConfigError> {
 }
 
 /// The whole pipeline; `file` names the text in syntax errors.
-fn load_named(
-    text: &str,
-    source: ConfigSource,
-    overrides: &[String],
-    file: &str,
-) -> Result<Config, ConfigError> {
-    let syntax = |message: String| ConfigError::Syntax {
-        file: file.to_string(),
-        message: message.trim_end().to_string(),
-    };
+fn load_named(text: &str, source: ConfigSource, overrides: &[String], file: &str) -> Result<Config, ConfigError> {
+    let syntax =
+        |message: String| ConfigError::Syntax { file: file.to_string(), message: message.trim_end().to_string() };
     let defaults = default_table()?;
     let user = match source {
         ConfigSource::Toml => text.parse::<Table>().map_err(|e| syntax(e.to_string()))?,
         ConfigSource::LegacyJson => {
-            let json: serde_json::Value =
-                serde_json::from_str(text).map_err(|e| syntax(e.to_string()))?;
+            let json: serde_json::Value = serde_json::from_str(text).map_err(|e| syntax(e.to_string()))?;
             let converted = legacy::convert(&json, &defaults)?;
             // Errors on converted values also name the config.json key they came from.
             return resolve(converted.clone(), &defaults, overrides)
@@ -174,13 +144,8 @@ fn resolve(user: Table, defaults: &Table, overrides: &[String]) -> Result<Config
     ints_to_floats_table(&mut merged, defaults);
     let config: Config = serde_path_to_error::deserialize(Value::Table(merged)).map_err(|e| {
         let key = e.path().to_string();
-        let value =
-            lookup(&as_written, &key).map_or_else(|| "(missing)".to_string(), |v| v.to_string());
-        ConfigError::InvalidValue {
-            key,
-            value,
-            allowed: expectation(e.inner().message()),
-        }
+        let value = lookup(&as_written, &key).map_or_else(|| "(missing)".to_string(), |v| v.to_string());
+        ConfigError::InvalidValue { key, value, allowed: expectation(e.inner().message()) }
     })?;
     config.validate()?;
     Ok(config)
@@ -190,38 +155,24 @@ fn resolve(user: Table, defaults: &Table, overrides: &[String]) -> Result<Config
 pub(super) fn default_table() -> Result<Table, ConfigError> {
     DEFAULT_CONFIG_TOML
         .parse::<Table>()
-        .map_err(|e| ConfigError::Syntax {
-            file: "embedded default config".into(),
-            message: e.to_string(),
-        })
+        .map_err(|e| ConfigError::Syntax { file: "embedded default config".into(), message: e.to_string() })
 }
 
 /// `prefix.key`, or `key` at the top level.
 pub(super) fn join(prefix: &str, key: &str) -> String {
-    if prefix.is_empty() {
-        key.to_string()
-    } else {
-        format!("{prefix}.{key}")
-    }
+    if prefix.is_empty() { key.to_string() } else { format!("{prefix}.{key}") }
 }
 
 /// Checks every key of `user` against `defaults` (the default table at the same path) and
 /// deep-merges it into `target`.
-fn merge_checked(
-    target: &mut Table,
-    user: Table,
-    defaults: &Table,
-    prefix: &str,
-) -> Result<(), ConfigError> {
+fn merge_checked(target: &mut Table, user: Table, defaults: &Table, prefix: &str) -> Result<(), ConfigError> {
     for (key, value) in user {
         let path = join(prefix, &key);
         match defaults.get(&key) {
             None => return Err(unknown_key(&key, prefix, defaults)),
             Some(Value::Table(default_sub)) => match value {
                 Value::Table(user_sub) => {
-                    let entry = target
-                        .entry(key)
-                        .or_insert_with(|| Value::Table(default_sub.clone()));
+                    let entry = target.entry(key).or_insert_with(|| Value::Table(default_sub.clone()));
                     if !entry.is_table() {
                         *entry = Value::Table(default_sub.clone());
                     }
@@ -233,20 +184,13 @@ fn merge_checked(
                     return Err(ConfigError::invalid(
                         &path,
                         &other,
-                        format!(
-                            "`{path}` is a table (section) with keys: {}",
-                            allowed_keys(&path, default_sub)
-                        ),
+                        format!("`{path}` is a table (section) with keys: {}", allowed_keys(&path, default_sub)),
                     ));
                 }
             },
             Some(_) => {
                 if value.is_table() {
-                    return Err(ConfigError::invalid(
-                        &path,
-                        &value,
-                        "expected a single value, not a table",
-                    ));
+                    return Err(ConfigError::invalid(&path, &value, "expected a single value, not a table"));
                 }
                 target.insert(key, value);
             }
@@ -258,21 +202,15 @@ fn merge_checked(
 /// The unknown-key error for `key` in the table at `prefix` (whose default is `defaults`).
 fn unknown_key(key: &str, prefix: &str, defaults: &Table) -> ConfigError {
     let candidates: Vec<&str> = defaults.keys().map(String::as_str).collect();
-    let suggestion = suggest(key, &candidates)
-        .map(|s| join(prefix, s))
-        .or_else(|| {
-            // The key may exist in another table (e.g. `general.n_links`).
-            let mut found = Vec::new();
-            if let Ok(root) = default_table() {
-                find_key(&root, "", key, &mut found);
-            }
-            found.into_iter().next()
-        });
-    ConfigError::UnknownKey {
-        key: join(prefix, key),
-        suggestion,
-        allowed: allowed_keys(prefix, defaults),
-    }
+    let suggestion = suggest(key, &candidates).map(|s| join(prefix, s)).or_else(|| {
+        // The key may exist in another table (e.g. `general.n_links`).
+        let mut found = Vec::new();
+        if let Ok(root) = default_table() {
+            find_key(&root, "", key, &mut found);
+        }
+        found.into_iter().next()
+    });
+    ConfigError::UnknownKey { key: join(prefix, key), suggestion, allowed: allowed_keys(prefix, defaults) }
 }
 
 /// Full paths of every key named `key` anywhere in `table`.
@@ -296,8 +234,7 @@ pub(super) fn suggest<'a>(word: &str, candidates: &[&'a str]) -> Option<&'a str>
         let cand_lower = candidate.to_ascii_lowercase();
         let ndl = strsim::normalized_damerau_levenshtein(&word_lower, &cand_lower);
         let jw = strsim::jaro_winkler(&word_lower, &cand_lower);
-        let contains = word_lower.len() >= 3
-            && (cand_lower.contains(&word_lower) || word_lower.contains(&cand_lower));
+        let contains = word_lower.len() >= 3 && (cand_lower.contains(&word_lower) || word_lower.contains(&cand_lower));
         if ndl >= 0.6 || jw >= 0.85 || contains {
             let score = ndl.max(jw);
             if best.is_none_or(|(s, _)| score > s) {
@@ -316,20 +253,16 @@ fn allowed_keys(prefix: &str, defaults: &Table) -> String {
         if !prefix.is_empty() {
             for segment in prefix.split('.') {
                 table = table.and_then(|t| {
-                    t.iter()
-                        .find(|(k, _)| k.get_ref() == segment)
-                        .and_then(|(_, v)| match v.get_ref() {
-                            toml::de::DeValue::Table(sub) => Some(sub),
-                            _ => None,
-                        })
+                    t.iter().find(|(k, _)| k.get_ref() == segment).and_then(|(_, v)| match v.get_ref() {
+                        toml::de::DeValue::Table(sub) => Some(sub),
+                        _ => None,
+                    })
                 });
             }
         }
         if let Some(table) = table {
-            let mut entries: Vec<(usize, String)> = table
-                .iter()
-                .map(|(k, _)| (k.span().start, k.get_ref().to_string()))
-                .collect();
+            let mut entries: Vec<(usize, String)> =
+                table.iter().map(|(k, _)| (k.span().start, k.get_ref().to_string())).collect();
             entries.sort();
             let ordered: Vec<String> = entries.into_iter().map(|(_, k)| k).collect();
             if ordered.len() == keys.len() {
@@ -363,9 +296,7 @@ fn ints_to_floats(value: &mut Value, default: &Value) {
                 }
             }
         }
-        (Value::Table(table), Value::Table(default_table)) => {
-            ints_to_floats_table(table, default_table)
-        }
+        (Value::Table(table), Value::Table(default_table)) => ints_to_floats_table(table, default_table),
         _ => {}
     }
 }
@@ -385,9 +316,7 @@ pub(super) fn lookup<'a>(table: &'a Table, path: &str) -> Option<&'a Value> {
         };
         for index in indices.split('[').filter(|s| !s.is_empty()) {
             let index: usize = index.trim_end_matches(']').parse().ok()?;
-            current = current
-                .and_then(|v| v.as_array())
-                .and_then(|a| a.get(index));
+            current = current.and_then(|v| v.as_array()).and_then(|a| a.get(index));
         }
         current?;
     }

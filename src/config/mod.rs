@@ -63,16 +63,8 @@ pub enum ConfigError {
 }
 
 impl ConfigError {
-    pub(crate) fn invalid(
-        key: &str,
-        value: impl std::fmt::Display,
-        allowed: impl Into<String>,
-    ) -> Self {
-        Self::InvalidValue {
-            key: key.to_string(),
-            value: value.to_string(),
-            allowed: allowed.into(),
-        }
+    pub(crate) fn invalid(key: &str, value: impl std::fmt::Display, allowed: impl Into<String>) -> Self {
+        Self::InvalidValue { key: key.to_string(), value: value.to_string(), allowed: allowed.into() }
     }
 }
 
@@ -226,12 +218,7 @@ pub enum ControlMethod {
 
 impl ControlMethod {
     /// All kinds, in the order their actuators appear in the model (thesis 6.x: ctrl blocks).
-    pub const ALL: [ControlMethod; 4] = [
-        Self::Torque,
-        Self::Position,
-        Self::Velocity,
-        Self::Intvelocity,
-    ];
+    pub const ALL: [ControlMethod; 4] = [Self::Torque, Self::Position, Self::Velocity, Self::Intvelocity];
 
     /// Short name used in MJCF and column names.
     pub fn name(self) -> &'static str {

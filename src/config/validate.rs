@@ -34,14 +34,7 @@ fn fmt_f(v: f64) -> String {
 
 /// An array of floats as TOML writes it.
 fn fmt_a(values: &[f64]) -> String {
-    format!(
-        "[{}]",
-        values
-            .iter()
-            .map(|v| fmt_f(*v))
-            .collect::<Vec<_>>()
-            .join(", ")
-    )
+    format!("[{}]", values.iter().map(|v| fmt_f(*v)).collect::<Vec<_>>().join(", "))
 }
 
 fn fail(key: &str, value: impl std::fmt::Display, allowed: impl Into<String>) -> Check {
@@ -49,20 +42,11 @@ fn fail(key: &str, value: impl std::fmt::Display, allowed: impl Into<String>) ->
 }
 
 fn ensure(ok: bool, key: &str, value: impl std::fmt::Display, allowed: impl Into<String>) -> Check {
-    if ok {
-        Ok(())
-    } else {
-        fail(key, value, allowed)
-    }
+    if ok { Ok(()) } else { fail(key, value, allowed) }
 }
 
 fn finite(key: &str, v: f64) -> Check {
-    ensure(
-        v.is_finite(),
-        key,
-        fmt_f(v),
-        "must be a finite number (nan and inf are not allowed)",
-    )
+    ensure(v.is_finite(), key, fmt_f(v), "must be a finite number (nan and inf are not allowed)")
 }
 
 fn positive(key: &str, v: f64) -> Check {
@@ -96,15 +80,7 @@ fn all_finite(key: &str, values: &[f64]) -> Check {
 fn friction(key: &str, values: &[f64; 3]) -> Check {
     all_finite(key, values)?;
     for (name, v) in ["sliding", "torsional", "rolling"].into_iter().zip(values) {
-        ensure(
-            *v >= 0.0,
-            key,
-            fmt_a(values),
-            format!(
-                "the {name} coefficient must be at least 0, not {}",
-                fmt_f(*v)
-            ),
-        )?;
+        ensure(*v >= 0.0, key, fmt_a(values), format!("the {name} coefficient must be at least 0, not {}", fmt_f(*v)))?;
     }
     Ok(())
 }
@@ -130,9 +106,7 @@ impl Config {
         let g = &self.general;
         ensure(
             !g.run_name.is_empty()
-                && g.run_name
-                    .chars()
-                    .all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-')),
+                && g.run_name.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-')),
             "general.run_name",
             format!("{:?}", g.run_name),
             "must be non-empty and use only letters A-Z a-z, digits 0-9, `.`, `_` and `-` (it becomes part of a folder name)",
@@ -149,10 +123,7 @@ impl Config {
             g.timestep_secs <= g.duration_secs,
             "general.timestep_secs",
             fmt_f(g.timestep_secs),
-            format!(
-                "must not be longer than general.duration_secs ({})",
-                fmt_f(g.duration_secs)
-            ),
+            format!("must not be longer than general.duration_secs ({})", fmt_f(g.duration_secs)),
         )?;
         all_finite("general.gravity_m_per_s2", &g.gravity_m_per_s2)?;
         ensure(
@@ -179,28 +150,13 @@ impl Config {
             ),
         )?;
         positive("physics.contact_damping_ratio", p.contact_damping_ratio)?;
-        ensure(
-            p.solver_iterations >= 1,
-            "physics.solver_iterations",
-            p.solver_iterations,
-            "must be at least 1",
-        )
+        ensure(p.solver_iterations >= 1, "physics.solver_iterations", p.solver_iterations, "must be at least 1")
     }
 
     fn validate_snake(&self) -> Check {
         let s = &self.snake;
-        ensure(
-            s.n_links >= 1,
-            "snake.n_links",
-            s.n_links,
-            "must be at least 1",
-        )?;
-        ensure(
-            s.n_links <= 200,
-            "snake.n_links",
-            s.n_links,
-            "must be at most 200",
-        )?;
+        ensure(s.n_links >= 1, "snake.n_links", s.n_links, "must be at least 1")?;
+        ensure(s.n_links <= 200, "snake.n_links", s.n_links, "must be at most 200")?;
         positive("snake.link_length_m", s.link_length_m)?;
         positive("snake.link_radius_m", s.link_radius_m)?;
         ensure(
@@ -216,27 +172,14 @@ impl Config {
         )?;
         positive("snake.link_mass_kg", s.link_mass_kg)?;
         positive("snake.joint_range_deg", s.joint_range_deg)?;
-        ensure(
-            s.joint_range_deg <= 180.0,
-            "snake.joint_range_deg",
-            fmt_f(s.joint_range_deg),
-            "must be at most 180",
-        )?;
-        non_negative(
-            "snake.joint_damping_nm_s_per_rad",
-            s.joint_damping_nm_s_per_rad,
-        )?;
+        ensure(s.joint_range_deg <= 180.0, "snake.joint_range_deg", fmt_f(s.joint_range_deg), "must be at most 180")?;
+        non_negative("snake.joint_damping_nm_s_per_rad", s.joint_damping_nm_s_per_rad)?;
         non_negative("snake.joint_armature_kg_m2", s.joint_armature_kg_m2)?;
 
         let key = "snake.torque_range_nm";
         let [min, max] = s.torque_range_nm;
         all_finite(key, &s.torque_range_nm)?;
-        ensure(
-            min < max,
-            key,
-            fmt_a(&s.torque_range_nm),
-            "must be [min, max] with min < max",
-        )?;
+        ensure(min < max, key, fmt_a(&s.torque_range_nm), "must be [min, max] with min < max")?;
         ensure(
             min <= 0.0 && max >= 0.0,
             key,
@@ -249,10 +192,7 @@ impl Config {
 
         let key = "snake.color_rgba";
         all_finite(key, &s.color_rgba)?;
-        for (name, c) in ["red", "green", "blue", "alpha"]
-            .into_iter()
-            .zip(&s.color_rgba)
-        {
+        for (name, c) in ["red", "green", "blue", "alpha"].into_iter().zip(&s.color_rgba) {
             ensure(
                 (0.0..=1.0).contains(c),
                 key,
@@ -267,17 +207,11 @@ impl Config {
     fn validate_sensors(&self) -> Check {
         let s = &self.sensors;
         let stds = [
-            (
-                "sensors.accelerometer_std_m_per_s2",
-                s.accelerometer_std_m_per_s2,
-            ),
+            ("sensors.accelerometer_std_m_per_s2", s.accelerometer_std_m_per_s2),
             ("sensors.gyro_std_rad_per_s", s.gyro_std_rad_per_s),
             ("sensors.velocimeter_std_m_per_s", s.velocimeter_std_m_per_s),
             ("sensors.joint_angle_std_rad", s.joint_angle_std_rad),
-            (
-                "sensors.joint_velocity_std_rad_per_s",
-                s.joint_velocity_std_rad_per_s,
-            ),
+            ("sensors.joint_velocity_std_rad_per_s", s.joint_velocity_std_rad_per_s),
             ("sensors.joint_force_std_n", s.joint_force_std_n),
             ("sensors.joint_torque_std_nm", s.joint_torque_std_nm),
         ];
@@ -292,18 +226,9 @@ impl Config {
         positive("control.torque_gear", c.torque_gear)?;
         let gains = [
             ("control.position_kp_nm_per_rad", c.position_kp_nm_per_rad),
-            (
-                "control.position_kv_nm_s_per_rad",
-                c.position_kv_nm_s_per_rad,
-            ),
-            (
-                "control.velocity_kv_nm_s_per_rad",
-                c.velocity_kv_nm_s_per_rad,
-            ),
-            (
-                "control.intvelocity_kp_nm_per_rad",
-                c.intvelocity_kp_nm_per_rad,
-            ),
+            ("control.position_kv_nm_s_per_rad", c.position_kv_nm_s_per_rad),
+            ("control.velocity_kv_nm_s_per_rad", c.velocity_kv_nm_s_per_rad),
+            ("control.intvelocity_kp_nm_per_rad", c.intvelocity_kp_nm_per_rad),
             ("control.pid_kp_nm_per_rad", c.pid_kp_nm_per_rad),
             ("control.pid_ki_nm_per_rad_s", c.pid_ki_nm_per_rad_s),
             ("control.pid_kd_nm_s_per_rad", c.pid_kd_nm_s_per_rad),
@@ -345,12 +270,7 @@ impl Config {
 
         let f = &g.form_closure;
         let key = "gait.form_closure.pattern_deg";
-        ensure(
-            !f.pattern_deg.is_empty(),
-            key,
-            "[]",
-            "must list at least one joint angle",
-        )?;
+        ensure(!f.pattern_deg.is_empty(), key, "[]", "must list at least one joint angle")?;
         all_finite(key, &f.pattern_deg)?;
         if g.kind == GaitKind::FormClosure || self.terrain.kind == TerrainKind::FormClosure {
             for (i, a) in f.pattern_deg.iter().enumerate() {
@@ -376,21 +296,13 @@ impl Config {
         positive("terrain.cylinder_height_m", t.cylinder_height_m)?;
         positive("terrain.floor_size_m", t.floor_size_m)?;
 
-        positive(
-            "terrain.two_cylinders.distance_m",
-            t.two_cylinders.distance_m,
-        )?;
+        positive("terrain.two_cylinders.distance_m", t.two_cylinders.distance_m)?;
         positive("terrain.two_cylinders.radius_m", t.two_cylinders.radius_m)?;
 
         let r = &t.random_cylinders;
         let key = "terrain.random_cylinders.radius_range_m";
         all_finite(key, &r.radius_range_m)?;
-        ensure(
-            r.radius_range_m[0] > 0.0,
-            key,
-            fmt_a(&r.radius_range_m),
-            "the smallest radius must be greater than 0",
-        )?;
+        ensure(r.radius_range_m[0] > 0.0, key, fmt_a(&r.radius_range_m), "the smallest radius must be greater than 0")?;
         ensure(
             r.radius_range_m[0] <= r.radius_range_m[1],
             key,
@@ -401,12 +313,7 @@ impl Config {
         non_negative("terrain.random_cylinders.min_gap_m", r.min_gap_m)?;
 
         let p = &t.cylinder_path;
-        ensure(
-            p.n_pairs >= 1,
-            "terrain.cylinder_path.n_pairs",
-            p.n_pairs,
-            "must be at least 1",
-        )?;
+        ensure(p.n_pairs >= 1, "terrain.cylinder_path.n_pairs", p.n_pairs, "must be at least 1")?;
         positive("terrain.cylinder_path.spacing_m", p.spacing_m)?;
         positive("terrain.cylinder_path.radius_m", p.radius_m)?;
         positive("terrain.cylinder_path.width_m", p.width_m)?;
@@ -436,23 +343,13 @@ impl Config {
         }
 
         let f = &t.form_closure;
-        ensure(
-            matches!(f.order, 1 | 2),
-            "terrain.form_closure.order",
-            f.order,
-            "must be 1 or 2",
-        )?;
+        ensure(matches!(f.order, 1 | 2), "terrain.form_closure.order", f.order, "must be 1 or 2")?;
         positive("terrain.form_closure.radius_m", f.radius_m)
     }
 
     fn validate_recording(&self) -> Check {
         let r = &self.recording;
-        ensure(
-            r.every_n_steps >= 1,
-            "recording.every_n_steps",
-            r.every_n_steps,
-            "must be at least 1",
-        )?;
+        ensure(r.every_n_steps >= 1, "recording.every_n_steps", r.every_n_steps, "must be at least 1")?;
         if r.enabled {
             // u64 -> f64 is exact up to 2^53; beyond that the interval is astronomically long anyway.
             let interval = r.every_n_steps as f64 * self.general.timestep_secs;

@@ -57,11 +57,7 @@ impl JointTrajectory for SineWave {
     fn targets(&self, t_secs: f64, angle_rad: &mut [f64], velocity_rad_per_s: &mut [f64]) {
         let (r, dr) = ramp(t_secs, self.ramp_secs);
         let omega = TAU * self.frequency_hz;
-        for (j, (angle, velocity)) in angle_rad
-            .iter_mut()
-            .zip(velocity_rad_per_s.iter_mut())
-            .enumerate()
-        {
+        for (j, (angle, velocity)) in angle_rad.iter_mut().zip(velocity_rad_per_s.iter_mut()).enumerate() {
             let phase = omega * t_secs - j as f64 * self.phase_lag_rad;
             let shape = self.amplitude_rad * phase.sin() + self.offset_rad;
             *angle = r * shape;
@@ -91,11 +87,7 @@ impl JointTrajectory for FormClosureShift {
         let k = u.floor();
         let (b, db_du) = smoothstep(u - k);
         let shift = (k as usize) % len;
-        for (j, (angle, velocity)) in angle_rad
-            .iter_mut()
-            .zip(velocity_rad_per_s.iter_mut())
-            .enumerate()
-        {
+        for (j, (angle, velocity)) in angle_rad.iter_mut().zip(velocity_rad_per_s.iter_mut()).enumerate() {
             // Joint j now shows what joint j - shift showed at t = 0 (the list moved toward the tail).
             let current = self.pattern_rad[(j + len - shift % len) % len];
             let next = self.pattern_rad[(j + 2 * len - shift - 1) % len];
@@ -118,12 +110,7 @@ pub fn trajectory_from_config(config: &Config) -> Box<dyn JointTrajectory> {
             ramp_secs: gait.ramp_secs,
         }),
         GaitKind::FormClosure => Box::new(FormClosureShift {
-            pattern_rad: gait
-                .form_closure
-                .pattern_deg
-                .iter()
-                .map(|d| d.to_radians())
-                .collect(),
+            pattern_rad: gait.form_closure.pattern_deg.iter().map(|d| d.to_radians()).collect(),
             shift_period_secs: gait.form_closure.shift_period_secs,
         }),
     }
@@ -136,32 +123,21 @@ mod tests {
     /// The velocity a trajectory reports is the time derivative of its angle.
     fn check_velocity_is_derivative(traj: &dyn JointTrajectory, n: usize, times: &[f64]) {
         let h = 1e-6;
-        let (mut a0, mut a1, mut v, mut scratch) =
-            (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let (mut a0, mut a1, mut v, mut scratch) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         for &t in times {
             traj.targets(t - h, &mut a0, &mut scratch);
             traj.targets(t + h, &mut a1, &mut scratch);
             traj.targets(t, &mut scratch, &mut v);
             for j in 0..n {
                 let numeric = (a1[j] - a0[j]) / (2.0 * h);
-                assert!(
-                    (numeric - v[j]).abs() < 1e-5,
-                    "t={t} j={j}: {numeric} vs {}",
-                    v[j]
-                );
+                assert!((numeric - v[j]).abs() < 1e-5, "t={t} j={j}: {numeric} vs {}", v[j]);
             }
         }
     }
 
     #[test]
     fn sine_wave_values_ramp_and_derivative() {
-        let w = SineWave {
-            amplitude_rad: 0.5,
-            frequency_hz: 0.8,
-            phase_lag_rad: 0.7,
-            offset_rad: 0.1,
-            ramp_secs: 2.0,
-        };
+        let w = SineWave { amplitude_rad: 0.5, frequency_hz: 0.8, phase_lag_rad: 0.7, offset_rad: 0.1, ramp_secs: 2.0 };
         let (mut a, mut v) = (vec![0.0; 5], vec![0.0; 5]);
         w.targets(0.0, &mut a, &mut v);
         assert!(a.iter().all(|x| *x == 0.0), "starts straight");
@@ -176,13 +152,7 @@ mod tests {
     #[test]
     fn wave_travels_from_head_to_tail() {
         // Joint j+1 reaches the value joint j had δ/ω seconds earlier.
-        let w = SineWave {
-            amplitude_rad: 0.5,
-            frequency_hz: 1.0,
-            phase_lag_rad: 0.4,
-            offset_rad: 0.0,
-            ramp_secs: 0.0,
-        };
+        let w = SineWave { amplitude_rad: 0.5, frequency_hz: 1.0, phase_lag_rad: 0.4, offset_rad: 0.0, ramp_secs: 0.0 };
         let (mut a, mut b, mut v) = (vec![0.0; 2], vec![0.0; 2], vec![0.0; 2]);
         let dt = 0.4 / TAU;
         w.targets(1.0, &mut a, &mut v);
@@ -192,10 +162,7 @@ mod tests {
 
     #[test]
     fn form_closure_list_shifts_toward_tail() {
-        let f = FormClosureShift {
-            pattern_rad: vec![0.0, 0.1, 0.2, 0.3],
-            shift_period_secs: 2.0,
-        };
+        let f = FormClosureShift { pattern_rad: vec![0.0, 0.1, 0.2, 0.3], shift_period_secs: 2.0 };
         let (mut a, mut v) = (vec![0.0; 6], vec![0.0; 6]);
         f.targets(0.0, &mut a, &mut v);
         assert_eq!(a, vec![0.0, 0.1, 0.2, 0.3, 0.0, 0.1]);

@@ -59,15 +59,12 @@ impl Observation {
     pub fn copy_from(&mut self, other: &Observation) {
         self.time_secs = other.time_secs;
         self.joint_angle_rad.copy_from_slice(&other.joint_angle_rad);
-        self.joint_velocity_rad_per_s
-            .copy_from_slice(&other.joint_velocity_rad_per_s);
+        self.joint_velocity_rad_per_s.copy_from_slice(&other.joint_velocity_rad_per_s);
         self.head_position_m = other.head_position_m;
         self.head_quat = other.head_quat;
         self.head_velocity_m_per_s = other.head_velocity_m_per_s;
-        self.imu_accel_m_per_s2
-            .copy_from_slice(&other.imu_accel_m_per_s2);
-        self.imu_gyro_rad_per_s
-            .copy_from_slice(&other.imu_gyro_rad_per_s);
+        self.imu_accel_m_per_s2.copy_from_slice(&other.imu_accel_m_per_s2);
+        self.imu_gyro_rad_per_s.copy_from_slice(&other.imu_gyro_rad_per_s);
         self.joint_force_n.copy_from_slice(&other.joint_force_n);
         self.joint_torque_nm.copy_from_slice(&other.joint_torque_nm);
         self.sensor_time_secs = other.sensor_time_secs;
@@ -146,37 +143,14 @@ impl TrajectoryController {
         let c = &config.control;
         let [lo, hi] = config.snake.torque_range_nm;
         let gear = c.torque_gear;
-        let pid = Pid::new(
-            c.pid_kp_nm_per_rad,
-            c.pid_ki_nm_per_rad_s,
-            c.pid_kd_nm_s_per_rad,
-            lo / gear,
-            hi / gear,
-        );
-        Self::new(
-            trajectory_from_config(config),
-            c.method,
-            vec![pid; n_joints],
-            config.general.timestep_secs,
-        )
+        let pid = Pid::new(c.pid_kp_nm_per_rad, c.pid_ki_nm_per_rad_s, c.pid_kd_nm_s_per_rad, lo / gear, hi / gear);
+        Self::new(trajectory_from_config(config), c.method, vec![pid; n_joints], config.general.timestep_secs)
     }
 
     /// A controller from its parts: one PID per joint (used only with `method = torque`).
-    pub fn new(
-        trajectory: Box<dyn JointTrajectory>,
-        method: ControlMethod,
-        pids: Vec<Pid>,
-        dt_secs: f64,
-    ) -> Self {
+    pub fn new(trajectory: Box<dyn JointTrajectory>, method: ControlMethod, pids: Vec<Pid>, dt_secs: f64) -> Self {
         let n = pids.len();
-        Self {
-            trajectory,
-            method,
-            pids,
-            target_rad: vec![0.0; n],
-            target_velocity_rad_per_s: vec![0.0; n],
-            dt_secs,
-        }
+        Self { trajectory, method, pids, target_rad: vec![0.0; n], target_velocity_rad_per_s: vec![0.0; n], dt_secs }
     }
 }
 
@@ -186,24 +160,15 @@ impl Controller for TrajectoryController {
     }
 
     fn update(&mut self, obs: &Observation, cmd: &mut Command) {
-        self.trajectory.targets(
-            obs.time_secs,
-            &mut self.target_rad,
-            &mut self.target_velocity_rad_per_s,
-        );
+        self.trajectory.targets(obs.time_secs, &mut self.target_rad, &mut self.target_velocity_rad_per_s);
         match self.method {
             ControlMethod::Position => cmd.position_rad.copy_from_slice(&self.target_rad),
-            ControlMethod::Velocity => cmd
-                .velocity_rad_per_s
-                .copy_from_slice(&self.target_velocity_rad_per_s),
-            ControlMethod::Intvelocity => cmd
-                .intvelocity_rad_per_s
-                .copy_from_slice(&self.target_velocity_rad_per_s),
+            ControlMethod::Velocity => cmd.velocity_rad_per_s.copy_from_slice(&self.target_velocity_rad_per_s),
+            ControlMethod::Intvelocity => cmd.intvelocity_rad_per_s.copy_from_slice(&self.target_velocity_rad_per_s),
             ControlMethod::Torque => {
                 for (j, pid) in self.pids.iter_mut().enumerate() {
                     let error = self.target_rad[j] - obs.joint_angle_rad[j];
-                    let error_rate =
-                        self.target_velocity_rad_per_s[j] - obs.joint_velocity_rad_per_s[j];
+                    let error_rate = self.target_velocity_rad_per_s[j] - obs.joint_velocity_rad_per_s[j];
                     cmd.torque_nm[j] = pid.update(error, error_rate, self.dt_secs);
                 }
             }
@@ -228,9 +193,7 @@ mod tests {
         let w = &config.gait.sine_wave;
         for (j, value) in cmd.position_rad.iter().enumerate() {
             let expected = w.amplitude_deg.to_radians()
-                * (std::f64::consts::TAU * w.frequency_hz * 0.3
-                    - j as f64 * w.phase_lag_deg.to_radians())
-                .sin();
+                * (std::f64::consts::TAU * w.frequency_hz * 0.3 - j as f64 * w.phase_lag_deg.to_radians()).sin();
             assert!((value - expected).abs() < 1e-12);
         }
         assert!(cmd.torque_nm.iter().all(|t| *t == 0.0));

@@ -16,14 +16,7 @@ pub struct Pid {
 impl Pid {
     /// A PID with gains and output limits.
     pub fn new(kp: f64, ki: f64, kd: f64, min: f64, max: f64) -> Self {
-        Self {
-            kp,
-            ki,
-            kd,
-            min,
-            max,
-            integral: 0.0,
-        }
+        Self { kp, ki, kd, min, max, integral: 0.0 }
     }
 
     /// Forgets the integral.
@@ -37,8 +30,7 @@ impl Pid {
         let candidate = self.integral + error * dt_secs;
         let unclamped = self.kp * error + self.ki * candidate + self.kd * error_rate;
         let out = unclamped.clamp(self.min, self.max);
-        let saturated_same_way =
-            (unclamped > self.max && error > 0.0) || (unclamped < self.min && error < 0.0);
+        let saturated_same_way = (unclamped > self.max && error > 0.0) || (unclamped < self.min && error < 0.0);
         if !saturated_same_way {
             self.integral = candidate;
         }

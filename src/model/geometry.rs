@@ -57,10 +57,7 @@ pub(crate) fn rot_axis(axis: usize, angle: f64) -> M3 {
 
 /// Rotation matrix of MJCF `euler="a b c"` (radians, `eulerseq="xyz"`): Rx(a)·Ry(b)·Rz(c).
 pub(crate) fn euler_xyz_matrix(e: [f64; 3]) -> M3 {
-    mat_mul(
-        &mat_mul(&rot_axis(0, e[0]), &rot_axis(1, e[1])),
-        &rot_axis(2, e[2]),
-    )
+    mat_mul(&mat_mul(&rot_axis(0, e[0]), &rot_axis(1, e[1])), &rot_axis(2, e[2]))
 }
 
 /// Unit quaternion (w, x, y, z) of MJCF `euler="a b c"` (radians, `eulerseq="xyz"`), composed the
@@ -122,10 +119,7 @@ pub(crate) fn link_frames(cfg: &Config, joint_angles_rad: &[f64]) -> Vec<(V3, M3
         if i > 0 {
             pos = add(pos, mat_vec(&rot, [-l, 0.0, 0.0]));
             let q = joint_angles_rad.get(i - 1).copied().unwrap_or(0.0);
-            rot = mat_mul(
-                &rot,
-                &rot_axis(joint_axis_index(cfg.snake.joint_axes, i), q),
-            );
+            rot = mat_mul(&rot, &rot_axis(joint_axis_index(cfg.snake.joint_axes, i), q));
         }
         frames.push((pos, rot));
     }
@@ -141,10 +135,7 @@ pub(crate) fn link_frames(cfg: &Config, joint_angles_rad: &[f64]) -> Vec<(V3, M3
 /// `head_position_m + (0, 0, link_radius_m)`.
 pub fn link_axis_segments_m(cfg: &Config, joint_angles_rad: &[f64]) -> Vec<[[f64; 3]; 2]> {
     let l = cfg.snake.link_length_m;
-    link_frames(cfg, joint_angles_rad)
-        .into_iter()
-        .map(|(p, r)| [p, add(p, mat_vec(&r, [-l, 0.0, 0.0]))])
-        .collect()
+    link_frames(cfg, joint_angles_rad).into_iter().map(|(p, r)| [p, add(p, mat_vec(&r, [-l, 0.0, 0.0]))]).collect()
 }
 
 /// Distance in the xy-plane from point `p` to the segment `[a, b]` (z ignored).
@@ -152,11 +143,7 @@ pub(crate) fn dist_xy_point_segment(p: [f64; 2], a: V3, b: V3) -> f64 {
     let (ax, ay) = (a[0], a[1]);
     let (dx, dy) = (b[0] - ax, b[1] - ay);
     let len2 = dx * dx + dy * dy;
-    let t = if len2 > 0.0 {
-        (((p[0] - ax) * dx + (p[1] - ay) * dy) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
+    let t = if len2 > 0.0 { (((p[0] - ax) * dx + (p[1] - ay) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
     let (cx, cy) = (ax + t * dx, ay + t * dy);
     (p[0] - cx).hypot(p[1] - cy)
 }
@@ -191,21 +178,9 @@ mod tests {
         let q = euler_xyz_quat(e);
         let (w, x, y, z) = (q[0], q[1], q[2], q[3]);
         let from_q = [
-            [
-                1.0 - 2.0 * (y * y + z * z),
-                2.0 * (x * y - w * z),
-                2.0 * (x * z + w * y),
-            ],
-            [
-                2.0 * (x * y + w * z),
-                1.0 - 2.0 * (x * x + z * z),
-                2.0 * (y * z - w * x),
-            ],
-            [
-                2.0 * (x * z - w * y),
-                2.0 * (y * z + w * x),
-                1.0 - 2.0 * (x * x + y * y),
-            ],
+            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
+            [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
+            [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
         ];
         let m = euler_xyz_matrix(e);
         for i in 0..3 {

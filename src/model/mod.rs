@@ -119,11 +119,7 @@ pub fn generate(cfg: &Config) -> Result<GeneratedModel, ModelError> {
     check_obstacles_clear(cfg, &segments, &placed)?;
     let obstacles: Vec<Cylinder> = placed.into_iter().map(|p| p.cylinder).collect();
     let xml = write_xml(cfg, Body::Snake(&angles), &obstacles)?;
-    Ok(GeneratedModel {
-        xml,
-        obstacles,
-        initial_joint_angles_rad: angles,
-    })
+    Ok(GeneratedModel { xml, obstacles, initial_joint_angles_rad: angles })
 }
 
 /// A scene for a user's robot: the options, floor and obstacles of `cfg`, with the robot's MJCF
@@ -154,11 +150,7 @@ pub fn scene_with_robot(robot_file: &str, cfg: &Config) -> Result<GeneratedModel
     let placed = terrain::place_obstacles(cfg, &segments)?;
     let obstacles: Vec<Cylinder> = placed.into_iter().map(|p| p.cylinder).collect();
     let xml = write_xml(cfg, Body::Include(robot_file), &obstacles)?;
-    Ok(GeneratedModel {
-        xml,
-        obstacles,
-        initial_joint_angles_rad: Vec::new(),
-    })
+    Ok(GeneratedModel { xml, obstacles, initial_joint_angles_rad: Vec::new() })
 }
 
 /// Starting joint angles (index `j - 1` for joint `j`), rad: zero, except with
@@ -171,57 +163,33 @@ pub(crate) fn initial_joint_angles(cfg: &Config) -> Result<Vec<f64>, ConfigError
     let pattern = &cfg.gait.form_closure.pattern_deg;
     let key = "gait.form_closure.pattern_deg";
     if pattern.is_empty() {
-        return Err(ConfigError::invalid(
-            key,
-            "[]",
-            "a non-empty list of joint angles (degrees)",
-        ));
+        return Err(ConfigError::invalid(key, "[]", "a non-empty list of joint angles (degrees)"));
     }
     let limit = cfg.snake.joint_range_deg;
-    if let Some(bad) = pattern
-        .iter()
-        .find(|a| !(a.is_finite() && a.abs() <= limit))
-    {
+    if let Some(bad) = pattern.iter().find(|a| !(a.is_finite() && a.abs() <= limit)) {
         return Err(ConfigError::invalid(
             key,
             format!("{pattern:?}"),
-            format!(
-                "angles within the joint range ±{limit}° (snake.joint_range_deg); {bad} is not"
-            ),
+            format!("angles within the joint range ±{limit}° (snake.joint_range_deg); {bad} is not"),
         ));
     }
-    Ok((0..nj)
-        .map(|k| pattern[k % pattern.len()].to_radians())
-        .collect())
+    Ok((0..nj).map(|k| pattern[k % pattern.len()].to_radians()).collect())
 }
 
 /// Rejects values that would make the MJCF text invalid or the generator misbehave.
 fn sanity(cfg: &Config) -> Result<(), ConfigError> {
     let s = &cfg.snake;
     if s.n_links == 0 || s.n_links > MAX_LINKS {
-        return Err(ConfigError::invalid(
-            "snake.n_links",
-            s.n_links,
-            format!("1 ..= {MAX_LINKS}"),
-        ));
+        return Err(ConfigError::invalid("snake.n_links", s.n_links, format!("1 ..= {MAX_LINKS}")));
     }
     let finite: &[(&str, &[f64])] = &[
         ("general.timestep_secs", &[cfg.general.timestep_secs]),
         ("general.gravity_m_per_s2", &cfg.general.gravity_m_per_s2),
-        (
-            "physics.contact_time_constant_secs",
-            &[cfg.physics.contact_time_constant_secs],
-        ),
-        (
-            "physics.contact_damping_ratio",
-            &[cfg.physics.contact_damping_ratio],
-        ),
+        ("physics.contact_time_constant_secs", &[cfg.physics.contact_time_constant_secs]),
+        ("physics.contact_damping_ratio", &[cfg.physics.contact_damping_ratio]),
         ("snake.link_mass_kg", &[s.link_mass_kg]),
         ("snake.joint_range_deg", &[s.joint_range_deg]),
-        (
-            "snake.joint_damping_nm_s_per_rad",
-            &[s.joint_damping_nm_s_per_rad],
-        ),
+        ("snake.joint_damping_nm_s_per_rad", &[s.joint_damping_nm_s_per_rad]),
         ("snake.joint_armature_kg_m2", &[s.joint_armature_kg_m2]),
         ("snake.torque_range_nm", &s.torque_range_nm),
         ("snake.ground_friction", &s.ground_friction),
@@ -230,28 +198,13 @@ fn sanity(cfg: &Config) -> Result<(), ConfigError> {
         ("snake.head_position_m", &s.head_position_m),
         ("snake.head_rotation_deg", &s.head_rotation_deg),
         ("terrain.obstacle_friction", &cfg.terrain.obstacle_friction),
-        (
-            "terrain.cylinder_height_m",
-            &[cfg.terrain.cylinder_height_m],
-        ),
+        ("terrain.cylinder_height_m", &[cfg.terrain.cylinder_height_m]),
         ("terrain.floor_size_m", &[cfg.terrain.floor_size_m]),
         ("control.torque_gear", &[cfg.control.torque_gear]),
-        (
-            "control.position_kp_nm_per_rad",
-            &[cfg.control.position_kp_nm_per_rad],
-        ),
-        (
-            "control.position_kv_nm_s_per_rad",
-            &[cfg.control.position_kv_nm_s_per_rad],
-        ),
-        (
-            "control.velocity_kv_nm_s_per_rad",
-            &[cfg.control.velocity_kv_nm_s_per_rad],
-        ),
-        (
-            "control.intvelocity_kp_nm_per_rad",
-            &[cfg.control.intvelocity_kp_nm_per_rad],
-        ),
+        ("control.position_kp_nm_per_rad", &[cfg.control.position_kp_nm_per_rad]),
+        ("control.position_kv_nm_s_per_rad", &[cfg.control.position_kv_nm_s_per_rad]),
+        ("control.velocity_kv_nm_s_per_rad", &[cfg.control.velocity_kv_nm_s_per_rad]),
+        ("control.intvelocity_kp_nm_per_rad", &[cfg.control.intvelocity_kp_nm_per_rad]),
     ];
     for &(key, values) in finite {
         if let Some(v) = values.iter().find(|v| !v.is_finite()) {
@@ -260,28 +213,17 @@ fn sanity(cfg: &Config) -> Result<(), ConfigError> {
     }
     let (l, r) = (s.link_length_m, s.link_radius_m);
     if !(r.is_finite() && r > 0.0) {
-        return Err(ConfigError::invalid(
-            "snake.link_radius_m",
-            r,
-            "a number > 0",
-        ));
+        return Err(ConfigError::invalid("snake.link_radius_m", r, "a number > 0"));
     }
     if !(l.is_finite() && l >= 2.0 * r) {
         return Err(ConfigError::invalid(
             "snake.link_length_m",
             l,
-            format!(
-                "at least 2 × link_radius_m = {} (the link is a capsule spanning its full length)",
-                2.0 * r
-            ),
+            format!("at least 2 × link_radius_m = {} (the link is a capsule spanning its full length)", 2.0 * r),
         ));
     }
     if cfg.control.torque_gear == 0.0 {
-        return Err(ConfigError::invalid(
-            "control.torque_gear",
-            0.0,
-            "a non-zero number",
-        ));
+        return Err(ConfigError::invalid("control.torque_gear", 0.0, "a non-zero number"));
     }
     Ok(())
 }
@@ -291,11 +233,7 @@ pub const MAX_LINKS: usize = 400;
 
 fn check_above_floor(cfg: &Config, segments: &[[V3; 2]]) -> Result<(), ConfigError> {
     let r = cfg.snake.link_radius_m;
-    let lowest = |segs: &[[V3; 2]]| {
-        segs.iter()
-            .flat_map(|s| [s[0][2], s[1][2]])
-            .fold(f64::INFINITY, f64::min)
-    };
+    let lowest = |segs: &[[V3; 2]]| segs.iter().flat_map(|s| [s[0][2], s[1][2]]).fold(f64::INFINITY, f64::min);
     let low = lowest(segments);
     if low >= r - 1e-9 {
         return Ok(());
@@ -335,20 +273,13 @@ fn capsule_core(seg: [V3; 2], r: f64) -> [V3; 2] {
     [geometry::add(seg[0], u), geometry::sub(seg[1], u)]
 }
 
-fn check_obstacles_clear(
-    cfg: &Config,
-    segments: &[[V3; 2]],
-    placed: &[terrain::Placed],
-) -> Result<(), ConfigError> {
+fn check_obstacles_clear(cfg: &Config, segments: &[[V3; 2]], placed: &[terrain::Placed]) -> Result<(), ConfigError> {
     let r = cfg.snake.link_radius_m;
     for p in placed {
         let c = &p.cylinder;
         for (i, seg) in segments.iter().enumerate() {
             let core = capsule_core(*seg, r);
-            let (zlo, zhi) = (
-                core[0][2].min(core[1][2]) - r,
-                core[0][2].max(core[1][2]) + r,
-            );
+            let (zlo, zhi) = (core[0][2].min(core[1][2]) - r, core[0][2].max(core[1][2]) + r);
             if zlo >= c.height_m || zhi <= 0.0 {
                 continue; // the link passes above the cylinder
             }
@@ -410,17 +341,9 @@ fn write_xml(cfg: &Config, body: Body<'_>, obstacles: &[Cylinder]) -> Result<Str
         FrictionCone::Elliptic => "elliptic",
         FrictionCone::Pyramidal => "pyramidal",
     };
-    let solref = format!(
-        "{} {}",
-        n(cfg.physics.contact_time_constant_secs),
-        n(cfg.physics.contact_damping_ratio)
-    );
+    let solref = format!("{} {}", n(cfg.physics.contact_time_constant_secs), n(cfg.physics.contact_damping_ratio));
     out.push_str("<mujoco model=\"simserpent\">\n");
-    writeln!(
-        out,
-        "  <!-- Generated by SimSerpent {} from the resolved configuration. -->",
-        env!("CARGO_PKG_VERSION")
-    )?;
+    writeln!(out, "  <!-- Generated by SimSerpent {} from the resolved configuration. -->", env!("CARGO_PKG_VERSION"))?;
     if let Body::Include(file) = body {
         writeln!(out, "  <include file=\"{}\"/>", xml_escape(file))?;
     }
@@ -436,10 +359,7 @@ fn write_xml(cfg: &Config, body: Body<'_>, obstacles: &[Cylinder]) -> Result<Str
     // With a user's robot its own defaults stay in force; floor and obstacles get the solref directly.
     let env_solref = match body {
         Body::Snake(_) => {
-            writeln!(
-                out,
-                "  <default>\n    <geom solref=\"{solref}\"/>\n  </default>"
-            )?;
+            writeln!(out, "  <default>\n    <geom solref=\"{solref}\"/>\n  </default>")?;
             String::new()
         }
         Body::Include(_) => format!(" solref=\"{solref}\""),
@@ -499,8 +419,5 @@ fn write_xml(cfg: &Config, body: Body<'_>, obstacles: &[Cylinder]) -> Result<Str
 }
 
 fn xml_escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('"', "&quot;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
+    s.replace('&', "&amp;").replace('"', "&quot;").replace('<', "&lt;").replace('>', "&gt;")
 }

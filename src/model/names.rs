@@ -108,30 +108,17 @@ pub enum SensorKind {
 
 impl SensorKind {
     /// Per-link sensors, in model order.
-    pub const LINK: [SensorKind; 5] = [
-        Self::LinkVelocity,
-        Self::LinkAcceleration,
-        Self::LinkGyro,
-        Self::LinkPosition,
-        Self::LinkQuat,
-    ];
+    pub const LINK: [SensorKind; 5] =
+        [Self::LinkVelocity, Self::LinkAcceleration, Self::LinkGyro, Self::LinkPosition, Self::LinkQuat];
     /// Per-joint sensors, in model order.
-    pub const JOINT: [SensorKind; 4] = [
-        Self::JointForce,
-        Self::JointTorque,
-        Self::JointAngle,
-        Self::JointAngularVelocity,
-    ];
+    pub const JOINT: [SensorKind; 4] =
+        [Self::JointForce, Self::JointTorque, Self::JointAngle, Self::JointAngularVelocity];
 
     /// Whether the index of this sensor is a link index (else a joint index, `>= 1`).
     pub fn is_link(self) -> bool {
         matches!(
             self,
-            Self::LinkVelocity
-                | Self::LinkAcceleration
-                | Self::LinkGyro
-                | Self::LinkPosition
-                | Self::LinkQuat
+            Self::LinkVelocity | Self::LinkAcceleration | Self::LinkGyro | Self::LinkPosition | Self::LinkQuat
         )
     }
 
@@ -242,10 +229,7 @@ mod tests {
         assert_eq!(actuator(ControlMethod::Intvelocity, 2), "intvelocity_02");
         assert_eq!(obstacle(0), "obstacle_00");
         assert_eq!(link_body(119), "link_119");
-        assert_eq!(
-            sensor(SensorKind::JointAngularVelocity, 4),
-            "joint_04_angvel"
-        );
+        assert_eq!(sensor(SensorKind::JointAngularVelocity, 4), "joint_04_angvel");
         assert_eq!(link_framequat(0), "link_00_quat");
     }
 }

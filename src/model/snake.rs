@@ -55,31 +55,13 @@ fn write_link_geom(out: &mut String, cfg: &Config, i: usize) -> fmt::Result {
     let s = &cfg.snake;
     let (l, r) = (s.link_length_m, s.link_radius_m);
     let shape = if l - 2.0 * r <= 0.0 {
-        format!(
-            "type=\"sphere\" pos=\"{} 0 0\" size=\"{}\"",
-            n(-l / 2.0),
-            n(r)
-        )
+        format!("type=\"sphere\" pos=\"{} 0 0\" size=\"{}\"", n(-l / 2.0), n(r))
     } else if l - 2.0 * r < MIN_FROMTO_CORE_M {
-        format!(
-            "type=\"capsule\" pos=\"{} 0 0\" zaxis=\"1 0 0\" size=\"{} {}\"",
-            n(-l / 2.0),
-            n(r),
-            n(l / 2.0 - r)
-        )
+        format!("type=\"capsule\" pos=\"{} 0 0\" zaxis=\"1 0 0\" size=\"{} {}\"", n(-l / 2.0), n(r), n(l / 2.0 - r))
     } else {
-        format!(
-            "type=\"capsule\" fromto=\"{} 0 0 {} 0 0\" size=\"{}\"",
-            n(-r),
-            n(-(l - r)),
-            n(r)
-        )
+        format!("type=\"capsule\" fromto=\"{} 0 0 {} 0 0\" size=\"{}\"", n(-r), n(-(l - r)), n(r))
     };
-    let conaffinity = if cfg.physics.self_collision {
-        LINK_CONAFFINITY_SELF
-    } else {
-        LINK_CONAFFINITY_NO_SELF
-    };
+    let conaffinity = if cfg.physics.self_collision { LINK_CONAFFINITY_SELF } else { LINK_CONAFFINITY_NO_SELF };
     write!(
         out,
         "<geom name=\"{}\" {shape} mass=\"{}\" rgba=\"{}\" contype=\"{LINK_CONTYPE}\" conaffinity=\"{conaffinity}\" \
@@ -103,22 +85,11 @@ pub(crate) fn write_bodies(out: &mut String, cfg: &Config, depth: usize) -> fmt:
         let d = depth + i;
         indent(out, d);
         if i == 0 {
-            writeln!(
-                out,
-                "<body name=\"{}\" pos=\"{}\" euler=\"{}\">",
-                names::link_body(0),
-                Nums(&tip),
-                Nums(&euler)
-            )?;
+            writeln!(out, "<body name=\"{}\" pos=\"{}\" euler=\"{}\">", names::link_body(0), Nums(&tip), Nums(&euler))?;
             indent(out, d + 1);
             writeln!(out, "<freejoint name=\"{}\"/>", names::HEAD_FREE_JOINT)?;
         } else {
-            writeln!(
-                out,
-                "<body name=\"{}\" pos=\"{} 0 0\">",
-                names::link_body(i),
-                n(-l)
-            )?;
+            writeln!(out, "<body name=\"{}\" pos=\"{} 0 0\">", names::link_body(i), n(-l))?;
             let axis = match super::geometry::joint_axis_index(s.joint_axes, i) {
                 1 => "0 1 0",
                 _ => "0 0 1",
@@ -139,21 +110,10 @@ pub(crate) fn write_bodies(out: &mut String, cfg: &Config, depth: usize) -> fmt:
         write_link_geom(out, cfg, i)?;
         out.push('\n');
         indent(out, d + 1);
-        writeln!(
-            out,
-            "<site name=\"{}\" pos=\"{} 0 0\" size=\"{}\"/>",
-            names::link_site(i),
-            n(-l / 2.0),
-            n(r / 4.0)
-        )?;
+        writeln!(out, "<site name=\"{}\" pos=\"{} 0 0\" size=\"{}\"/>", names::link_site(i), n(-l / 2.0), n(r / 4.0))?;
         if i > 0 {
             indent(out, d + 1);
-            writeln!(
-                out,
-                "<site name=\"{}\" pos=\"0 0 0\" size=\"{}\"/>",
-                names::joint_site(i),
-                n(r / 5.0)
-            )?;
+            writeln!(out, "<site name=\"{}\" pos=\"0 0 0\" size=\"{}\"/>", names::joint_site(i), n(r / 5.0))?;
         }
     }
     for i in (0..s.n_links).rev() {
@@ -226,10 +186,7 @@ pub(crate) fn write_actuators(out: &mut String, cfg: &Config) -> fmt::Result {
              forcerange=\"{} {}\"/>",
             names::actuator(ControlMethod::Intvelocity, j),
             names::joint(j),
-            n(gain(
-                ControlMethod::Intvelocity,
-                c.intvelocity_kp_nm_per_rad
-            )),
+            n(gain(ControlMethod::Intvelocity, c.intvelocity_kp_nm_per_rad)),
             n(-range),
             n(range),
             n(t_lo),
@@ -252,12 +209,7 @@ pub(crate) fn write_sensors(out: &mut String, cfg: &Config) -> fmt::Result {
                 }
                 _ => format!("site=\"{site}\""),
             };
-            writeln!(
-                out,
-                "    <{} name=\"{}\" {target}/>",
-                kind.mjcf_element(),
-                names::sensor(kind, i)
-            )?;
+            writeln!(out, "    <{} name=\"{}\" {target}/>", kind.mjcf_element(), names::sensor(kind, i))?;
         }
     }
     for j in 1..=cfg.snake.n_joints() {
@@ -268,12 +220,7 @@ pub(crate) fn write_sensors(out: &mut String, cfg: &Config) -> fmt::Result {
                 }
                 _ => format!("joint=\"{}\"", names::joint(j)),
             };
-            writeln!(
-                out,
-                "    <{} name=\"{}\" {target}/>",
-                kind.mjcf_element(),
-                names::sensor(kind, j)
-            )?;
+            writeln!(out, "    <{} name=\"{}\" {target}/>", kind.mjcf_element(), names::sensor(kind, j))?;
         }
     }
     out.push_str("  </sensor>\n");
@@ -290,12 +237,7 @@ pub(crate) fn write_keyframe(out: &mut String, cfg: &Config, angles: &[f64]) -> 
     let mut qpos: Vec<f64> = tip.to_vec();
     qpos.extend_from_slice(&quat);
     qpos.extend_from_slice(angles);
-    write!(
-        out,
-        "  <keyframe>\n    <key name=\"{}\" qpos=\"{}\"",
-        names::INITIAL_KEYFRAME,
-        Nums(&qpos)
-    )?;
+    write!(out, "  <keyframe>\n    <key name=\"{}\" qpos=\"{}\"", names::INITIAL_KEYFRAME, Nums(&qpos))?;
     if !angles.is_empty() {
         let nj = angles.len();
         let mut ctrl = vec![0.0; 4 * nj];

@@ -57,8 +57,8 @@ use rand_chacha::ChaCha8Rng;
 
 use super::Cylinder;
 use super::geometry::{
-    V3, add, cross2, dist_xy_point_segment, euler_xyz_matrix, head_rotation_rad, head_tip, mat_vec,
-    norm2, rot90, sub, xy,
+    V3, add, cross2, dist_xy_point_segment, euler_xyz_matrix, head_rotation_rad, head_tip, mat_vec, norm2, rot90, sub,
+    xy,
 };
 use super::names;
 use crate::config::{Config, ConfigError, GaitKind, JointAxes, TerrainKind};
@@ -88,26 +88,16 @@ pub(crate) struct Placed {
 
 /// Places the obstacles of `cfg.terrain.kind` around the snake whose link axes at the starting
 /// pose are `segments` (see [`super::link_axis_segments_m`]).
-pub(crate) fn place_obstacles(
-    cfg: &Config,
-    segments: &[[V3; 2]],
-) -> Result<Vec<Placed>, ConfigError> {
+pub(crate) fn place_obstacles(cfg: &Config, segments: &[[V3; 2]]) -> Result<Vec<Placed>, ConfigError> {
     let too_many = |key: &str, n: usize, per: usize| {
-        (n.saturating_mul(per) > MAX_OBSTACLES).then(|| {
-            ConfigError::invalid(key, n, format!("at most {MAX_OBSTACLES} obstacles in all"))
-        })
+        (n.saturating_mul(per) > MAX_OBSTACLES)
+            .then(|| ConfigError::invalid(key, n, format!("at most {MAX_OBSTACLES} obstacles in all")))
     };
     let err = match cfg.terrain.kind {
-        TerrainKind::RandomCylinders => too_many(
-            "terrain.random_cylinders.count",
-            cfg.terrain.random_cylinders.count,
-            1,
-        ),
-        TerrainKind::CylinderPath => too_many(
-            "terrain.cylinder_path.n_pairs",
-            cfg.terrain.cylinder_path.n_pairs,
-            2,
-        ),
+        TerrainKind::RandomCylinders => {
+            too_many("terrain.random_cylinders.count", cfg.terrain.random_cylinders.count, 1)
+        }
+        TerrainKind::CylinderPath => too_many("terrain.cylinder_path.n_pairs", cfg.terrain.cylinder_path.n_pairs, 2),
         _ => None,
     };
     if let Some(e) = err {
@@ -118,12 +108,7 @@ pub(crate) fn place_obstacles(
     let mut push = |center: [f64; 2], radius: f64, key: &'static str, value: String| {
         let name = names::obstacle(out.len());
         out.push(Placed {
-            cylinder: Cylinder {
-                name,
-                center_m: center,
-                radius_m: radius,
-                height_m: height,
-            },
+            cylinder: Cylinder { name, center_m: center, radius_m: radius, height_m: height },
             key,
             value,
         });
@@ -148,39 +133,19 @@ pub(crate) fn place_obstacles(
             let key = "terrain.cylinder_path.width_m";
             for k in 0..cp.n_pairs {
                 let c = along(t, h, cp.start_m + k as f64 * cp.spacing_m);
-                push(
-                    along(c, n, cp.width_m / 2.0),
-                    cp.radius_m,
-                    key,
-                    cp.width_m.to_string(),
-                );
-                push(
-                    along(c, n, -cp.width_m / 2.0),
-                    cp.radius_m,
-                    key,
-                    cp.width_m.to_string(),
-                );
+                push(along(c, n, cp.width_m / 2.0), cp.radius_m, key, cp.width_m.to_string());
+                push(along(c, n, -cp.width_m / 2.0), cp.radius_m, key, cp.width_m.to_string());
             }
         }
         TerrainKind::RandomCylinders => {
             for (c, r) in random_cylinders(cfg, segments)? {
-                push(
-                    c,
-                    r,
-                    "terrain.random_cylinders.count",
-                    cfg.terrain.random_cylinders.count.to_string(),
-                );
+                push(c, r, "terrain.random_cylinders.count", cfg.terrain.random_cylinders.count.to_string());
             }
         }
         TerrainKind::FormClosure => {
             let key = "terrain.form_closure.radius_m";
             for c in form_closure_pegs(cfg, segments)? {
-                push(
-                    c,
-                    cfg.terrain.form_closure.radius_m,
-                    key,
-                    cfg.terrain.form_closure.radius_m.to_string(),
-                );
+                push(c, cfg.terrain.form_closure.radius_m, key, cfg.terrain.form_closure.radius_m.to_string());
             }
         }
     }
@@ -218,16 +183,10 @@ fn straight_middle(cfg: &Config) -> [f64; 2] {
 
 /// Minimum xy-distance from `c` to the link axes.
 fn dist_to_body(c: [f64; 2], segments: &[[V3; 2]]) -> f64 {
-    segments
-        .iter()
-        .map(|s| dist_xy_point_segment(c, s[0], s[1]))
-        .fold(f64::INFINITY, f64::min)
+    segments.iter().map(|s| dist_xy_point_segment(c, s[0], s[1])).fold(f64::INFINITY, f64::min)
 }
 
-fn random_cylinders(
-    cfg: &Config,
-    segments: &[[V3; 2]],
-) -> Result<Vec<([f64; 2], f64)>, ConfigError> {
+fn random_cylinders(cfg: &Config, segments: &[[V3; 2]]) -> Result<Vec<([f64; 2], f64)>, ConfigError> {
     let rc = &cfg.terrain.random_cylinders;
     if rc.count == 0 {
         return Ok(Vec::new());
@@ -242,21 +201,14 @@ fn random_cylinders(
     })?;
     let hs = rc.half_size_m;
     let coord = Uniform::new_inclusive(-hs, hs).map_err(|e| {
-        ConfigError::invalid(
-            "terrain.random_cylinders.half_size_m",
-            hs,
-            format!("a finite number >= 0 ({e})"),
-        )
+        ConfigError::invalid("terrain.random_cylinders.half_size_m", hs, format!("a finite number >= 0 ({e})"))
     })?;
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.general.seed);
     rng.set_stream(TERRAIN_RNG_STREAM);
     let t = xy(head_tip(cfg));
     let r_link = cfg.snake.link_radius_m;
     let gap = rc.min_gap_m;
-    let attempts = rc
-        .count
-        .saturating_mul(ATTEMPTS_PER_CYLINDER)
-        .min(MAX_ATTEMPTS);
+    let attempts = rc.count.saturating_mul(ATTEMPTS_PER_CYLINDER).min(MAX_ATTEMPTS);
     let mut placed: Vec<([f64; 2], f64)> = Vec::new();
     for _ in 0..attempts {
         if placed.len() == rc.count {
@@ -265,9 +217,7 @@ fn random_cylinders(
         let rad = radius.sample(&mut rng);
         let c = [t[0] + coord.sample(&mut rng), t[1] + coord.sample(&mut rng)];
         let clear_of_body = dist_to_body(c, segments) - r_link - rad >= gap;
-        let clear_of_others = placed
-            .iter()
-            .all(|(o, ro)| norm2([c[0] - o[0], c[1] - o[1]]) - ro - rad >= gap);
+        let clear_of_others = placed.iter().all(|(o, ro)| norm2([c[0] - o[0], c[1] - o[1]]) - ro - rad >= gap);
         if clear_of_body && clear_of_others {
             placed.push((c, rad));
         }
@@ -396,8 +346,7 @@ fn form_closure_pegs(cfg: &Config, segments: &[[V3; 2]]) -> Result<Vec<[f64; 2]>
                 .iter()
                 .copied()
                 .min_by(|p, q| {
-                    norm2([p[0] - centre[0], p[1] - centre[1]])
-                        .total_cmp(&norm2([q[0] - centre[0], q[1] - centre[1]]))
+                    norm2([p[0] - centre[0], p[1] - centre[1]]).total_cmp(&norm2([q[0] - centre[0], q[1] - centre[1]]))
                 })
                 .ok_or_else(degenerate)?;
             let peg_side = cross2(dir, [nearest[0] - centre[0], nearest[1] - centre[1]]);
@@ -410,11 +359,7 @@ fn form_closure_pegs(cfg: &Config, segments: &[[V3; 2]]) -> Result<Vec<[f64; 2]>
 
 /// Midpoint of a segment.
 fn midpoint(s: [V3; 2]) -> V3 {
-    [
-        (s[0][0] + s[1][0]) / 2.0,
-        (s[0][1] + s[1][1]) / 2.0,
-        (s[0][2] + s[1][2]) / 2.0,
-    ]
+    [(s[0][0] + s[1][0]) / 2.0, (s[0][1] + s[1][1]) / 2.0, (s[0][2] + s[1][2]) / 2.0]
 }
 
 /// Bends: maximal runs `(first joint, last joint)` (1-based joint numbers) of consecutive joints
@@ -452,10 +397,7 @@ mod tests {
 
     #[test]
     fn bend_runs() {
-        assert_eq!(
-            bends(&[0.0, 1.0, 1.0, 0.0, -1.0, -1.0, 0.0, 1.0, 1.0]),
-            vec![(2, 3), (5, 6), (8, 9)]
-        );
+        assert_eq!(bends(&[0.0, 1.0, 1.0, 0.0, -1.0, -1.0, 0.0, 1.0, 1.0]), vec![(2, 3), (5, 6), (8, 9)]);
         assert_eq!(bends(&[1.0, -1.0, -1.0]), vec![(1, 1), (2, 3)]);
         assert_eq!(bends(&[0.0, 0.0]), vec![]);
         assert_eq!(bends(&[]), vec![]);

@@ -64,10 +64,8 @@ impl Manifest {
     pub fn write(&self, folder: &Path) -> Result<(), RecordError> {
         let path = folder.join("manifest.json");
         let tmp = folder.join("manifest.json.tmp");
-        let text = serde_json::to_string_pretty(self).map_err(|e| RecordError::Io {
-            path: path.clone(),
-            source: std::io::Error::other(e),
-        })?;
+        let text = serde_json::to_string_pretty(self)
+            .map_err(|e| RecordError::Io { path: path.clone(), source: std::io::Error::other(e) })?;
         std::fs::write(&tmp, text + "\n").map_err(io_err(&tmp))?;
         std::fs::rename(&tmp, &path).map_err(io_err(&path))
     }

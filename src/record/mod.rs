@@ -34,10 +34,7 @@ pub enum RecordError {
 }
 
 pub(crate) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> RecordError + '_ {
-    move |source| RecordError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
+    move |source| RecordError::Io { path: path.to_path_buf(), source }
 }
 
 /// UTC time as `YYYYMMDDTHHMMSSZ` from seconds since the Unix epoch (civil-from-days algorithm
@@ -54,34 +51,19 @@ pub fn utc_stamp(unix_secs: u64) -> String {
     let day = doy - (153 * mp + 2) / 5 + 1;
     let month = if mp < 10 { mp + 3 } else { mp - 9 };
     let year = yoe + era * 400 + i64::from(month <= 2);
-    format!(
-        "{year:04}{month:02}{day:02}T{:02}{:02}{:02}Z",
-        rem / 3600,
-        rem % 3600 / 60,
-        rem % 60
-    )
+    format!("{year:04}{month:02}{day:02}T{:02}{:02}{:02}Z", rem / 3600, rem % 3600 / 60, rem % 60)
 }
 
 /// Creates `<output_dir>/<run_name>-<stamp>/` (with `-2`, `-3`, … if it exists already).
-pub fn create_run_folder(
-    output_dir: &Path,
-    run_name: &str,
-    stamp: &str,
-) -> Result<PathBuf, RecordError> {
+pub fn create_run_folder(output_dir: &Path, run_name: &str, stamp: &str) -> Result<PathBuf, RecordError> {
     std::fs::create_dir_all(output_dir).map_err(io_err(output_dir))?;
     let mut attempt = 1;
     loop {
-        let name = if attempt == 1 {
-            format!("{run_name}-{stamp}")
-        } else {
-            format!("{run_name}-{stamp}-{attempt}")
-        };
+        let name = if attempt == 1 { format!("{run_name}-{stamp}") } else { format!("{run_name}-{stamp}-{attempt}") };
         let path = output_dir.join(name);
         match std::fs::create_dir(&path) {
             Ok(()) => return Ok(path),
-            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && attempt < 1000 => {
-                attempt += 1
-            }
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && attempt < 1000 => attempt += 1,
             Err(e) => return Err(io_err(&path)(e)),
         }
     }
@@ -136,8 +118,7 @@ impl Recorder {
                 push3(&mut h, n, "contact_torque", "nm");
             }
         }
-        let links = CsvTable::create(&folder.join("links.csv"), &h)
-            .map_err(io_err(&folder.join("links.csv")))?;
+        let links = CsvTable::create(&folder.join("links.csv"), &h).map_err(io_err(&folder.join("links.csv")))?;
 
         let mut h = vec!["time_s".to_string()];
         for joint in &index.joints {
@@ -163,34 +144,20 @@ impl Recorder {
                 push3(&mut h, n, "internal_torque", "nm");
             }
         }
-        let joints = CsvTable::create(&folder.join("joints.csv"), &h)
-            .map_err(io_err(&folder.join("joints.csv")))?;
+        let joints = CsvTable::create(&folder.join("joints.csv"), &h).map_err(io_err(&folder.join("joints.csv")))?;
 
         let sensors = if f.imu_sensors {
             let mut h = vec!["time_s".to_string(), "sensor_time_s".to_string()];
             for variant in ["true", "measured"] {
                 for link in &index.links {
-                    push3(
-                        &mut h,
-                        &link.name,
-                        &format!("accelerometer_{variant}"),
-                        "m_per_s2",
-                    );
+                    push3(&mut h, &link.name, &format!("accelerometer_{variant}"), "m_per_s2");
                     push3(&mut h, &link.name, &format!("gyro_{variant}"), "rad_per_s");
                 }
                 for joint in &index.joints {
                     h.push(format!("{}_encoder_{variant}_rad", joint.name));
-                    h.push(format!(
-                        "{}_encoder_velocity_{variant}_rad_per_s",
-                        joint.name
-                    ));
+                    h.push(format!("{}_encoder_velocity_{variant}_rad_per_s", joint.name));
                     push3(&mut h, &joint.name, &format!("force_sensor_{variant}"), "n");
-                    push3(
-                        &mut h,
-                        &joint.name,
-                        &format!("torque_sensor_{variant}"),
-                        "nm",
-                    );
+                    push3(&mut h, &joint.name, &format!("torque_sensor_{variant}"), "nm");
                 }
             }
             for link in &index.links {
@@ -252,16 +219,11 @@ impl Recorder {
         let joints_path = self.joints.path().to_path_buf();
         self.write_joints(s).map_err(io_err(&joints_path))?;
         if let Some(t) = self.sensors.as_mut() {
-            write_sensors(t, s).map_err(|e| RecordError::Io {
-                path: t.path().to_path_buf(),
-                source: e,
-            })?;
+            write_sensors(t, s).map_err(|e| RecordError::Io { path: t.path().to_path_buf(), source: e })?;
         }
         if let Some(t) = self.contacts.as_mut() {
-            write_contacts(t, step, s, &self.contact_names).map_err(|e| RecordError::Io {
-                path: t.path().to_path_buf(),
-                source: e,
-            })?;
+            write_contacts(t, step, s, &self.contact_names)
+                .map_err(|e| RecordError::Io { path: t.path().to_path_buf(), source: e })?;
         }
         Ok(())
     }
@@ -331,10 +293,7 @@ impl Recorder {
         tables.extend(self.sensors.as_mut());
         tables.extend(self.contacts.as_mut());
         for t in tables {
-            t.flush().map_err(|e| RecordError::Io {
-                path: t.path().to_path_buf(),
-                source: e,
-            })?;
+            t.flush().map_err(|e| RecordError::Io { path: t.path().to_path_buf(), source: e })?;
         }
         Ok(())
     }
@@ -346,11 +305,7 @@ impl Recorder {
         tables.extend(self.contacts);
         let mut out = Vec::new();
         for t in tables {
-            let name = t
-                .path()
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_default();
+            let name = t.path().file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
             let rows = t.rows();
             let path = t.path().to_path_buf();
             t.finish().map_err(io_err(&path))?;

@@ -86,12 +86,7 @@ impl CsvTable {
 
     /// Ends the row. Panics in debug builds if the row has the wrong number of fields.
     pub fn end_row(&mut self) -> std::io::Result<()> {
-        debug_assert_eq!(
-            self.in_row,
-            self.columns,
-            "{}: row width",
-            self.path.display()
-        );
+        debug_assert_eq!(self.in_row, self.columns, "{}: row width", self.path.display());
         self.in_row = 0;
         self.rows += 1;
         self.out.write_all(b"\n")

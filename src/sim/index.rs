@@ -80,8 +80,7 @@ impl Index {
         let mut links = Vec::with_capacity(n_links);
         for i in 0..n_links {
             let name = names::link_body(i);
-            let body = id(model, MjtObjBase::mjOBJ_BODY, &name)
-                .ok_or_else(|| missing(format!("body {name}")))?;
+            let body = id(model, MjtObjBase::mjOBJ_BODY, &name).ok_or_else(|| missing(format!("body {name}")))?;
             links.push(LinkIndex {
                 site: id(model, MjtObjBase::mjOBJ_SITE, &names::link_site(i)),
                 velocimeter_adr: sensor_adr(model, &names::link_velocimeter(i)),
@@ -95,8 +94,7 @@ impl Index {
         let mut joints = Vec::with_capacity(n_links.saturating_sub(1));
         for j in 1..n_links {
             let name = names::joint(j);
-            let jid = id(model, MjtObjBase::mjOBJ_JOINT, &name)
-                .ok_or_else(|| missing(format!("joint {name}")))?;
+            let jid = id(model, MjtObjBase::mjOBJ_JOINT, &name).ok_or_else(|| missing(format!("joint {name}")))?;
             let mut actuators = [None; 4];
             for (slot, kind) in actuators.iter_mut().zip(ControlMethod::ALL) {
                 *slot = id(model, MjtObjBase::mjOBJ_ACTUATOR, &names::actuator(kind, j));
@@ -110,8 +108,8 @@ impl Index {
                 name,
             });
         }
-        let head_free_qpos_adr = id(model, MjtObjBase::mjOBJ_JOINT, names::HEAD_FREE_JOINT)
-            .map(|jid| model.jnt_qposadr()[jid] as usize);
+        let head_free_qpos_adr =
+            id(model, MjtObjBase::mjOBJ_JOINT, names::HEAD_FREE_JOINT).map(|jid| model.jnt_qposadr()[jid] as usize);
         Ok(Self::finish(model, links, joints, head_free_qpos_adr))
     }
 
@@ -133,17 +131,9 @@ impl Index {
                 mass_kg: model.body_mass()[body],
             })
             .collect();
-        let joint_names = object_names(
-            model,
-            MjtObjBase::mjOBJ_JOINT,
-            model.njnt() as usize,
-            "joint",
-        );
+        let joint_names = object_names(model, MjtObjBase::mjOBJ_JOINT, model.njnt() as usize, "joint");
         let trn = model.actuator_trnid();
-        let method_slot = ControlMethod::ALL
-            .iter()
-            .position(|k| *k == method)
-            .unwrap_or(0);
+        let method_slot = ControlMethod::ALL.iter().position(|k| *k == method).unwrap_or(0);
         let mut joints = Vec::new();
         let mut head_free_qpos_adr = None;
         for (jid, name) in joint_names.iter().enumerate() {
@@ -178,9 +168,7 @@ impl Index {
         let ngeom = model.ngeom() as usize;
         let nbody = model.nbody() as usize;
         let geom_body = model.geom_bodyid();
-        let geom_link = (0..ngeom)
-            .map(|g| links.iter().position(|l| l.body as i32 == geom_body[g]))
-            .collect();
+        let geom_link = (0..ngeom).map(|g| links.iter().position(|l| l.body as i32 == geom_body[g])).collect();
         let robot_mass_kg = links.iter().map(|l| l.mass_kg).sum();
         Self {
             geom_names: object_names(model, MjtObjBase::mjOBJ_GEOM, ngeom, "geom"),

@@ -103,21 +103,14 @@ impl World {
     /// A user's robot (MJCF or URDF, as MuJoCo's loader reads them) placed in the terrain that
     /// `config` describes. The robot file is included unchanged into a scene file; a URDF is
     /// first converted to MJCF by MuJoCo.
-    pub fn from_robot_file(
-        config: &Config,
-        robot: &Path,
-        scratch_dir: &Path,
-    ) -> Result<Self, SimError> {
+    pub fn from_robot_file(config: &Config, robot: &Path, scratch_dir: &Path) -> Result<Self, SimError> {
         let file = robot.display().to_string();
-        let robot_err = |message: String| SimError::RobotFile {
-            file: file.clone(),
-            message,
-        };
+        let robot_err = |message: String| SimError::RobotFile { file: file.clone(), message };
         if !robot.is_file() {
             return Err(robot_err("robot file does not exist".into()));
         }
-        let robot_model = MjModel::from_xml(robot)
-            .map_err(|e| robot_err(format!("MuJoCo cannot load the robot ({e})")))?;
+        let robot_model =
+            MjModel::from_xml(robot).map_err(|e| robot_err(format!("MuJoCo cannot load the robot ({e})")))?;
         // Canonical MJCF of the robot (URDF converted), with absolute asset paths kept by MuJoCo.
         let robot_mjcf = scratch_dir.join("robot.xml");
         robot_model
@@ -128,11 +121,8 @@ impl World {
         let scene_path = scratch_dir.join("model.xml");
         std::fs::write(&scene_path, &scene.xml)
             .map_err(|e| robot_err(format!("cannot write {} ({e})", scene_path.display())))?;
-        let model = MjModel::from_xml(&scene_path).map_err(|e| {
-            robot_err(format!(
-                "MuJoCo cannot load the robot inside the terrain ({e})"
-            ))
-        })?;
+        let model = MjModel::from_xml(&scene_path)
+            .map_err(|e| robot_err(format!("MuJoCo cannot load the robot inside the terrain ({e})")))?;
         let model = Arc::new(model);
         let index = Index::for_robot(&model, config.control.method);
         let mut world = Self {
@@ -150,14 +140,10 @@ impl World {
     /// Resets the state to the model's "initial" keyframe (or its default pose) and computes
     /// all derived quantities.
     pub fn reset(&mut self) -> Result<(), SimError> {
-        match self
-            .model
-            .name_to_id(MjtObjBase::mjOBJ_KEY, model::names::INITIAL_KEYFRAME)
-        {
-            Some(key) => self
-                .data
-                .reset_keyframe(key)
-                .map_err(|e| SimError::Model(format!("cannot reset to keyframe: {e}")))?,
+        match self.model.name_to_id(MjtObjBase::mjOBJ_KEY, model::names::INITIAL_KEYFRAME) {
+            Some(key) => {
+                self.data.reset_keyframe(key).map_err(|e| SimError::Model(format!("cannot reset to keyframe: {e}")))?
+            }
             None => self.data.reset(),
         }
         self.forward();
@@ -237,11 +223,7 @@ impl World {
     /// Checks the state for NaN or infinite values and MuJoCo's own instability warnings.
     pub fn check_finite(&self, step: u64) -> Result<(), SimError> {
         let d = &self.data;
-        let diverged = |what: String| SimError::Diverged {
-            time_secs: d.time(),
-            step,
-            what,
-        };
+        let diverged = |what: String| SimError::Diverged { time_secs: d.time(), step, what };
         if let Some(i) = d.qpos().iter().position(|x| !x.is_finite()) {
             return Err(diverged(format!("qpos[{i}] is not finite")));
         }
@@ -250,18 +232,9 @@ impl World {
         }
         let warnings = d.warning();
         for (kind, label) in [
-            (
-                MjtWarning::mjWARN_BADQACC,
-                "MuJoCo reset the state: bad acceleration (mjWARN_BADQACC)",
-            ),
-            (
-                MjtWarning::mjWARN_BADQPOS,
-                "MuJoCo reset the state: bad position (mjWARN_BADQPOS)",
-            ),
-            (
-                MjtWarning::mjWARN_BADQVEL,
-                "MuJoCo reset the state: bad velocity (mjWARN_BADQVEL)",
-            ),
+            (MjtWarning::mjWARN_BADQACC, "MuJoCo reset the state: bad acceleration (mjWARN_BADQACC)"),
+            (MjtWarning::mjWARN_BADQPOS, "MuJoCo reset the state: bad position (mjWARN_BADQPOS)"),
+            (MjtWarning::mjWARN_BADQVEL, "MuJoCo reset the state: bad velocity (mjWARN_BADQVEL)"),
         ] {
             if warnings[kind as usize].number > 0 {
                 return Err(diverged(label.to_string()));
@@ -303,11 +276,7 @@ impl Simulation {
     }
 
     /// The world with a controller of your own.
-    pub fn with_controller(
-        config: &Config,
-        world: World,
-        mut controller: Box<dyn Controller>,
-    ) -> Self {
+    pub fn with_controller(config: &Config, world: World, mut controller: Box<dyn Controller>) -> Self {
         let (nl, nj) = (world.n_links(), world.n_joints());
         controller.reset();
         Self {

@@ -42,19 +42,10 @@ fn add3(rng: &mut ChaCha8Rng, std: f64, value: &mut [f64; 3]) {
 impl SensorNoise {
     /// Noise streams for `n_links` links and `n_joints` joints.
     pub fn new(config: &Sensors, seed: u64, n_links: usize, n_joints: usize) -> Self {
-        let joint_rngs = (0..n_joints * JOINT_STREAMS)
-            .map(|k| stream(seed, k as u64))
-            .collect();
+        let joint_rngs = (0..n_joints * JOINT_STREAMS).map(|k| stream(seed, k as u64)).collect();
         let offset = (n_joints * JOINT_STREAMS) as u64 + 1_000_000;
-        let link_rngs = (0..n_links * LINK_STREAMS)
-            .map(|k| stream(seed, offset + k as u64))
-            .collect();
-        Self {
-            enabled: config.noise_enabled,
-            std: config.clone(),
-            joint_rngs,
-            link_rngs,
-        }
+        let link_rngs = (0..n_links * LINK_STREAMS).map(|k| stream(seed, offset + k as u64)).collect();
+        Self { enabled: config.noise_enabled, std: config.clone(), joint_rngs, link_rngs }
     }
 
     /// `measured` = `truth` + noise (or a plain copy when noise is off). Does not allocate.
@@ -67,31 +58,14 @@ impl SensorNoise {
         for j in 0..truth.n_joints() {
             let rngs = &mut self.joint_rngs[j * JOINT_STREAMS..(j + 1) * JOINT_STREAMS];
             measured.joint_angle_rad[j] += gauss(&mut rngs[0], s.joint_angle_std_rad);
-            measured.joint_velocity_rad_per_s[j] +=
-                gauss(&mut rngs[1], s.joint_velocity_std_rad_per_s);
-            add3(
-                &mut rngs[2],
-                s.joint_force_std_n,
-                &mut measured.joint_force_n[j],
-            );
-            add3(
-                &mut rngs[3],
-                s.joint_torque_std_nm,
-                &mut measured.joint_torque_nm[j],
-            );
+            measured.joint_velocity_rad_per_s[j] += gauss(&mut rngs[1], s.joint_velocity_std_rad_per_s);
+            add3(&mut rngs[2], s.joint_force_std_n, &mut measured.joint_force_n[j]);
+            add3(&mut rngs[3], s.joint_torque_std_nm, &mut measured.joint_torque_nm[j]);
         }
         for i in 0..truth.imu_accel_m_per_s2.len() {
             let rngs = &mut self.link_rngs[i * LINK_STREAMS..(i + 1) * LINK_STREAMS];
-            add3(
-                &mut rngs[0],
-                s.accelerometer_std_m_per_s2,
-                &mut measured.imu_accel_m_per_s2[i],
-            );
-            add3(
-                &mut rngs[1],
-                s.gyro_std_rad_per_s,
-                &mut measured.imu_gyro_rad_per_s[i],
-            );
+            add3(&mut rngs[0], s.accelerometer_std_m_per_s2, &mut measured.imu_accel_m_per_s2[i]);
+            add3(&mut rngs[1], s.gyro_std_rad_per_s, &mut measured.imu_gyro_rad_per_s[i]);
         }
     }
 }
@@ -124,11 +98,7 @@ mod tests {
         let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
         // Standard error of the mean: 0.01/sqrt(n) = 7e-5; of the std: 0.01/sqrt(2n) = 5e-5.
         assert!(mean.abs() < 4.0 * 0.01 / (n as f64).sqrt(), "mean {mean}");
-        assert!(
-            (var.sqrt() - 0.01).abs() < 4.0 * 0.01 / (2.0 * n as f64).sqrt(),
-            "std {}",
-            var.sqrt()
-        );
+        assert!((var.sqrt() - 0.01).abs() < 4.0 * 0.01 / (2.0 * n as f64).sqrt(), "std {}", var.sqrt());
         assert_eq!(xs, sample(7, n), "same seed, same noise");
         assert_ne!(xs, sample(8, n), "another seed, other noise");
     }

@@ -77,11 +77,7 @@ fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 }
 
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
 fn add_to(acc: &mut [f64; 3], v: [f64; 3], sign: f64) {
@@ -135,8 +131,7 @@ impl Snapshot {
             // from -gravity, as an accelerometer does); add gravity back for the kinematic one.
             let a = d.object_acceleration(MjtObjBase::mjOBJ_BODY, link.body, false);
             self.link_angular_acceleration_rad_per_s2[i] = [a[0], a[1], a[2]];
-            self.link_acceleration_m_per_s2[i] =
-                [a[3] + gravity[0], a[4] + gravity[1], a[5] + gravity[2]];
+            self.link_acceleration_m_per_s2[i] = [a[3] + gravity[0], a[4] + gravity[1], a[5] + gravity[2]];
             self.link_contact_force_n[i] = [0.0; 3];
             self.link_contact_torque_nm[i] = [0.0; 3];
             if let Some(a) = link.velocimeter_adr {
@@ -177,10 +172,7 @@ impl Snapshot {
             for k in 0..3 {
                 force[k] = f[0] * fr[k] + f[1] * fr[3 + k] + f[2] * fr[6 + k];
             }
-            let geom = [
-                contact.geom[0].max(0) as usize,
-                contact.geom[1].max(0) as usize,
-            ];
+            let geom = [contact.geom[0].max(0) as usize, contact.geom[1].max(0) as usize];
             let row = ContactRow {
                 geom,
                 body: [geom_body[geom[0]] as usize, geom_body[geom[1]] as usize],
@@ -195,11 +187,7 @@ impl Snapshot {
                 if let Some(Some(link)) = idx.geom_link.get(geom[side]) {
                     add_to(&mut self.link_contact_force_n[*link], force, sign);
                     let arm = sub(row.position_m, self.link_position_m[*link]);
-                    add_to(
-                        &mut self.link_contact_torque_nm[*link],
-                        cross(arm, force),
-                        sign,
-                    );
+                    add_to(&mut self.link_contact_torque_nm[*link], cross(arm, force), sign);
                 }
             }
             self.contacts.push(row);
@@ -208,9 +196,6 @@ impl Snapshot {
 
     /// Largest contact normal force in this snapshot (N).
     pub fn peak_contact_force_n(&self) -> f64 {
-        self.contacts
-            .iter()
-            .map(|c| c.normal_force_n)
-            .fold(0.0, f64::max)
+        self.contacts.iter().map(|c| c.normal_force_n).fold(0.0, f64::max)
     }
 }
