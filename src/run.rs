@@ -127,6 +127,9 @@ pub fn run_simulation(config: &Config, options: &RunOptions, mut sim: Simulation
     };
     write("config.toml", &config.to_toml_string())?;
     write("model.xml", &sim.world.mjcf)?;
+    for (name, text) in &sim.world.included_files {
+        write(name, text)?;
+    }
     let dt = config.general.timestep_secs;
     let total_steps = (config.general.duration_secs / dt).round().max(1.0) as u64;
     let mut manifest = Manifest {

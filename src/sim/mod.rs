@@ -69,6 +69,8 @@ pub struct World {
     pub index: Index,
     /// The MJCF the world was compiled from.
     pub mjcf: String,
+    /// Files that `mjcf` includes (name, contents), written beside it into the run folder.
+    pub included_files: Vec<(String, String)>,
     /// Initial joint angles (rad) the world starts from.
     pub initial_joint_angles_rad: Vec<f64>,
     /// Simulated time that `sensordata` describes (the last complete model evaluation).
@@ -93,6 +95,7 @@ impl World {
             model,
             index,
             mjcf: generated.xml,
+            included_files: Vec::new(),
             initial_joint_angles_rad: generated.initial_joint_angles_rad,
             sensor_time_secs: 0.0,
         };
@@ -117,6 +120,8 @@ impl World {
             .save_last_xml(&robot_mjcf)
             .map_err(|e| robot_err(format!("cannot convert the robot to MJCF ({e})")))?;
         drop(robot_model);
+        let robot_text = std::fs::read_to_string(&robot_mjcf)
+            .map_err(|e| robot_err(format!("cannot read back {} ({e})", robot_mjcf.display())))?;
         let scene = model::scene_with_robot("robot.xml", config)?;
         let scene_path = scratch_dir.join("model.xml");
         std::fs::write(&scene_path, &scene.xml)
@@ -129,6 +134,7 @@ impl World {
             data: MjData::new(model.clone()),
             model,
             mjcf: scene.xml,
+            included_files: vec![("robot.xml".to_string(), robot_text)],
             initial_joint_angles_rad: vec![0.0; index.joints.len()],
             index,
             sensor_time_secs: 0.0,
