@@ -197,3 +197,41 @@ fn recording_interval_does_not_change_the_trajectory() {
     };
     assert_eq!(run(1), run(7));
 }
+
+/// A controller that reads the full state: it logs the contacts and the floor support it is shown.
+struct ContactLogger {
+    seen: std::rc::Rc<std::cell::RefCell<Vec<(f64, usize, f64)>>>,
+}
+
+impl Controller for ContactLogger {
+    fn update(&mut self, _obs: &Observation, _cmd: &mut Command) {
+        unreachable!("update_with_state is called instead");
+    }
+    fn needs_full_state(&self) -> bool {
+        true
+    }
+    fn update_with_state(&mut self, obs: &Observation, state: &Snapshot, _cmd: &mut Command) {
+        assert_eq!(state.time_secs, obs.time_secs);
+        assert_eq!(obs.sensor_time_secs, obs.time_secs, "sensors are fresh with the full state");
+        let support: f64 = state.link_contact_force_n.iter().map(|f| f[2]).sum();
+        self.seen.borrow_mut().push((state.time_secs, state.contacts.len(), support));
+    }
+}
+
+#[test]
+fn controllers_can_read_the_full_state() {
+    let c = bare(3, 0.0);
+    let world = World::from_config(&c).unwrap();
+    let seen = std::rc::Rc::new(std::cell::RefCell::new(Vec::new()));
+    let mut sim = Simulation::with_controller(&c, world, Box::new(ContactLogger { seen: seen.clone() }));
+    for _ in 0..500 {
+        sim.step().unwrap();
+    }
+    let seen = seen.borrow();
+    assert_eq!(seen.len(), 500, "called every step");
+    let (t, contacts, support) = *seen.last().unwrap();
+    assert!((t - 0.499).abs() < 1e-9);
+    assert_eq!(contacts, 6, "3 links resting on the floor, 2 end contacts each");
+    let weight = 3.0 * c.snake.link_mass_kg * 9.81;
+    assert!((support - weight).abs() < 0.01 * weight, "support {support} N, weight {weight} N");
+}

@@ -116,12 +116,27 @@ impl Command {
 /// A controller: called every physics step with the time and the observation, it writes the
 /// actuator commands. Implement this to drive the snake with your own code (see
 /// `examples/custom_controller.rs`).
+///
+/// A controller that needs more than the sensors — link poses and velocities, every contact and
+/// its force, actuator and joint forces (everything of thesis table 3) — returns `true` from
+/// [`Controller::needs_full_state`] and implements [`Controller::update_with_state`]; the
+/// simulation then runs a forward pass before every step so the [`crate::sim::Snapshot`] it
+/// passes describes the current instant (costs about one extra model evaluation per step).
 pub trait Controller {
     /// Called once before the first step (and again if the simulation is reset).
     fn reset(&mut self) {}
     /// Computes the commands for the step starting at `obs.time_secs`. Must not allocate if it
     /// is to keep the step loop fast.
     fn update(&mut self, obs: &Observation, cmd: &mut Command);
+    /// Whether [`Controller::update_with_state`] should be called instead of `update`.
+    fn needs_full_state(&self) -> bool {
+        false
+    }
+    /// Like `update`, with the full simulator state of this instant (positions, velocities,
+    /// contacts, forces) computed with the previous step's commands.
+    fn update_with_state(&mut self, obs: &Observation, _state: &crate::sim::Snapshot, cmd: &mut Command) {
+        self.update(obs, cmd);
+    }
 }
 
 /// The built-in controller: follows a joint trajectory with the configured actuator kind.

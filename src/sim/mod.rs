@@ -272,6 +272,8 @@ pub struct Simulation {
     pub obs: Observation,
     cmd: Command,
     steps: u64,
+    /// Full state for controllers that ask for it.
+    controller_state: Option<Snapshot>,
 }
 
 impl Simulation {
@@ -285,7 +287,9 @@ impl Simulation {
     pub fn with_controller(config: &Config, world: World, mut controller: Box<dyn Controller>) -> Self {
         let (nl, nj) = (world.n_links(), world.n_joints());
         controller.reset();
+        let controller_state = controller.needs_full_state().then(|| Snapshot::new(nl, nj));
         Self {
+            controller_state,
             noise: SensorNoise::new(&config.sensors, config.general.seed, nl, nj),
             obs_true: Observation::new(nl, nj),
             obs: Observation::new(nl, nj),
@@ -314,9 +318,18 @@ impl Simulation {
     /// Observe, run the controller and write `ctrl` for the step that starts now. Called by
     /// [`Simulation::step`]; separate so a forward pass for recording can see the new controls.
     pub fn control(&mut self) {
+        if self.controller_state.is_some() {
+            self.world.forward();
+        }
         self.world.observe_true(&mut self.obs_true);
         self.noise.measure(&self.obs_true, &mut self.obs);
-        self.controller.update(&self.obs, &mut self.cmd);
+        match self.controller_state.as_mut() {
+            Some(state) => {
+                state.read(&self.world, &self.obs_true, &self.obs);
+                self.controller.update_with_state(&self.obs, state, &mut self.cmd);
+            }
+            None => self.controller.update(&self.obs, &mut self.cmd),
+        }
         self.world.apply_command(&self.cmd);
     }
 
