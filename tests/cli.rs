@@ -239,3 +239,36 @@ fn user_robots_run_in_the_terrain_and_are_recorded() {
     assert!(text(&out).contains("nope.xml"));
     assert!(run_folders(dir.path()).is_empty());
 }
+
+#[test]
+fn a_diverging_run_exits_1_and_leaves_readable_tables_marked_failed() {
+    let dir = tempfile::tempdir().unwrap();
+    // A huge servo gain with explicit Euler at 50 ms is unstable within a few steps.
+    let out = simserpent(
+        dir.path(),
+        &[
+            "run",
+            "--set",
+            "general.timestep_secs=0.05",
+            "--set",
+            "physics.contact_time_constant_secs=0.1",
+            "--set",
+            "control.position_kp_nm_per_rad=100000",
+            "--set",
+            "general.integrator=\"Euler\"",
+            "--set",
+            "snake.torque_range_nm=[-1e6, 1e6]",
+            "--set",
+            "recording.every_n_steps=1",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    assert!(text(&out).contains("diverged at t ="), "{}", text(&out));
+    let run = &run_folders(dir.path())[0];
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(run.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["status"], "failed");
+    assert!(manifest["error"].as_str().unwrap().contains("diverged"));
+    let (_, rows) = read_csv(&run.join("links.csv"));
+    assert!(!rows.is_empty(), "the rows recorded before the failure are kept");
+}

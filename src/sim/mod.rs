@@ -227,9 +227,11 @@ impl World {
     }
 
     /// Checks the state for NaN or infinite values and MuJoCo's own instability warnings.
-    pub fn check_finite(&self, step: u64) -> Result<(), SimError> {
+    /// `time_secs` is the simulated time the step reached (MuJoCo's own clock restarts when it
+    /// resets a diverged state).
+    pub fn check_finite(&self, step: u64, time_secs: f64) -> Result<(), SimError> {
         let d = &self.data;
-        let diverged = |what: String| SimError::Diverged { time_secs: d.time(), step, what };
+        let diverged = |what: String| SimError::Diverged { time_secs, step, what };
         if let Some(i) = d.qpos().iter().position(|x| !x.is_finite()) {
             return Err(diverged(format!("qpos[{i}] is not finite")));
         }
@@ -256,10 +258,21 @@ impl World {
             .iter()
             .enumerate()
             .filter(|(_, w)| w.number > 0)
-            .map(|(i, w)| (format!("warning_{i}"), w.number))
+            .map(|(i, w)| (WARNING_NAMES.get(i).copied().unwrap_or("unknown").to_string(), w.number))
             .collect()
     }
 }
+
+/// MuJoCo's warning kinds, in `mjtWarning` order.
+const WARNING_NAMES: [&str; 7] = [
+    "inertia (mjWARN_INERTIA)",
+    "contact buffer full (mjWARN_CONTACTFULL)",
+    "constraint buffer full (mjWARN_CNSTRFULL)",
+    "bad qpos (mjWARN_BADQPOS)",
+    "bad qvel (mjWARN_BADQVEL)",
+    "bad qacc (mjWARN_BADQACC)",
+    "bad ctrl (mjWARN_BADCTRL)",
+];
 
 /// A world with its controller and sensor noise: the step loop.
 pub struct Simulation {
@@ -335,9 +348,10 @@ impl Simulation {
 
     /// Advances the physics by one timestep with the controls already written.
     pub fn advance(&mut self) -> Result<(), SimError> {
+        let reached_secs = self.world.data.time() + self.world.model.opt().timestep;
         self.world.step();
         self.steps += 1;
-        self.world.check_finite(self.steps)
+        self.world.check_finite(self.steps, reached_secs)
     }
 
     /// One full step: [`Simulation::control`] then [`Simulation::advance`].
