@@ -200,20 +200,12 @@ impl World {
         for (j, joint) in self.index.joints.iter().enumerate() {
             obs.joint_angle_rad[j] = qpos[joint.qpos_adr];
             obs.joint_velocity_rad_per_s[j] = qvel[joint.dof_adr];
-            if let Some(a) = joint.force_adr {
-                obs.joint_force_n[j].copy_from_slice(&sensordata[a..a + 3]);
-            }
-            if let Some(a) = joint.torque_adr {
-                obs.joint_torque_nm[j].copy_from_slice(&sensordata[a..a + 3]);
-            }
+            read3(sensordata, joint.force_adr, &mut obs.joint_force_n[j]);
+            read3(sensordata, joint.torque_adr, &mut obs.joint_torque_nm[j]);
         }
         for (i, link) in self.index.links.iter().enumerate() {
-            if let Some(a) = link.accelerometer_adr {
-                obs.imu_accel_m_per_s2[i].copy_from_slice(&sensordata[a..a + 3]);
-            }
-            if let Some(a) = link.gyro_adr {
-                obs.imu_gyro_rad_per_s[i].copy_from_slice(&sensordata[a..a + 3]);
-            }
+            read3(sensordata, link.accelerometer_adr, &mut obs.imu_accel_m_per_s2[i]);
+            read3(sensordata, link.gyro_adr, &mut obs.imu_gyro_rad_per_s[i]);
         }
         if let Some(head) = self.index.links.first() {
             obs.head_position_m = d.xpos()[head.body];
@@ -260,6 +252,13 @@ impl World {
             .filter(|(_, w)| w.number > 0)
             .map(|(i, w)| (WARNING_NAMES.get(i).copied().unwrap_or("unknown").to_string(), w.number))
             .collect()
+    }
+}
+
+/// Copies a 3-vector sensor reading at `adr` of `sensordata`, if the sensor exists.
+pub(crate) fn read3(sensordata: &[f64], adr: Option<usize>, out: &mut [f64; 3]) {
+    if let Some(a) = adr {
+        out.copy_from_slice(&sensordata[a..a + 3]);
     }
 }
 

@@ -1,6 +1,6 @@
 //! Everything of thesis table 3 at one instant, read after a forward pass.
 
-use super::World;
+use super::{World, read3};
 use crate::control::Observation;
 use mujoco_rs::prelude::MjtObjBase;
 
@@ -134,9 +134,7 @@ impl Snapshot {
             self.link_acceleration_m_per_s2[i] = [a[3] + gravity[0], a[4] + gravity[1], a[5] + gravity[2]];
             self.link_contact_force_n[i] = [0.0; 3];
             self.link_contact_torque_nm[i] = [0.0; 3];
-            if let Some(a) = link.velocimeter_adr {
-                self.link_velocimeter_m_per_s[i].copy_from_slice(&sensordata[a..a + 3]);
-            }
+            read3(sensordata, link.velocimeter_adr, &mut self.link_velocimeter_m_per_s[i]);
         }
         let qpos = d.qpos();
         let qvel = d.qvel();
@@ -147,12 +145,8 @@ impl Snapshot {
             for (k, slot) in joint.actuators.iter().enumerate() {
                 self.actuator_force_nm[j][k] = slot.map_or(0.0, |a| actuator_force[a]);
             }
-            if let Some(a) = joint.force_adr {
-                self.joint_force_n[j].copy_from_slice(&sensordata[a..a + 3]);
-            }
-            if let Some(a) = joint.torque_adr {
-                self.joint_torque_nm[j].copy_from_slice(&sensordata[a..a + 3]);
-            }
+            read3(sensordata, joint.force_adr, &mut self.joint_force_n[j]);
+            read3(sensordata, joint.torque_adr, &mut self.joint_torque_nm[j]);
         }
         self.observation_true.copy_from(obs_true);
         self.observation_measured.copy_from(obs_measured);
