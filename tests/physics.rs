@@ -235,3 +235,55 @@ fn controllers_can_read_the_full_state() {
     let weight = 3.0 * c.snake.link_mass_kg * 9.81;
     assert!((support - weight).abs() < 0.01 * weight, "support {support} N, weight {weight} N");
 }
+
+/// Sends fixed commands to every actuator kind (only the configured kind has gains).
+struct Constant {
+    velocity_rad_per_s: f64,
+    until_secs: f64,
+}
+
+impl Controller for Constant {
+    fn update(&mut self, obs: &Observation, cmd: &mut Command) {
+        let v = if obs.time_secs < self.until_secs { self.velocity_rad_per_s } else { 0.0 };
+        cmd.velocity_rad_per_s.fill(v);
+        cmd.intvelocity_rad_per_s.fill(v);
+    }
+}
+
+#[test]
+fn velocity_servo_settles_at_the_damped_steady_state() {
+    // Servo force kv (v* − q̇) against joint damping b q̇: steady q̇ = kv v* / (kv + b).
+    let mut c = bare(2, 1.0);
+    c.general.gravity_m_per_s2 = [0.0; 3];
+    c.control.method = ControlMethod::Velocity;
+    c.control.velocity_kv_nm_s_per_rad = 1.0;
+    c.snake.joint_damping_nm_s_per_rad = 0.5;
+    c.snake.joint_range_deg = 180.0;
+    let world = World::from_config(&c).unwrap();
+    let mut sim =
+        Simulation::with_controller(&c, world, Box::new(Constant { velocity_rad_per_s: 0.3, until_secs: 10.0 }));
+    for _ in 0..1000 {
+        sim.step().unwrap();
+    }
+    let s = snapshot(&mut sim);
+    let expected = 1.0 * 0.3 / (1.0 + 0.5);
+    assert!((s.joint_velocity_rad_per_s[0] - expected).abs() < 1e-4, "{} vs {expected}", s.joint_velocity_rad_per_s[0]);
+}
+
+#[test]
+fn intvelocity_servo_holds_the_integrated_set_point() {
+    // The actuator integrates the commanded velocity into a position set-point: 0.4 rad/s for
+    // 0.5 s, then zero, leaves the joint at 0.2 rad.
+    let mut c = bare(2, 1.0);
+    c.general.gravity_m_per_s2 = [0.0; 3];
+    c.control.method = ControlMethod::Intvelocity;
+    c.control.intvelocity_kp_nm_per_rad = 10.0;
+    let world = World::from_config(&c).unwrap();
+    let mut sim =
+        Simulation::with_controller(&c, world, Box::new(Constant { velocity_rad_per_s: 0.4, until_secs: 0.5 }));
+    for _ in 0..4000 {
+        sim.step().unwrap();
+    }
+    let s = snapshot(&mut sim);
+    assert!((s.joint_angle_rad[0] - 0.2).abs() < 1e-3, "angle {}", s.joint_angle_rad[0]);
+}
