@@ -3,12 +3,19 @@
 //! Map (see ARCHITECTURE.md):
 //! - pure core, no MuJoCo and no I/O: [`config`], [`model`] (MJCF generation), [`control`];
 //! - the engine: [`sim`] (the only module that calls MuJoCo);
-//! - I/O: [`record`] (run folder, manifest, tables), [`run`] (one whole run), [`bench`];
+//! - I/O: [`record`] (run folder, manifest, tables), [`run`] (one whole run), [`bench`],
+//!   [`sweep`] (parallel parameter sweeps);
+//! - [`interrupt`]: the clean stop on SIGINT/SIGTERM;
 //! - the command line lives in `src/main.rs`.
 pub mod bench;
 pub mod config;
 pub mod control;
+pub mod experiments;
+pub mod interrupt;
 pub mod model;
+pub mod plot;
 pub mod record;
+pub mod render;
 pub mod run;
 pub mod sim;
+pub mod sweep;

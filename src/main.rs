@@ -1,5 +1,6 @@
-//! The `simserpent` command line. Exit codes: 0 success, 1 simulation failure, 2 bad input
-//! (config, model or robot file, command-line usage).
+//! The `simserpent` command line. Exit codes: 0 success, 1 simulation failure (divergence,
+//! output folder or disk), 2 bad input (config, model or robot file, command-line usage),
+//! 130 interrupted by SIGINT/SIGTERM (run folder kept, manifest `incomplete`).
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
@@ -9,7 +10,15 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Parser, Debug)]
-#[command(name = "simserpent", version, about = "Physics-based snake-robot simulator on MuJoCo 3.17")]
+#[command(
+    name = "simserpent",
+    version,
+    about = "Physics-based snake-robot simulator on MuJoCo 3.17",
+    after_help = "Exit codes: 0 success; 1 the simulation failed (diverged, or the run folder could not be \
+                  written; the manifest says why); 2 bad input (config, model or robot file, command line; no run \
+                  folder is created); 130 interrupted by Ctrl-C (SIGINT) or SIGTERM (tables flushed, manifest \
+                  `incomplete`)."
+)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -38,6 +47,58 @@ enum Command {
         /// Never show a progress bar.
         #[arg(long)]
         quiet: bool,
+        /// Record a video of the run (sets video.enabled = true; format, rate, size and camera
+        /// from [video] and [render]).
+        #[arg(long)]
+        video: bool,
+        /// Show the run in MuJoCo's interactive viewer (needs a display). Built with
+        /// `--features viewer`: live; otherwise the finished run is replayed in Python's
+        /// `mujoco.viewer`.
+        #[arg(long)]
+        viewer: bool,
+    },
+    /// Plot a run folder: the standard panels as PNG and SVG into RUN_FOLDER/plots/.
+    Plot {
+        /// The run folder.
+        run_folder: PathBuf,
+    },
+    /// Replay a run folder (its state.csv) into a video and/or the configured images.
+    Render {
+        /// The run folder.
+        run_folder: PathBuf,
+        /// Make the video (RUN_FOLDER/video_<camera>.mp4 or .gif).
+        #[arg(long)]
+        video: bool,
+        /// Make the images at render.image_times_secs (RUN_FOLDER/images/).
+        #[arg(long)]
+        images: bool,
+        /// Override a key of the run's config.toml, e.g. `--set render.camera="top"`.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        overrides: Vec<String>,
+        /// Never show a progress bar.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Open MuJoCo's interactive viewer on a config's world, a model file (.xml/.urdf), or a run
+    /// folder (replayed at real time). Needs a display.
+    View {
+        /// Config file, MJCF/URDF model or run folder. Default: the embedded default config.
+        path: Option<PathBuf>,
+        /// Override a config key (for a config), e.g. `--set snake.n_links=15`.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        overrides: Vec<String>,
+    },
+    /// Run one of the thesis' experiments with its physics checks: configure, collision,
+    /// undulation, form-closure, oal. Writes runs/experiment-<name>-<UTC time>/report.md; exits 1
+    /// if a check fails.
+    Experiment {
+        /// Which experiment.
+        name: String,
+        #[command(flatten)]
+        config: ConfigArgs,
+        /// Shorter runs (fewer gait cycles), the same checks.
+        #[arg(long)]
+        quick: bool,
     },
     /// Write the fully commented default config.
     Init {
@@ -74,6 +135,46 @@ enum Command {
         /// Where the full-pipeline runs are recorded.
         #[arg(long, default_value = "target/bench-runs")]
         output_dir: String,
+        /// Measure each mode this many times (interleaved) and report the fastest.
+        #[arg(long, default_value_t = 1)]
+        repeats: usize,
+    },
+    /// Run a parameter sweep in parallel: a grid or random/Latin-hypercube samples of config
+    /// keys, one run folder per parameter set, a summary table (see README, "Sweeps").
+    Sweep {
+        #[command(flatten)]
+        config: ConfigArgs,
+        /// Vary one key: `key.path=5,10,15` (values), `key.path=lo:hi:step` (grid range) or
+        /// `key.path=lo:hi` (range for --sample random|lhs). Repeatable.
+        #[arg(long = "vary", value_name = "KEY=VALUES", required = true)]
+        vary: Vec<String>,
+        /// How parameter sets are chosen: grid (every combination), random or lhs.
+        #[arg(long, default_value = "grid")]
+        sample: simserpent::sweep::SampleMode,
+        /// Number of samples for --sample random|lhs.
+        #[arg(long, default_value_t = 10)]
+        samples: usize,
+        /// Seed of the sampling (the runs keep general.seed unless you vary it).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Sweep folder. Default: <general.output_dir>/sweep-<config name>.
+        #[arg(long, value_name = "DIR")]
+        sweep_dir: Option<PathBuf>,
+        /// Worker threads (default: all cores).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+        /// Run only runs with index % n == i (0 <= i < n) and write summary-shard-i-of-n.csv;
+        /// join shards with `simserpent sweep-merge`.
+        #[arg(long, value_name = "I/N")]
+        shard: Option<simserpent::sweep::Shard>,
+        /// Never show a progress bar.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Join the shard summaries (summary-shard-*-of-N.csv) of a sweep folder into summary.csv.
+    SweepMerge {
+        /// The sweep folder.
+        sweep_dir: PathBuf,
     },
 }
 
@@ -104,12 +205,34 @@ fn load(args: &ConfigArgs) -> Result<(Config, String), Failure> {
         .map_err(|e| bad_input(anyhow::Error::new(e).context(format!("config {source}"))))
 }
 
-fn run_command(args: &ConfigArgs, robot: Option<PathBuf>, quiet: bool) -> Result<(), Failure> {
+fn run_command(args: &ConfigArgs, robot: Option<PathBuf>, quiet: bool, viewer: bool) -> Result<(), Failure> {
     let (config, source) = load(args)?;
-    let options =
-        RunOptions { config_source: source, robot, command_line: std::env::args().collect(), progress: !quiet };
-    let summary =
-        run::run(&config, &options).map_err(|e: RunError| Failure { code: e.exit_code(), error: e.into() })?;
+    if viewer {
+        // Before anything is written: no display is bad input (exit code 2, no run folder).
+        simserpent::render::viewer::check_display().map_err(bad_input)?;
+    }
+    // The first SIGINT/SIGTERM stops the run cleanly (tables flushed, exit code 130).
+    if let Err(e) = simserpent::interrupt::install_handler() {
+        log::warn!("cannot install the SIGINT/SIGTERM handler ({e}); a signal will end the run abruptly");
+    }
+    let options = RunOptions {
+        config_source: source,
+        robot,
+        command_line: std::env::args().collect(),
+        progress: !quiet,
+        viewer,
+        ..RunOptions::default()
+    };
+    let summary = run::run(&config, &options).map_err(|e: RunError| {
+        let code = e.exit_code();
+        // Geometry checks of model generation are config errors too: name the config.
+        let config_error = matches!(e, RunError::Sim(simserpent::sim::SimError::Config(_)));
+        let error = anyhow::Error::new(e);
+        Failure {
+            code,
+            error: if config_error { error.context(format!("config {}", options.config_source)) } else { error },
+        }
+    })?;
     println!("run folder:        {}", summary.run_folder.display());
     println!(
         "simulated:         {:.3} s in {} steps",
@@ -125,11 +248,86 @@ fn run_command(args: &ConfigArgs, robot: Option<PathBuf>, quiet: bool) -> Result
         summary.peak_contact_force_n,
         summary.max_penetration_m * 1e3
     );
+    println!("actuator energy:   {:.3} J", summary.actuator_energy_j);
     println!(
         "speed:             {:.0} steps/s, {:.1}x real time",
         summary.steps_per_wall_sec, summary.real_time_factor
     );
+    if viewer && !cfg!(feature = "viewer") {
+        // Without the in-process viewer, show the finished run in Python's viewer.
+        simserpent::render::viewer::replay_run_folder(&summary.run_folder)
+            .map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
+    }
     Ok(())
+}
+
+/// `simserpent plot RUN_FOLDER`.
+fn plot_command(folder: &Path) -> Result<(), Failure> {
+    let out =
+        simserpent::plot::plot_run_folder(folder).map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
+    for (panel, why) in &out.skipped {
+        eprintln!("skipped {panel}: {why}");
+    }
+    println!("wrote {} plot files into {}", out.files.len(), folder.join("plots").display());
+    Ok(())
+}
+
+/// `simserpent render RUN_FOLDER`.
+fn render_command(folder: &Path, video: bool, images: bool, overrides: &[String], quiet: bool) -> Result<(), Failure> {
+    if !video && !images {
+        return Err(bad_input(anyhow::anyhow!("nothing to render: give --video and/or --images")));
+    }
+    let options = simserpent::render::ReplayOptions { video, images, overrides: overrides.to_vec(), progress: !quiet };
+    let files = simserpent::render::render_run_folder(folder, &options)
+        .map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
+    for f in files {
+        println!("wrote {}", f.display());
+    }
+    Ok(())
+}
+
+/// `simserpent view [CONFIG|MODEL|RUN_FOLDER]`.
+fn view_command(path: Option<&Path>, overrides: &[String]) -> Result<(), Failure> {
+    use simserpent::render::viewer;
+    let fail = |e: simserpent::render::RenderError| Failure { code: e.exit_code(), error: e.into() };
+    viewer::check_display().map_err(fail)?;
+    let is_model =
+        |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml") || e.eq_ignore_ascii_case("urdf"));
+    match path {
+        Some(p) if p.is_dir() => viewer::replay_run_folder(p).map_err(fail),
+        Some(p) if is_model(p) => viewer::view_model_file(p).map_err(fail),
+        _ => {
+            let args = ConfigArgs { config: path.map(Path::to_path_buf), overrides: overrides.to_vec() };
+            let (config, _) = load(&args)?;
+            let generated = simserpent::model::generate(&config).map_err(bad_input)?;
+            let file = std::env::temp_dir().join(format!("simserpent-view-{}.xml", std::process::id()));
+            std::fs::write(&file, &generated.xml).with_context(|| format!("cannot write {}", file.display()))?;
+            let result = viewer::view_model_file(&file).map_err(fail);
+            let _ = std::fs::remove_file(&file);
+            result
+        }
+    }
+}
+
+fn experiment(name: &str, args: &ConfigArgs, quick: bool) -> Result<(), Failure> {
+    let (config, _) = load(args)?;
+    let outcome = simserpent::experiments::run_experiment(name, &config, Path::new(&config.general.output_dir), quick)
+        .map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
+    let report = &outcome.report;
+    for c in report.checks() {
+        println!("{} {}", if c.passed { "pass" } else { "FAIL" }, c.name);
+    }
+    let passed = report.checks().filter(|c| c.passed).count();
+    println!(
+        "{passed} of {} checks passed; report: {}",
+        report.checks().count(),
+        outcome.folder.join("report.md").display()
+    );
+    if report.all_passed() {
+        Ok(())
+    } else {
+        Err(Failure { code: 1, error: anyhow::anyhow!("some physics checks failed (see the report)") })
+    }
 }
 
 fn init(path: &Path, force: bool) -> Result<(), Failure> {
@@ -142,8 +340,9 @@ fn init(path: &Path, force: bool) -> Result<(), Failure> {
 }
 
 fn model(args: &ConfigArgs, output: Option<&Path>) -> Result<(), Failure> {
-    let (config, _) = load(args)?;
-    let generated = simserpent::model::generate(&config).map_err(bad_input)?;
+    let (config, source) = load(args)?;
+    let generated = simserpent::model::generate(&config)
+        .map_err(|e| bad_input(anyhow::Error::new(e).context(format!("config {source}"))))?;
     match output {
         Some(path) => {
             std::fs::write(path, &generated.xml).with_context(|| format!("cannot write {}", path.display()))?;
@@ -154,9 +353,15 @@ fn model(args: &ConfigArgs, output: Option<&Path>) -> Result<(), Failure> {
     Ok(())
 }
 
-fn bench(args: &ConfigArgs, links: &[usize], duration_secs: f64, output_dir: &str) -> Result<(), Failure> {
+fn bench(
+    args: &ConfigArgs,
+    links: &[usize],
+    duration_secs: f64,
+    output_dir: &str,
+    repeats: usize,
+) -> Result<(), Failure> {
     let (config, source) = load(args)?;
-    let rows = simserpent::bench::run_bench(&config, links, duration_secs, output_dir)
+    let rows = simserpent::bench::run_bench(&config, links, duration_secs, output_dir, repeats)
         .map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
     println!(
         "config: {source}; timestep {} s, integrator {:?}, {} s simulated per row",
@@ -164,7 +369,7 @@ fn bench(args: &ConfigArgs, links: &[usize], duration_secs: f64, output_dir: &st
     );
     println!("| links | mode | steps/s | real-time factor | vs bare still | vs bare gait |");
     println!("|---|---|---|---|---|---|");
-    for chunk in rows.chunks(3) {
+    for chunk in rows.chunks(simserpent::bench::modes().len()) {
         let (still, gait) = (chunk[0].steps_per_sec, chunk[1].steps_per_sec);
         for r in chunk {
             println!(
@@ -181,6 +386,101 @@ fn bench(args: &ConfigArgs, links: &[usize], duration_secs: f64, output_dir: &st
     Ok(())
 }
 
+#[allow(clippy::too_many_arguments)]
+fn sweep(
+    args: &ConfigArgs,
+    vary: &[String],
+    mode: simserpent::sweep::SampleMode,
+    samples: usize,
+    seed: u64,
+    sweep_dir: Option<PathBuf>,
+    threads: usize,
+    shard: Option<simserpent::sweep::Shard>,
+    quiet: bool,
+) -> Result<(), Failure> {
+    use simserpent::sweep::{self, SweepSpec, Variation};
+    let variations = vary.iter().map(|v| Variation::parse(v)).collect::<Result<Vec<_>, _>>().map_err(bad_input)?;
+    let spec = SweepSpec {
+        config_path: args.config.clone(),
+        overrides: args.overrides.clone(),
+        variations,
+        mode,
+        samples,
+        seed,
+        sweep_dir,
+        threads,
+        shard,
+        progress: !quiet,
+    };
+    // The first SIGINT/SIGTERM stops the running runs cleanly and starts no new ones.
+    if let Err(e) = simserpent::interrupt::install_handler() {
+        log::warn!("cannot install the SIGINT/SIGTERM handler ({e}); a signal will end the sweep abruptly");
+    }
+    let report = sweep::run_sweep(&spec).map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
+    let (done, skipped, failed) = report.counts();
+    println!("sweep folder: {}", report.sweep_dir.display());
+    println!(
+        "runs:         {} ({done} completed now, {skipped} already complete, {failed} failed) in {:.1} s on {} threads",
+        report.rows.len(),
+        report.wall_secs,
+        report.threads
+    );
+    println!("summary:      {}", report.summary_csv.display());
+    if report.interrupted() > 0 {
+        return Err(Failure {
+            code: 130,
+            error: anyhow::anyhow!(
+                "interrupted: {} runs stopped or not started; run the same command again to finish the sweep",
+                report.interrupted()
+            ),
+        });
+    }
+    if failed > 0 {
+        for row in &report.rows {
+            if let sweep::RunOutcome::Failed(message) = &row.outcome {
+                eprintln!("failed: {}: {message}", row.run.id);
+            }
+        }
+        return Err(Failure {
+            code: 1,
+            error: anyhow::anyhow!(
+                "{failed} of {} runs failed; run the same command again to retry them",
+                report.rows.len()
+            ),
+        });
+    }
+    Ok(())
+}
+
+fn sweep_merge(dir: &Path) -> Result<(), Failure> {
+    let (table, files) =
+        simserpent::sweep::merge_shards(dir).map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
+    println!(
+        "merged {} shard summaries, {} runs, into {}",
+        files.len(),
+        table.rows.len(),
+        dir.join("summary.csv").display()
+    );
+    Ok(())
+}
+
+/// The error and its causes, `: `-separated, leaving out a cause whose text the message already
+/// contains (our errors name their OS error themselves, e.g. `cannot write X: No space left`).
+fn error_text(error: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in error.chain() {
+        let cause = cause.to_string();
+        if text.contains(&cause) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&cause);
+    }
+    text
+}
+
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     // MuJoCo's warnings go to the log instead of stdout.
@@ -191,19 +491,34 @@ fn main() -> ExitCode {
     }
     let cli = Cli::parse();
     let result = match cli.command {
-        None => run_command(&ConfigArgs::default(), None, false),
-        Some(Command::Run { config, robot, quiet }) => run_command(&config, robot, quiet),
+        None => run_command(&ConfigArgs::default(), None, false, false),
+        Some(Command::Run { mut config, robot, quiet, video, viewer }) => {
+            if video {
+                config.overrides.push("video.enabled=true".into());
+            }
+            run_command(&config, robot, quiet, viewer)
+        }
+        Some(Command::Plot { run_folder }) => plot_command(&run_folder),
+        Some(Command::Render { run_folder, video, images, overrides, quiet }) => {
+            render_command(&run_folder, video, images, &overrides, quiet)
+        }
+        Some(Command::View { path, overrides }) => view_command(path.as_deref(), &overrides),
         Some(Command::Init { path, force }) => init(&path, force),
+        Some(Command::Experiment { name, config, quick }) => experiment(&name, &config, quick),
         Some(Command::Model { config, output }) => model(&config, output.as_deref()),
         Some(Command::Check { config }) => load(&config).map(|(c, _)| print!("{}", c.to_toml_string())),
-        Some(Command::Bench { config, links, duration_secs, output_dir }) => {
-            bench(&config, &links, duration_secs, &output_dir)
+        Some(Command::Bench { config, links, duration_secs, output_dir, repeats }) => {
+            bench(&config, &links, duration_secs, &output_dir, repeats)
         }
+        Some(Command::Sweep { config, vary, sample, samples, seed, sweep_dir, threads, shard, quiet }) => {
+            sweep(&config, &vary, sample, samples, seed, sweep_dir, threads, shard, quiet)
+        }
+        Some(Command::SweepMerge { sweep_dir }) => sweep_merge(&sweep_dir),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
-            eprintln!("error: {:#}", failure.error);
+            eprintln!("error: {}", error_text(&failure.error));
             ExitCode::from(failure.code)
         }
     }

@@ -20,6 +20,12 @@ pub struct RunOptions {
     pub command_line: Vec<String>,
     /// Show a progress bar on runs that take more than two seconds (only on a terminal).
     pub progress: bool,
+    /// Show the run in MuJoCo's interactive viewer (live with the `viewer` feature; see
+    /// [`crate::render::viewer`]). Fails before the run when there is no display.
+    pub viewer: bool,
+    /// Record into exactly this folder (created if missing) instead of a new
+    /// `<output_dir>/<run_name>-<UTC time>/`; sweeps use it for deterministic run folders.
+    pub run_folder: Option<PathBuf>,
 }
 
 /// Errors of a run; [`RunError::exit_code`] maps them to the documented exit codes.
@@ -32,13 +38,34 @@ pub enum RunError {
     /// Writing the run folder failed.
     #[error(transparent)]
     Record(#[from] RecordError),
+    /// State recording, images, video or the viewer failed.
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
+    /// Plotting after the run (`general.plot = true`) failed.
+    #[error(transparent)]
+    Plot(#[from] crate::plot::PlotError),
+    /// SIGINT/SIGTERM (or [`crate::interrupt::request`]) stopped the run; the tables hold every
+    /// row recorded up to then and the manifest says `incomplete` (exit code 130).
+    #[error(
+        "interrupted by a signal (SIGINT or SIGTERM) at t = {time_secs:.6} s (step {step}); the tables hold every \
+         row recorded up to then"
+    )]
+    Interrupted {
+        /// Simulated time reached.
+        time_secs: f64,
+        /// Steps taken.
+        step: u64,
+    },
 }
 
 impl RunError {
-    /// 2 for bad input (config, model or robot file), 1 for failures during the simulation.
+    /// 2 for bad input (config, model or robot file), 1 for failures during the simulation
+    /// (divergence, output), 130 for an interrupted run.
     pub fn exit_code(&self) -> u8 {
         match self {
             RunError::Sim(SimError::Config(_) | SimError::RobotFile { .. }) => 2,
+            RunError::Render(e) => e.exit_code(),
+            RunError::Interrupted { .. } => 130,
             _ => 1,
         }
     }
@@ -61,6 +88,10 @@ pub struct RunSummary {
     pub peak_contact_force_n: f64,
     /// Largest penetration seen at a recorded step (m).
     pub max_penetration_m: f64,
+    /// Work done by the actuators, ∫ Σ_joints |τ·q̇| dt (J), from the joint-space actuator
+    /// torques and joint velocities of the recorded steps, each held until the next one.
+    #[serde(default)]
+    pub actuator_energy_j: f64,
     /// Steps per second of wall time.
     pub steps_per_wall_sec: f64,
     /// Simulated seconds per wall second.
@@ -78,6 +109,13 @@ fn centre_of_mass(world: &World, s: &Snapshot) -> [f64; 3] {
         total += link.mass_kg;
     }
     if total > 0.0 { c.map(|x| x / total) } else { c }
+}
+
+/// Σ over joints of |τ·q̇| (W) at the latest forward pass: joint-space actuator torque times
+/// joint velocity (no allocation).
+fn actuator_power_w(world: &World) -> f64 {
+    let (qfrc, qvel) = (world.data.qfrc_actuator(), world.data.qvel());
+    world.index.joints.iter().map(|j| (qfrc[j.dof_adr] * qvel[j.dof_adr]).abs()).sum()
 }
 
 /// Builds the world described by `config` (and `options.robot`). Fails before anything is
@@ -120,7 +158,13 @@ pub fn run_with_controller(
 pub fn run_simulation(config: &Config, options: &RunOptions, mut sim: Simulation) -> Result<RunSummary, RunError> {
     let unix_secs = SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
     let stamp = record::utc_stamp(unix_secs);
-    let folder = record::create_run_folder(Path::new(&config.general.output_dir), &config.general.run_name, &stamp)?;
+    let folder = match &options.run_folder {
+        Some(folder) => {
+            std::fs::create_dir_all(folder).map_err(record::io_err(folder))?;
+            folder.clone()
+        }
+        None => record::create_run_folder(Path::new(&config.general.output_dir), &config.general.run_name, &stamp)?,
+    };
     let write = |name: &str, text: &str| -> Result<(), RecordError> {
         let path = folder.join(name);
         std::fs::write(&path, text).map_err(record::io_err(&path))
@@ -159,8 +203,12 @@ pub fn run_simulation(config: &Config, options: &RunOptions, mut sim: Simulation
         None
     };
 
+    let mut visuals = crate::render::RunVisuals::create(config, &folder, &sim.world.data, options.viewer)?;
+
     let started = Instant::now();
-    let outcome = step_loop(config, options, &mut sim, recorder.as_mut(), total_steps, &folder);
+    let outcome = step_loop(config, options, &mut sim, recorder.as_mut(), visuals.as_mut(), total_steps, &folder);
+    let visuals_done = visuals.map_or(Ok(()), |v| v.finish().map(|_| ()));
+    let outcome = outcome.and_then(|s| visuals_done.map(|()| s).map_err(RunError::from));
     let wall = started.elapsed().as_secs_f64();
     manifest.wall_time_secs = wall;
     manifest.steps = sim.steps();
@@ -173,7 +221,12 @@ pub fn run_simulation(config: &Config, options: &RunOptions, mut sim: Simulation
     manifest.tables = tables.as_ref().map(Clone::clone).unwrap_or_default();
     let result = match (outcome, tables) {
         (Ok(summary), Ok(_)) => Ok(summary),
-        (Err(e), _) => Err(e),
+        (Err(e), Ok(_)) => Err(e),
+        (Err(e), Err(t)) => {
+            // Both failed (say, diverged on a full disk): the run's error leads, the table's is logged.
+            log::error!("{t}");
+            Err(e)
+        }
         (Ok(_), Err(e)) => Err(RunError::from(e)),
     };
     match result {
@@ -183,12 +236,20 @@ pub fn run_simulation(config: &Config, options: &RunOptions, mut sim: Simulation
             manifest.status = RunStatus::Complete;
             manifest.summary = Some(summary.clone());
             manifest.write(&folder)?;
+            if config.general.plot {
+                crate::plot::plot_run_folder(&folder)?;
+            }
             Ok(summary)
         }
         Err(e) => {
-            manifest.status = RunStatus::Failed;
+            manifest.status =
+                if matches!(e, RunError::Interrupted { .. }) { RunStatus::Incomplete } else { RunStatus::Failed };
             manifest.error = Some(e.to_string());
-            manifest.write(&folder)?;
+            // The run's own error matters more than a manifest that cannot be written (e.g. the
+            // same full disk): report that one, and the manifest problem beside it.
+            if let Err(m) = manifest.write(&folder) {
+                log::error!("{m}");
+            }
             Err(e)
         }
     }
@@ -199,6 +260,7 @@ fn step_loop(
     options: &RunOptions,
     sim: &mut Simulation,
     mut recorder: Option<&mut Recorder>,
+    mut visuals: Option<&mut crate::render::RunVisuals>,
     total_steps: u64,
     folder: &Path,
 ) -> Result<RunSummary, RunError> {
@@ -206,6 +268,8 @@ fn step_loop(
     let mut snapshot = Snapshot::new(sim.world.n_links(), sim.world.n_joints());
     let mut peak_force_n: f64 = 0.0;
     let mut max_penetration_m: f64 = 0.0;
+    let mut actuator_energy_j: f64 = 0.0;
+    let dt = sim.world.data.model_opt().timestep;
     let mut start_com = None;
     let mut end_com = [0.0; 3];
     let progress = Progress::new(options.progress, total_steps);
@@ -219,17 +283,27 @@ fn step_loop(
             }
             end_com = centre_of_mass(&sim.world, &snapshot);
             start_com.get_or_insert(end_com);
+            let held_steps = ((k / every + 1) * every).min(total_steps) - k;
+            actuator_energy_j += actuator_power_w(&sim.world) * dt * held_steps as f64;
             if let Some(r) = recorder.as_deref_mut() {
                 r.write(k, &snapshot)?;
             }
+            if let Some(v) = visuals.as_deref_mut() {
+                v.on_recorded_step(&sim.world.data)?;
+            }
+        }
+        if let Some(v) = visuals.as_deref_mut() {
+            v.on_step(&mut sim.world.data, dt)?;
         }
         if k == total_steps {
             break;
         }
+        if k % crate::interrupt::CHECK_EVERY_N_STEPS == 0 && crate::interrupt::requested() {
+            progress.finish();
+            return Err(RunError::Interrupted { time_secs: sim.world.data.time(), step: k });
+        }
         if let Err(e) = sim.advance() {
-            if let Some(r) = recorder.as_deref_mut() {
-                r.flush()?;
-            }
+            // `run_simulation` flushes and closes the tables, and reports their errors too.
             return Err(e.into());
         }
         if k % 1024 == 0 {
@@ -249,6 +323,7 @@ fn step_loop(
         heading_deg: dy.atan2(dx).to_degrees(),
         peak_contact_force_n: peak_force_n,
         max_penetration_m,
+        actuator_energy_j,
         steps_per_wall_sec: 0.0,
         real_time_factor: 0.0,
     })

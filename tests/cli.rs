@@ -211,13 +211,19 @@ fn thesis_config_json_runs() {
 fn user_robots_run_in_the_terrain_and_are_recorded() {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
     // MuJoCo welds a URDF's root link to the world, so only the arm is a moving link there.
-    let cases: [(&str, &[&str], &str); 2] =
-        [("two_link_arm.xml", &["base", "arm"], "elbow"), ("two_link.urdf", &["arm"], "elbow")];
-    for (file, links, joint) in cases {
+    // The URDF has no actuators (MuJoCo's URDF loader makes none), so it runs without a gait.
+    let cases: [(&str, &[&str], &str, &str); 2] = [
+        ("two_link_arm.xml", &["base", "arm"], "elbow", "gait.kind=\"sine_wave\""),
+        ("two_link.urdf", &["arm"], "elbow", "gait.kind=\"none\""),
+    ];
+    for (file, links, joint, gait) in cases {
         let dir = tempfile::tempdir().unwrap();
         let robot = data.join(file);
-        let args =
-            [&["run", "--robot", robot.to_str().unwrap()][..], &SHORT, &["--set", "terrain.kind=\"two_cylinders\""]];
+        let args = [
+            &["run", "--robot", robot.to_str().unwrap()][..],
+            &SHORT,
+            &["--set", "terrain.kind=\"two_cylinders\"", "--set", gait],
+        ];
         let out = simserpent(dir.path(), &args.concat());
         assert!(out.status.success(), "{file}: {}", text(&out));
         let run = &run_folders(dir.path())[0];

@@ -99,7 +99,7 @@ timestep_secs = 0.002
 integrator = "implicitfast"
 seed = 42
 gravity_m_per_s2 = [0.1, -0.2, -9.0]
-plot = false
+plot = true
 
 [physics]
 friction_cone = "pyramidal"
@@ -107,6 +107,10 @@ self_collision = false
 contact_time_constant_secs = 0.01
 contact_damping_ratio = 0.8
 solver_iterations = 50
+
+[safety]
+max_kinetic_energy_j_per_kg = 250.0
+check_every_n_steps = 3
 
 [visual]
 show_contact_forces = true
@@ -131,6 +135,14 @@ link_friction = [0.3, 0.002, 0.0002]
 color_rgba = [1.0, 0.5, 0.25, 0.75]
 head_position_m = [1.0, 2.0, 0.5]
 head_rotation_deg = [10.0, 20.0, 30.0]
+
+[ground]
+model = "directional"
+axial_friction = 0.15
+lateral_friction = 1.5
+backward_friction = 0.45
+viscous_tangential_n_s_per_m = 2.0
+viscous_normal_n_s_per_m = 20.0
 
 [sensors]
 noise_enabled = true
@@ -162,6 +174,23 @@ amplitude_deg = 20.0
 frequency_hz = 1.5
 phase_lag_deg = 30.0
 offset_deg = 5.0
+
+[gait.serpenoid]
+winding_angle_deg = 25.0
+n_waves = 1.5
+frequency_hz = 0.8
+offset_deg = 2.0
+
+[gait.sidewinding]
+yaw_amplitude_deg = 22.0
+pitch_amplitude_deg = 11.0
+frequency_hz = 0.7
+phase_lag_deg = 35.0
+pitch_phase_deg = 80.0
+
+[gait.rolling]
+amplitude_deg = 18.0
+frequency_hz = 0.9
 
 [gait.form_closure]
 pattern_deg = [10.0, -10.0, 20.0]
@@ -197,6 +226,8 @@ radius_m = 0.07
 [recording]
 enabled = false
 every_n_steps = 5
+format = "both"
+parquet_row_group_rows = 77
 link_position = false
 link_orientation = false
 link_velocity = false
@@ -213,6 +244,30 @@ external_contact_forces = false
 internal_joint_forces = false
 imu_sensors = false
 contacts = false
+
+[plot]
+width_px = 800
+height_px = 500
+
+[render]
+width_px = 320
+height_px = 240
+quality = "full"
+camera = "top"
+camera_distance_m = 4.0
+camera_azimuth_deg = 45.0
+camera_elevation_deg = -60.0
+fixed_lookat_m = [0.5, 0.5, 0.1]
+time_overlay = false
+image_times_secs = [1.0, 2.5]
+image_cameras = ["fixed", "follow"]
+record_state = false
+
+[video]
+enabled = true
+format = "gif"
+frames_per_sec = 12.5
+playback_speed = 2.0
 "#;
 
 fn all_fields_expected() -> Config {
@@ -225,7 +280,7 @@ fn all_fields_expected() -> Config {
     g.integrator = Integrator::ImplicitFast;
     g.seed = 42;
     g.gravity_m_per_s2 = [0.1, -0.2, -9.0];
-    g.plot = false;
+    g.plot = true;
 
     let p = &mut c.physics;
     p.friction_cone = FrictionCone::Pyramidal;
@@ -233,6 +288,9 @@ fn all_fields_expected() -> Config {
     p.contact_time_constant_secs = 0.01;
     p.contact_damping_ratio = 0.8;
     p.solver_iterations = 50;
+
+    c.safety.max_kinetic_energy_j_per_kg = 250.0;
+    c.safety.check_every_n_steps = 3;
 
     let v = &mut c.visual;
     v.show_contact_forces = true;
@@ -257,6 +315,14 @@ fn all_fields_expected() -> Config {
     s.color_rgba = [1.0, 0.5, 0.25, 0.75];
     s.head_position_m = [1.0, 2.0, 0.5];
     s.head_rotation_deg = [10.0, 20.0, 30.0];
+
+    let gr = &mut c.ground;
+    gr.model = GroundModel::Directional;
+    gr.axial_friction = 0.15;
+    gr.lateral_friction = 1.5;
+    gr.backward_friction = 0.45;
+    gr.viscous_tangential_n_s_per_m = 2.0;
+    gr.viscous_normal_n_s_per_m = 20.0;
 
     let n = &mut c.sensors;
     n.noise_enabled = true;
@@ -283,6 +349,15 @@ fn all_fields_expected() -> Config {
     w.kind = GaitKind::FormClosure;
     w.ramp_secs = 0.5;
     w.sine_wave = SineWave { amplitude_deg: 20.0, frequency_hz: 1.5, phase_lag_deg: 30.0, offset_deg: 5.0 };
+    w.serpenoid = Serpenoid { winding_angle_deg: 25.0, n_waves: 1.5, frequency_hz: 0.8, offset_deg: 2.0 };
+    w.sidewinding = Sidewinding {
+        yaw_amplitude_deg: 22.0,
+        pitch_amplitude_deg: 11.0,
+        frequency_hz: 0.7,
+        phase_lag_deg: 35.0,
+        pitch_phase_deg: 80.0,
+    };
+    w.rolling = Rolling { amplitude_deg: 18.0, frequency_hz: 0.9 };
     w.form_closure = FormClosureGait { pattern_deg: vec![10.0, -10.0, 20.0], shift_period_secs: 3.0 };
 
     let t = &mut c.terrain;
@@ -298,6 +373,8 @@ fn all_fields_expected() -> Config {
     c.recording = Recording {
         enabled: false,
         every_n_steps: 5,
+        format: TableFormat::Both,
+        parquet_row_group_rows: 77,
         link_position: false,
         link_orientation: false,
         link_velocity: false,
@@ -315,6 +392,22 @@ fn all_fields_expected() -> Config {
         imu_sensors: false,
         contacts: false,
     };
+    c.plot = Plot { width_px: 800, height_px: 500 };
+    c.render = Render {
+        width_px: 320,
+        height_px: 240,
+        quality: RenderQuality::Full,
+        camera: CameraKind::Top,
+        camera_distance_m: 4.0,
+        camera_azimuth_deg: 45.0,
+        camera_elevation_deg: -60.0,
+        fixed_lookat_m: [0.5, 0.5, 0.1],
+        time_overlay: false,
+        image_times_secs: vec![1.0, 2.5],
+        image_cameras: vec![CameraKind::Fixed, CameraKind::Follow],
+        record_state: false,
+    };
+    c.video = Video { enabled: true, format: VideoFormat::Gif, frames_per_sec: 12.5, playback_speed: 2.0 };
     c
 }
 
@@ -342,14 +435,15 @@ fn leaves(t: &toml::Table, prefix: &str, out: &mut Vec<String>) {
 }
 
 #[test]
+#[cfg_attr(not(feature = "parquet"), ignore = "sets recording.format = \"both\", which needs the `parquet` feature")]
 fn every_field_can_be_set_from_toml() {
     let dir = tempfile::tempdir().unwrap();
     let path = write(dir.path(), "all.toml", ALL_FIELDS);
     let config = load_config(&path, &[]).unwrap();
     assert_eq!(config, all_fields_expected());
 
-    // The file really sets every field to a non-default value (except general.plot, whose only
-    // valid value is the default), so a new field without a line above makes this fail.
+    // The file really sets every field to a non-default value, so a new field without a line
+    // above makes this fail.
     let defaults: toml::Table = DEFAULT_CONFIG_TOML.parse().unwrap();
     let file: toml::Table = ALL_FIELDS.parse().unwrap();
     let mut all = Vec::new();
@@ -362,7 +456,7 @@ fn every_field_can_be_set_from_toml() {
     let mut changed = Vec::new();
     differing_leaves(&defaults, &file, "", &mut changed);
     let unchanged: Vec<&String> = all.iter().filter(|k| !changed.contains(k)).collect();
-    assert_eq!(unchanged, vec!["general.plot"]);
+    assert!(unchanged.is_empty(), "keys left at their default: {unchanged:?}");
 }
 
 // --- validation -----------------------------------------------------------------------------
@@ -381,13 +475,32 @@ const RULES: &[(&[&str], &str)] = &[
     (&["general.run_name=\"a/b\""], "general.run_name"),
     (&["general.output_dir=\"\""], "general.output_dir"),
     (&["general.gravity_m_per_s2=[0, 0, nan]"], "general.gravity_m_per_s2"),
-    (&["general.plot=true"], "general.plot"),
+    // plot, render, video
+    (&["plot.width_px=10"], "plot.width_px"),
+    (&["plot.height_px=9000"], "plot.height_px"),
+    (&["render.width_px=8"], "render.width_px"),
+    (&["render.height_px=5000"], "render.height_px"),
+    (&["render.camera_distance_m=0"], "render.camera_distance_m"),
+    (&["render.camera_azimuth_deg=nan"], "render.camera_azimuth_deg"),
+    (&["render.camera_elevation_deg=-91"], "render.camera_elevation_deg"),
+    (&["render.fixed_lookat_m=[0, inf, 0]"], "render.fixed_lookat_m"),
+    (&["render.image_times_secs=[-1.0]"], "render.image_times_secs"),
+    (&["render.image_times_secs=[21.0]"], "render.image_times_secs"),
+    (&["render.image_times_secs=[1.0]", "render.image_cameras=[]"], "render.image_cameras"),
+    (&["video.frames_per_sec=0"], "video.frames_per_sec"),
+    (&["video.frames_per_sec=500"], "video.frames_per_sec"),
+    (&["video.playback_speed=-1"], "video.playback_speed"),
+    (&["video.playback_speed=1000"], "video.playback_speed"),
     // physics
     (&["physics.contact_time_constant_secs=0"], "physics.contact_time_constant_secs"),
     (&["physics.contact_time_constant_secs=0.0015"], "physics.contact_time_constant_secs"),
     (&["general.timestep_secs=0.011"], "physics.contact_time_constant_secs"),
     (&["physics.contact_damping_ratio=0"], "physics.contact_damping_ratio"),
     (&["physics.solver_iterations=0"], "physics.solver_iterations"),
+    // safety
+    (&["safety.max_kinetic_energy_j_per_kg=-1"], "safety.max_kinetic_energy_j_per_kg"),
+    (&["safety.max_kinetic_energy_j_per_kg=nan"], "safety.max_kinetic_energy_j_per_kg"),
+    (&["safety.check_every_n_steps=0"], "safety.check_every_n_steps"),
     // snake
     (&["snake.n_links=0"], "snake.n_links"),
     (&["snake.n_links=201"], "snake.n_links"),
@@ -407,6 +520,12 @@ const RULES: &[(&[&str], &str)] = &[
     (&["snake.torque_range_nm=[-3, -1]"], "snake.torque_range_nm"),
     (&["snake.torque_range_nm=[nan, 3]"], "snake.torque_range_nm"),
     (&["snake.ground_friction=[-0.1, 0.005, 0.0001]"], "snake.ground_friction"),
+    (&["ground.axial_friction=-0.1"], "ground.axial_friction"),
+    (&["ground.lateral_friction=-1"], "ground.lateral_friction"),
+    (&["ground.backward_friction=nan"], "ground.backward_friction"),
+    (&["ground.viscous_tangential_n_s_per_m=-1"], "ground.viscous_tangential_n_s_per_m"),
+    (&["ground.viscous_normal_n_s_per_m=-1"], "ground.viscous_normal_n_s_per_m"),
+    (&["ground.model=\"sticky\""], "ground.model"),
     (&["snake.ground_friction=[0.5, -0.005, 0.0001]"], "snake.ground_friction"),
     (&["snake.ground_friction=[0.5, 0.005, -0.0001]"], "snake.ground_friction"),
     (&["snake.link_friction=[-1, 0, 0]"], "snake.link_friction"),
@@ -441,6 +560,16 @@ const RULES: &[(&[&str], &str)] = &[
     (&["gait.sine_wave.offset_deg=-61"], "gait.sine_wave.offset_deg"),
     (&["gait.sine_wave.frequency_hz=-0.5"], "gait.sine_wave.frequency_hz"),
     (&["gait.sine_wave.phase_lag_deg=nan"], "gait.sine_wave.phase_lag_deg"),
+    (&["gait.serpenoid.winding_angle_deg=-1"], "gait.serpenoid.winding_angle_deg"),
+    (&["gait.serpenoid.n_waves=0"], "gait.serpenoid.n_waves"),
+    (&["gait.kind=\"serpenoid\"", "gait.serpenoid.winding_angle_deg=200"], "gait.serpenoid.winding_angle_deg"),
+    (&["gait.sidewinding.pitch_amplitude_deg=-3"], "gait.sidewinding.pitch_amplitude_deg"),
+    (&["gait.kind=\"sidewinding\""], "gait.kind"),
+    (
+        &["gait.kind=\"rolling\"", "snake.joint_axes=\"alternating\"", "gait.rolling.amplitude_deg=95"],
+        "gait.rolling.amplitude_deg",
+    ),
+    (&["gait.rolling.frequency_hz=-1"], "gait.rolling.frequency_hz"),
     (&["gait.form_closure.pattern_deg=[]"], "gait.form_closure.pattern_deg"),
     (&["gait.form_closure.pattern_deg=[0, nan]"], "gait.form_closure.pattern_deg"),
     (&["gait.kind=\"form_closure\"", "gait.form_closure.pattern_deg=[0, 90]"], "gait.form_closure.pattern_deg"),
@@ -467,6 +596,8 @@ const RULES: &[(&[&str], &str)] = &[
     (&["terrain.form_closure.radius_m=0"], "terrain.form_closure.radius_m"),
     // recording
     (&["recording.every_n_steps=0"], "recording.every_n_steps"),
+    (&["recording.parquet_row_group_rows=0"], "recording.parquet_row_group_rows"),
+    (&["recording.format=\"xml\""], "recording.format"),
     (&["recording.every_n_steps=20001"], "recording.every_n_steps"),
 ];
 
@@ -507,8 +638,7 @@ fn validation_messages_explain() {
     assert!(allowed.contains("diameter") && allowed.contains("between neighbouring joints"), "{allowed}");
     let (_, _, allowed) = invalid(load_toml("", &["physics.contact_time_constant_secs=0.001"]));
     assert!(allowed.contains("MuJoCo") && allowed.contains("0.002"), "{allowed}");
-    let (_, _, allowed) = invalid(load_toml("", &["general.plot=true"]));
-    assert!(allowed.contains("plotting is not available in this build (planned); set general.plot = false"));
+    assert!(load_toml("", &["general.plot=true"]).unwrap().general.plot);
     let (_, _, allowed) = invalid(load_toml("", &["terrain.cylinder_path.width_m=0.15"]));
     assert!(allowed.contains("snake fits between the rows"), "{allowed}");
 }
@@ -823,7 +953,10 @@ fn thesis_config_json_maps_as_documented() {
 
 #[test]
 fn empty_legacy_object_is_all_defaults() {
-    assert_eq!(load_json("{}").unwrap(), Config::default());
+    // All defaults, except that the original tool's friction was always isotropic.
+    let mut expected = Config::default();
+    expected.ground.model = GroundModel::Isotropic;
+    assert_eq!(load_json("{}").unwrap(), expected);
 }
 
 #[test]
@@ -933,7 +1066,5 @@ fn legacy_errors_use_legacy_names() {
     let (key, value, allowed) = invalid(load_json(r#"{"snake_specifications": {"link_lenght_in_m": 0.03}}"#));
     assert_eq!((key.as_str(), value.as_str()), ("snake.link_length_m", "0.06"));
     assert!(allowed.contains("link_lenght_in_m"), "{allowed}");
-    let (key, _, allowed) = invalid(load_json(r#"{"plot_data": true}"#));
-    assert_eq!(key, "general.plot");
-    assert!(allowed.contains("plot_data"), "{allowed}");
+    assert!(load_json(r#"{"plot_data": true}"#).unwrap().general.plot);
 }

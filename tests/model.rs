@@ -633,7 +633,20 @@ fn self_collision_cone_and_axes() {
     let links: Vec<usize> =
         (0..cfg.snake.n_links).map(|i| id(&m, MjtObjBase::mjOBJ_GEOM, &names::link_geom(i))).collect();
     assert!(!collide(links[0], links[2]), "no link-link contacts without self-collision");
-    assert!(collide(links[0], floor));
+    // Anisotropic ground friction: the floor meets the links only through explicit pairs.
+    assert_eq!(cfg.ground.model, simserpent::config::GroundModel::Anisotropic);
+    assert!(!collide(links[0], floor), "no geom-based link-floor contacts next to the pairs");
+    assert_eq!(m.npair() as usize, cfg.snake.n_links);
+    assert_eq!(m.pair_friction()[0][..2], [cfg.ground.axial_friction, cfg.ground.lateral_friction]);
+    let mut iso = cfg.clone();
+    iso.ground.model = simserpent::config::GroundModel::Isotropic;
+    let (_, m_iso) = gen_load(&iso);
+    assert_eq!(m_iso.npair(), 0);
+    let floor_iso = id(&m_iso, MjtObjBase::mjOBJ_GEOM, names::FLOOR);
+    assert!(
+        (m_iso.geom_contype()[links[0]] & m_iso.geom_conaffinity()[floor_iso]) != 0
+            || (m_iso.geom_contype()[floor_iso] & m_iso.geom_conaffinity()[links[0]]) != 0
+    );
     cfg.physics.self_collision = true;
     cfg.physics.friction_cone = FrictionCone::Elliptic;
     cfg.terrain.kind = TerrainKind::CylinderPath;
@@ -656,6 +669,8 @@ fn self_collision_cone_and_axes() {
     assert_close(&m.geom_friction()[peg], &cfg.terrain.obstacle_friction, 0.0, "peg friction");
     assert_close(&m.geom_friction()[links[0]], &cfg.snake.link_friction, 0.0, "link friction");
     assert_eq!(m.geom_condim()[floor], 3, "default: sliding friction only");
+    // The floor's own friction and condim are used with isotropic ground friction.
+    cfg.ground.model = simserpent::config::GroundModel::Isotropic;
     cfg.snake.ground_friction = [0.5, 0.005, 0.0001];
     let (_, m) = gen_load(&cfg);
     let floor = id(&m, MjtObjBase::mjOBJ_GEOM, names::FLOOR);

@@ -22,6 +22,7 @@
 //! | `snake_specifications.link_radius_in_m`       | `snake.link_radius_m`                            |
 //! | `snake_specifications.maximum_torque_in_nm`   | `snake.torque_range_nm` (`[min, max]`; a single number `m` means `[-m, m]`) |
 //! | `snake_specifications.friction`               | sliding coefficient of `snake.ground_friction`, `snake.link_friction` and `terrain.obstacle_friction` (torsional and rolling keep their defaults) |
+//! | (always)                                      | `ground.model = "isotropic"`: the original tool had only isotropic friction |
 //! | `snake_specifications.joint_damping`          | `snake.joint_damping_nm_s_per_rad`               |
 //! | `snake_specifications.joint_armature`         | `snake.joint_armature_kg_m2`                     |
 //! | `snake_specifications.sensor_noise`           | `sensors.noise_enabled` (`"enable"` / `"disable"`, any case; `true` / `false` also accepted) |
@@ -165,6 +166,8 @@ pub(super) fn convert(json: &Json, defaults: &Table) -> Result<Table, ConfigErro
     };
     check_keys(root)?;
     let mut out = Table::new();
+    // The original tool knew only isotropic Coulomb friction with the floor.
+    set(&mut out, "ground.model", Value::String("isotropic".into()));
 
     // Top level.
     if let Some(v) = root.get("simulation_time") {

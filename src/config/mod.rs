@@ -74,13 +74,18 @@ impl ConfigError {
 pub struct Config {
     pub general: General,
     pub physics: Physics,
+    pub safety: Safety,
     pub visual: Visual,
     pub snake: Snake,
+    pub ground: Ground,
     pub sensors: Sensors,
     pub control: Control,
     pub gait: Gait,
     pub terrain: Terrain,
     pub recording: Recording,
+    pub plot: Plot,
+    pub render: Render,
+    pub video: Video,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -135,6 +140,16 @@ pub enum FrictionCone {
     Pyramidal,
 }
 
+/// Divergence guards of the step loop (`[safety]`); see `sim::safety`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Safety {
+    /// Stop the run when the kinetic energy per kilogram of robot exceeds this (J/kg); 0 = off.
+    pub max_kinetic_energy_j_per_kg: f64,
+    /// Evaluate the kinetic energy every this many steps (>= 1).
+    pub check_every_n_steps: u64,
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Visual {
@@ -177,6 +192,28 @@ impl Snake {
 pub enum JointAxes {
     Yaw,
     Alternating,
+}
+
+/// Friction between links and floor (`[ground]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Ground {
+    pub model: GroundModel,
+    pub axial_friction: f64,
+    pub lateral_friction: f64,
+    pub backward_friction: f64,
+    pub viscous_tangential_n_s_per_m: f64,
+    pub viscous_normal_n_s_per_m: f64,
+}
+
+/// The ground friction model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GroundModel {
+    Isotropic,
+    Anisotropic,
+    Directional,
+    Viscous,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -237,6 +274,9 @@ pub struct Gait {
     pub kind: GaitKind,
     pub ramp_secs: f64,
     pub sine_wave: SineWave,
+    pub serpenoid: Serpenoid,
+    pub sidewinding: Sidewinding,
+    pub rolling: Rolling,
     pub form_closure: FormClosureGait,
 }
 
@@ -246,6 +286,38 @@ pub enum GaitKind {
     None,
     SineWave,
     FormClosure,
+    Serpenoid,
+    Sidewinding,
+    Rolling,
+}
+
+/// Hirose's serpenoid curve, discretised over the joints.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Serpenoid {
+    pub winding_angle_deg: f64,
+    pub n_waves: f64,
+    pub frequency_hz: f64,
+    pub offset_deg: f64,
+}
+
+/// Sidewinding: two travelling waves, on the yaw and on the pitch joints.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Sidewinding {
+    pub yaw_amplitude_deg: f64,
+    pub pitch_amplitude_deg: f64,
+    pub frequency_hz: f64,
+    pub phase_lag_deg: f64,
+    pub pitch_phase_deg: f64,
+}
+
+/// Lateral rolling: an arc turning about the body axis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rolling {
+    pub amplitude_deg: f64,
+    pub frequency_hz: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -325,6 +397,8 @@ pub struct FormClosureTerrain {
 pub struct Recording {
     pub enabled: bool,
     pub every_n_steps: u64,
+    pub format: TableFormat,
+    pub parquet_row_group_rows: usize,
     pub link_position: bool,
     pub link_orientation: bool,
     pub link_velocity: bool,
@@ -341,6 +415,111 @@ pub struct Recording {
     pub internal_joint_forces: bool,
     pub imu_sensors: bool,
     pub contacts: bool,
+}
+
+/// File format of the recorded tables (`recording.format`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TableFormat {
+    /// CSV only.
+    Csv,
+    /// Parquet only (needs the `parquet` cargo feature).
+    Parquet,
+    /// CSV and Parquet, same columns.
+    Both,
+}
+
+impl TableFormat {
+    /// Whether CSV files are written.
+    pub fn csv(self) -> bool {
+        matches!(self, Self::Csv | Self::Both)
+    }
+
+    /// Whether Parquet files are written.
+    pub fn parquet(self) -> bool {
+        matches!(self, Self::Parquet | Self::Both)
+    }
+}
+
+/// Plots of a run (`[plot]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Plot {
+    pub width_px: u32,
+    pub height_px: u32,
+}
+
+/// Offscreen pictures (`[render]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Render {
+    pub width_px: u32,
+    pub height_px: u32,
+    pub quality: RenderQuality,
+    pub camera: CameraKind,
+    pub camera_distance_m: f64,
+    pub camera_azimuth_deg: f64,
+    pub camera_elevation_deg: f64,
+    pub fixed_lookat_m: [f64; 3],
+    pub time_overlay: bool,
+    pub image_times_secs: Vec<f64>,
+    pub image_cameras: Vec<CameraKind>,
+    pub record_state: bool,
+}
+
+/// Rendering effects (`render.quality`): speed against looks.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RenderQuality {
+    /// No shadows, reflections or anti-aliasing.
+    Fast,
+    /// Small shadow map, no reflections or anti-aliasing.
+    Medium,
+    /// MuJoCo's defaults (large shadow map, reflections, 4x anti-aliasing).
+    Full,
+}
+
+/// Where a picture is taken from (`render.camera`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CameraKind {
+    /// Tracks the head at the configured distance, azimuth and elevation.
+    Follow,
+    /// Tracks the head from straight above.
+    Top,
+    /// Looks at `render.fixed_lookat_m` and does not move.
+    Fixed,
+}
+
+impl CameraKind {
+    /// Short name (file names, messages).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Follow => "follow",
+            Self::Top => "top",
+            Self::Fixed => "fixed",
+        }
+    }
+}
+
+/// Video of a run (`[video]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Video {
+    pub enabled: bool,
+    pub format: VideoFormat,
+    pub frames_per_sec: f64,
+    pub playback_speed: f64,
+}
+
+/// Video container (`video.format`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum VideoFormat {
+    /// H.264 in MP4 through an `ffmpeg` subprocess.
+    Mp4,
+    /// Animated GIF, built in.
+    Gif,
 }
 
 impl Default for Config {

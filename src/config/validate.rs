@@ -17,7 +17,7 @@
 //! The ranges of every other key are checked whatever is selected. Whether obstacles overlap the
 //! snake is checked by model generation, not here.
 
-use super::{Config, ConfigError, GaitKind, TerrainKind};
+use super::{Config, ConfigError, GaitKind, JointAxes, TerrainKind};
 
 type Check = Result<(), ConfigError>;
 
@@ -94,12 +94,15 @@ impl Config {
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.validate_general()?;
         self.validate_physics()?;
+        self.validate_safety()?;
         self.validate_snake()?;
+        self.validate_ground()?;
         self.validate_sensors()?;
         self.validate_control()?;
         self.validate_gait()?;
         self.validate_terrain()?;
-        self.validate_recording()
+        self.validate_recording()?;
+        self.validate_pictures()
     }
 
     fn validate_general(&self) -> Check {
@@ -125,13 +128,22 @@ impl Config {
             fmt_f(g.timestep_secs),
             format!("must not be longer than general.duration_secs ({})", fmt_f(g.duration_secs)),
         )?;
-        all_finite("general.gravity_m_per_s2", &g.gravity_m_per_s2)?;
-        ensure(
-            !g.plot,
-            "general.plot",
-            g.plot,
-            "plotting is not available in this build (planned); set general.plot = false",
-        )
+        all_finite("general.gravity_m_per_s2", &g.gravity_m_per_s2)
+    }
+
+    fn validate_ground(&self) -> Check {
+        let g = &self.ground;
+        non_negative("ground.axial_friction", g.axial_friction)?;
+        non_negative("ground.lateral_friction", g.lateral_friction)?;
+        non_negative("ground.backward_friction", g.backward_friction)?;
+        non_negative("ground.viscous_tangential_n_s_per_m", g.viscous_tangential_n_s_per_m)?;
+        non_negative("ground.viscous_normal_n_s_per_m", g.viscous_normal_n_s_per_m)
+    }
+
+    fn validate_safety(&self) -> Check {
+        let s = &self.safety;
+        non_negative("safety.max_kinetic_energy_j_per_kg", s.max_kinetic_energy_j_per_kg)?;
+        ensure(s.check_every_n_steps >= 1, "safety.check_every_n_steps", s.check_every_n_steps, "must be at least 1")
     }
 
     fn validate_physics(&self) -> Check {
@@ -268,6 +280,49 @@ impl Config {
             )?;
         }
 
+        let sp = &g.serpenoid;
+        non_negative("gait.serpenoid.winding_angle_deg", sp.winding_angle_deg)?;
+        positive("gait.serpenoid.n_waves", sp.n_waves)?;
+        non_negative("gait.serpenoid.frequency_hz", sp.frequency_hz)?;
+        finite("gait.serpenoid.offset_deg", sp.offset_deg)?;
+        let sw = &g.sidewinding;
+        non_negative("gait.sidewinding.yaw_amplitude_deg", sw.yaw_amplitude_deg)?;
+        non_negative("gait.sidewinding.pitch_amplitude_deg", sw.pitch_amplitude_deg)?;
+        non_negative("gait.sidewinding.frequency_hz", sw.frequency_hz)?;
+        finite("gait.sidewinding.phase_lag_deg", sw.phase_lag_deg)?;
+        finite("gait.sidewinding.pitch_phase_deg", sw.pitch_phase_deg)?;
+        non_negative("gait.rolling.amplitude_deg", g.rolling.amplitude_deg)?;
+        non_negative("gait.rolling.frequency_hz", g.rolling.frequency_hz)?;
+        if matches!(g.kind, GaitKind::Sidewinding | GaitKind::Rolling) {
+            ensure(
+                self.snake.joint_axes == JointAxes::Alternating,
+                "gait.kind",
+                format!("{:?}", g.kind).to_lowercase(),
+                "sidewinding and rolling need pitch joints: set snake.joint_axes = \"alternating\"",
+            )?;
+        }
+        let peak = match g.kind {
+            GaitKind::Serpenoid => Some((
+                "gait.serpenoid.winding_angle_deg",
+                2.0 * sp.winding_angle_deg
+                    * (std::f64::consts::PI * sp.n_waves / self.snake.n_links.max(1) as f64).sin().abs()
+                    + sp.offset_deg.abs(),
+            )),
+            GaitKind::Sidewinding => {
+                Some(("gait.sidewinding.yaw_amplitude_deg", sw.yaw_amplitude_deg.max(sw.pitch_amplitude_deg)))
+            }
+            GaitKind::Rolling => Some(("gait.rolling.amplitude_deg", g.rolling.amplitude_deg)),
+            _ => None,
+        };
+        if let Some((key, peak)) = peak {
+            ensure(
+                peak <= range,
+                key,
+                fmt_f(peak),
+                format!("the largest joint angle of the gait must not exceed snake.joint_range_deg ({})", fmt_f(range)),
+            )?;
+        }
+
         let f = &g.form_closure;
         let key = "gait.form_closure.pattern_deg";
         ensure(!f.pattern_deg.is_empty(), key, "[]", "must list at least one joint angle")?;
@@ -350,6 +405,20 @@ impl Config {
     fn validate_recording(&self) -> Check {
         let r = &self.recording;
         ensure(r.every_n_steps >= 1, "recording.every_n_steps", r.every_n_steps, "must be at least 1")?;
+        ensure(
+            r.parquet_row_group_rows >= 1,
+            "recording.parquet_row_group_rows",
+            r.parquet_row_group_rows,
+            "must be at least 1",
+        )?;
+        if r.format.parquet() && !cfg!(feature = "parquet") {
+            fail(
+                "recording.format",
+                format!("{:?}", r.format).to_lowercase(),
+                "this build of SimSerpent has no Parquet support (cargo feature `parquet` is off); \
+                 use \"csv\" or rebuild with `--features parquet`",
+            )?;
+        }
         if r.enabled {
             // u64 -> f64 is exact up to 2^53; beyond that the interval is astronomically long anyway.
             let interval = r.every_n_steps as f64 * self.general.timestep_secs;
@@ -366,5 +435,43 @@ impl Config {
             )?;
         }
         Ok(())
+    }
+
+    /// `[plot]`, `[render]`, `[video]`.
+    fn validate_pictures(&self) -> Check {
+        let p = &self.plot;
+        for (key, v) in [("plot.width_px", p.width_px), ("plot.height_px", p.height_px)] {
+            ensure((200..=8000).contains(&v), key, v, "must be between 200 and 8000 pixels")?;
+        }
+        let r = &self.render;
+        for (key, v) in [("render.width_px", r.width_px), ("render.height_px", r.height_px)] {
+            ensure((16..=4096).contains(&v), key, v, "must be between 16 and 4096 pixels")?;
+        }
+        positive("render.camera_distance_m", r.camera_distance_m)?;
+        finite("render.camera_azimuth_deg", r.camera_azimuth_deg)?;
+        let e = r.camera_elevation_deg;
+        finite("render.camera_elevation_deg", e)?;
+        ensure((-90.0..=90.0).contains(&e), "render.camera_elevation_deg", fmt_f(e), "must be between -90 and 90")?;
+        all_finite("render.fixed_lookat_m", &r.fixed_lookat_m)?;
+        let d = self.general.duration_secs;
+        for t in &r.image_times_secs {
+            ensure(
+                t.is_finite() && (0.0..=d).contains(t),
+                "render.image_times_secs",
+                fmt_a(&r.image_times_secs),
+                format!("every time must be between 0 and general.duration_secs ({}); {} is not", fmt_f(d), fmt_f(*t)),
+            )?;
+        }
+        ensure(
+            r.image_times_secs.is_empty() || !r.image_cameras.is_empty(),
+            "render.image_cameras",
+            "[]",
+            "must name at least one camera (\"follow\", \"top\", \"fixed\") when render.image_times_secs is not empty",
+        )?;
+        let v = &self.video;
+        positive("video.frames_per_sec", v.frames_per_sec)?;
+        ensure(v.frames_per_sec <= 240.0, "video.frames_per_sec", fmt_f(v.frames_per_sec), "must be at most 240")?;
+        positive("video.playback_speed", v.playback_speed)?;
+        ensure(v.playback_speed <= 100.0, "video.playback_speed", fmt_f(v.playback_speed), "must be at most 100")
     }
 }

@@ -97,6 +97,70 @@ impl JointTrajectory for FormClosureShift {
     }
 }
 
+/// Hirose's serpenoid curve discretised over N links (Hirose, *Biologically Inspired Robots*,
+/// 1993; as used by Saito et al., IEEE Control Systems 2002): joint j (0 = behind the head)
+/// follows φ_j = r(t)·(2a·sin(Kπ/N)·sin(2πf·t − 2Kπ·j/N) + φ₀), where a is the winding angle,
+/// K the number of waves along the body and r(t) the ramp-in. It is the sine wave with amplitude
+/// 2a·sin(Kπ/N) and phase lag 2Kπ/N, so the body takes K full S-shapes whatever N is.
+pub fn serpenoid(
+    winding_angle_rad: f64,
+    n_waves: f64,
+    n_links: usize,
+    frequency_hz: f64,
+    offset_rad: f64,
+    ramp_secs: f64,
+) -> SineWave {
+    let n = n_links.max(1) as f64;
+    SineWave {
+        amplitude_rad: 2.0 * winding_angle_rad * (std::f64::consts::PI * n_waves / n).sin(),
+        frequency_hz,
+        phase_lag_rad: TAU * n_waves / n,
+        offset_rad,
+        ramp_secs,
+    }
+}
+
+/// Gaits of snakes whose joints alternate yaw and pitch (joint 0 yaw, joint 1 pitch, …): one
+/// travelling wave on the yaw joints and one on the pitch joints.
+/// - Sidewinding: yaw joint j: A_y·sin(ωt − j·δ), pitch joint j: A_p·sin(ωt − j·δ + φ_p), with
+///   φ_p ≈ 90° (Hatton and Choset's two-wave model); the body lifts where it moves and rests
+///   where it pushes, so it moves sideways.
+/// - Rolling: every yaw joint A·sin(ωt), every pitch joint A·cos(ωt): the body is an arc whose
+///   plane turns about the body axis, so it rolls sideways (δ = 0, φ_p = 90°).
+#[derive(Debug, Clone, Copy)]
+pub struct TwoPlaneWave {
+    /// Amplitude of the yaw joints (rad).
+    pub yaw_amplitude_rad: f64,
+    /// Amplitude of the pitch joints (rad).
+    pub pitch_amplitude_rad: f64,
+    /// f (Hz).
+    pub frequency_hz: f64,
+    /// δ per joint (rad).
+    pub phase_lag_rad: f64,
+    /// Phase of the pitch wave relative to the yaw wave (rad).
+    pub pitch_phase_rad: f64,
+    /// Ramp-in time (s).
+    pub ramp_secs: f64,
+}
+
+impl JointTrajectory for TwoPlaneWave {
+    fn targets(&self, t_secs: f64, angle_rad: &mut [f64], velocity_rad_per_s: &mut [f64]) {
+        let (r, dr) = ramp(t_secs, self.ramp_secs);
+        let omega = TAU * self.frequency_hz;
+        for (j, (angle, velocity)) in angle_rad.iter_mut().zip(velocity_rad_per_s.iter_mut()).enumerate() {
+            let (amplitude, extra) = if j % 2 == 0 {
+                (self.yaw_amplitude_rad, 0.0)
+            } else {
+                (self.pitch_amplitude_rad, self.pitch_phase_rad)
+            };
+            let phase = omega * t_secs - j as f64 * self.phase_lag_rad + extra;
+            let shape = amplitude * phase.sin();
+            *angle = r * shape;
+            *velocity = dr * shape + r * amplitude * omega * phase.cos();
+        }
+    }
+}
+
 /// The trajectory that `config.gait` describes.
 pub fn trajectory_from_config(config: &Config) -> Box<dyn JointTrajectory> {
     let gait = &config.gait;
@@ -107,6 +171,36 @@ pub fn trajectory_from_config(config: &Config) -> Box<dyn JointTrajectory> {
             frequency_hz: gait.sine_wave.frequency_hz,
             phase_lag_rad: gait.sine_wave.phase_lag_deg.to_radians(),
             offset_rad: gait.sine_wave.offset_deg.to_radians(),
+            ramp_secs: gait.ramp_secs,
+        }),
+        GaitKind::Serpenoid => {
+            let sp = &gait.serpenoid;
+            Box::new(serpenoid(
+                sp.winding_angle_deg.to_radians(),
+                sp.n_waves,
+                config.snake.n_links,
+                sp.frequency_hz,
+                sp.offset_deg.to_radians(),
+                gait.ramp_secs,
+            ))
+        }
+        GaitKind::Sidewinding => {
+            let sw = &gait.sidewinding;
+            Box::new(TwoPlaneWave {
+                yaw_amplitude_rad: sw.yaw_amplitude_deg.to_radians(),
+                pitch_amplitude_rad: sw.pitch_amplitude_deg.to_radians(),
+                frequency_hz: sw.frequency_hz,
+                phase_lag_rad: sw.phase_lag_deg.to_radians(),
+                pitch_phase_rad: sw.pitch_phase_deg.to_radians(),
+                ramp_secs: gait.ramp_secs,
+            })
+        }
+        GaitKind::Rolling => Box::new(TwoPlaneWave {
+            yaw_amplitude_rad: gait.rolling.amplitude_deg.to_radians(),
+            pitch_amplitude_rad: gait.rolling.amplitude_deg.to_radians(),
+            frequency_hz: gait.rolling.frequency_hz,
+            phase_lag_rad: 0.0,
+            pitch_phase_rad: std::f64::consts::FRAC_PI_2,
             ramp_secs: gait.ramp_secs,
         }),
         GaitKind::FormClosure => Box::new(FormClosureShift {
@@ -158,6 +252,28 @@ mod tests {
         w.targets(1.0, &mut a, &mut v);
         w.targets(1.0 + dt, &mut b, &mut v);
         assert!((b[1] - a[0]).abs() < 1e-12);
+    }
+
+    #[test]
+    fn serpenoid_forms_k_waves_and_two_plane_waves_split_by_axis() {
+        let sp = serpenoid(0.5, 2.0, 10, 1.0, 0.0, 0.0);
+        assert!((sp.phase_lag_rad - TAU * 2.0 / 10.0).abs() < 1e-12);
+        assert!((sp.amplitude_rad - 2.0 * 0.5 * (std::f64::consts::PI * 0.2).sin()).abs() < 1e-12);
+        let roll = TwoPlaneWave {
+            yaw_amplitude_rad: 0.3,
+            pitch_amplitude_rad: 0.3,
+            frequency_hz: 1.0,
+            phase_lag_rad: 0.0,
+            pitch_phase_rad: std::f64::consts::FRAC_PI_2,
+            ramp_secs: 0.0,
+        };
+        let (mut a, mut v) = (vec![0.0; 4], vec![0.0; 4]);
+        roll.targets(0.0, &mut a, &mut v);
+        assert_eq!(a[0], 0.0);
+        assert!((a[1] - 0.3).abs() < 1e-12, "pitch joints lead by 90 degrees");
+        check_velocity_is_derivative(&roll, 4, &[0.1, 0.77]);
+        let side = TwoPlaneWave { phase_lag_rad: 0.6, pitch_amplitude_rad: 0.1, ramp_secs: 1.0, ..roll };
+        check_velocity_is_derivative(&side, 6, &[0.2, 0.9, 3.3]);
     }
 
     #[test]

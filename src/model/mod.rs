@@ -63,7 +63,7 @@ use std::fmt::{self, Write};
 
 pub use geometry::link_axis_segments_m;
 
-use crate::config::{Config, ConfigError, FrictionCone, GaitKind};
+use crate::config::{Config, ConfigError, FrictionCone, GaitKind, GroundModel};
 use geometry::{V3, dist_xy_point_segment};
 
 /// A vertical cylinder obstacle standing on the floor.
@@ -383,13 +383,24 @@ fn write_xml(cfg: &Config, body: Body<'_>, obstacles: &[Cylinder]) -> Result<Str
         )
     };
     let fs = cfg.terrain.floor_size_m;
+    // The floor's own contacts with the links: isotropic friction, none at all (the viscous model
+    // applies its forces itself), or left to the explicit link-floor pairs below.
+    let snake_pairs = matches!(body, Body::Snake(_))
+        && matches!(cfg.ground.model, GroundModel::Anisotropic | GroundModel::Directional);
+    let floor_attrs = match cfg.ground.model {
+        GroundModel::Viscous => env_attrs([0.0; 3]),
+        _ if snake_pairs => format!(
+            "contype=\"0\" conaffinity=\"0\" priority=\"1\" friction=\"{}\"{env_solref}",
+            Nums(&cfg.snake.ground_friction)
+        ),
+        _ => env_attrs(cfg.snake.ground_friction),
+    };
     writeln!(
         out,
-        "    <geom name=\"{}\" type=\"plane\" pos=\"0 0 0\" size=\"{} {} 0.1\" material=\"MatPlane\" {}/>",
+        "    <geom name=\"{}\" type=\"plane\" pos=\"0 0 0\" size=\"{} {} 0.1\" material=\"MatPlane\" {floor_attrs}/>",
         names::FLOOR,
         n(fs),
         n(fs),
-        env_attrs(cfg.snake.ground_friction),
     )?;
     for c in obstacles {
         writeln!(
@@ -408,6 +419,24 @@ fn write_xml(cfg: &Config, body: Body<'_>, obstacles: &[Cylinder]) -> Result<Str
         Body::Snake(angles) => {
             snake::write_bodies(&mut out, cfg, 2)?;
             out.push_str("  </worldbody>\n");
+            if snake_pairs {
+                // One pair per link: MuJoCo aligns a capsule-plane contact frame's first tangent with
+                // the capsule axis, so friction = "axial lateral ..." is anisotropic along the link.
+                let g = &cfg.ground;
+                out.push_str("  <contact>\n");
+                for i in 0..cfg.snake.n_links {
+                    writeln!(
+                        out,
+                        "    <pair name=\"{}\" geom1=\"{}\" geom2=\"{}\" condim=\"3\" friction=\"{} {} 0 0 0\" solref=\"{solref}\"/>",
+                        names::ground_pair(i),
+                        names::FLOOR,
+                        names::link_geom(i),
+                        n(g.axial_friction),
+                        n(g.lateral_friction),
+                    )?;
+                }
+                out.push_str("  </contact>\n");
+            }
             snake::write_actuators(&mut out, cfg)?;
             snake::write_sensors(&mut out, cfg)?;
             snake::write_keyframe(&mut out, cfg, angles)?;

@@ -77,6 +77,12 @@ pub fn obstacle(k: usize) -> String {
     format!("obstacle_{}", idx(k))
 }
 
+/// The contact pair between link `i` and the floor (anisotropic and directional ground
+/// friction): `link_00_ground`.
+pub fn ground_pair(i: usize) -> String {
+    format!("{}_ground", link_body(i))
+}
+
 /// The kinds of sensors in the model, in the order they are written per link / per joint.
 ///
 /// All link sensors of link 0 come first (in [`SensorKind::LINK`] order), then those of link 1, …;

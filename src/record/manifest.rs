@@ -30,7 +30,8 @@ pub struct Manifest {
     pub seed: u64,
     /// Run status.
     pub status: RunStatus,
-    /// Error message when failed.
+    /// Why the run failed (status `failed`) or was interrupted (status `incomplete` after SIGINT or
+    /// SIGTERM); `null` while running and when complete.
     pub error: Option<String>,
     /// Start time (UTC, `YYYYMMDDTHHMMSSZ`).
     pub started_utc: String,
@@ -60,13 +61,32 @@ pub struct Manifest {
 
 impl Manifest {
     /// Writes `manifest.json` into `folder` atomically (write to a temporary file, then rename),
-    /// so a reader never sees half a manifest.
+    /// so a reader never sees half a manifest. When the temporary file cannot be written (a full
+    /// disk), an existing manifest is overwritten in place instead.
     pub fn write(&self, folder: &Path) -> Result<(), RecordError> {
         let path = folder.join("manifest.json");
         let tmp = folder.join("manifest.json.tmp");
         let text = serde_json::to_string_pretty(self)
             .map_err(|e| RecordError::Io { path: path.clone(), source: std::io::Error::other(e) })?;
-        std::fs::write(&tmp, text + "\n").map_err(io_err(&tmp))?;
-        std::fs::rename(&tmp, &path).map_err(io_err(&path))
+        let text = text + "\n";
+        match std::fs::write(&tmp, &text) {
+            Ok(()) => std::fs::rename(&tmp, &path).map_err(io_err(&path)),
+            Err(e) => {
+                let _ = std::fs::remove_file(&tmp);
+                // A full disk has no room for a second file, but the manifest written when the
+                // run started has its blocks already: overwrite it in place, so that it still
+                // says how the run ended.
+                overwrite_in_place(&path, text.as_bytes()).map_err(|_| io_err(&tmp)(e))
+            }
+        }
     }
+}
+
+/// Overwrites an existing file with `bytes` without creating a new one (not atomic).
+fn overwrite_in_place(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut file = std::fs::OpenOptions::new().write(true).open(path)?;
+    file.write_all(bytes)?;
+    file.set_len(bytes.len() as u64)?;
+    file.sync_all()
 }

@@ -7,11 +7,20 @@
 //!   interruption, then `complete` or `failed` with the reason), wall time, steps;
 //! - `links.csv`, `joints.csv`, `sensors.csv`: one row per recorded step (wide);
 //! - `contacts.csv`: one row per contact per recorded step (long format).
+//!
+//! With `recording.format = "parquet"` or `"both"` the tables are (also) written as
+//! `<table>.parquet` with the same columns ([`Table`] fans every value out to both formats).
 
 mod manifest;
+#[cfg(feature = "parquet")]
+mod parquet;
+mod sink;
 mod table;
 
 pub use manifest::{Manifest, RunStatus};
+#[cfg(feature = "parquet")]
+pub use parquet::ParquetTable;
+pub use sink::{ColumnKind, Table, TableSink};
 pub use table::CsvTable;
 
 use crate::config::Recording;
@@ -80,10 +89,10 @@ fn push3(header: &mut Vec<String>, prefix: &str, quantity: &str, unit: &str) {
 /// The tables of one run, written as the run goes.
 pub struct Recorder {
     flags: Recording,
-    links: CsvTable,
-    joints: CsvTable,
-    sensors: Option<CsvTable>,
-    contacts: Option<CsvTable>,
+    links: Table,
+    joints: Table,
+    sensors: Option<Table>,
+    contacts: Option<Table>,
     contact_names: (Vec<String>, Vec<String>),
     step: u64,
 }
@@ -118,7 +127,7 @@ impl Recorder {
                 push3(&mut h, n, "contact_torque", "nm");
             }
         }
-        let links = CsvTable::create(&folder.join("links.csv"), &h).map_err(io_err(&folder.join("links.csv")))?;
+        let links = Table::numeric(folder, "links", &h, f).map_err(io_err(&folder.join("links")))?;
 
         let mut h = vec!["time_s".to_string()];
         for joint in &index.joints {
@@ -144,7 +153,7 @@ impl Recorder {
                 push3(&mut h, n, "internal_torque", "nm");
             }
         }
-        let joints = CsvTable::create(&folder.join("joints.csv"), &h).map_err(io_err(&folder.join("joints.csv")))?;
+        let joints = Table::numeric(folder, "joints", &h, f).map_err(io_err(&folder.join("joints")))?;
 
         let sensors = if f.imu_sensors {
             let mut h = vec!["time_s".to_string(), "sensor_time_s".to_string()];
@@ -163,8 +172,7 @@ impl Recorder {
             for link in &index.links {
                 push3(&mut h, &link.name, "velocimeter_true", "m_per_s");
             }
-            let path = folder.join("sensors.csv");
-            Some(CsvTable::create(&path, &h).map_err(io_err(&path))?)
+            Some(Table::numeric(folder, "sensors", &h, f).map_err(io_err(&folder.join("sensors")))?)
         } else {
             None
         };
@@ -195,8 +203,10 @@ impl Recorder {
             .iter()
             .map(|s| s.to_string())
             .collect();
-            let path = folder.join("contacts.csv");
-            Some(CsvTable::create(&path, &h).map_err(io_err(&path))?)
+            let mut kinds = vec![ColumnKind::Float; h.len()];
+            kinds[1] = ColumnKind::Int;
+            kinds[2..6].fill(ColumnKind::Text);
+            Some(Table::typed(folder, "contacts", &h, &kinds, f).map_err(io_err(&folder.join("contacts")))?)
         } else {
             None
         };
@@ -214,10 +224,9 @@ impl Recorder {
     /// Appends one snapshot (step number `step`).
     pub fn write(&mut self, step: u64, s: &Snapshot) -> Result<(), RecordError> {
         self.step = step;
-        let links_path = self.links.path().to_path_buf();
-        self.write_links(s).map_err(io_err(&links_path))?;
-        let joints_path = self.joints.path().to_path_buf();
-        self.write_joints(s).map_err(io_err(&joints_path))?;
+        // Paths are only copied on error: a recorded step allocates nothing.
+        self.write_links(s).map_err(|e| RecordError::Io { path: self.links.path().to_path_buf(), source: e })?;
+        self.write_joints(s).map_err(|e| RecordError::Io { path: self.joints.path().to_path_buf(), source: e })?;
         if let Some(t) = self.sensors.as_mut() {
             write_sensors(t, s).map_err(|e| RecordError::Io { path: t.path().to_path_buf(), source: e })?;
         }
@@ -289,11 +298,11 @@ impl Recorder {
 
     /// Flushes all tables (whole rows reach the files).
     pub fn flush(&mut self) -> Result<(), RecordError> {
-        let mut tables: Vec<&mut CsvTable> = vec![&mut self.links, &mut self.joints];
+        let mut tables: Vec<&mut Table> = vec![&mut self.links, &mut self.joints];
         tables.extend(self.sensors.as_mut());
         tables.extend(self.contacts.as_mut());
         for t in tables {
-            t.flush().map_err(|e| RecordError::Io { path: t.path().to_path_buf(), source: e })?;
+            t.flush().map_err(|(path, source)| RecordError::Io { path, source })?;
         }
         Ok(())
     }
@@ -305,17 +314,13 @@ impl Recorder {
         tables.extend(self.contacts);
         let mut out = Vec::new();
         for t in tables {
-            let name = t.path().file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-            let rows = t.rows();
-            let path = t.path().to_path_buf();
-            t.finish().map_err(io_err(&path))?;
-            out.push((name, rows));
+            out.extend(t.finish().map_err(|(path, source)| RecordError::Io { path, source })?);
         }
         Ok(out)
     }
 }
 
-fn write_sensors(t: &mut CsvTable, s: &Snapshot) -> std::io::Result<()> {
+fn write_sensors(t: &mut Table, s: &Snapshot) -> std::io::Result<()> {
     t.num(s.time_secs)?;
     t.num(s.observation_true.sensor_time_secs)?;
     for o in [&s.observation_true, &s.observation_measured] {
@@ -336,12 +341,7 @@ fn write_sensors(t: &mut CsvTable, s: &Snapshot) -> std::io::Result<()> {
     t.end_row()
 }
 
-fn write_contacts(
-    t: &mut CsvTable,
-    step: u64,
-    s: &Snapshot,
-    names: &(Vec<String>, Vec<String>),
-) -> std::io::Result<()> {
+fn write_contacts(t: &mut Table, step: u64, s: &Snapshot, names: &(Vec<String>, Vec<String>)) -> std::io::Result<()> {
     fn name(list: &[String], id: usize) -> &str {
         list.get(id).map_or("?", String::as_str)
     }

@@ -4,7 +4,7 @@ use super::SimError;
 use crate::config::ControlMethod;
 use crate::model::names;
 use mujoco_rs::prelude::*;
-use mujoco_rs::wrappers::mj_model::{MjtJoint, MjtObjBase};
+use mujoco_rs::wrappers::mj_model::{MjtJoint, MjtObjBase, MjtTrn};
 
 /// Where one link's data live in the model.
 #[derive(Debug, Clone)]
@@ -133,6 +133,8 @@ impl Index {
             .collect();
         let joint_names = object_names(model, MjtObjBase::mjOBJ_JOINT, model.njnt() as usize, "joint");
         let trn = model.actuator_trnid();
+        // Only joint transmissions drive a joint directly (a tendon's or site's id is no joint id).
+        let trn_type = model.actuator_trntype();
         let method_slot = ControlMethod::ALL.iter().position(|k| *k == method).unwrap_or(0);
         let mut joints = Vec::new();
         let mut head_free_qpos_adr = None;
@@ -140,7 +142,9 @@ impl Index {
             match model.jnt_type()[jid] {
                 MjtJoint::mjJNT_HINGE | MjtJoint::mjJNT_SLIDE => {
                     let mut actuators = [None; 4];
-                    actuators[method_slot] = trn.iter().position(|t| t[0] as usize == jid);
+                    actuators[method_slot] = trn.iter().zip(trn_type).position(|(t, kind)| {
+                        matches!(kind, MjtTrn::mjTRN_JOINT | MjtTrn::mjTRN_JOINTINPARENT) && t[0] as usize == jid
+                    });
                     joints.push(JointIndex {
                         name: name.clone(),
                         qpos_adr: model.jnt_qposadr()[jid] as usize,

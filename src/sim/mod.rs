@@ -5,12 +5,16 @@
 //! recorded steps a full `mj_forward` so that everything in a [`Snapshot`] describes one instant
 //! (see ARCHITECTURE.md, "Order of work in a step").
 
+mod ground;
 mod index;
 mod noise;
+mod safety;
 mod snapshot;
 
+pub use ground::Ground;
 pub use index::{Index, JointIndex, LinkIndex};
 pub use noise::SensorNoise;
+pub use safety::EnergyGuard;
 pub use snapshot::{ContactRow, Snapshot};
 
 use crate::config::{Config, ControlMethod};
@@ -18,7 +22,6 @@ use crate::control::{Command, Controller, Observation, TrajectoryController};
 use crate::model::{self, GeneratedModel};
 use mujoco_rs::prelude::*;
 use std::path::Path;
-use std::sync::Arc;
 
 /// Errors of building or running a world.
 #[derive(Debug, thiserror::Error)]
@@ -31,7 +34,7 @@ pub enum SimError {
     #[error("model: {0}")]
     Model(String),
     /// A user's robot file could not be used.
-    #[error("{message}: {file}")]
+    #[error("robot file {file}: {message}")]
     RobotFile {
         /// The file.
         file: String,
@@ -60,11 +63,13 @@ impl From<model::ModelError> for SimError {
 }
 
 /// A compiled world: model, engine state and the index of the robot in it.
+///
+/// The engine state owns its model (`Box`), so the few model parameters that MuJoCo allows to
+/// change during a run (contact-pair friction, for directional friction) can be changed; use
+/// [`World::model`] to read it.
 pub struct World {
-    /// The compiled model (shared, read-only).
-    pub model: Arc<MjModel>,
-    /// The engine state.
-    pub data: MjData<Arc<MjModel>>,
+    /// The engine state (with its model).
+    pub data: MjData<Box<MjModel>>,
     /// Resolved ids and addresses.
     pub index: Index,
     /// The MJCF the world was compiled from.
@@ -88,11 +93,9 @@ impl World {
     pub fn from_generated(config: &Config, generated: GeneratedModel) -> Result<Self, SimError> {
         let model = MjModel::from_xml_string(&generated.xml)
             .map_err(|e| SimError::Model(format!("MuJoCo rejected the generated model: {e}")))?;
-        let model = Arc::new(model);
         let index = Index::for_snake(&model, config.snake.n_links)?;
         let mut world = Self {
-            data: MjData::new(model.clone()),
-            model,
+            data: MjData::new(Box::new(model)),
             index,
             mjcf: generated.xml,
             included_files: Vec::new(),
@@ -128,11 +131,10 @@ impl World {
             .map_err(|e| robot_err(format!("cannot write {} ({e})", scene_path.display())))?;
         let model = MjModel::from_xml(&scene_path)
             .map_err(|e| robot_err(format!("MuJoCo cannot load the robot inside the terrain ({e})")))?;
-        let model = Arc::new(model);
         let index = Index::for_robot(&model, config.control.method);
+        safety::check_robot_actuators(config, &index).map_err(robot_err)?;
         let mut world = Self {
-            data: MjData::new(model.clone()),
-            model,
+            data: MjData::new(Box::new(model)),
             mjcf: scene.xml,
             included_files: vec![("robot.xml".to_string(), robot_text)],
             initial_joint_angles_rad: vec![0.0; index.joints.len()],
@@ -146,7 +148,7 @@ impl World {
     /// Resets the state to the model's "initial" keyframe (or its default pose) and computes
     /// all derived quantities.
     pub fn reset(&mut self) -> Result<(), SimError> {
-        match self.model.name_to_id(MjtObjBase::mjOBJ_KEY, model::names::INITIAL_KEYFRAME) {
+        match self.model().name_to_id(MjtObjBase::mjOBJ_KEY, model::names::INITIAL_KEYFRAME) {
             Some(key) => {
                 self.data.reset_keyframe(key).map_err(|e| SimError::Model(format!("cannot reset to keyframe: {e}")))?
             }
@@ -167,6 +169,28 @@ impl World {
     pub fn step(&mut self) {
         self.sensor_time_secs = self.data.time();
         self.data.step();
+    }
+
+    /// The compiled model.
+    pub fn model(&self) -> &MjModel {
+        self.data.model()
+    }
+
+    /// Sets the friction of contact pair `pair` (tangent 1, tangent 2, torsional, rolling 1, 2).
+    /// MuJoCo reads pair friction afresh at every collision detection, so this takes effect at
+    /// the next step. Returns false if there is no such pair.
+    pub fn set_pair_friction(&mut self, pair: usize, friction: [f64; 5]) -> bool {
+        // SAFETY: only the values of an existing pair's friction change; no size, index or
+        // address of the model changes, which is what `model_mut` requires us to keep.
+        #[allow(unsafe_code)]
+        let model = unsafe { self.data.model_mut() };
+        match model.pair_friction_mut().get_mut(pair) {
+            Some(slot) => {
+                *slot = friction;
+                true
+            }
+            None => false,
+        }
     }
 
     /// Number of links and joints.
@@ -218,7 +242,8 @@ impl World {
         obs.sensor_time_secs = self.sensor_time_secs;
     }
 
-    /// Checks the state for NaN or infinite values and MuJoCo's own instability warnings.
+    /// Checks the state for NaN or infinite values and MuJoCo's own instability warnings (bad
+    /// qacc, qpos, qvel, and bad ctrl: a NaN or huge command from the controller).
     /// `time_secs` is the simulated time the step reached (MuJoCo's own clock restarts when it
     /// resets a diverged state).
     pub fn check_finite(&self, step: u64, time_secs: f64) -> Result<(), SimError> {
@@ -235,6 +260,11 @@ impl World {
             (MjtWarning::mjWARN_BADQACC, "MuJoCo reset the state: bad acceleration (mjWARN_BADQACC)"),
             (MjtWarning::mjWARN_BADQPOS, "MuJoCo reset the state: bad position (mjWARN_BADQPOS)"),
             (MjtWarning::mjWARN_BADQVEL, "MuJoCo reset the state: bad velocity (mjWARN_BADQVEL)"),
+            (
+                MjtWarning::mjWARN_BADCTRL,
+                "MuJoCo zeroed a bad control (mjWARN_BADCTRL): the controller's command is NaN, infinite or \
+                 larger than 1e10",
+            ),
         ] {
             if warnings[kind as usize].number > 0 {
                 return Err(diverged(label.to_string()));
@@ -286,6 +316,10 @@ pub struct Simulation {
     steps: u64,
     /// Full state for controllers that ask for it.
     controller_state: Option<Snapshot>,
+    /// Per-step work of the ground friction model.
+    ground: Ground,
+    /// Runaway-energy check (`[safety]`).
+    energy_guard: EnergyGuard,
 }
 
 impl Simulation {
@@ -300,7 +334,11 @@ impl Simulation {
         let (nl, nj) = (world.n_links(), world.n_joints());
         controller.reset();
         let controller_state = controller.needs_full_state().then(|| Snapshot::new(nl, nj));
+        let ground = Ground::new(config, &world);
+        let energy_guard = EnergyGuard::new(config, &world);
         Self {
+            ground,
+            energy_guard,
             controller_state,
             noise: SensorNoise::new(&config.sensors, config.general.seed, nl, nj),
             obs_true: Observation::new(nl, nj),
@@ -343,14 +381,16 @@ impl Simulation {
             None => self.controller.update(&self.obs, &mut self.cmd),
         }
         self.world.apply_command(&self.cmd);
+        self.ground.before_step(&mut self.world);
     }
 
     /// Advances the physics by one timestep with the controls already written.
     pub fn advance(&mut self) -> Result<(), SimError> {
-        let reached_secs = self.world.data.time() + self.world.model.opt().timestep;
+        let reached_secs = self.world.data.time() + self.world.model().opt().timestep;
         self.world.step();
         self.steps += 1;
-        self.world.check_finite(self.steps, reached_secs)
+        self.world.check_finite(self.steps, reached_secs)?;
+        self.energy_guard.check(&mut self.world, self.steps, reached_secs)
     }
 
     /// One full step: [`Simulation::control`] then [`Simulation::advance`].

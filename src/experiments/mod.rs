@@ -1,0 +1,122 @@
+//! The thesis' experiments (chapter 7) and more, as commands with physics checks.
+//!
+//! `simserpent experiment <name>` creates `runs/experiment-<name>-<UTC time>/` holding one run
+//! folder per case (data, and plots when plotting is available) and `report.md`: what was run,
+//! with which contact settings, a table of the measured numbers and every physics check with its
+//! measured value, expected value, tolerance and pass/fail. The command exits 0 when every check
+//! passes and 1 otherwise.
+
+mod collision;
+mod data;
+mod locomotion;
+mod report;
+
+pub use data::Table;
+pub use report::{Check, Report, Section};
+
+use crate::config::Config;
+use crate::record;
+use crate::run::{self, RunError, RunOptions};
+use crate::sim::{Simulation, World};
+use std::path::{Path, PathBuf};
+
+/// Errors of an experiment.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ExperimentError {
+    /// A run failed.
+    #[error(transparent)]
+    Run(#[from] RunError),
+    /// A run's data could not be analysed.
+    #[error("analysis: {0}")]
+    Data(String),
+    /// No such experiment.
+    #[error("unknown experiment `{0}`; available: {list}", list = NAMES.join(", "))]
+    Unknown(String),
+}
+
+impl ExperimentError {
+    /// Exit code: 2 for an unknown name or a bad config, else 1.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            ExperimentError::Unknown(_) => 2,
+            ExperimentError::Run(e) => e.exit_code(),
+            ExperimentError::Data(_) => 1,
+        }
+    }
+}
+
+/// The experiments, by command name.
+pub const NAMES: [&str; 5] = ["configure", "collision", "undulation", "form-closure", "oal"];
+
+/// Where an experiment writes and how long its runs are.
+pub struct Context {
+    /// The experiment folder.
+    pub folder: PathBuf,
+    /// Shorter runs (for tests): fewer gait cycles, same checks.
+    pub quick: bool,
+}
+
+impl Context {
+    /// Runs `config` as a sub-run named `name` inside the experiment folder, after `prepare` has
+    /// changed the initial state (e.g. set a launch velocity). Returns the run folder.
+    pub fn sub_run(
+        &self,
+        name: &str,
+        config: &Config,
+        prepare: impl FnOnce(&mut World),
+    ) -> Result<PathBuf, ExperimentError> {
+        let mut config = config.clone();
+        config.general.output_dir = self.folder.display().to_string();
+        config.general.run_name = name.to_string();
+        config.validate().map_err(|e| RunError::Sim(e.into()))?;
+        let options = RunOptions { config_source: format!("experiment {name}"), ..RunOptions::default() };
+        let mut world = run::build_world(&config, &options).map_err(RunError::from)?;
+        prepare(&mut world);
+        world.forward();
+        let sim = Simulation::new(&config, world);
+        let summary = run::run_simulation(&config, &options, sim)?;
+        Ok(summary.run_folder)
+    }
+}
+
+/// The outcome of an experiment.
+#[derive(Debug)]
+pub struct Outcome {
+    /// The experiment folder (with `report.md`).
+    pub folder: PathBuf,
+    /// The report.
+    pub report: Report,
+}
+
+/// Runs experiment `name` on top of `base` (the user's config: keys the experiment does not set
+/// keep their values) and writes its report.
+pub fn run_experiment(name: &str, base: &Config, output_dir: &Path, quick: bool) -> Result<Outcome, ExperimentError> {
+    if !NAMES.contains(&name) {
+        return Err(ExperimentError::Unknown(name.to_string()));
+    }
+    let unix_secs =
+        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+    let folder = record::create_run_folder(output_dir, &format!("experiment-{name}"), &record::utc_stamp(unix_secs))
+        .map_err(RunError::from)?;
+    let ctx = Context { folder: folder.clone(), quick };
+    let mut report = Report { title: format!("SimSerpent experiment `{name}`"), ..Report::default() };
+    report.intro = format!(
+        "SimSerpent {}, MuJoCo {}. Each case below is a run folder next to this report (config.toml, model.xml, \
+         tables). Quick mode: {quick}.",
+        env!("CARGO_PKG_VERSION"),
+        mujoco_rs::mujoco_version()
+    );
+    let section = match name {
+        "collision" => collision::run(&ctx, base)?,
+        "undulation" => locomotion::undulation(&ctx, base)?,
+        "oal" => locomotion::oal(&ctx, base)?,
+        "form-closure" => locomotion::form_closure(&ctx, base)?,
+        _ => locomotion::configure(&ctx, base)?,
+    };
+    report.sections.push(section);
+    let path = folder.join("report.md");
+    std::fs::write(&path, report.to_markdown())
+        .map_err(|e| RunError::from(record::RecordError::Io { path: path.clone(), source: e }))?;
+    Ok(Outcome { folder, report })
+}

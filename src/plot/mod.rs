@@ -1,0 +1,587 @@
+//! Plots of a run folder, as PNG and SVG, with an embedded font (no system fonts, no display).
+//!
+//! [`plot_run_folder`] reads the CSV tables of a run (`links.csv`, `joints.csv`,
+//! `contacts.csv`), its `config.toml` and `model.xml` (for the obstacles), and writes one PNG and
+//! one SVG per panel into `<run folder>/plots/`:
+//!
+//! | file | panel |
+//! |---|---|
+//! | `head_position` | head (link 0) position x, y, z (m) against time (s) |
+//! | `head_velocity` | head velocity (m/s) |
+//! | `head_acceleration` | head acceleration (m/s²) |
+//! | `contact_count` | number of contacts at each recorded step |
+//! | `contact_forces` | total and largest contact normal force (N) |
+//! | `penetration` | largest penetration (mm) |
+//! | `joint_angles` | every joint angle (deg) |
+//! | `actuator_torques` | force of every joint's actuator of the configured kind (N·m) |
+//! | `top_view` | every link's path in the xy-plane (m) with the obstacles, equal scales |
+//!
+//! A panel whose columns were not recorded is skipped (and named in the returned list).
+
+use crate::config::Config;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// The embedded font: DejaVu Sans (Bitstream Vera licence, see `assets/DejaVuSans.LICENSE`).
+const FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
+const FAMILY: &str = "sans-serif";
+
+/// Registers the embedded font with plotters (once per process).
+pub fn register_font() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        if plotters::style::register_font(FAMILY, FontStyle::Normal, FONT).is_err() {
+            log::warn!("the embedded font is invalid; plots will have no text");
+        }
+    });
+}
+
+/// Errors of plotting; they name the file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PlotError {
+    /// A file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A table or file is not what a run folder holds.
+    #[error("{path}: {message}")]
+    BadFile {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// Drawing or writing a plot failed.
+    #[error("cannot write {path}: {message}")]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// What failed.
+        message: String,
+    },
+}
+
+impl PlotError {
+    /// 2 for a bad run folder, 1 for failures to write.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Self::Write { .. } => 1,
+            _ => 2,
+        }
+    }
+}
+
+/// A CSV table read whole: column name → values (text columns are left out).
+#[derive(Debug, Default)]
+struct Table {
+    columns: HashMap<String, Vec<f64>>,
+    order: Vec<String>,
+}
+
+impl Table {
+    fn read(path: &Path) -> Result<Self, PlotError> {
+        let text =
+            std::fs::read_to_string(path).map_err(|source| PlotError::Read { path: path.to_path_buf(), source })?;
+        let mut lines = text.lines();
+        let header: Vec<String> = lines
+            .next()
+            .ok_or_else(|| PlotError::BadFile { path: path.to_path_buf(), message: "the file is empty".into() })?
+            .split(',')
+            .map(|s| s.trim().to_string())
+            .collect();
+        let mut values: Vec<Vec<f64>> = vec![Vec::new(); header.len()];
+        for line in lines {
+            let fields: Vec<&str> = line.split(',').collect();
+            if fields.len() != header.len() {
+                // A half-written last line of an interrupted run.
+                continue;
+            }
+            for (col, f) in values.iter_mut().zip(fields) {
+                col.push(f.trim().parse().unwrap_or(f64::NAN));
+            }
+        }
+        let mut columns = HashMap::new();
+        for (name, col) in header.iter().zip(values) {
+            columns.insert(name.clone(), col);
+        }
+        Ok(Self { columns, order: header })
+    }
+
+    fn get(&self, name: &str) -> Option<&[f64]> {
+        self.columns.get(name).map(Vec::as_slice)
+    }
+}
+
+/// One line of a plot.
+struct Series<'a> {
+    name: String,
+    x: &'a [f64],
+    y: Vec<f64>,
+}
+
+/// Circles and rectangles of the obstacles, in the xy-plane: (x, y, kind).
+#[derive(Debug, Clone)]
+enum Obstacle {
+    Circle { x: f64, y: f64, r: f64 },
+    Rect { x: f64, y: f64, hx: f64, hy: f64 },
+}
+
+fn obstacles(model_xml: &Path) -> Vec<Obstacle> {
+    use mujoco_rs::prelude::*;
+    let Ok(model) = MjModel::from_xml(model_xml) else {
+        log::warn!("{}: MuJoCo cannot load it; the top view has no obstacles", model_xml.display());
+        return Vec::new();
+    };
+    let mut out = Vec::new();
+    let (types, bodies, sizes, pos) = (model.geom_type(), model.geom_bodyid(), model.geom_size(), model.geom_pos());
+    for g in 0..types.len() {
+        if bodies[g] != 0 {
+            continue;
+        }
+        let (p, s) = (pos[g], sizes[g]);
+        match types[g] {
+            MjtGeomBase::mjGEOM_CYLINDER | MjtGeomBase::mjGEOM_SPHERE | MjtGeomBase::mjGEOM_CAPSULE => {
+                out.push(Obstacle::Circle { x: p[0], y: p[1], r: s[0] })
+            }
+            MjtGeomBase::mjGEOM_BOX => out.push(Obstacle::Rect { x: p[0], y: p[1], hx: s[0], hy: s[1] }),
+            _ => {}
+        }
+    }
+    out
+}
+
+const COLORS: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+
+fn color(i: usize) -> RGBColor {
+    COLORS[i % COLORS.len()]
+}
+
+/// Range of finite values with a margin; never empty.
+fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite()) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return (-1.0, 1.0);
+    }
+    let span = hi - lo;
+    let pad = if span > 0.0 { 0.05 * span } else { 0.5 * lo.abs().max(1e-3) };
+    (lo - pad, hi + pad)
+}
+
+type DrawResult = Result<(), String>;
+
+fn line_chart<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    y_label: &str,
+    series: &[Series<'_>],
+) -> DrawResult {
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let (x0, x1) = range(series.iter().flat_map(|s| s.x.iter().copied()));
+    let (y0, y1) = range(series.iter().flat_map(|s| s.y.iter().copied()));
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, (FAMILY, 22))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .x_desc("time (s)")
+        .y_desc(y_label)
+        .label_style((FAMILY, 14))
+        .axis_desc_style((FAMILY, 16))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    for (i, s) in series.iter().enumerate() {
+        let c = color(i);
+        chart
+            .draw_series(LineSeries::new(
+                s.x.iter().copied().zip(s.y.iter().copied()).filter(|(x, y)| x.is_finite() && y.is_finite()),
+                c.stroke_width(2),
+            ))
+            .map_err(|e| e.to_string())?
+            .label(s.name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
+    }
+    if series.len() > 1 && series.len() <= 12 {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK.mix(0.3))
+            .label_font((FAMILY, 13))
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(|e| e.to_string())?;
+    }
+    root.present().map_err(|e| e.to_string())
+}
+
+fn top_view<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    paths: &[Series<'_>],
+    obstacles: &[Obstacle],
+    size: (u32, u32),
+) -> DrawResult {
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let (mut x0, mut x1) = range(paths.iter().flat_map(|s| s.x.iter().copied()));
+    let (mut y0, mut y1) = range(paths.iter().flat_map(|s| s.y.iter().copied()));
+    // Obstacles near the path are drawn too: widen the view by up to 1 m around the path.
+    let near = |o: &Obstacle| {
+        let (x, y) = match o {
+            Obstacle::Circle { x, y, .. } | Obstacle::Rect { x, y, .. } => (*x, *y),
+        };
+        x > x0 - 1.0 && x < x1 + 1.0 && y > y0 - 1.0 && y < y1 + 1.0
+    };
+    let shown: Vec<&Obstacle> = obstacles.iter().filter(|o| near(o)).collect();
+    for o in &shown {
+        let (cx, cy, hx, hy) = match o {
+            Obstacle::Circle { x, y, r } => (*x, *y, *r, *r),
+            Obstacle::Rect { x, y, hx, hy } => (*x, *y, *hx, *hy),
+        };
+        x0 = x0.min(cx - hx - 0.05);
+        x1 = x1.max(cx + hx + 0.05);
+        y0 = y0.min(cy - hy - 0.05);
+        y1 = y1.max(cy + hy + 0.05);
+    }
+    // Equal scales: widen the shorter side to the aspect ratio of the plot area.
+    let (pw, ph) = ((size.0 as f64 - 100.0).max(1.0), (size.1 as f64 - 90.0).max(1.0));
+    let (w, h) = (x1 - x0, y1 - y0);
+    if w / h < pw / ph {
+        let extra = (h * pw / ph - w) / 2.0;
+        x0 -= extra;
+        x1 += extra;
+    } else {
+        let extra = (w * ph / pw - h) / 2.0;
+        y0 -= extra;
+        y1 += extra;
+    }
+    let mut chart = ChartBuilder::on(root)
+        .caption("Top view: link paths and obstacles", (FAMILY, 22))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(60)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .x_desc("x (m)")
+        .y_desc("y (m)")
+        .label_style((FAMILY, 14))
+        .axis_desc_style((FAMILY, 16))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    let grey = RGBColor(120, 120, 120);
+    for o in shown {
+        let points: Vec<(f64, f64)> = match o {
+            Obstacle::Circle { x, y, r } => (0..48)
+                .map(|k| {
+                    let a = k as f64 / 48.0 * std::f64::consts::TAU;
+                    (x + r * a.cos(), y + r * a.sin())
+                })
+                .collect(),
+            Obstacle::Rect { x, y, hx, hy } => {
+                vec![(x - hx, y - hy), (x + hx, y - hy), (x + hx, y + hy), (x - hx, y + hy)]
+            }
+        };
+        chart.draw_series(std::iter::once(Polygon::new(points, grey.mix(0.6).filled()))).map_err(|e| e.to_string())?;
+    }
+    for (i, s) in paths.iter().enumerate() {
+        let c = color(i);
+        chart
+            .draw_series(LineSeries::new(
+                s.x.iter().copied().zip(s.y.iter().copied()).filter(|(x, y)| x.is_finite() && y.is_finite()),
+                c.stroke_width(1),
+            ))
+            .map_err(|e| e.to_string())?;
+        // Start (circle) and end (filled) of every path.
+        if let (Some(&xs), Some(&ys), Some(&xe), Some(&ye)) = (s.x.first(), s.y.first(), s.x.last(), s.y.last()) {
+            chart.draw_series([Circle::new((xs, ys), 3, c.stroke_width(1))]).map_err(|e| e.to_string())?;
+            chart.draw_series([Circle::new((xe, ye), 3, c.filled())]).map_err(|e| e.to_string())?;
+        }
+    }
+    root.present().map_err(|e| e.to_string())
+}
+
+/// Draws one panel into `<dir>/<stem>.png` and `<dir>/<stem>.svg`.
+fn both(
+    dir: &Path,
+    stem: &str,
+    size: (u32, u32),
+    draw: impl Fn(&dyn AnyArea) -> DrawResult,
+) -> Result<Vec<PathBuf>, PlotError> {
+    let png = dir.join(format!("{stem}.png"));
+    let svg = dir.join(format!("{stem}.svg"));
+    let failed = |path: &Path, message: String| PlotError::Write { path: path.to_path_buf(), message };
+    let mut buffer = vec![255u8; size.0 as usize * size.1 as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buffer, size).into_drawing_area();
+        draw(&root).map_err(|m| failed(&png, m))?;
+    }
+    crate::render::write_png(&png, &buffer, size.0 as usize, size.1 as usize)
+        .map_err(|e| failed(&png, e.to_string()))?;
+    {
+        let root = SVGBackend::new(&svg, size).into_drawing_area();
+        draw(&root).map_err(|m| failed(&svg, m))?;
+    }
+    Ok(vec![png, svg])
+}
+
+/// What [`plot_run_folder`] wrote and skipped.
+#[derive(Debug, Clone, Default)]
+pub struct PlotOutput {
+    /// The files written (PNG and SVG of every panel).
+    pub files: Vec<PathBuf>,
+    /// Panels left out, with the reason (e.g. columns not recorded).
+    pub skipped: Vec<(String, String)>,
+}
+
+/// Writes the standard panels of a run folder into `<folder>/plots/`.
+pub fn plot_run_folder(folder: &Path) -> Result<PlotOutput, PlotError> {
+    register_font();
+    let config_path = folder.join("config.toml");
+    if !config_path.is_file() {
+        return Err(PlotError::BadFile {
+            path: folder.to_path_buf(),
+            message: "is not a run folder (it has no config.toml)".into(),
+        });
+    }
+    let config = crate::config::load_config(&config_path, &[])
+        .map_err(|e| PlotError::BadFile { path: config_path.clone(), message: e.to_string() })?;
+    let links_path = folder.join("links.csv");
+    if !links_path.is_file() {
+        return Err(PlotError::BadFile {
+            path: links_path,
+            message: "missing: plots are made from the CSV tables (recording.enabled = true, and a CSV format)".into(),
+        });
+    }
+    let links = Table::read(&links_path)?;
+    let joints = match Table::read(&folder.join("joints.csv")) {
+        Ok(t) => t,
+        Err(PlotError::Read { .. }) => Table::default(),
+        Err(e) => return Err(e),
+    };
+    let contacts = match Table::read(&folder.join("contacts.csv")) {
+        Ok(t) => Some(t),
+        Err(PlotError::Read { .. }) => None,
+        Err(e) => return Err(e),
+    };
+    let dir = folder.join("plots");
+    std::fs::create_dir_all(&dir).map_err(|e| PlotError::Write { path: dir.clone(), message: e.to_string() })?;
+    draw_panels(&config, &links, &joints, contacts.as_ref(), &obstacles(&folder.join("model.xml")), &dir)
+}
+
+fn draw_panels(
+    config: &Config,
+    links: &Table,
+    joints: &Table,
+    contacts: Option<&Table>,
+    obstacles: &[Obstacle],
+    dir: &Path,
+) -> Result<PlotOutput, PlotError> {
+    let size = (config.plot.width_px, config.plot.height_px);
+    let mut out = PlotOutput::default();
+    let empty: &[f64] = &[];
+    let time = links.get("time_s").unwrap_or(empty);
+    // The head: the first link that has position columns (link_00 for the generated snake).
+    let link_names: Vec<String> =
+        links.order.iter().filter_map(|c| c.strip_suffix("_position_x_m").map(str::to_string)).collect();
+    let head = link_names.first().cloned().unwrap_or_else(|| crate::model::names::link_body(0));
+
+    let xyz = |quantity: &str, unit: &str, scale: f64| -> Vec<Series<'_>> {
+        ["x", "y", "z"]
+            .iter()
+            .filter_map(|a| {
+                links.get(&format!("{head}_{quantity}_{a}_{unit}")).map(|v| Series {
+                    name: (*a).to_string(),
+                    x: time,
+                    y: v.iter().map(|y| y * scale).collect(),
+                })
+            })
+            .collect()
+    };
+    let mut panel = |stem: &str, title: &str, y_label: &str, series: Vec<Series<'_>>, why: &str| {
+        if series.is_empty() {
+            out.skipped.push((stem.to_string(), why.to_string()));
+            return Ok(());
+        }
+        let files = both(dir, stem, size, |root: &dyn AnyArea| root.line(title, y_label, &series))?;
+        out.files.extend(files);
+        Ok::<(), PlotError>(())
+    };
+    panel("head_position", "Head position", "position (m)", xyz("position", "m", 1.0), "link positions not recorded")?;
+    panel(
+        "head_velocity",
+        "Head velocity",
+        "velocity (m/s)",
+        xyz("velocity", "m_per_s", 1.0),
+        "link velocities not recorded",
+    )?;
+    panel(
+        "head_acceleration",
+        "Head acceleration",
+        "acceleration (m/s²)",
+        xyz("acceleration", "m_per_s2", 1.0),
+        "link accelerations not recorded",
+    )?;
+
+    // Contacts: per recorded time, count, total and largest normal force, largest penetration.
+    let per_step = contacts.map(|c| contact_stats(time, c));
+    let none = "contacts not recorded (recording.contacts = false)";
+    let stats = per_step.as_ref();
+    panel(
+        "contact_count",
+        "Number of contacts",
+        "contacts",
+        stats.map(|s| vec![Series { name: "contacts".into(), x: time, y: s.count.clone() }]).unwrap_or_default(),
+        none,
+    )?;
+    panel(
+        "contact_forces",
+        "Contact normal forces",
+        "force (N)",
+        stats
+            .map(|s| {
+                vec![
+                    Series { name: "sum over contacts".into(), x: time, y: s.total_n.clone() },
+                    Series { name: "largest contact".into(), x: time, y: s.peak_n.clone() },
+                ]
+            })
+            .unwrap_or_default(),
+        none,
+    )?;
+    panel(
+        "penetration",
+        "Largest penetration",
+        "penetration (mm)",
+        stats
+            .map(|s| vec![Series { name: "penetration".into(), x: time, y: s.penetration_mm.clone() }])
+            .unwrap_or_default(),
+        none,
+    )?;
+
+    let jtime = joints.get("time_s").unwrap_or(empty);
+    let joint_cols = |suffix: &str, scale: f64| -> Vec<Series<'_>> {
+        joints
+            .order
+            .iter()
+            .filter_map(|c| {
+                let name = c.strip_suffix(suffix)?;
+                Some(Series {
+                    name: name.to_string(),
+                    x: jtime,
+                    y: joints.get(c).unwrap_or(empty).iter().map(|v| v * scale).collect(),
+                })
+            })
+            .collect()
+    };
+    panel(
+        "joint_angles",
+        "Joint angles",
+        "angle (deg)",
+        joint_cols("_angle_rad", 180.0 / std::f64::consts::PI),
+        "joint angles not recorded",
+    )?;
+    let kind = config.control.method.name();
+    panel(
+        "actuator_torques",
+        &format!("Actuator torques ({kind} actuators)"),
+        "torque (N·m)",
+        joint_cols(&format!("_{kind}_actuator_force_nm"), 1.0),
+        "actuator forces of the configured kind not recorded",
+    )?;
+
+    let paths: Vec<Series<'_>> = link_names
+        .iter()
+        .filter_map(|n| {
+            Some(Series {
+                name: n.clone(),
+                x: links.get(&format!("{n}_position_x_m"))?,
+                y: links.get(&format!("{n}_position_y_m"))?.to_vec(),
+            })
+        })
+        .collect();
+    if paths.is_empty() {
+        out.skipped.push(("top_view".into(), "link positions not recorded".into()));
+    } else {
+        let files = both(dir, "top_view", size, |root: &dyn AnyArea| root.top(&paths, obstacles, size))?;
+        out.files.extend(files);
+    }
+    Ok(out)
+}
+
+/// Per recorded time: number of contacts, total and largest normal force, largest penetration.
+struct ContactStats {
+    count: Vec<f64>,
+    total_n: Vec<f64>,
+    peak_n: Vec<f64>,
+    penetration_mm: Vec<f64>,
+}
+
+fn contact_stats(time: &[f64], c: &Table) -> ContactStats {
+    let n = time.len();
+    let mut s =
+        ContactStats { count: vec![0.0; n], total_n: vec![0.0; n], peak_n: vec![0.0; n], penetration_mm: vec![0.0; n] };
+    let empty: &[f64] = &[];
+    let (t, f, p) = (
+        c.get("time_s").unwrap_or(empty),
+        c.get("normal_force_n").unwrap_or(empty),
+        c.get("penetration_m").unwrap_or(empty),
+    );
+    // Both tables are in time order: walk them together.
+    let mut k = 0;
+    for (i, &ti) in t.iter().enumerate() {
+        while k + 1 < n && time[k] < ti - 1e-12 {
+            k += 1;
+        }
+        if n == 0 || (time[k] - ti).abs() > 1e-9 * ti.abs().max(1.0) {
+            continue;
+        }
+        s.count[k] += 1.0;
+        let force = f.get(i).copied().unwrap_or(0.0);
+        s.total_n[k] += force;
+        s.peak_n[k] = s.peak_n[k].max(force);
+        s.penetration_mm[k] = s.penetration_mm[k].max(p.get(i).copied().unwrap_or(0.0) * 1e3);
+    }
+    s
+}
+
+/// The two backends behind one object-safe face, so every panel is drawn by one closure.
+trait AnyArea {
+    fn line(&self, title: &str, y_label: &str, series: &[Series<'_>]) -> DrawResult;
+    fn top(&self, paths: &[Series<'_>], obstacles: &[Obstacle], size: (u32, u32)) -> DrawResult;
+}
+
+impl<DB: DrawingBackend> AnyArea for DrawingArea<DB, Shift> {
+    fn line(&self, title: &str, y_label: &str, series: &[Series<'_>]) -> DrawResult {
+        line_chart(self, title, y_label, series)
+    }
+    fn top(&self, paths: &[Series<'_>], obstacles: &[Obstacle], size: (u32, u32)) -> DrawResult {
+        top_view(self, paths, obstacles, size)
+    }
+}

@@ -1,0 +1,272 @@
+//! A streaming Parquet table (feature `parquet`): the same columns as the CSV table, typed
+//! (float64, int64, UTF-8 strings), ZSTD-compressed, written one row group at a time.
+//!
+//! Values go into one buffer per column, preallocated for a batch of at most 1024 rows (no
+//! allocation per value). Every full batch becomes an Arrow record batch that the writer encodes
+//! and compresses into the row group in progress; every `row_group_rows` rows the row group goes
+//! to the file. Memory therefore holds one raw batch, one compressed row group and the footer's
+//! metadata (kept small: no page indexes, statistics only for `time_s`/`step`), and does not grow
+//! with the length of the run beyond that metadata. `finish` writes the last row group and the footer; a file without its
+//! footer (process killed) is not readable, which is why CSV stays available beside it.
+
+use super::sink::{ColumnKind, TableSink};
+use arrow_array::builder::{ArrayBuilder, StringBuilder};
+use arrow_array::{ArrayRef, Float64Array, Int64Array, RecordBatch};
+use arrow_schema::{DataType, Field, Schema, SchemaRef};
+use parquet::arrow::ArrowWriter;
+use parquet::basic::{Compression, ZstdLevel};
+use parquet::file::properties::{EnabledStatistics, WriterProperties};
+use parquet::schema::types::ColumnPath;
+use std::fs::File;
+use std::io::{BufWriter, Error, ErrorKind};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+enum Column {
+    Float(Vec<f64>),
+    Int(Vec<i64>),
+    Text(StringBuilder),
+}
+
+impl Column {
+    fn new(kind: ColumnKind, capacity: usize) -> Self {
+        match kind {
+            ColumnKind::Float => Self::Float(Vec::with_capacity(capacity)),
+            ColumnKind::Int => Self::Int(Vec::with_capacity(capacity)),
+            ColumnKind::Text => Self::Text(StringBuilder::with_capacity(capacity, capacity * 16)),
+        }
+    }
+
+    fn kind(&self) -> &'static str {
+        match self {
+            Self::Float(_) => "a number",
+            Self::Int(_) => "an integer",
+            Self::Text(_) => "text",
+        }
+    }
+
+    /// Hands the buffered values over as an Arrow array and starts a new buffer.
+    fn take(&mut self, capacity: usize) -> ArrayRef {
+        match self {
+            Self::Float(v) => Arc::new(Float64Array::from(std::mem::replace(v, Vec::with_capacity(capacity)))),
+            Self::Int(v) => Arc::new(Int64Array::from(std::mem::replace(v, Vec::with_capacity(capacity)))),
+            Self::Text(b) => Arc::new(b.finish()),
+        }
+    }
+}
+
+/// One Parquet file being written.
+pub struct ParquetTable {
+    path: PathBuf,
+    schema: SchemaRef,
+    writer: ArrowWriter<BufWriter<File>>,
+    columns: Vec<Column>,
+    in_row: usize,
+    buffered: usize,
+    rows: u64,
+    batch_rows: usize,
+}
+
+fn to_io(e: parquet::errors::ParquetError) -> Error {
+    Error::other(e)
+}
+
+impl ParquetTable {
+    /// Creates the file; `kinds` gives each column's type.
+    pub fn create(
+        path: &Path,
+        header: &[String],
+        kinds: &[ColumnKind],
+        row_group_rows: usize,
+    ) -> std::io::Result<Self> {
+        let row_group_rows = row_group_rows.max(1);
+        let batch_rows = row_group_rows.min(1024);
+        let fields: Vec<Field> = header
+            .iter()
+            .zip(kinds)
+            .map(|(name, kind)| {
+                let data_type = match kind {
+                    ColumnKind::Float => DataType::Float64,
+                    ColumnKind::Int => DataType::Int64,
+                    ColumnKind::Text => DataType::Utf8,
+                };
+                Field::new(name, data_type, false)
+            })
+            .collect();
+        let schema = Arc::new(Schema::new(fields));
+        // Dictionaries only pay off for the name columns; floats are nearly all distinct.
+        // The writer keeps the metadata of every row group in memory until it writes the footer,
+        // so keep that metadata small: no page indexes, and min/max statistics only for the time
+        // and step columns (what readers filter on); otherwise memory would grow with the run.
+        let mut props = WriterProperties::builder()
+            .set_compression(Compression::ZSTD(ZstdLevel::default()))
+            .set_dictionary_enabled(false)
+            .set_statistics_enabled(EnabledStatistics::None)
+            .set_offset_index_disabled(true)
+            .set_max_row_group_row_count(Some(row_group_rows))
+            .set_created_by(format!("simserpent {}", env!("CARGO_PKG_VERSION")));
+        for (name, kind) in header.iter().zip(kinds) {
+            let column = || ColumnPath::from(name.as_str());
+            if *kind == ColumnKind::Text {
+                props = props.set_column_dictionary_enabled(column(), true);
+            }
+            if matches!(name.as_str(), "time_s" | "step") {
+                props = props.set_column_statistics_enabled(column(), EnabledStatistics::Chunk);
+            }
+        }
+        let file = File::create(path)?;
+        let writer = ArrowWriter::try_new(BufWriter::with_capacity(1 << 16, file), schema.clone(), Some(props.build()))
+            .map_err(to_io)?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            schema,
+            writer,
+            columns: kinds.iter().map(|k| Column::new(*k, batch_rows)).collect(),
+            in_row: 0,
+            buffered: 0,
+            rows: 0,
+            batch_rows,
+        })
+    }
+
+    fn column(&mut self, wanted: &'static str) -> std::io::Result<&mut Column> {
+        let i = self.in_row;
+        self.in_row += 1;
+        let path = &self.path;
+        let schema = &self.schema;
+        match self.columns.get_mut(i) {
+            Some(c) => Ok(c),
+            None => Err(Error::new(
+                ErrorKind::InvalidData,
+                format!("{}: row has more than {} columns (writing {wanted})", path.display(), schema.fields().len()),
+            )),
+        }
+    }
+
+    fn mismatch(&self, wanted: &str, column: &Column) -> Error {
+        let name = self.schema.fields().get(self.in_row - 1).map_or("?", |f| f.name().as_str());
+        Error::new(
+            ErrorKind::InvalidData,
+            format!("{}: column `{name}` holds {}, not {wanted}", self.path.display(), column.kind()),
+        )
+    }
+
+    /// Hands the buffered rows to the encoder (which writes a row group whenever it has
+    /// `row_group_rows` rows).
+    fn write_batch(&mut self) -> std::io::Result<()> {
+        if self.buffered == 0 {
+            return Ok(());
+        }
+        let capacity = self.batch_rows;
+        let arrays: Vec<ArrayRef> = self.columns.iter_mut().map(|c| c.take(capacity)).collect();
+        let batch = RecordBatch::try_new(self.schema.clone(), arrays).map_err(Error::other)?;
+        self.writer.write(&batch).map_err(to_io)?;
+        self.buffered = 0;
+        Ok(())
+    }
+
+    /// Writes the last row group and the footer, and syncs the file to disk.
+    pub fn finish(mut self) -> std::io::Result<()> {
+        if self.in_row != 0 {
+            // A half-written row (an error mid-row): drop it rather than write a ragged table.
+            for c in &mut self.columns {
+                match c {
+                    Column::Float(v) if v.len() > self.buffered => v.truncate(self.buffered),
+                    Column::Int(v) if v.len() > self.buffered => v.truncate(self.buffered),
+                    _ => {}
+                }
+            }
+            self.in_row = 0;
+            if self.columns.iter().any(|c| matches!(c, Column::Text(b) if b.len() > self.buffered)) {
+                // Text builders cannot be truncated; drop the whole unfinished row group instead
+                // of writing a ragged one.
+                self.buffered = 0;
+                let capacity = self.batch_rows;
+                for c in &mut self.columns {
+                    let _ = c.take(capacity);
+                }
+            }
+        }
+        self.write_batch()?;
+        let file = self.writer.into_inner().map_err(to_io)?;
+        let file = file.into_inner().map_err(|e| e.into_error())?;
+        file.sync_all()
+    }
+}
+
+impl TableSink for ParquetTable {
+    #[inline]
+    fn num(&mut self, value: f64) -> std::io::Result<()> {
+        match self.column("a number")? {
+            Column::Float(v) => {
+                v.push(value);
+                Ok(())
+            }
+            _ => {
+                let c = &self.columns[self.in_row - 1];
+                Err(self.mismatch("a number", c))
+            }
+        }
+    }
+
+    fn int(&mut self, value: u64) -> std::io::Result<()> {
+        match self.column("an integer")? {
+            Column::Int(v) => {
+                v.push(i64::try_from(value).unwrap_or(i64::MAX));
+                Ok(())
+            }
+            Column::Float(v) => {
+                v.push(value as f64);
+                Ok(())
+            }
+            Column::Text(_) => {
+                let c = &self.columns[self.in_row - 1];
+                Err(self.mismatch("an integer", c))
+            }
+        }
+    }
+
+    fn text(&mut self, value: &str) -> std::io::Result<()> {
+        match self.column("text")? {
+            Column::Text(b) => {
+                b.append_value(value);
+                Ok(())
+            }
+            _ => {
+                let c = &self.columns[self.in_row - 1];
+                Err(self.mismatch("text", c))
+            }
+        }
+    }
+
+    fn end_row(&mut self) -> std::io::Result<()> {
+        if self.in_row != self.columns.len() {
+            return Err(Error::new(
+                ErrorKind::InvalidData,
+                format!("{}: row has {} of {} columns", self.path.display(), self.in_row, self.columns.len()),
+            ));
+        }
+        self.in_row = 0;
+        self.buffered += 1;
+        self.rows += 1;
+        if self.buffered >= self.batch_rows { self.write_batch() } else { Ok(()) }
+    }
+
+    /// Writes the rows buffered so far as a (possibly short) row group. Whole row groups only
+    /// become readable with the footer that `finish` writes.
+    fn flush(&mut self) -> std::io::Result<()> {
+        if self.in_row == 0 {
+            self.write_batch()?;
+            self.writer.flush().map_err(to_io)?;
+        }
+        Ok(())
+    }
+
+    fn path(&self) -> &Path {
+        &self.path
+    }
+
+    fn rows(&self) -> u64 {
+        self.rows
+    }
+}

@@ -1,0 +1,144 @@
+//! `state.csv`: the full engine state on every recorded step, so that a run can be replayed into
+//! pictures afterwards (`simserpent render RUN_FOLDER`).
+//!
+//! Columns: `time_s`, then `qpos_0 … qpos_{nq-1}`, `qvel_0 …`, `act_0 …`, `ctrl_0 …` in MuJoCo's
+//! order (`mj_getState` with `mjSTATE_QPOS | QVEL | ACT | CTRL`). With the model of the same run
+//! folder (`model.xml`) and `mj_forward`, a row gives back every position, contact and contact force
+//! of that instant.
+
+use super::RenderError;
+use crate::record::CsvTable;
+use mujoco_rs::prelude::*;
+use mujoco_rs::wrappers::mj_model::traits::ModelType;
+use std::path::{Path, PathBuf};
+
+/// The state components of a row, `time_s` first (MuJoCo's `mjtState` bits; `mj_getState` writes
+/// them in bit order, which is the column order).
+pub const STATE_SPEC: u32 = MjtState::mjSTATE_TIME as u32
+    | MjtState::mjSTATE_QPOS as u32
+    | MjtState::mjSTATE_QVEL as u32
+    | MjtState::mjSTATE_ACT as u32
+    | MjtState::mjSTATE_CTRL as u32;
+
+/// The file name inside a run folder.
+pub const STATE_FILE: &str = "state.csv";
+
+/// Sizes of the state blocks of a model: `(nq, nv, na, nu)`.
+pub fn state_sizes(model: &MjModel) -> (usize, usize, usize, usize) {
+    let f = model.ffi();
+    (f.nq as usize, f.nv as usize, f.na as usize, f.nu as usize)
+}
+
+/// The header of `state.csv` for a model.
+pub fn state_header(model: &MjModel) -> Vec<String> {
+    let (nq, nv, na, nu) = state_sizes(model);
+    let mut h = vec!["time_s".to_string()];
+    for (name, n) in [("qpos", nq), ("qvel", nv), ("act", na), ("ctrl", nu)] {
+        h.extend((0..n).map(|i| format!("{name}_{i}")));
+    }
+    h
+}
+
+/// Writes `state.csv` as the run goes (no allocation per row).
+pub struct StateWriter {
+    table: CsvTable,
+    buffer: Vec<f64>,
+}
+
+impl StateWriter {
+    /// Creates `<folder>/state.csv` for `model`.
+    pub fn create(folder: &Path, model: &MjModel) -> Result<Self, RenderError> {
+        let path = folder.join(STATE_FILE);
+        let table = CsvTable::create(&path, &state_header(model)).map_err(RenderError::io(&path))?;
+        Ok(Self { table, buffer: vec![0.0; model.state_size(STATE_SPEC)] })
+    }
+
+    /// Appends the current state of `data`.
+    pub fn write<M: ModelType>(&mut self, data: &MjData<M>) -> Result<(), RenderError> {
+        let n =
+            data.try_read_state_into(STATE_SPEC, &mut self.buffer).map_err(|e| RenderError::Engine(e.to_string()))?;
+        let path = self.table.path().to_path_buf();
+        let io = RenderError::io(&path);
+        self.table.nums(&self.buffer[..n]).and_then(|()| self.table.end_row()).map_err(io)
+    }
+
+    /// Flushes and closes the file; returns its path and the number of rows.
+    pub fn finish(self) -> Result<(PathBuf, u64), RenderError> {
+        let path = self.table.path().to_path_buf();
+        let rows = self.table.rows();
+        self.table.finish().map_err(RenderError::io(&path))?;
+        Ok((path, rows))
+    }
+}
+
+/// A recorded `state.csv`, read back whole: `times[k]` and `row(k)` (the whole row, time first, as
+/// [`STATE_SPEC`] lays it out).
+#[derive(Debug, Clone)]
+pub struct StateTrack {
+    /// Simulated time of every row (s).
+    pub times: Vec<f64>,
+    /// Values per row (with the time).
+    pub width: usize,
+    values: Vec<f64>,
+}
+
+impl StateTrack {
+    /// Reads `state.csv`; checks that its columns fit `model`.
+    pub fn read(path: &Path, model: &MjModel) -> Result<Self, RenderError> {
+        let text = std::fs::read_to_string(path).map_err(RenderError::read(path))?;
+        let bad = |message: String| RenderError::BadFile { path: path.to_path_buf(), message };
+        let mut lines = text.lines();
+        let header = lines.next().ok_or_else(|| bad("the file is empty".into()))?;
+        let expected = state_header(model);
+        if header.split(',').map(str::trim).ne(expected.iter().map(String::as_str)) {
+            return Err(bad(format!(
+                "its columns do not fit the run's model.xml (expected {} columns: time_s, qpos_*, qvel_*, act_*, ctrl_*)",
+                expected.len()
+            )));
+        }
+        let width = expected.len();
+        let mut times = Vec::new();
+        let mut values = Vec::new();
+        for (i, line) in lines.enumerate() {
+            if line.trim().is_empty() {
+                continue;
+            }
+            let before = values.len();
+            for f in line.split(',') {
+                values.push(f.trim().parse::<f64>().map_err(|_| bad(format!("line {}: not a number: {f:?}", i + 2)))?);
+            }
+            if values.len() - before != width {
+                // A run that was killed may leave a half-written last line: stop there.
+                values.truncate(before);
+                break;
+            }
+            times.push(values[before]);
+        }
+        if times.is_empty() {
+            return Err(bad("it holds no complete row".into()));
+        }
+        Ok(Self { times, width, values })
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.times.len()
+    }
+
+    /// Whether there are no rows (never true for a track that [`StateTrack::read`] returned).
+    pub fn is_empty(&self) -> bool {
+        self.times.is_empty()
+    }
+
+    /// Row `k`: time, qpos, qvel, act, ctrl.
+    pub fn row(&self, k: usize) -> &[f64] {
+        &self.values[k * self.width..(k + 1) * self.width]
+    }
+
+    /// The last row at or before time `t` (the first row if `t` is earlier than all).
+    pub fn index_at(&self, t: f64) -> usize {
+        // Tolerate rounding of the recorded times.
+        let eps = 1e-9 * t.abs().max(1.0);
+        self.times.partition_point(|&x| x <= t + eps).saturating_sub(1)
+    }
+}
