@@ -155,6 +155,19 @@ fn state_csv_holds_every_recorded_step() {
     // 6 links: free joint (7) + 5 hinges in qpos, 6 + 5 in qvel.
     assert_eq!(header.iter().filter(|h| h.starts_with("qpos_")).count(), 12);
     assert_eq!(header.iter().filter(|h| h.starts_with("qvel_")).count(), 11);
+    // Read back; a half-written last line (a killed run) is dropped, a broken middle line is an error.
+    let model = mujoco_rs::prelude::MjModel::from_xml(folder.join("model.xml")).unwrap();
+    let rows = text.lines().count() - 1;
+    let track = render::StateTrack::read(&folder.join(STATE_FILE), &model).unwrap();
+    assert_eq!(track.len(), rows);
+    assert_eq!(track.index_at(0.25), 50);
+    std::fs::write(folder.join(STATE_FILE), format!("{text}0.505,1.5e")).unwrap();
+    assert_eq!(render::StateTrack::read(&folder.join(STATE_FILE), &model).unwrap().len(), rows);
+    let mut lines: Vec<&str> = text.lines().collect();
+    lines[3] = "0.1,2";
+    std::fs::write(folder.join(STATE_FILE), lines.join("\n")).unwrap();
+    let err = render::StateTrack::read(&folder.join(STATE_FILE), &model).unwrap_err();
+    assert!(err.to_string().contains("row 3 has 2 values"), "{err}");
     // Off when asked.
     let dir = tempfile::tempdir().unwrap();
     let folder = run_folder(&config(dir.path(), &["render.record_state=false"]));

@@ -1,4 +1,25 @@
+#![allow(unsafe_code)]
 #![allow(clippy::unwrap_used)]
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicIsize, Ordering::Relaxed};
+struct Counting;
+static LIVE: AtomicIsize = AtomicIsize::new(0);
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        LIVE.fetch_add(l.size() as isize, Relaxed);
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        LIVE.fetch_sub(l.size() as isize, Relaxed);
+        unsafe { System.dealloc(p, l) }
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
+        LIVE.fetch_add(n as isize - l.size() as isize, Relaxed);
+        unsafe { System.realloc(p, l, n) }
+    }
+}
+#[global_allocator]
+static A: Counting = Counting;
 use simserpent::record::{ColumnKind, ParquetTable, TableSink};
 fn rss_kb() -> u64 {
     let s = std::fs::read_to_string("/proc/self/status").unwrap();
@@ -22,7 +43,7 @@ fn probe() {
         }
         t.end_row().unwrap();
         if row % 6000 == 0 {
-            eprintln!("R={r} row {row} rss {} kB", rss_kb());
+            eprintln!("R={r} row {row} rss {} kB live {} kB", rss_kb(), LIVE.load(Relaxed) / 1024);
         }
     }
     eprintln!("R={r} end rss {} kB", rss_kb());

@@ -1,7 +1,7 @@
 //! The thesis' experiments (chapter 7) and more, as commands with physics checks.
 //!
 //! `simserpent experiment <name>` creates `runs/experiment-<name>-<UTC time>/` holding one run
-//! folder per case (data, and plots when plotting is available) and `report.md`: what was run,
+//! folder per case (data and plots, PNG and SVG) and `report.md`: what was run,
 //! with which contact settings, a table of the measured numbers and every physics check with its
 //! measured value, expected value, tolerance and pass/fail. The command exits 0 when every check
 //! passes and 1 otherwise.
@@ -12,6 +12,7 @@ mod locomotion;
 mod report;
 
 pub use data::Table;
+pub use locomotion::averaged_viscous_speed;
 pub use report::{Check, Report, Section};
 
 use crate::config::Config;
@@ -76,6 +77,10 @@ impl Context {
         world.forward();
         let sim = Simulation::new(&config, world);
         let summary = run::run_simulation(&config, &options, sim)?;
+        // The quantities the thesis plotted (head motion, contacts, forces, penetration, joint
+        // angles, torques, paths), next to the data.
+        crate::plot::plot_run_folder(&summary.run_folder)
+            .map_err(|e| ExperimentError::Data(format!("plots of {}: {e}", summary.run_folder.display())))?;
         Ok(summary.run_folder)
     }
 }

@@ -99,15 +99,21 @@ impl StateTrack {
         let width = expected.len();
         let mut times = Vec::new();
         let mut values = Vec::new();
-        for (i, line) in lines.enumerate() {
-            if line.trim().is_empty() {
-                continue;
-            }
+        let rows: Vec<&str> = lines.filter(|l| !l.trim().is_empty()).collect();
+        for (i, line) in rows.iter().enumerate() {
             let before = values.len();
+            let mut parsed = true;
             for f in line.split(',') {
-                values.push(f.trim().parse::<f64>().map_err(|_| bad(format!("line {}: not a number: {f:?}", i + 2)))?);
+                match f.trim().parse::<f64>() {
+                    Ok(v) => values.push(v),
+                    Err(_) if i + 1 == rows.len() => parsed = false,
+                    Err(_) => return Err(bad(format!("row {}: not a number: {f:?}", i + 1))),
+                }
             }
-            if values.len() - before != width {
+            if !parsed || values.len() - before != width {
+                if i + 1 < rows.len() {
+                    return Err(bad(format!("row {} has {} values, expected {width}", i + 1, values.len() - before)));
+                }
                 // A run that was killed may leave a half-written last line: stop there.
                 values.truncate(before);
                 break;

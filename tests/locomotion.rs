@@ -1,0 +1,217 @@
+//! Locomotion physics: ground friction models against their definitions, and shorter versions of
+//! the experiment checks (the full ones: `simserpent experiment <name>`).
+#![allow(clippy::unwrap_used)]
+
+use simserpent::config::{Config, ControlMethod, GaitKind, GroundModel, TerrainKind};
+use simserpent::experiments::{Check, run_experiment};
+use simserpent::sim::{Simulation, Snapshot, World};
+
+/// One 0.3 kg link lying on the floor, yawed by 30°, no gait.
+fn one_link(model: GroundModel) -> Config {
+    let mut c = Config::default();
+    c.snake.n_links = 1;
+    c.snake.head_rotation_deg = [0.0, 0.0, 30.0];
+    c.terrain.kind = TerrainKind::None;
+    c.gait.kind = GaitKind::None;
+    c.ground.model = model;
+    c.ground.axial_friction = 0.1;
+    c.ground.backward_friction = 0.3;
+    c.ground.lateral_friction = 1.0;
+    c
+}
+
+/// Launches the link with `speed` along its axis (angle 0) or across it (angle 90°) and returns
+/// the simulation after `steps` steps.
+fn launch(config: &Config, direction_deg: f64, speed: f64) -> Simulation {
+    let mut world = World::from_config(config).unwrap();
+    let heading = (30.0 + direction_deg).to_radians();
+    let qvel = world.data.qvel_mut();
+    qvel[0] = speed * heading.cos();
+    qvel[1] = speed * heading.sin();
+    world.forward();
+    Simulation::new(config, world)
+}
+
+/// The friction coefficient the link meets: the largest ratio of horizontal friction force to
+/// normal force over its first 15 steps of sliding. Coulomb friction never exceeds μ·N and equals
+/// it while sliding; a link sliding sideways soon rolls without slipping (after v/(3·μ·g) ≈ 17 ms),
+/// so only the first milliseconds show sliding friction across the link.
+fn friction_ratio(config: &Config, direction_deg: f64) -> f64 {
+    let mut sim = launch(config, direction_deg, 0.5);
+    let mut s = Snapshot::new(1, 0);
+    let mut largest: f64 = 0.0;
+    for _ in 0..15 {
+        sim.control();
+        sim.snapshot(&mut s);
+        let f = s.link_contact_force_n[0];
+        if f[2] > 1e-6 {
+            largest = largest.max(f[0].hypot(f[1]) / f[2]);
+        }
+        sim.advance().unwrap();
+    }
+    largest
+}
+
+#[test]
+fn anisotropic_friction_differs_along_and_across_the_link() {
+    // MuJoCo aligns a capsule-plane contact frame with the capsule axis (yawed 30° here).
+    let c = one_link(GroundModel::Anisotropic);
+    let along = friction_ratio(&c, 0.0);
+    assert!((along - 0.1).abs() < 0.003, "axial friction coefficient {along}");
+    let across = friction_ratio(&c, 90.0);
+    assert!((across - 1.0).abs() < 0.03, "lateral friction coefficient {across}");
+    let iso = friction_ratio(&one_link(GroundModel::Isotropic), 0.0);
+    assert!((iso - 0.5).abs() < 0.015, "isotropic coefficient {iso}");
+}
+
+#[test]
+fn directional_friction_depends_on_the_sliding_direction() {
+    let c = one_link(GroundModel::Directional);
+    let forward = friction_ratio(&c, 0.0);
+    let backward = friction_ratio(&c, 180.0);
+    assert!((forward - 0.1).abs() < 0.003, "forward {forward}");
+    assert!((backward - 0.3).abs() < 0.009, "backward {backward}");
+}
+
+#[test]
+fn viscous_friction_decays_velocity_exponentially() {
+    // m·dv/dt = −c·v: v(t) = v0·exp(−c·t/m), with c = c_t along the link and c_n across it.
+    for (direction, c_value) in [(0.0, 1.0), (90.0, 3.0)] {
+        let mut c = one_link(GroundModel::Viscous);
+        c.ground.viscous_tangential_n_s_per_m = 1.0;
+        c.ground.viscous_normal_n_s_per_m = 3.0;
+        c.snake.link_mass_kg = 1.0;
+        let mut sim = launch(&c, direction, 0.5);
+        for _ in 0..300 {
+            sim.step().unwrap();
+        }
+        let v = sim.world.data.qvel();
+        let speed = v[0].hypot(v[1]);
+        let expected = 0.5 * (-c_value * 0.3 / 1.0_f64).exp();
+        assert!((speed - expected).abs() < 0.01 * expected, "direction {direction}: {speed} vs {expected}");
+    }
+}
+
+fn quick_experiment(name: &str) -> Vec<Check> {
+    let dir = tempfile::tempdir().unwrap();
+    let outcome = run_experiment(name, &Config::default(), dir.path(), true).unwrap();
+    outcome.report.checks().cloned().collect()
+}
+
+fn assert_all_pass(checks: &[Check]) {
+    let failed: Vec<String> = checks
+        .iter()
+        .filter(|c| !c.passed)
+        .map(|c| format!("{}: {} (expected {})", c.name, c.measured, c.expected))
+        .collect();
+    assert!(failed.is_empty(), "failed checks: {failed:#?}");
+}
+
+#[test]
+fn collision_experiment_checks_pass() {
+    let checks = quick_experiment("collision");
+    assert_eq!(checks.len(), 20);
+    assert_all_pass(&checks);
+}
+
+#[test]
+fn form_closure_moves_forward_and_first_order_slips_less() {
+    assert_all_pass(&quick_experiment("form-closure"));
+}
+
+#[test]
+fn configure_experiment_places_every_link() {
+    assert_all_pass(&quick_experiment("configure"));
+}
+
+/// Mean forward (+x) speed of the centre of mass after the ramp-in.
+fn undulation_speed(model: GroundModel, axial: f64) -> (f64, f64) {
+    let mut c = Config::default();
+    c.snake.link_radius_m = 0.08;
+    c.terrain.kind = TerrainKind::None;
+    c.gait.kind = GaitKind::SineWave;
+    c.gait.ramp_secs = 2.0;
+    c.control.method = ControlMethod::Position;
+    c.ground.model = model;
+    c.snake.ground_friction = [0.5, 0.0, 0.0];
+    c.ground.lateral_friction = 0.5;
+    c.ground.axial_friction = axial;
+    let world = World::from_config(&c).unwrap();
+    let mut sim = Simulation::new(&c, world);
+    let mut s = Snapshot::new(10, 9);
+    let com = |s: &Snapshot| -> [f64; 2] {
+        let n = s.link_position_m.len() as f64;
+        s.link_position_m.iter().fold([0.0; 2], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n])
+    };
+    let mut start = [0.0; 2];
+    let (ramp_steps, total_steps) = (2000, 6000);
+    for k in 0..=total_steps {
+        sim.control();
+        if k == ramp_steps || k == total_steps {
+            sim.snapshot(&mut s);
+            if k == ramp_steps {
+                start = com(&s);
+            }
+        }
+        if k < total_steps {
+            sim.advance().unwrap();
+        }
+    }
+    let end = com(&s);
+    let secs = (total_steps - ramp_steps) as f64 * c.general.timestep_secs;
+    ((end[0] - start[0]) / secs, (end[1] - start[1]) / secs)
+}
+
+#[test]
+fn anisotropic_friction_propels_where_isotropic_does_not() {
+    // 10 links of 0.2 m (body 2 m), sine wave f = 0.5 Hz: one cycle is 2 s.
+    let (iso_x, iso_y) = undulation_speed(GroundModel::Isotropic, 0.5);
+    let per_cycle_percent = iso_x.hypot(iso_y) * 2.0 / 2.0 * 100.0;
+    assert!(per_cycle_percent < 2.0, "isotropic drift {per_cycle_percent} % of the body per cycle");
+    let (v5, _) = undulation_speed(GroundModel::Anisotropic, 0.1);
+    let (v10, _) = undulation_speed(GroundModel::Anisotropic, 0.05);
+    assert!(v10 * 2.0 / 2.0 * 100.0 > 2.0, "ratio 10: {v10} m/s");
+    assert!(v10 > v5 && v5 > iso_x, "speed grows with the friction ratio: {iso_x} < {v5} < {v10}");
+}
+
+#[test]
+fn viscous_undulation_matches_the_averaged_model() {
+    // Liljebäck et al.'s standard set, two cycles after one cycle of ramp-in.
+    let mut c = Config::default();
+    c.snake.link_length_m = 0.14;
+    c.snake.link_radius_m = 0.02;
+    c.snake.link_mass_kg = 1.0;
+    c.snake.joint_damping_nm_s_per_rad = 0.0;
+    c.snake.torque_range_nm = [-50.0, 50.0];
+    c.physics.self_collision = false;
+    c.ground.model = GroundModel::Viscous;
+    c.terrain.kind = TerrainKind::None;
+    c.gait.kind = GaitKind::SineWave;
+    c.gait.sine_wave.frequency_hz = 50.0 / 360.0;
+    c.gait.ramp_secs = 7.2;
+    c.control.position_kp_nm_per_rad = 50.0;
+    c.control.position_kv_nm_s_per_rad = 2.0;
+    let world = World::from_config(&c).unwrap();
+    let mut sim = Simulation::new(&c, world);
+    let ramp_steps = 7200;
+    let total_steps = ramp_steps + 14_400;
+    let mut x0 = 0.0;
+    for k in 0..total_steps {
+        if k == ramp_steps {
+            x0 = sim.world.data.subtree_com()[1][0];
+        }
+        sim.step().unwrap();
+    }
+    sim.world.forward();
+    let v = (sim.world.data.subtree_com()[1][0] - x0) / 14.4;
+    let theory = simserpent::experiments::averaged_viscous_speed(
+        10,
+        0.14,
+        1.0,
+        10.0,
+        30f64.to_radians(),
+        50f64.to_radians(),
+        40f64.to_radians(),
+    );
+    assert!((v / theory - 1.0).abs() < 0.10, "simulated {v} m/s, averaged model {theory} m/s");
+}
