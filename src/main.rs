@@ -243,6 +243,7 @@ fn run_command(args: &ConfigArgs, robot: Option<PathBuf>, quiet: bool, viewer: b
         "distance (CoM):    {:.4} m toward {:.1} deg, mean speed {:.4} m/s",
         summary.distance_m, summary.heading_deg, summary.mean_speed_m_per_s
     );
+    println!("forward speed:     {:.4} m/s (along the way the head faced at the start)", summary.forward_speed_m_per_s);
     println!(
         "peak contact force {:.3} N, max penetration {:.3} mm (at recorded steps)",
         summary.peak_contact_force_n,

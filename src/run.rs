@@ -84,6 +84,10 @@ pub struct RunSummary {
     pub mean_speed_m_per_s: f64,
     /// Direction of that displacement in the xy-plane (degrees from +x).
     pub heading_deg: f64,
+    /// Speed along the direction the head faced at the start (its link's +x axis in the
+    /// xy-plane): the centre of mass's displacement projected on it, over the simulated time (m/s).
+    #[serde(default)]
+    pub forward_speed_m_per_s: f64,
     /// Largest contact normal force seen at a recorded step (N).
     pub peak_contact_force_n: f64,
     /// Largest penetration seen at a recorded step (m).
@@ -271,6 +275,7 @@ fn step_loop(
     let mut actuator_energy_j: f64 = 0.0;
     let dt = sim.world.data.model_opt().timestep;
     let mut start_com = None;
+    let mut start_heading = None;
     let mut end_com = [0.0; 3];
     let progress = Progress::new(options.progress, total_steps);
     for k in 0..=total_steps {
@@ -283,6 +288,7 @@ fn step_loop(
             }
             end_com = centre_of_mass(&sim.world, &snapshot);
             start_com.get_or_insert(end_com);
+            start_heading.get_or_insert_with(|| head_heading_xy(&snapshot));
             let held_steps = ((k / every + 1) * every).min(total_steps) - k;
             actuator_energy_j += actuator_power_w(&sim.world) * dt * held_steps as f64;
             if let Some(r) = recorder.as_deref_mut() {
@@ -315,18 +321,29 @@ fn step_loop(
     let (dx, dy) = (end_com[0] - start[0], end_com[1] - start[1]);
     let distance_m = dx.hypot(dy);
     let simulated_secs = sim.world.data.time();
+    let heading = start_heading.unwrap_or([1.0, 0.0]);
+    let forward_m = dx * heading[0] + dy * heading[1];
     Ok(RunSummary {
         run_folder: folder.to_path_buf(),
         simulated_secs,
         distance_m,
         mean_speed_m_per_s: if simulated_secs > 0.0 { distance_m / simulated_secs } else { 0.0 },
         heading_deg: dy.atan2(dx).to_degrees(),
+        forward_speed_m_per_s: if simulated_secs > 0.0 { forward_m / simulated_secs } else { 0.0 },
         peak_contact_force_n: peak_force_n,
         max_penetration_m,
         actuator_energy_j,
         steps_per_wall_sec: 0.0,
         real_time_factor: 0.0,
     })
+}
+
+/// Unit vector in the xy-plane along the head link's +x axis (the way the snake faces).
+fn head_heading_xy(s: &Snapshot) -> [f64; 2] {
+    let Some(&[w, x, y, z]) = s.link_quat.first() else { return [1.0, 0.0] };
+    let (hx, hy) = (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z));
+    let norm = hx.hypot(hy);
+    if norm > 1e-9 { [hx / norm, hy / norm] } else { [1.0, 0.0] }
 }
 
 /// A progress bar that appears only after two seconds and only on a terminal.

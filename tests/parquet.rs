@@ -119,7 +119,7 @@ mod with_parquet {
             assert!(!folder.join(format!("{table}.csv")).exists(), "{table}.csv");
         }
         assert!(!folder.join("contacts.parquet").exists());
-        // Default row groups (1000 rows): a 0.5 s run at every 5th step has 101 rows, one group.
+        // Default row groups (2500 rows): a 0.5 s run at every 5th step has 101 rows, one group.
         let (_, batches, row_groups) = read_parquet(&folder.join("links.parquet"));
         assert_eq!(row_groups, 1);
         assert_eq!(batches.iter().map(RecordBatch::num_rows).sum::<usize>(), 101);

@@ -99,11 +99,7 @@ impl ParquetTable {
         // so keep that metadata small: no page indexes, and min/max statistics only for the time
         // and step columns (what readers filter on); otherwise memory would grow with the run.
         let mut props = WriterProperties::builder()
-            .set_compression(match std::env::var("PQC").as_deref() {
-                Ok("snappy") => Compression::SNAPPY,
-                Ok("none") => Compression::UNCOMPRESSED,
-                _ => Compression::ZSTD(ZstdLevel::default()),
-            })
+            .set_compression(Compression::ZSTD(ZstdLevel::default()))
             .set_dictionary_enabled(false)
             .set_statistics_enabled(EnabledStatistics::None)
             .set_offset_index_disabled(true)
