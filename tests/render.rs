@@ -239,3 +239,19 @@ fn viewer_without_a_display_is_exit_code_2() {
     // No run folder was created.
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
+
+#[test]
+fn pictures_do_not_change_the_trajectory() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = run_folder(&config(dir.path(), &["render.record_state=false"]));
+    let dir2 = tempfile::tempdir().unwrap();
+    let pictured = run_folder(&config(
+        dir2.path(),
+        &["video.enabled=true", "video.format=\"gif\"", "video.frames_per_sec=50.0", "render.image_times_secs=[0.25]"],
+    ));
+    for table in ["links.csv", "joints.csv", "contacts.csv"] {
+        let a = std::fs::read_to_string(plain.join(table)).unwrap();
+        let b = std::fs::read_to_string(pictured.join(table)).unwrap();
+        assert!(a == b, "{table} differs with pictures on");
+    }
+}

@@ -53,14 +53,6 @@ fn progress_along_start(run: &Path, n_links: usize, from_secs: f64) -> Result<(f
     Ok((mx * ux + my * uy, -mx * uy + my * ux))
 }
 
-/// The sine wave A·sin(−k·δ) sampled at the joints, k = 0..9 (δ = 40°: one period in 9 joints):
-/// shifted one joint toward the tail every `shift_period_secs`, it is lateral undulation with
-/// f = 1 / (9·shift_period) and the snake can start in its shape.
-fn sampled_wave_deg(amplitude_deg: f64, phase_lag_deg: f64) -> Vec<f64> {
-    let n = (360.0 / phase_lag_deg).round().max(2.0) as usize;
-    (0..n).map(|k| amplitude_deg * (-(k as f64) * phase_lag_deg.to_radians()).sin()).collect()
-}
-
 /// Largest normal force between two links in a run (N); 0 when they never touched.
 fn max_link_link_force(run: &Path) -> Result<f64, ExperimentError> {
     let contacts = Table::read(&run.join("contacts.csv"))?;
@@ -406,15 +398,19 @@ pub fn oal(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
     c.snake.link_friction = [0.5, 0.0, 0.0];
     c.terrain.obstacle_friction = [0.0, 0.0, 0.0];
     c.terrain.form_closure.order = 1;
-    c.gait.kind = GaitKind::FormClosure;
-    c.gait.form_closure.pattern_deg = sampled_wave_deg(30.0, 40.0);
-    c.gait.form_closure.shift_period_secs = 0.25;
+    // Lateral undulation started in its own shape (no ramp-in), so the pegs sit at its bends.
+    c.gait.kind = GaitKind::SineWave;
+    c.gait.ramp_secs = 0.0;
+    c.gait.sine_wave.amplitude_deg = 30.0;
+    c.gait.sine_wave.frequency_hz = 0.5;
+    c.gait.sine_wave.phase_lag_deg = 40.0;
+    c.gait.sine_wave.offset_deg = 0.0;
     c.control.method = ControlMethod::Position;
     c.control.position_kp_nm_per_rad = 20.0;
     c.control.position_kv_nm_s_per_rad = 0.2;
     // The pegs cover the snake's starting track only: 5 s (2.2 gait cycles) keep it among them.
     c.general.duration_secs = 5.0;
-    let period = c.gait.form_closure.shift_period_secs * c.gait.form_closure.pattern_deg.len() as f64;
+    let period = 1.0 / c.gait.sine_wave.frequency_hz;
     let body_m = c.snake.n_links as f64 * c.snake.link_length_m;
     let mut results = Vec::new();
     for (label, kind) in [("bare floor", TerrainKind::None), ("pegs at the bends", TerrainKind::FormClosure)] {
@@ -430,9 +426,8 @@ pub fn oal(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
         heading: "Obstacle-aided locomotion".into(),
         text: format!(
             "16 links (0.3 kg, 0.2 m, radius 0.04 m), isotropic ground friction 0.5, frictionless pegs (radius \
-             0.05 m). Lateral undulation as a travelling joint-angle list: the sine wave A = 30°, δ = 40° sampled at \
-             the joints and shifted one joint toward the tail every 0.25 s (f = {} Hz), position servos kp 20 \
-             N·m/rad, ±10 N·m; the snake starts in the wave's shape. Pegs: one on the inner side of every bend of \
+             0.05 m). Lateral undulation A = 30°, δ = 40°, f = {} Hz without ramp-in, so the snake starts in the \
+             wave's shape; position servos kp 20 N·m/rad, ±10 N·m. Pegs: one on the inner side of every bend of \
              the starting shape plus one beside the head and the tail (the first-order form-closure arrangement); \
              they cover the starting track only, so runs last 5 s. \
              Progress is the centre of mass's displacement along the starting chord (tail → head) after the first \

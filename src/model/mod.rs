@@ -154,9 +154,18 @@ pub fn scene_with_robot(robot_file: &str, cfg: &Config) -> Result<GeneratedModel
 }
 
 /// Starting joint angles (index `j - 1` for joint `j`), rad: zero, except with
-/// `gait.kind = "form_closure"`, where joint `j` starts at `pattern_deg[(j − 1) % len]`.
+/// `gait.kind = "form_closure"`, where joint `j` starts at `pattern_deg[(j − 1) % len]`, and with
+/// a `sine_wave` or `serpenoid` gait without ramp-in (`gait.ramp_secs = 0`), which starts in the
+/// wave's shape at t = 0.
 pub(crate) fn initial_joint_angles(cfg: &Config) -> Result<Vec<f64>, ConfigError> {
     let nj = cfg.snake.n_joints();
+    if nj > 0 && cfg.gait.ramp_secs == 0.0 && matches!(cfg.gait.kind, GaitKind::SineWave | GaitKind::Serpenoid) {
+        // Without a ramp-in a planar wave starts at full amplitude: the snake starts in its shape
+        // at t = 0, so that it does not jump (and pegs can be placed at its bends).
+        let (mut angles, mut velocities) = (vec![0.0; nj], vec![0.0; nj]);
+        crate::control::trajectory_from_config(cfg).targets(0.0, &mut angles, &mut velocities);
+        return Ok(angles);
+    }
     if cfg.gait.kind != GaitKind::FormClosure || nj == 0 {
         return Ok(vec![0.0; nj]);
     }

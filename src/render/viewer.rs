@@ -74,6 +74,9 @@ fn run_python(args: &[&std::ffi::OsStr]) -> Result<(), RenderError> {
 /// Opens the viewer on a model file (MJCF or URDF); the viewer simulates it interactively.
 pub fn view_model_file(path: &Path) -> Result<(), RenderError> {
     check_display()?;
+    if !path.is_file() {
+        return Err(RenderError::BadFile { path: path.to_path_buf(), message: "no such model file".into() });
+    }
     #[cfg(feature = "viewer")]
     {
         native::view_model_file(path)
