@@ -580,10 +580,11 @@ fn finished(folder: &Path) -> Option<SkippedSummary> {
 }
 
 /// The metrics of a run in the summary, in column order (names as in [`RunSummary`]).
-pub const METRICS: [&str; 8] = [
+pub const METRICS: [&str; 9] = [
     "simulated_secs",
     "distance_m",
     "mean_speed_m_per_s",
+    "forward_speed_m_per_s",
     "heading_deg",
     "peak_contact_force_n",
     "max_penetration_m",
@@ -591,11 +592,12 @@ pub const METRICS: [&str; 8] = [
     "steps_per_wall_sec",
 ];
 
-fn metric_values(summary: &RunSummary) -> [f64; 8] {
+fn metric_values(summary: &RunSummary) -> [f64; 9] {
     [
         summary.simulated_secs,
         summary.distance_m,
         summary.mean_speed_m_per_s,
+        summary.forward_speed_m_per_s,
         summary.heading_deg,
         summary.peak_contact_force_n,
         summary.max_penetration_m,

@@ -63,8 +63,15 @@ fn plot_command_writes_every_panel_as_png_and_svg() {
     assert!(!folder.join("plots").exists());
     let out = Command::new(env!("CARGO_BIN_EXE_simserpent")).arg("plot").arg(&folder).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    assert!(String::from_utf8_lossy(&out.stdout).contains("wrote 18 plot files"));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("wrote 20 plot files"));
     check_panels(&folder);
+    // One page with all nine panels, three per row.
+    let overview = std::fs::read_to_string(folder.join("plots/overview.svg")).unwrap();
+    assert!(overview.contains(r#"width="1920""#) && overview.contains(r#"height="1200""#));
+    for (_, texts) in PANELS {
+        assert!(overview.contains(&texts[0].replace('&', "&amp;")), "overview lacks {}", texts[0]);
+    }
+    assert!(folder.join("plots/overview.png").is_file());
     // The top view draws the two cylinders (as grey polygons).
     let svg = std::fs::read_to_string(folder.join("plots/top_view.svg")).unwrap();
     assert!(svg.matches("<polygon").count() >= 2, "no obstacles in the top view");
@@ -84,7 +91,7 @@ fn missing_tables_skip_their_panels() {
     let out = simserpent::plot::plot_run_folder(&folder).unwrap();
     let skipped: Vec<&str> = out.skipped.iter().map(|(p, _)| p.as_str()).collect();
     assert_eq!(skipped, ["head_acceleration", "contact_count", "contact_forces", "penetration"]);
-    assert_eq!(out.files.len(), 2 * 5);
+    assert_eq!(out.files.len(), 2 * (5 + 1));
 }
 
 #[test]

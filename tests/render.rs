@@ -3,6 +3,7 @@
 //! Rendering runs headless through EGL (Mesa's software renderer in CI). MP4 tests need `ffmpeg`
 //! and `ffprobe` and say "skipped" on stderr when they are missing; everything else must pass
 //! everywhere.
+#![cfg(feature = "render")]
 #![allow(clippy::unwrap_used)]
 
 use simserpent::config::{CameraKind, Config, ConfigSource, VideoFormat, load_config_str};
@@ -254,4 +255,24 @@ fn pictures_do_not_change_the_trajectory() {
         let b = std::fs::read_to_string(pictured.join(table)).unwrap();
         assert!(a == b, "{table} differs with pictures on");
     }
+}
+
+#[test]
+fn visual_options_show_in_the_picture() {
+    let dir = tempfile::tempdir().unwrap();
+    let folder = run_folder(&config(dir.path(), &["render.image_times_secs=[0.5]"]));
+    let plain = read_png(&folder.join("images/follow_0.500s.png")).2;
+    let opts = ReplayOptions {
+        images: true,
+        overrides: vec![
+            "visual.make_transparent=true".into(),
+            "visual.show_contact_forces=true".into(),
+            "visual.show_center_of_mass=true".into(),
+        ],
+        ..ReplayOptions::default()
+    };
+    let files = render::render_run_folder(&folder, &opts).unwrap();
+    let decorated = read_png(&files[0]).2;
+    let changed = plain.chunks_exact(3).zip(decorated.chunks_exact(3)).filter(|(a, b)| a != b).count();
+    assert!(changed > 100, "only {changed} pixels changed with the visual options on");
 }

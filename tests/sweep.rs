@@ -122,6 +122,7 @@ fn failed_runs_are_recorded_and_redone_finished_runs_skipped() {
         assert!(values[2].parse::<f64>().unwrap() >= 0.0, "{metric}: {}", values[2]);
     }
     assert!(column(&table, "actuator_energy_j")[2].parse::<f64>().unwrap() > 0.0);
+    assert!(column(&table, "forward_speed_m_per_s")[2].parse::<f64>().unwrap().is_finite());
     for (row, folder) in report.rows.iter().zip(column(&table, "run_folder")) {
         assert_eq!(folder, format!("runs/{}", row.run.id));
         let complete = matches!(row.outcome, RunOutcome::Complete(_));

@@ -72,13 +72,7 @@ fn cycles(ctx: &Context, full: f64, quick: f64) -> f64 {
 /// Thesis table 7: 10 links, 0.3 kg, 0.2 m (0.10 m half length), radius 0.08 m, position
 /// control of a sine wave (A = 30°, f = 0.5 Hz, δ = 40°).
 fn undulation_config(base: &Config, ctx: &Context) -> Config {
-    let mut c = base.clone();
-    c.snake.n_links = 10;
-    c.snake.link_mass_kg = 0.3;
-    c.snake.link_length_m = 0.2;
-    c.snake.link_radius_m = 0.08;
-    c.snake.head_position_m = [0.0; 3];
-    c.snake.head_rotation_deg = [0.0; 3];
+    let mut c = snake_on_floor(base, 10, 0.08, 0.5);
     c.terrain.kind = TerrainKind::None;
     c.gait.kind = GaitKind::SineWave;
     c.gait.ramp_secs = 2.0;
@@ -382,20 +376,27 @@ fn viscous_section(ctx: &Context, base: &Config) -> Result<Section, ExperimentEr
     Ok(section)
 }
 
+/// A straight snake of `n_links` 0.3 kg, 0.2 m links lying at the origin facing +x, with
+/// isotropic friction `mu` against the floor and between links.
+fn snake_on_floor(base: &Config, n_links: usize, radius_m: f64, mu: f64) -> Config {
+    let mut c = base.clone();
+    c.snake.n_links = n_links;
+    c.snake.link_mass_kg = 0.3;
+    c.snake.link_length_m = 0.2;
+    c.snake.link_radius_m = radius_m;
+    c.snake.head_position_m = [0.0; 3];
+    c.snake.head_rotation_deg = [0.0; 3];
+    c.ground.model = GroundModel::Isotropic;
+    c.snake.ground_friction = [mu, 0.0, 0.0];
+    c.snake.link_friction = [mu, 0.0, 0.0];
+    c
+}
+
 /// Obstacle-aided locomotion: isotropic friction, the same travelling wave on the bare floor and
 /// among pegs placed at the bends of the starting shape.
 pub fn oal(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
-    let mut c = base.clone();
-    c.snake.n_links = 16;
-    c.snake.link_mass_kg = 0.3;
-    c.snake.link_length_m = 0.2;
-    c.snake.link_radius_m = 0.04;
-    c.snake.head_position_m = [0.0; 3];
-    c.snake.head_rotation_deg = [0.0; 3];
+    let mut c = snake_on_floor(base, 16, 0.04, 0.5);
     c.snake.torque_range_nm = [-10.0, 10.0];
-    c.ground.model = GroundModel::Isotropic;
-    c.snake.ground_friction = [0.5, 0.0, 0.0];
-    c.snake.link_friction = [0.5, 0.0, 0.0];
     c.terrain.obstacle_friction = [0.0, 0.0, 0.0];
     c.terrain.form_closure.order = 1;
     // Lateral undulation started in its own shape (no ramp-in), so the pegs sit at its bends.
@@ -450,16 +451,7 @@ pub fn oal(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
 /// Experiment IV (thesis 7.4, table 8): 16 links among pegs, torque control with PID, the
 /// joint-angle list shifted toward the tail; first- against second-order form closure.
 pub fn form_closure(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
-    let mut c = base.clone();
-    c.snake.n_links = 16;
-    c.snake.link_mass_kg = 0.3;
-    c.snake.link_length_m = 0.2;
-    c.snake.link_radius_m = 0.05;
-    c.snake.head_position_m = [0.0; 3];
-    c.snake.head_rotation_deg = [0.0; 3];
-    c.snake.ground_friction = [0.05, 0.0, 0.0];
-    c.snake.link_friction = [0.05, 0.0, 0.0];
-    c.ground.model = GroundModel::Isotropic;
+    let mut c = snake_on_floor(base, 16, 0.05, 0.05);
     c.terrain.obstacle_friction = [0.05, 0.0, 0.0];
     c.terrain.kind = TerrainKind::FormClosure;
     c.gait.kind = GaitKind::FormClosure;

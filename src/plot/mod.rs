@@ -15,6 +15,7 @@
 //! | `joint_angles` | every joint angle (deg) |
 //! | `actuator_torques` | force of every joint's actuator of the configured kind (N·m) |
 //! | `top_view` | every link's path in the xy-plane (m) with the obstacles, equal scales |
+//! | `overview` | all of the above on one page, three per row |
 //!
 //! A panel whose columns were not recorded is skipped (and named in the returned list).
 
@@ -238,7 +239,7 @@ fn line_chart<DB: DrawingBackend>(
             .draw()
             .map_err(|e| e.to_string())?;
     }
-    root.present().map_err(|e| e.to_string())
+    Ok(())
 }
 
 fn top_view<DB: DrawingBackend>(
@@ -325,7 +326,7 @@ fn top_view<DB: DrawingBackend>(
             chart.draw_series([Circle::new((xe, ye), 3, c.filled())]).map_err(|e| e.to_string())?;
         }
     }
-    root.present().map_err(|e| e.to_string())
+    Ok(())
 }
 
 /// Draws one panel into `<dir>/<stem>.png` and `<dir>/<stem>.svg`.
@@ -396,24 +397,24 @@ pub fn plot_run_folder(folder: &Path) -> Result<PlotOutput, PlotError> {
     draw_panels(&config, &links, &joints, contacts.as_ref(), &obstacles(&folder.join("model.xml")), &dir)
 }
 
-fn draw_panels(
+fn draw_panels<'a>(
     config: &Config,
-    links: &Table,
-    joints: &Table,
+    links: &'a Table,
+    joints: &'a Table,
     contacts: Option<&Table>,
     obstacles: &[Obstacle],
     dir: &Path,
 ) -> Result<PlotOutput, PlotError> {
     let size = (config.plot.width_px, config.plot.height_px);
     let mut out = PlotOutput::default();
-    let empty: &[f64] = &[];
+    let empty: &'a [f64] = &[];
     let time = links.get("time_s").unwrap_or(empty);
     // The head: the first link that has position columns (link_00 for the generated snake).
     let link_names: Vec<String> =
         links.order.iter().filter_map(|c| c.strip_suffix("_position_x_m").map(str::to_string)).collect();
     let head = link_names.first().cloned().unwrap_or_else(|| crate::model::names::link_body(0));
 
-    let xyz = |quantity: &str, unit: &str, scale: f64| -> Vec<Series<'_>> {
+    let xyz = |quantity: &str, unit: &str, scale: f64| -> Vec<Series<'a>> {
         ["x", "y", "z"]
             .iter()
             .filter_map(|a| {
@@ -425,13 +426,15 @@ fn draw_panels(
             })
             .collect()
     };
-    let mut panel = |stem: &str, title: &str, y_label: &str, series: Vec<Series<'_>>, why: &str| {
+    let mut drawn: Vec<LinePanel<'a>> = Vec::new();
+    let mut panel = |stem: &str, title: &str, y_label: &str, series: Vec<Series<'a>>, why: &str| {
         if series.is_empty() {
             out.skipped.push((stem.to_string(), why.to_string()));
             return Ok(());
         }
         let files = both(dir, stem, size, |root: &dyn AnyArea| root.line(title, y_label, &series))?;
         out.files.extend(files);
+        drawn.push(LinePanel { title: title.to_string(), y_label: y_label.to_string(), series });
         Ok::<(), PlotError>(())
     };
     panel("head_position", "Head position", "position (m)", xyz("position", "m", 1.0), "link positions not recorded")?;
@@ -486,7 +489,7 @@ fn draw_panels(
     )?;
 
     let jtime = joints.get("time_s").unwrap_or(empty);
-    let joint_cols = |suffix: &str, scale: f64| -> Vec<Series<'_>> {
+    let joint_cols = |suffix: &str, scale: f64| -> Vec<Series<'a>> {
         joints
             .order
             .iter()
@@ -532,7 +535,23 @@ fn draw_panels(
         let files = both(dir, "top_view", size, |root: &dyn AnyArea| root.top(&paths, obstacles, size))?;
         out.files.extend(files);
     }
+    // Every panel on one page, three per row.
+    let n = drawn.len() + usize::from(!paths.is_empty());
+    if n > 0 {
+        let (rows, cols) = (n.div_ceil(3), n.min(3));
+        let page = (size.0 * cols as u32, size.1 * rows as u32);
+        let files =
+            both(dir, "overview", page, |root: &dyn AnyArea| root.grid((rows, cols), &drawn, &paths, obstacles, size))?;
+        out.files.extend(files);
+    }
     Ok(out)
+}
+
+/// A time-series panel, kept for the overview page.
+struct LinePanel<'a> {
+    title: String,
+    y_label: String,
+    series: Vec<Series<'a>>,
 }
 
 /// Per recorded time: number of contacts, total and largest normal force, largest penetration.
@@ -575,13 +594,41 @@ fn contact_stats(time: &[f64], c: &Table) -> ContactStats {
 trait AnyArea {
     fn line(&self, title: &str, y_label: &str, series: &[Series<'_>]) -> DrawResult;
     fn top(&self, paths: &[Series<'_>], obstacles: &[Obstacle], size: (u32, u32)) -> DrawResult;
+    fn grid(
+        &self,
+        shape: (usize, usize),
+        lines: &[LinePanel<'_>],
+        paths: &[Series<'_>],
+        obstacles: &[Obstacle],
+        size: (u32, u32),
+    ) -> DrawResult;
 }
 
 impl<DB: DrawingBackend> AnyArea for DrawingArea<DB, Shift> {
     fn line(&self, title: &str, y_label: &str, series: &[Series<'_>]) -> DrawResult {
-        line_chart(self, title, y_label, series)
+        line_chart(self, title, y_label, series)?;
+        self.present().map_err(|e| e.to_string())
     }
     fn top(&self, paths: &[Series<'_>], obstacles: &[Obstacle], size: (u32, u32)) -> DrawResult {
-        top_view(self, paths, obstacles, size)
+        top_view(self, paths, obstacles, size)?;
+        self.present().map_err(|e| e.to_string())
+    }
+    fn grid(
+        &self,
+        shape: (usize, usize),
+        lines: &[LinePanel<'_>],
+        paths: &[Series<'_>],
+        obstacles: &[Obstacle],
+        size: (u32, u32),
+    ) -> DrawResult {
+        self.fill(&WHITE).map_err(|e| e.to_string())?;
+        let areas = self.split_evenly(shape);
+        for (area, p) in areas.iter().zip(lines) {
+            line_chart(area, &p.title, &p.y_label, &p.series)?;
+        }
+        if let (false, Some(area)) = (paths.is_empty(), areas.get(lines.len())) {
+            top_view(area, paths, obstacles, size)?;
+        }
+        self.present().map_err(|e| e.to_string())
     }
 }

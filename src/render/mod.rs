@@ -132,6 +132,7 @@ pub fn overlay_time(rgb: &mut [u8], width: usize, height: usize, time_secs: f64)
 }
 
 /// Frame `i` of a video is the state at simulated time `i × playback_speed / frames_per_sec`.
+#[cfg(feature = "render")]
 fn frame_interval_secs(config: &Config) -> f64 {
     config.video.playback_speed / config.video.frames_per_sec
 }

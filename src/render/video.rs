@@ -47,7 +47,7 @@ impl std::fmt::Debug for VideoWriter {
 
 impl VideoWriter {
     /// Creates `<stem>.mp4` or `<stem>.gif`. MP4 without a working ffmpeg falls back to GIF
-    /// with a warning in the log (and on stderr).
+    /// with a warning in the log (the command line prints it on stderr).
     pub fn create(
         stem: &Path,
         format: VideoFormat,
@@ -64,7 +64,6 @@ impl VideoWriter {
                     let msg = "ffmpeg is not installed (or SIMSERPENT_FFMPEG names no working program): \
                                writing a GIF instead of an MP4 (install ffmpeg, e.g. `apt-get install ffmpeg`)";
                     log::warn!("{msg}");
-                    eprintln!("warning: {msg}");
                     Ok(Self::Gif(Box::new(GifWriter::create(&stem.with_extension("gif"), width, height, fps)?)))
                 }
             },
