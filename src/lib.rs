@@ -1,7 +1,8 @@
 //! SimSerpent: a physics-based snake-robot simulator on MuJoCo 3.17.
 //!
 //! Map (see ARCHITECTURE.md):
-//! - pure core, no MuJoCo and no I/O: [`config`], [`model`] (MJCF generation), [`control`];
+//! - pure core, no MuJoCo and no I/O: [`config`], [`model`] (MJCF generation), [`control`],
+//!   [`estimation`] (contact forces from joint force/torque sensors);
 //! - the engine: [`sim`] (the only module that calls MuJoCo);
 //! - I/O: [`record`] (run folder, manifest, tables), [`run`] (one whole run), [`bench`],
 //!   [`sweep`] (parallel parameter sweeps);
@@ -10,6 +11,7 @@
 pub mod bench;
 pub mod config;
 pub mod control;
+pub mod estimation;
 pub mod experiments;
 pub mod interrupt;
 pub mod model;

@@ -89,7 +89,7 @@ enum Command {
         overrides: Vec<String>,
     },
     /// Run one of the thesis' experiments with its physics checks: configure, collision,
-    /// undulation, form-closure, oal. Writes runs/experiment-<name>-<UTC time>/report.md; exits 1
+    /// undulation, form-closure, oal, estimation. Writes runs/experiment-<name>-<UTC time>/report.md; exits 1
     /// if a check fails.
     Experiment {
         /// Which experiment.

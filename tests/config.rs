@@ -146,13 +146,55 @@ viscous_normal_n_s_per_m = 20.0
 
 [sensors]
 noise_enabled = true
-accelerometer_std_m_per_s2 = 0.11
-gyro_std_rad_per_s = 0.12
-velocimeter_std_m_per_s = 0.13
-joint_angle_std_rad = 0.14
-joint_velocity_std_rad_per_s = 0.15
-joint_force_std_n = 0.16
-joint_torque_std_nm = 0.17
+
+[sensors.accelerometer]
+std = 0.11
+bias = 0.0020
+bias_random_walk_per_sqrt_s = 0.0030
+resolution = 0.0040
+rate_hz = 100.0
+
+[sensors.gyro]
+std = 0.12
+bias = 0.0021
+bias_random_walk_per_sqrt_s = 0.0031
+resolution = 0.0041
+rate_hz = 101.0
+
+[sensors.joint_angle]
+std = 0.13
+bias = 0.0022
+bias_random_walk_per_sqrt_s = 0.0032
+resolution = 0.0042
+rate_hz = 102.0
+
+[sensors.joint_velocity]
+std = 0.14
+bias = 0.0023
+bias_random_walk_per_sqrt_s = 0.0033
+resolution = 0.0043
+rate_hz = 103.0
+
+[sensors.actuator_torque]
+std = 0.15
+bias = 0.0024
+bias_random_walk_per_sqrt_s = 0.0034
+resolution = 0.0044
+rate_hz = 104.0
+
+[sensors.joint_force]
+std = 0.16
+bias = 0.0025
+bias_random_walk_per_sqrt_s = 0.0035
+resolution = 0.0045
+rate_hz = 105.0
+
+[sensors.joint_torque]
+std = 0.17
+bias = 0.0026
+bias_random_walk_per_sqrt_s = 0.0036
+resolution = 0.0046
+rate_hz = 106.0
 
 [control]
 method = "intvelocity"
@@ -326,13 +368,55 @@ fn all_fields_expected() -> Config {
 
     let n = &mut c.sensors;
     n.noise_enabled = true;
-    n.accelerometer_std_m_per_s2 = 0.11;
-    n.gyro_std_rad_per_s = 0.12;
-    n.velocimeter_std_m_per_s = 0.13;
-    n.joint_angle_std_rad = 0.14;
-    n.joint_velocity_std_rad_per_s = 0.15;
-    n.joint_force_std_n = 0.16;
-    n.joint_torque_std_nm = 0.17;
+    n.accelerometer = SensorModel {
+        std: 0.11,
+        bias: 0.0020,
+        bias_random_walk_per_sqrt_s: 0.0030,
+        resolution: 0.0040,
+        rate_hz: 100.0,
+    };
+    n.gyro = SensorModel {
+        std: 0.12,
+        bias: 0.0021,
+        bias_random_walk_per_sqrt_s: 0.0031,
+        resolution: 0.0041,
+        rate_hz: 101.0,
+    };
+    n.joint_angle = SensorModel {
+        std: 0.13,
+        bias: 0.0022,
+        bias_random_walk_per_sqrt_s: 0.0032,
+        resolution: 0.0042,
+        rate_hz: 102.0,
+    };
+    n.joint_velocity = SensorModel {
+        std: 0.14,
+        bias: 0.0023,
+        bias_random_walk_per_sqrt_s: 0.0033,
+        resolution: 0.0043,
+        rate_hz: 103.0,
+    };
+    n.actuator_torque = SensorModel {
+        std: 0.15,
+        bias: 0.0024,
+        bias_random_walk_per_sqrt_s: 0.0034,
+        resolution: 0.0044,
+        rate_hz: 104.0,
+    };
+    n.joint_force = SensorModel {
+        std: 0.16,
+        bias: 0.0025,
+        bias_random_walk_per_sqrt_s: 0.0035,
+        resolution: 0.0045,
+        rate_hz: 105.0,
+    };
+    n.joint_torque = SensorModel {
+        std: 0.17,
+        bias: 0.0026,
+        bias_random_walk_per_sqrt_s: 0.0036,
+        resolution: 0.0046,
+        rate_hz: 106.0,
+    };
 
     let k = &mut c.control;
     k.method = ControlMethod::Intvelocity;
@@ -535,13 +619,17 @@ const RULES: &[(&[&str], &str)] = &[
     (&["snake.head_position_m=[inf, 0, 0]"], "snake.head_position_m"),
     (&["snake.head_rotation_deg=[0, nan, 0]"], "snake.head_rotation_deg"),
     // sensors
-    (&["sensors.accelerometer_std_m_per_s2=-0.01"], "sensors.accelerometer_std_m_per_s2"),
-    (&["sensors.gyro_std_rad_per_s=-0.01"], "sensors.gyro_std_rad_per_s"),
-    (&["sensors.velocimeter_std_m_per_s=-0.01"], "sensors.velocimeter_std_m_per_s"),
-    (&["sensors.joint_angle_std_rad=-0.01"], "sensors.joint_angle_std_rad"),
-    (&["sensors.joint_velocity_std_rad_per_s=-0.01"], "sensors.joint_velocity_std_rad_per_s"),
-    (&["sensors.joint_force_std_n=-0.01"], "sensors.joint_force_std_n"),
-    (&["sensors.joint_torque_std_nm=nan"], "sensors.joint_torque_std_nm"),
+    (&["sensors.accelerometer.std=-0.01"], "sensors.accelerometer.std"),
+    (&["sensors.gyro.std=-0.01"], "sensors.gyro.std"),
+    (&["sensors.joint_angle.std=-0.01"], "sensors.joint_angle.std"),
+    (&["sensors.joint_velocity.std=-0.01"], "sensors.joint_velocity.std"),
+    (&["sensors.actuator_torque.std=-0.01"], "sensors.actuator_torque.std"),
+    (&["sensors.joint_force.std=-0.01"], "sensors.joint_force.std"),
+    (&["sensors.joint_torque.std=nan"], "sensors.joint_torque.std"),
+    (&["sensors.joint_force.bias=inf"], "sensors.joint_force.bias"),
+    (&["sensors.gyro.bias_random_walk_per_sqrt_s=-1"], "sensors.gyro.bias_random_walk_per_sqrt_s"),
+    (&["sensors.joint_angle.resolution=-0.001"], "sensors.joint_angle.resolution"),
+    (&["sensors.accelerometer.rate_hz=-100"], "sensors.accelerometer.rate_hz"),
     // control
     (&["control.torque_gear=0"], "control.torque_gear"),
     (&["control.position_kp_nm_per_rad=-1"], "control.position_kp_nm_per_rad"),
@@ -900,16 +988,13 @@ fn thesis_config_json_maps_as_documented() {
 
     let n = &config.sensors;
     assert!(!n.noise_enabled);
-    for v in [
-        n.accelerometer_std_m_per_s2,
-        n.gyro_std_rad_per_s,
-        n.velocimeter_std_m_per_s,
-        n.joint_angle_std_rad,
-        n.joint_velocity_std_rad_per_s,
-        n.joint_force_std_n,
-        n.joint_torque_std_nm,
-    ] {
-        assert_eq!(v, 0.0);
+    for (kind, m) in n.models() {
+        assert_eq!(m.std, 0.0, "sensors.{kind}.std");
+        assert_eq!(
+            *m,
+            SensorModel { std: 0.0, ..d.sensors.accelerometer },
+            "sensors.{kind}: only std comes from the JSON"
+        );
     }
 
     let c = &config.control;
@@ -1010,8 +1095,9 @@ fn legacy_values_map() {
     )
     .unwrap();
     assert!(c.sensors.noise_enabled);
-    assert_eq!(c.sensors.gyro_std_rad_per_s, 0.02);
-    assert_eq!(c.sensors.joint_torque_std_nm, 0.02);
+    for (kind, m) in c.sensors.models() {
+        assert_eq!(m.std, 0.02, "sensors.{kind}.std");
+    }
     assert_eq!(c.snake.ground_friction[0], 1.0);
     assert_eq!(c.snake.torque_range_nm, [-2.0, 2.0]);
     assert_eq!(c.snake.color_rgba, [1.0, 0.0, 0.0, 1.0]);

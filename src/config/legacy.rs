@@ -26,7 +26,7 @@
 //! | `snake_specifications.joint_damping`          | `snake.joint_damping_nm_s_per_rad`               |
 //! | `snake_specifications.joint_armature`         | `snake.joint_armature_kg_m2`                     |
 //! | `snake_specifications.sensor_noise`           | `sensors.noise_enabled` (`"enable"` / `"disable"`, any case; `true` / `false` also accepted) |
-//! | `snake_specifications.sensor_noise_amount`    | every `sensors.*_std_*` value                    |
+//! | `snake_specifications.sensor_noise_amount`    | every `sensors.<kind>.std` value                 |
 //! | `snake_specifications.snake_color_rgb`        | `snake.color_rgba` (it holds RGBA; three values get alpha 1) |
 //! | `snake_specifications.head_position_xyz`      | `snake.head_position_m` (same meaning: the original floor was at z = −radius, z = 0 lies on the floor) |
 //! | `snake_specifications.head_rotation_xyz`      | `snake.head_rotation_deg`                        |
@@ -309,8 +309,9 @@ fn convert_snake(section: &Map<String, Json>, defaults: &Table, out: &mut Table)
     if let Some(v) = section.get("sensor_noise_amount") {
         let amount = number("snake_specifications.sensor_noise_amount", v)?;
         if let Some(Value::Table(sensors)) = defaults.get("sensors") {
-            for key in sensors.keys().filter(|k| k.contains("_std_")) {
-                set(out, &format!("sensors.{key}"), Value::Float(amount));
+            // Every sensor kind's table (`[sensors.<kind>]`) gets the amount as its std.
+            for (kind, _) in sensors.iter().filter(|(_, v)| v.is_table()) {
+                set(out, &format!("sensors.{kind}.std"), Value::Float(amount));
             }
         }
     }
@@ -564,7 +565,7 @@ fn legacy_source(key: &str) -> Option<String> {
         "control.pid_kp_nm_per_rad" | "control.pid_ki_nm_per_rad_s" | "control.pid_kd_nm_s_per_rad" => {
             from("control_parameters.PID_parameters_Kp_Ki_Kd")
         }
-        k if k.starts_with("sensors.") && k.contains("_std_") => from("snake_specifications.sensor_noise_amount"),
+        k if k.starts_with("sensors.") && k.ends_with(".std") => from("snake_specifications.sensor_noise_amount"),
         k => {
             if let Some(rest) = k.strip_prefix("visual.") {
                 return from(&format!("visual_options.{rest}"));

@@ -220,13 +220,45 @@ pub enum GroundModel {
 #[serde(deny_unknown_fields)]
 pub struct Sensors {
     pub noise_enabled: bool,
-    pub accelerometer_std_m_per_s2: f64,
-    pub gyro_std_rad_per_s: f64,
-    pub velocimeter_std_m_per_s: f64,
-    pub joint_angle_std_rad: f64,
-    pub joint_velocity_std_rad_per_s: f64,
-    pub joint_force_std_n: f64,
-    pub joint_torque_std_nm: f64,
+    pub accelerometer: SensorModel,
+    pub gyro: SensorModel,
+    pub joint_angle: SensorModel,
+    pub joint_velocity: SensorModel,
+    pub actuator_torque: SensorModel,
+    pub joint_force: SensorModel,
+    pub joint_torque: SensorModel,
+}
+
+impl Sensors {
+    /// The models by config key (`sensors.<key>`), in a fixed order.
+    pub fn models(&self) -> [(&'static str, &SensorModel); 7] {
+        [
+            ("accelerometer", &self.accelerometer),
+            ("gyro", &self.gyro),
+            ("joint_angle", &self.joint_angle),
+            ("joint_velocity", &self.joint_velocity),
+            ("actuator_torque", &self.actuator_torque),
+            ("joint_force", &self.joint_force),
+            ("joint_torque", &self.joint_torque),
+        ]
+    }
+}
+
+/// How one kind of sensor measures (`[sensors.<kind>]`): values in the kind's unit (m/s², rad/s,
+/// rad, N·m or N; see `default.toml`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorModel {
+    /// Standard deviation of the white Gaussian noise, per axis.
+    pub std: f64,
+    /// Constant bias added to every axis.
+    pub bias: f64,
+    /// Random-walk bias: standard deviation of its growth per √s (a Wiener process).
+    pub bias_random_walk_per_sqrt_s: f64,
+    /// Quantisation step (0 = none): readings are rounded to a multiple of it.
+    pub resolution: f64,
+    /// Sample rate (Hz, 0 = every step): a new sample when its period has passed, held in between.
+    pub rate_hz: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -217,18 +217,12 @@ impl Config {
     }
 
     fn validate_sensors(&self) -> Check {
-        let s = &self.sensors;
-        let stds = [
-            ("sensors.accelerometer_std_m_per_s2", s.accelerometer_std_m_per_s2),
-            ("sensors.gyro_std_rad_per_s", s.gyro_std_rad_per_s),
-            ("sensors.velocimeter_std_m_per_s", s.velocimeter_std_m_per_s),
-            ("sensors.joint_angle_std_rad", s.joint_angle_std_rad),
-            ("sensors.joint_velocity_std_rad_per_s", s.joint_velocity_std_rad_per_s),
-            ("sensors.joint_force_std_n", s.joint_force_std_n),
-            ("sensors.joint_torque_std_nm", s.joint_torque_std_nm),
-        ];
-        for (key, v) in stds {
-            non_negative(key, v)?;
+        for (kind, m) in self.sensors.models() {
+            non_negative(&format!("sensors.{kind}.std"), m.std)?;
+            finite(&format!("sensors.{kind}.bias"), m.bias)?;
+            non_negative(&format!("sensors.{kind}.bias_random_walk_per_sqrt_s"), m.bias_random_walk_per_sqrt_s)?;
+            non_negative(&format!("sensors.{kind}.resolution"), m.resolution)?;
+            non_negative(&format!("sensors.{kind}.rate_hz"), m.rate_hz)?;
         }
         Ok(())
     }

@@ -22,6 +22,9 @@ pub struct Observation {
     pub joint_angle_rad: Vec<f64>,
     /// Joint velocities as measured (rad/s).
     pub joint_velocity_rad_per_s: Vec<f64>,
+    /// Per joint: torque of all its actuators together (N·m, MuJoCo's `qfrc_actuator`) of the
+    /// last complete model evaluation, as measured (a servo's current sensor).
+    pub actuator_torque_nm: Vec<f64>,
     /// Head (link 0) frame origin, the tip of its body axis (m), exact.
     pub head_position_m: [f64; 3],
     /// Head orientation quaternion (w, x, y, z), exact.
@@ -47,6 +50,7 @@ impl Observation {
         Self {
             joint_angle_rad: vec![0.0; n_joints],
             joint_velocity_rad_per_s: vec![0.0; n_joints],
+            actuator_torque_nm: vec![0.0; n_joints],
             imu_accel_m_per_s2: vec![[0.0; 3]; n_links],
             imu_gyro_rad_per_s: vec![[0.0; 3]; n_links],
             joint_force_n: vec![[0.0; 3]; n_joints],
@@ -60,6 +64,7 @@ impl Observation {
         self.time_secs = other.time_secs;
         self.joint_angle_rad.copy_from_slice(&other.joint_angle_rad);
         self.joint_velocity_rad_per_s.copy_from_slice(&other.joint_velocity_rad_per_s);
+        self.actuator_torque_nm.copy_from_slice(&other.actuator_torque_nm);
         self.head_position_m = other.head_position_m;
         self.head_quat = other.head_quat;
         self.head_velocity_m_per_s = other.head_velocity_m_per_s;

@@ -8,6 +8,7 @@
 
 mod collision;
 mod data;
+pub mod estimation;
 mod locomotion;
 mod report;
 
@@ -48,7 +49,7 @@ impl ExperimentError {
 }
 
 /// The experiments, by command name.
-pub const NAMES: [&str; 5] = ["configure", "collision", "undulation", "form-closure", "oal"];
+pub const NAMES: [&str; 6] = ["configure", "collision", "undulation", "form-closure", "oal", "estimation"];
 
 /// Where an experiment writes and how long its runs are.
 pub struct Context {
@@ -106,9 +107,12 @@ pub fn run_experiment(name: &str, base: &Config, output_dir: &Path, quick: bool)
         .map_err(RunError::from)?;
     let ctx = Context { folder: folder.clone(), quick };
     let mut report = Report { title: format!("SimSerpent experiment `{name}`"), ..Report::default() };
+    let cases = match name {
+        "estimation" => "Each case below wrote estimation_<case>.csv and plots/ next to this report.",
+        _ => "Each case below is a run folder next to this report (config.toml, model.xml, tables).",
+    };
     report.intro = format!(
-        "SimSerpent {}, MuJoCo {}. Each case below is a run folder next to this report (config.toml, model.xml, \
-         tables). Quick mode: {quick}.",
+        "SimSerpent {}, MuJoCo {}. {cases} Quick mode: {quick}.",
         env!("CARGO_PKG_VERSION"),
         mujoco_rs::mujoco_version()
     );
@@ -117,6 +121,7 @@ pub fn run_experiment(name: &str, base: &Config, output_dir: &Path, quick: bool)
         "undulation" => locomotion::undulation(&ctx, base)?,
         "oal" => locomotion::oal(&ctx, base)?,
         "form-closure" => locomotion::form_closure(&ctx, base)?,
+        "estimation" => estimation::run(&ctx, base)?,
         _ => locomotion::configure(&ctx, base)?,
     };
     report.sections.push(section);

@@ -362,6 +362,23 @@ pub struct PlotOutput {
     pub skipped: Vec<(String, String)>,
 }
 
+/// Draws one time-series chart into `<dir>/<stem>.png` and `<dir>/<stem>.svg`: every
+/// `(name, values)` of `series` over `time_s` (for panels of one's own, e.g. the estimation
+/// experiment's estimate against truth).
+pub fn plot_time_series(
+    dir: &Path,
+    stem: &str,
+    title: &str,
+    y_label: &str,
+    time_s: &[f64],
+    series: &[(String, Vec<f64>)],
+) -> Result<Vec<PathBuf>, PlotError> {
+    register_font();
+    let series: Vec<Series<'_>> =
+        series.iter().map(|(name, y)| Series { name: name.clone(), x: time_s, y: y.clone() }).collect();
+    both(dir, stem, (900, 500), |root: &dyn AnyArea| root.line(title, y_label, &series))
+}
+
 /// Writes the standard panels of a run folder into `<folder>/plots/`.
 pub fn plot_run_folder(folder: &Path) -> Result<PlotOutput, PlotError> {
     register_font();

@@ -125,6 +125,10 @@ impl Recorder {
             if f.external_contact_forces {
                 push3(&mut h, n, "contact_force", "n");
                 push3(&mut h, n, "contact_torque", "nm");
+                // Ground truth, split: floor (normal + friction), obstacles and where they push.
+                push3(&mut h, n, "floor_force", "n");
+                push3(&mut h, n, "obstacle_force", "n");
+                push3(&mut h, n, "obstacle_point", "m");
             }
         }
         let links = Table::numeric(folder, "links", &h, f).map_err(io_err(&folder.join("links")))?;
@@ -165,6 +169,7 @@ impl Recorder {
                 for joint in &index.joints {
                     h.push(format!("{}_encoder_{variant}_rad", joint.name));
                     h.push(format!("{}_encoder_velocity_{variant}_rad_per_s", joint.name));
+                    h.push(format!("{}_actuator_torque_{variant}_nm", joint.name));
                     push3(&mut h, &joint.name, &format!("force_sensor_{variant}"), "n");
                     push3(&mut h, &joint.name, &format!("torque_sensor_{variant}"), "nm");
                 }
@@ -262,6 +267,10 @@ impl Recorder {
             if f.external_contact_forces {
                 t.nums(&s.link_contact_force_n[i])?;
                 t.nums(&s.link_contact_torque_nm[i])?;
+                t.nums(&s.link_floor_force_n[i])?;
+                t.nums(&s.link_obstacle_force_n[i])?;
+                // No obstacle contact: zeros (tables hold finite numbers only); obstacle_force is 0.
+                t.nums(&s.link_obstacle_point_m[i].unwrap_or([0.0; 3]))?;
             }
         }
         t.end_row()
@@ -331,6 +340,7 @@ fn write_sensors(t: &mut Table, s: &Snapshot) -> std::io::Result<()> {
         for j in 0..o.joint_angle_rad.len() {
             t.num(o.joint_angle_rad[j])?;
             t.num(o.joint_velocity_rad_per_s[j])?;
+            t.num(o.actuator_torque_nm[j])?;
             t.nums(&o.joint_force_n[j])?;
             t.nums(&o.joint_torque_nm[j])?;
         }

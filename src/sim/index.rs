@@ -38,6 +38,19 @@ pub struct JointIndex {
     pub actuators: [Option<usize>; 4],
 }
 
+/// What a geom is, for splitting contact forces into ground reaction, obstacle and link–link.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GeomClass {
+    /// The floor plane (`model::names::FLOOR`).
+    Floor,
+    /// An obstacle (a geom named `obstacle_*`).
+    Obstacle,
+    /// A geom of link `i`.
+    Link(usize),
+    /// Anything else (a user's scenery).
+    Other,
+}
+
 /// Everything the read-out needs, resolved once.
 #[derive(Debug, Clone)]
 pub struct Index {
@@ -45,6 +58,8 @@ pub struct Index {
     pub joints: Vec<JointIndex>,
     /// For each geom: the link it belongs to, if any.
     pub geom_link: Vec<Option<usize>>,
+    /// For each geom: floor, obstacle, link or other (resolved from the names once).
+    pub geom_class: Vec<GeomClass>,
     /// Geom and body names (or `geom_<id>` / `body_<id>` when unnamed), for the contact table.
     pub geom_names: Vec<String>,
     pub body_names: Vec<String>,
@@ -174,8 +189,20 @@ impl Index {
         let geom_body = model.geom_bodyid();
         let geom_link = (0..ngeom).map(|g| links.iter().position(|l| l.body as i32 == geom_body[g])).collect();
         let robot_mass_kg = links.iter().map(|l| l.mass_kg).sum();
+        let geom_names = object_names(model, MjtObjBase::mjOBJ_GEOM, ngeom, "geom");
+        let geom_class = geom_names
+            .iter()
+            .zip(&geom_link)
+            .map(|(name, link): (&String, &Option<usize>)| match link {
+                Some(i) => GeomClass::Link(*i),
+                None if name == names::FLOOR => GeomClass::Floor,
+                None if name.starts_with("obstacle_") => GeomClass::Obstacle,
+                None => GeomClass::Other,
+            })
+            .collect();
         Self {
-            geom_names: object_names(model, MjtObjBase::mjOBJ_GEOM, ngeom, "geom"),
+            geom_names,
+            geom_class,
             body_names: object_names(model, MjtObjBase::mjOBJ_BODY, nbody, "body"),
             links,
             joints,

@@ -12,7 +12,7 @@ mod safety;
 mod snapshot;
 
 pub use ground::Ground;
-pub use index::{Index, JointIndex, LinkIndex};
+pub use index::{GeomClass, Index, JointIndex, LinkIndex};
 pub use noise::SensorNoise;
 pub use safety::EnergyGuard;
 pub use snapshot::{ContactRow, Snapshot};
@@ -220,10 +220,12 @@ impl World {
         let qpos = d.qpos();
         let qvel = d.qvel();
         let sensordata = d.sensordata();
+        let qfrc_actuator = d.qfrc_actuator();
         obs.time_secs = d.time();
         for (j, joint) in self.index.joints.iter().enumerate() {
             obs.joint_angle_rad[j] = qpos[joint.qpos_adr];
             obs.joint_velocity_rad_per_s[j] = qvel[joint.dof_adr];
+            obs.actuator_torque_nm[j] = qfrc_actuator[joint.dof_adr];
             read3(sensordata, joint.force_adr, &mut obs.joint_force_n[j]);
             read3(sensordata, joint.torque_adr, &mut obs.joint_torque_nm[j]);
         }

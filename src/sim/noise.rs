@@ -1,26 +1,32 @@
-//! Sensor noise: zero-mean Gaussian, one seeded random stream per sensor channel group.
+//! Sensor models: bias, random-walk bias, Gaussian noise, quantisation and sample-and-hold, per
+//! sensor kind (`[sensors.<kind>]`), one seeded random stream per sensor.
 //!
-//! MuJoCo 3 ignores the `noise` attribute of sensors, so SimSerpent adds noise itself. Each
-//! sensor (one joint encoder, one link's accelerometer, …) has its own ChaCha8 stream seeded from
-//! `(general.seed, stream number)`, so adding a sensor never changes another sensor's noise.
+//! MuJoCo 3 ignores the `noise` attribute of sensors, so SimSerpent measures itself. For every
+//! channel (one axis of one sensor), at a sample instant t:
+//!
+//! ```text
+//! w(t)       = w(t_prev) + σ_rw·√(t − t_prev)·N(0,1)         (random-walk bias, w = 0 at start)
+//! measured   = round_to_resolution(truth + bias + w(t) + σ·N(0,1))
+//! ```
+//!
+//! and between sample instants (`rate_hz` > 0: every 1/rate_hz s, starting at the first step)
+//! the last measured value is held. Each sensor (one joint encoder, one link's accelerometer, …)
+//! has its own ChaCha8 stream seeded from `(general.seed, stream number)`, so adding a sensor
+//! never changes another sensor's noise. With `noise_enabled = false` measured = truth exactly.
 
-use crate::config::Sensors;
+use crate::config::{SensorModel, Sensors};
 use crate::control::Observation;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
-/// Streams per joint: angle, velocity, force, torque. Per link: accelerometer, gyro.
-const JOINT_STREAMS: usize = 4;
-const LINK_STREAMS: usize = 2;
-
-/// Adds the configured noise to a true observation.
-pub struct SensorNoise {
-    enabled: bool,
-    std: Sensors,
-    joint_rngs: Vec<ChaCha8Rng>,
-    link_rngs: Vec<ChaCha8Rng>,
-}
+/// Stream numbers: per joint 4 (angle, velocity, force, torque), per link 2 (accelerometer,
+/// gyro) from `LINK_STREAM_OFFSET` on, per joint 1 (actuator torque) from
+/// `ACTUATOR_STREAM_OFFSET` on.
+const JOINT_STREAMS: u64 = 4;
+const LINK_STREAMS: u64 = 2;
+const LINK_STREAM_OFFSET: u64 = 1_000_000;
+const ACTUATOR_STREAM_OFFSET: u64 = 2_000_000;
 
 fn stream(seed: u64, number: u64) -> ChaCha8Rng {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -28,45 +34,140 @@ fn stream(seed: u64, number: u64) -> ChaCha8Rng {
     rng
 }
 
-fn gauss(rng: &mut ChaCha8Rng, std: f64) -> f64 {
-    let z: f64 = StandardNormal.sample(rng);
-    z * std
+/// The model of one sensor kind, with its state for every sensor of that kind.
+struct Kind {
+    model: SensorModel,
+    /// Values per sensor (1 for scalars, 3 for vectors).
+    dims: usize,
+    /// One stream per sensor.
+    rngs: Vec<ChaCha8Rng>,
+    /// Per channel: random-walk bias.
+    walk: Vec<f64>,
+    /// Per channel: the last sample (held between samples).
+    held: Vec<f64>,
+    /// Time of the last sample (None before the first).
+    last_sample_secs: Option<f64>,
+    next_sample_secs: f64,
 }
 
-fn add3(rng: &mut ChaCha8Rng, std: f64, value: &mut [f64; 3]) {
-    for v in value.iter_mut() {
-        *v += gauss(rng, std);
+impl Kind {
+    fn new(model: SensorModel, dims: usize, seed: u64, streams: impl Iterator<Item = u64>) -> Self {
+        let rngs: Vec<ChaCha8Rng> = streams.map(|n| stream(seed, n)).collect();
+        let channels = rngs.len() * dims;
+        Self {
+            model,
+            dims,
+            rngs,
+            walk: vec![0.0; channels],
+            held: vec![0.0; channels],
+            last_sample_secs: None,
+            next_sample_secs: 0.0,
+        }
     }
+
+    /// Writes the measured values of `truth` (all sensors of this kind, flattened) into `out`.
+    fn measure(&mut self, time_secs: f64, truth: &[f64], out: &mut [f64]) {
+        let m = self.model;
+        // The clock went back (a reset): start afresh.
+        if self.last_sample_secs.is_some_and(|t| time_secs < t) {
+            self.last_sample_secs = None;
+        }
+        let due = match self.last_sample_secs {
+            None => true,
+            Some(_) if m.rate_hz <= 0.0 => true,
+            // A tolerance of a millionth of the period absorbs the rounding of t = k·dt.
+            Some(_) => time_secs >= self.next_sample_secs - 1e-6 / m.rate_hz,
+        };
+        if due {
+            let dt = self.last_sample_secs.map_or(0.0, |t| (time_secs - t).max(0.0));
+            let walk_step = m.bias_random_walk_per_sqrt_s * dt.sqrt();
+            for (s, rng) in self.rngs.iter_mut().enumerate() {
+                for c in s * self.dims..(s + 1) * self.dims {
+                    let (Some(&t), Some(walk), Some(held)) = (truth.get(c), self.walk.get_mut(c), self.held.get_mut(c))
+                    else {
+                        continue;
+                    };
+                    if walk_step > 0.0 {
+                        let z: f64 = StandardNormal.sample(rng);
+                        *walk += walk_step * z;
+                    }
+                    let mut v = t + m.bias + *walk;
+                    if m.std > 0.0 {
+                        let z: f64 = StandardNormal.sample(rng);
+                        v += m.std * z;
+                    }
+                    if m.resolution > 0.0 {
+                        v = (v / m.resolution).round() * m.resolution;
+                    }
+                    *held = v;
+                }
+            }
+            if m.rate_hz > 0.0 {
+                let period = 1.0 / m.rate_hz;
+                self.next_sample_secs = match self.last_sample_secs {
+                    None => time_secs + period,
+                    // Keep the sampling grid; if a sample was missed, restart it from now.
+                    Some(_) if self.next_sample_secs + period > time_secs => self.next_sample_secs + period,
+                    Some(_) => time_secs + period,
+                };
+            }
+            self.last_sample_secs = Some(time_secs);
+        }
+        for (o, h) in out.iter_mut().zip(&self.held) {
+            *o = *h;
+        }
+    }
+}
+
+/// Measures a true observation with the configured sensor models.
+pub struct SensorNoise {
+    enabled: bool,
+    joint_angle: Kind,
+    joint_velocity: Kind,
+    actuator_torque: Kind,
+    joint_force: Kind,
+    joint_torque: Kind,
+    accelerometer: Kind,
+    gyro: Kind,
 }
 
 impl SensorNoise {
-    /// Noise streams for `n_links` links and `n_joints` joints.
+    /// Sensor models and random streams for `n_links` links and `n_joints` joints.
     pub fn new(config: &Sensors, seed: u64, n_links: usize, n_joints: usize) -> Self {
-        let joint_rngs = (0..n_joints * JOINT_STREAMS).map(|k| stream(seed, k as u64)).collect();
-        let offset = (n_joints * JOINT_STREAMS) as u64 + 1_000_000;
-        let link_rngs = (0..n_links * LINK_STREAMS).map(|k| stream(seed, offset + k as u64)).collect();
-        Self { enabled: config.noise_enabled, std: config.clone(), joint_rngs, link_rngs }
+        let (nl, nj) = (n_links as u64, n_joints as u64);
+        let joint = |k: u64| (0..nj).map(move |j| j * JOINT_STREAMS + k);
+        let link = |k: u64| (0..nl).map(move |i| LINK_STREAM_OFFSET + nj * JOINT_STREAMS + i * LINK_STREAMS + k);
+        Self {
+            enabled: config.noise_enabled,
+            joint_angle: Kind::new(config.joint_angle, 1, seed, joint(0)),
+            joint_velocity: Kind::new(config.joint_velocity, 1, seed, joint(1)),
+            joint_force: Kind::new(config.joint_force, 3, seed, joint(2)),
+            joint_torque: Kind::new(config.joint_torque, 3, seed, joint(3)),
+            actuator_torque: Kind::new(config.actuator_torque, 1, seed, (0..nj).map(|j| ACTUATOR_STREAM_OFFSET + j)),
+            accelerometer: Kind::new(config.accelerometer, 3, seed, link(0)),
+            gyro: Kind::new(config.gyro, 3, seed, link(1)),
+        }
     }
 
-    /// `measured` = `truth` + noise (or a plain copy when noise is off). Does not allocate.
+    /// `measured` = the sensor models applied to `truth` (a plain copy when noise is off). Does
+    /// not allocate.
     pub fn measure(&mut self, truth: &Observation, measured: &mut Observation) {
         measured.copy_from(truth);
         if !self.enabled {
             return;
         }
-        let s = &self.std;
-        for j in 0..truth.n_joints() {
-            let rngs = &mut self.joint_rngs[j * JOINT_STREAMS..(j + 1) * JOINT_STREAMS];
-            measured.joint_angle_rad[j] += gauss(&mut rngs[0], s.joint_angle_std_rad);
-            measured.joint_velocity_rad_per_s[j] += gauss(&mut rngs[1], s.joint_velocity_std_rad_per_s);
-            add3(&mut rngs[2], s.joint_force_std_n, &mut measured.joint_force_n[j]);
-            add3(&mut rngs[3], s.joint_torque_std_nm, &mut measured.joint_torque_nm[j]);
-        }
-        for i in 0..truth.imu_accel_m_per_s2.len() {
-            let rngs = &mut self.link_rngs[i * LINK_STREAMS..(i + 1) * LINK_STREAMS];
-            add3(&mut rngs[0], s.accelerometer_std_m_per_s2, &mut measured.imu_accel_m_per_s2[i]);
-            add3(&mut rngs[1], s.gyro_std_rad_per_s, &mut measured.imu_gyro_rad_per_s[i]);
-        }
+        let t = truth.time_secs;
+        self.joint_angle.measure(t, &truth.joint_angle_rad, &mut measured.joint_angle_rad);
+        self.joint_velocity.measure(t, &truth.joint_velocity_rad_per_s, &mut measured.joint_velocity_rad_per_s);
+        self.actuator_torque.measure(t, &truth.actuator_torque_nm, &mut measured.actuator_torque_nm);
+        self.joint_force.measure(t, truth.joint_force_n.as_flattened(), measured.joint_force_n.as_flattened_mut());
+        self.joint_torque.measure(t, truth.joint_torque_nm.as_flattened(), measured.joint_torque_nm.as_flattened_mut());
+        self.accelerometer.measure(
+            t,
+            truth.imu_accel_m_per_s2.as_flattened(),
+            measured.imu_accel_m_per_s2.as_flattened_mut(),
+        );
+        self.gyro.measure(t, truth.imu_gyro_rad_per_s.as_flattened(), measured.imu_gyro_rad_per_s.as_flattened_mut());
     }
 }
 
@@ -75,43 +176,133 @@ mod tests {
     use super::*;
     use crate::config::Config;
 
-    fn sample(seed: u64, n: usize) -> Vec<f64> {
-        let mut cfg = Config::default().sensors;
-        cfg.noise_enabled = true;
-        cfg.joint_angle_std_rad = 0.01;
-        let mut noise = SensorNoise::new(&cfg, seed, 2, 1);
-        let truth = Observation::new(2, 1);
-        let mut measured = Observation::new(2, 1);
+    const DT: f64 = 0.001;
+
+    fn quiet() -> SensorModel {
+        SensorModel { std: 0.0, bias: 0.0, bias_random_walk_per_sqrt_s: 0.0, resolution: 0.0, rate_hz: 0.0 }
+    }
+
+    /// Measures a constant truth `value` on every channel for `n` steps of `DT` with the given
+    /// sensor models; returns every kind's first channel per step:
+    /// [joint angle, joint velocity, actuator torque, force x, torque x, accelerometer x, gyro x].
+    fn sample(sensors: &Sensors, seed: u64, n: usize, value: f64) -> Vec<[f64; 7]> {
+        let mut noise = SensorNoise::new(sensors, seed, 2, 1);
+        let mut truth = Observation::new(2, 1);
+        truth.joint_angle_rad[0] = value;
+        truth.joint_velocity_rad_per_s[0] = value;
+        truth.actuator_torque_nm[0] = value;
+        truth.joint_force_n[0] = [value; 3];
+        truth.joint_torque_nm[0] = [value; 3];
+        truth.imu_accel_m_per_s2 = vec![[value; 3]; 2];
+        truth.imu_gyro_rad_per_s = vec![[value; 3]; 2];
+        let mut m = Observation::new(2, 1);
         (0..n)
-            .map(|_| {
-                noise.measure(&truth, &mut measured);
-                measured.joint_angle_rad[0]
+            .map(|k| {
+                truth.time_secs = k as f64 * DT;
+                noise.measure(&truth, &mut m);
+                [
+                    m.joint_angle_rad[0],
+                    m.joint_velocity_rad_per_s[0],
+                    m.actuator_torque_nm[0],
+                    m.joint_force_n[0][0],
+                    m.joint_torque_nm[0][0],
+                    m.imu_accel_m_per_s2[0][0],
+                    m.imu_gyro_rad_per_s[0][0],
+                ]
             })
             .collect()
     }
 
+    fn all_kinds(model: SensorModel) -> Sensors {
+        let mut s = Config::default().sensors;
+        s.noise_enabled = true;
+        for m in [
+            &mut s.joint_angle,
+            &mut s.joint_velocity,
+            &mut s.actuator_torque,
+            &mut s.joint_force,
+            &mut s.joint_torque,
+            &mut s.accelerometer,
+            &mut s.gyro,
+        ] {
+            *m = model;
+        }
+        s
+    }
+
+    fn mean_std(xs: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
+        let n = xs.clone().count() as f64;
+        let mean = xs.clone().sum::<f64>() / n;
+        let var = xs.map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        (mean, var.sqrt())
+    }
+
     #[test]
-    fn noise_has_configured_mean_and_std_and_is_seeded() {
-        let n = 20_000;
-        let xs = sample(7, n);
-        let mean = xs.iter().sum::<f64>() / n as f64;
-        let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-        // Standard error of the mean: 0.01/sqrt(n) = 7e-5; of the std: 0.01/sqrt(2n) = 5e-5.
-        assert!(mean.abs() < 4.0 * 0.01 / (n as f64).sqrt(), "mean {mean}");
-        assert!((var.sqrt() - 0.01).abs() < 4.0 * 0.01 / (2.0 * n as f64).sqrt(), "std {}", var.sqrt());
-        assert_eq!(xs, sample(7, n), "same seed, same noise");
-        assert_ne!(xs, sample(8, n), "another seed, other noise");
+    fn every_kind_has_the_configured_mean_and_std_and_is_seeded() {
+        let (n, std, bias) = (20_000, 0.01, 0.003);
+        let sensors = all_kinds(SensorModel { std, bias, ..quiet() });
+        let xs = sample(&sensors, 7, n, 0.25);
+        for k in 0..7 {
+            let (mean, s) = mean_std(xs.iter().map(|x| x[k] - 0.25));
+            // Standard error of the mean: σ/√n = 7e-5; of the std: σ/√(2n) = 5e-5.
+            assert!((mean - bias).abs() < 4.0 * std / (n as f64).sqrt(), "kind {k}: mean {mean}");
+            assert!((s - std).abs() < 4.0 * std / (2.0 * n as f64).sqrt(), "kind {k}: std {s}");
+        }
+        // Kinds draw from different streams.
+        assert_ne!(xs[0][0], xs[0][1]);
+        assert_eq!(xs, sample(&sensors, 7, n, 0.25), "same seed, same noise");
+        assert_ne!(xs, sample(&sensors, 8, n, 0.25), "another seed, other noise");
+    }
+
+    #[test]
+    fn quantisation_rounds_to_the_resolution() {
+        let sensors = all_kinds(SensorModel { resolution: 0.1, ..quiet() });
+        for x in sample(&sensors, 1, 3, 0.26).into_iter().flatten() {
+            assert!((x - 0.3).abs() < 1e-12, "{x}");
+        }
+        // With noise, every reading is a multiple of the resolution.
+        let sensors = all_kinds(SensorModel { std: 0.5, resolution: 0.1, ..quiet() });
+        for x in sample(&sensors, 1, 1000, 0.26).into_iter().flatten() {
+            assert!(((x / 0.1) - (x / 0.1).round()).abs() < 1e-9, "{x}");
+        }
+    }
+
+    #[test]
+    fn sample_and_hold_updates_at_the_rate() {
+        // 100 Hz at 1 ms steps: a new value every 10 steps, held in between.
+        let sensors = all_kinds(SensorModel { std: 1.0, rate_hz: 100.0, ..quiet() });
+        let xs = sample(&sensors, 3, 100, 0.0);
+        let mut changes = 0;
+        for k in 1..xs.len() {
+            if xs[k] != xs[k - 1] {
+                assert_eq!(k % 10, 0, "a new sample at step {k}");
+                changes += 1;
+            }
+        }
+        assert_eq!(changes, 9);
+    }
+
+    #[test]
+    fn random_walk_bias_grows_like_sqrt_time() {
+        // After T seconds the walk has std σ_rw·√T. Over 2000 independent channels (sensors of
+        // many seeds), the sample std after T = 0.1 s is within 4 standard errors
+        // (σ/√(2n) ≈ 1.6 %).
+        let sigma = 0.2;
+        let expected = sigma * 0.1f64.sqrt();
+        let sensors = all_kinds(SensorModel { bias_random_walk_per_sqrt_s: sigma, ..quiet() });
+        let finals: Vec<f64> = (0..2000u64).map(|seed| sample(&sensors, seed, 101, 0.0)[100][3]).collect();
+        let (mean, s) = mean_std(finals.iter().copied());
+        let se = expected / (2.0 * finals.len() as f64).sqrt();
+        assert!((s - expected).abs() < 4.0 * se, "walk std after 0.1 s: {s}, expected {expected}");
+        assert!(mean.abs() < 4.0 * expected / (finals.len() as f64).sqrt(), "walk mean {mean}");
     }
 
     #[test]
     fn noise_off_gives_exact_values() {
-        let cfg = Config::default().sensors;
-        assert!(!cfg.noise_enabled);
-        let mut noise = SensorNoise::new(&cfg, 1, 2, 1);
-        let mut truth = Observation::new(2, 1);
-        truth.joint_angle_rad[0] = 0.25;
-        let mut measured = Observation::new(2, 1);
-        noise.measure(&truth, &mut measured);
-        assert_eq!(measured.joint_angle_rad[0], 0.25);
+        let mut sensors = all_kinds(SensorModel { std: 1.0, bias: 1.0, resolution: 0.5, rate_hz: 10.0, ..quiet() });
+        sensors.noise_enabled = false;
+        for x in sample(&sensors, 1, 10, 0.123).into_iter().flatten() {
+            assert_eq!(x, 0.123);
+        }
     }
 }

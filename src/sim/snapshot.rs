@@ -1,6 +1,6 @@
 //! Everything of thesis table 3 at one instant, read after a forward pass.
 
-use super::{World, read3};
+use super::{GeomClass, World, read3};
 use crate::control::Observation;
 use mujoco_rs::prelude::MjtObjBase;
 
@@ -54,6 +54,21 @@ pub struct Snapshot {
     pub link_contact_force_n: Vec<[f64; 3]>,
     /// Per link: moment of those forces about the link's centre of mass (N·m).
     pub link_contact_torque_nm: Vec<[f64; 3]>,
+    /// Per link: the part of `link_contact_force_n` that the floor exerts (ground reaction: normal
+    /// plus friction, N), and its moment about the centre of mass (N·m).
+    pub link_floor_force_n: Vec<[f64; 3]>,
+    pub link_floor_torque_nm: Vec<[f64; 3]>,
+    /// Per link: the part that obstacles (geoms named `obstacle_*`) exert (N), its moment about
+    /// the centre of mass (N·m) and its point of application: the contact points weighted by the
+    /// magnitude of each contact's force (m; `None` without obstacle contact).
+    pub link_obstacle_force_n: Vec<[f64; 3]>,
+    pub link_obstacle_torque_nm: Vec<[f64; 3]>,
+    pub link_obstacle_point_m: Vec<Option<[f64; 3]>>,
+    /// Per link: the part that other links (self-collision) and other geoms exert (N).
+    pub link_other_contact_force_n: Vec<[f64; 3]>,
+    /// Per link: origin of the link's frame (m): the anchor of the joint to its parent (for the
+    /// generated snake; the head's front end for link 0).
+    pub link_origin_m: Vec<[f64; 3]>,
     /// Per joint: angle (rad) and velocity (rad/s).
     pub joint_angle_rad: Vec<f64>,
     pub joint_velocity_rad_per_s: Vec<f64>,
@@ -70,6 +85,8 @@ pub struct Snapshot {
     pub link_velocimeter_m_per_s: Vec<[f64; 3]>,
     /// All contacts.
     pub contacts: Vec<ContactRow>,
+    /// Per link: sum of obstacle contact force magnitudes (weights of the point of application).
+    obstacle_weight: Vec<f64>,
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -78,6 +95,10 @@ fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 fn add_to(acc: &mut [f64; 3], v: [f64; 3], sign: f64) {
@@ -98,6 +119,13 @@ impl Snapshot {
             link_angular_acceleration_rad_per_s2: vec![[0.0; 3]; n_links],
             link_contact_force_n: vec![[0.0; 3]; n_links],
             link_contact_torque_nm: vec![[0.0; 3]; n_links],
+            link_floor_force_n: vec![[0.0; 3]; n_links],
+            link_floor_torque_nm: vec![[0.0; 3]; n_links],
+            link_obstacle_force_n: vec![[0.0; 3]; n_links],
+            link_obstacle_torque_nm: vec![[0.0; 3]; n_links],
+            link_obstacle_point_m: vec![None; n_links],
+            link_other_contact_force_n: vec![[0.0; 3]; n_links],
+            link_origin_m: vec![[0.0; 3]; n_links],
             joint_angle_rad: vec![0.0; n_joints],
             joint_velocity_rad_per_s: vec![0.0; n_joints],
             actuator_force_nm: vec![[0.0; 4]; n_joints],
@@ -107,6 +135,7 @@ impl Snapshot {
             observation_measured: Observation::new(n_links, n_joints),
             link_velocimeter_m_per_s: vec![[0.0; 3]; n_links],
             contacts: Vec::with_capacity(64),
+            obstacle_weight: vec![0.0; n_links],
             time_secs: 0.0,
         }
     }
@@ -119,6 +148,7 @@ impl Snapshot {
         self.time_secs = d.time();
         let xipos = d.xipos();
         let xquat = d.xquat();
+        let xpos = d.xpos();
         let sensordata = d.sensordata();
         for (i, link) in idx.links.iter().enumerate() {
             self.link_position_m[i] = xipos[link.body];
@@ -132,8 +162,16 @@ impl Snapshot {
             let a = d.object_acceleration(MjtObjBase::mjOBJ_BODY, link.body, false);
             self.link_angular_acceleration_rad_per_s2[i] = [a[0], a[1], a[2]];
             self.link_acceleration_m_per_s2[i] = [a[3] + gravity[0], a[4] + gravity[1], a[5] + gravity[2]];
+            self.link_origin_m[i] = xpos[link.body];
             self.link_contact_force_n[i] = [0.0; 3];
             self.link_contact_torque_nm[i] = [0.0; 3];
+            self.link_floor_force_n[i] = [0.0; 3];
+            self.link_floor_torque_nm[i] = [0.0; 3];
+            self.link_obstacle_force_n[i] = [0.0; 3];
+            self.link_obstacle_torque_nm[i] = [0.0; 3];
+            self.link_obstacle_point_m[i] = None;
+            self.link_other_contact_force_n[i] = [0.0; 3];
+            self.obstacle_weight[i] = 0.0;
             read3(sensordata, link.velocimeter_adr, &mut self.link_velocimeter_m_per_s[i]);
         }
         let qpos = d.qpos();
@@ -179,12 +217,36 @@ impl Snapshot {
             };
             for (side, sign) in [(0, -1.0), (1, 1.0)] {
                 if let Some(Some(link)) = idx.geom_link.get(geom[side]) {
-                    add_to(&mut self.link_contact_force_n[*link], force, sign);
-                    let arm = sub(row.position_m, self.link_position_m[*link]);
-                    add_to(&mut self.link_contact_torque_nm[*link], cross(arm, force), sign);
+                    let link = *link;
+                    add_to(&mut self.link_contact_force_n[link], force, sign);
+                    let arm = sub(row.position_m, self.link_position_m[link]);
+                    let moment = cross(arm, force);
+                    add_to(&mut self.link_contact_torque_nm[link], moment, sign);
+                    match idx.geom_class.get(geom[1 - side]) {
+                        Some(GeomClass::Floor) => {
+                            add_to(&mut self.link_floor_force_n[link], force, sign);
+                            add_to(&mut self.link_floor_torque_nm[link], moment, sign);
+                        }
+                        Some(GeomClass::Obstacle) => {
+                            add_to(&mut self.link_obstacle_force_n[link], force, sign);
+                            add_to(&mut self.link_obstacle_torque_nm[link], moment, sign);
+                            let w = norm(force);
+                            let point = self.link_obstacle_point_m[link].get_or_insert([0.0; 3]);
+                            add_to(point, row.position_m, w);
+                            self.obstacle_weight[link] += w;
+                        }
+                        _ => add_to(&mut self.link_other_contact_force_n[link], force, sign),
+                    }
                 }
             }
             self.contacts.push(row);
+        }
+        // Weighted sums → weighted means (a contact without force has no point of application).
+        for (point, &w) in self.link_obstacle_point_m.iter_mut().zip(&self.obstacle_weight) {
+            match point {
+                Some(p) if w > 0.0 => p.iter_mut().for_each(|x| *x /= w),
+                _ => *point = None,
+            }
         }
     }
 

@@ -1,0 +1,382 @@
+//! Experiment `estimation`: proprioceptive contact-force estimation scored against the
+//! simulator's ground truth (Boa's method, `crate::estimation`).
+//!
+//! The scene: a 5-link snake bent into one arc (30° per joint) between three pegs (first-order
+//! form closure: one inside the bend at its apex, one outside the head link, one outside the tail
+//! link). A constant torque of −0.2 N·m on every joint tries to straighten it and presses it
+//! against the three pegs: a sustained push, held by the pegs even without ground friction.
+//!
+//! Cases: (a) no ground friction, exact sensors: the estimate's horizontal part is the obstacle
+//! force, checked within 2 % RMS per pushing link, and the estimated contact point along the link
+//! within 5 mm of the true one once the pinch has settled; (b) ground friction 0.5, exact sensors: the
+//! estimate is the total external force (ground + obstacles), checked within 2 % RMS per link;
+//! (c) as (b) with Gaussian noise on the accelerometers and joint force sensors (the stds of the
+//! base config, bias, walk, quantisation and hold off so the prediction applies): the error's
+//! spread per link and axis is checked against sqrt(m²σ_a² + k·σ_f²) within 4 standard errors of
+//! a sample std.
+//!
+//! Every step: control, forward pass (so contacts, forces and sensors all describe that
+//! instant), fresh sensor values, measurement models, estimate, score. Each case writes
+//! `estimation_<case>.csv` (time, per link estimate, true total and true obstacle force) and
+//! plots of estimate against truth (`plots/estimation_<case>_link_<i>.png/.svg`).
+//!
+//! Users plug in their own estimator through [`score_estimator`].
+
+use super::report::{Check, Section, sig};
+use super::{Context, ExperimentError};
+use crate::config::{Config, ControlMethod, GaitKind, GroundModel, SensorModel, TerrainKind};
+use crate::control::{Command, Controller, Observation};
+use crate::estimation::{
+    ContactEstimator, EstimateOutput, EstimationScore, EstimatorInput, NewtonEulerEstimator, adjacent_joints,
+    predicted_error_std_n,
+};
+use crate::run::RunError;
+use crate::sim::{SensorNoise, Simulation, Snapshot, World};
+use std::io::Write;
+use std::path::Path;
+
+/// Links of the scene.
+pub const N_LINKS: usize = 5;
+/// Straightening torque on every joint (N·m).
+pub const TORQUE_NM: f64 = -0.2;
+/// Force magnitude (N) from which a contact with a peg counts as present (truth and estimate).
+pub const DETECTION_THRESHOLD_N: f64 = 0.1;
+
+/// Constant joint torques.
+struct ConstTorque(Vec<f64>);
+
+impl Controller for ConstTorque {
+    fn update(&mut self, _obs: &Observation, cmd: &mut Command) {
+        for (c, t) in cmd.torque_nm.iter_mut().zip(&self.0) {
+            *c = *t;
+        }
+    }
+}
+
+/// The scene on top of `base`, with the given ground friction coefficient.
+pub fn pinch_config(base: &Config, ground_friction: f64) -> Config {
+    let mut c = base.clone();
+    c.snake.n_links = N_LINKS;
+    c.snake.head_position_m = [0.0; 3];
+    c.snake.head_rotation_deg = [0.0; 3];
+    c.snake.torque_range_nm = [-3.0, 3.0];
+    c.terrain.kind = TerrainKind::FormClosure;
+    c.terrain.form_closure.order = 1;
+    c.terrain.obstacle_friction = [0.0; 3];
+    c.gait.kind = GaitKind::FormClosure;
+    c.gait.form_closure.pattern_deg = vec![30.0; N_LINKS - 1];
+    c.gait.ramp_secs = 0.0;
+    c.control.method = ControlMethod::Torque;
+    c.ground.model = GroundModel::Isotropic;
+    c.snake.ground_friction = [ground_friction, 0.0, 0.0];
+    c.snake.link_friction = [ground_friction, 0.0, 0.0];
+    c.sensors.noise_enabled = false;
+    c
+}
+
+/// The time series of one scored run.
+#[derive(Debug, Clone, Default)]
+pub struct Trace {
+    /// Link masses (kg).
+    pub link_mass_kg: Vec<f64>,
+    /// Time of each sample (s).
+    pub time_s: Vec<f64>,
+    /// Per sample, per link: estimate, true total external force, true obstacle force (N).
+    pub estimate_n: Vec<Vec<[f64; 3]>>,
+    pub truth_total_n: Vec<Vec<[f64; 3]>>,
+    pub truth_obstacle_n: Vec<Vec<[f64; 3]>>,
+    /// Per sample, per link: the estimate from exact sensors (N; equals `estimate_n` without noise).
+    pub exact_estimate_n: Vec<Vec<[f64; 3]>>,
+    /// Per sample, per link: distance along the link axis (m) between the estimated contact point
+    /// and the true obstacle contact point, when both exist.
+    pub contact_point_error_m: Vec<Vec<Option<f64>>>,
+}
+
+/// Runs `config` for `steps` steps with a constant torque on every joint and scores
+/// `estimator` against the true external force per link (ground + obstacles + other links).
+/// The sensor values the estimator sees are measured with `config.sensors`; the link poses come
+/// from the simulator. Also runs the built-in [`NewtonEulerEstimator`] on exact sensors (the
+/// trace's `exact_estimate_n`). Allocates (it keeps the trace), so it is no step-loop code.
+pub fn score_estimator(
+    config: &Config,
+    torque_nm: f64,
+    steps: usize,
+    estimator: &mut dyn ContactEstimator,
+) -> Result<(EstimationScore, Trace), ExperimentError> {
+    config.validate().map_err(|e| RunError::Sim(e.into()))?;
+    let world = World::from_config(config).map_err(RunError::Sim)?;
+    let (nl, nj) = (world.n_links(), world.n_joints());
+    let masses: Vec<f64> = world.index.links.iter().map(|l| l.mass_kg).collect();
+    let mut sim = Simulation::with_controller(config, world, Box::new(ConstTorque(vec![torque_nm; nj])));
+    let mut noise = SensorNoise::new(&config.sensors, config.general.seed, nl, nj);
+    let mut snap = Snapshot::new(nl, nj);
+    let (mut obs, mut measured) = (Observation::new(nl, nj), Observation::new(nl, nj));
+    let mut input = EstimatorInput::new(nl);
+    input.link_mass_kg.copy_from_slice(&masses);
+    let (mut out, mut exact) = (EstimateOutput::new(nl), EstimateOutput::new(nl));
+    let mut reference = NewtonEulerEstimator::default();
+    let mut score = EstimationScore::new(nl, DETECTION_THRESHOLD_N);
+    let mut trace = Trace { link_mass_kg: masses, ..Trace::default() };
+    for _ in 0..steps {
+        sim.control();
+        sim.snapshot(&mut snap);
+        // After the forward pass the sensors describe this instant.
+        sim.world.observe_true(&mut obs);
+        noise.measure(&obs, &mut measured);
+        input.fill(&obs, &snap.link_quat, &snap.link_position_m, &snap.link_origin_m);
+        reference.estimate(&input, &mut exact);
+        input.fill(&measured, &snap.link_quat, &snap.link_position_m, &snap.link_origin_m);
+        estimator.estimate(&input, &mut out);
+        score.add(&out.link_force_n, &snap.link_contact_force_n);
+        trace.time_s.push(snap.time_secs);
+        trace.estimate_n.push(out.link_force_n.clone());
+        trace.exact_estimate_n.push(exact.link_force_n.clone());
+        trace.truth_total_n.push(snap.link_contact_force_n.clone());
+        trace.truth_obstacle_n.push(snap.link_obstacle_force_n.clone());
+        trace.contact_point_error_m.push(
+            (0..nl)
+                .map(|i| {
+                    let (est, truth) = (out.link_contact_point_m[i]?, snap.link_obstacle_point_m[i]?);
+                    // Both measured along the link axis (the link frame's x axis) from the centre of mass.
+                    let r = &input.link_rotation[i];
+                    let c = snap.link_position_m[i];
+                    let along = |p: [f64; 3]| (0..3).map(|k| (p[k] - c[k]) * r[k][0]).sum::<f64>();
+                    Some((along(est) - along(truth)).abs())
+                })
+                .collect(),
+        );
+        sim.advance().map_err(RunError::Sim)?;
+    }
+    Ok((score, trace))
+}
+
+fn io(path: &Path) -> impl Fn(std::io::Error) -> ExperimentError + '_ {
+    move |e| ExperimentError::Data(format!("cannot write {}: {e}", path.display()))
+}
+
+/// Writes the trace as CSV and plots estimate against truth per link (x and y components).
+fn write_trace(ctx: &Context, case: &str, trace: &Trace) -> Result<(), ExperimentError> {
+    let path = ctx.folder.join(format!("estimation_{case}.csv"));
+    let mut w = std::io::BufWriter::new(std::fs::File::create(&path).map_err(io(&path))?);
+    let n = trace.estimate_n.first().map_or(0, Vec::len);
+    let mut header = String::from("time_s");
+    for i in 0..n {
+        for what in ["estimate", "true_total", "true_obstacle"] {
+            for axis in ["x", "y", "z"] {
+                header.push_str(&format!(",link_{i:02}_{what}_{axis}_n"));
+            }
+        }
+    }
+    writeln!(w, "{header}").map_err(io(&path))?;
+    for (k, t) in trace.time_s.iter().enumerate() {
+        write!(w, "{t}").map_err(io(&path))?;
+        for i in 0..n {
+            for v in [trace.estimate_n[k][i], trace.truth_total_n[k][i], trace.truth_obstacle_n[k][i]] {
+                write!(w, ",{},{},{}", v[0], v[1], v[2]).map_err(io(&path))?;
+            }
+        }
+        writeln!(w).map_err(io(&path))?;
+    }
+    w.flush().map_err(io(&path))?;
+    let plots = ctx.folder.join("plots");
+    std::fs::create_dir_all(&plots).map_err(io(&plots))?;
+    for i in 0..n {
+        let col = |series: &Vec<Vec<[f64; 3]>>, axis: usize| series.iter().map(|row| row[i][axis]).collect::<Vec<_>>();
+        let series = vec![
+            ("estimate x".to_string(), col(&trace.estimate_n, 0)),
+            ("true total x".to_string(), col(&trace.truth_total_n, 0)),
+            ("true obstacle x".to_string(), col(&trace.truth_obstacle_n, 0)),
+            ("estimate y".to_string(), col(&trace.estimate_n, 1)),
+            ("true total y".to_string(), col(&trace.truth_total_n, 1)),
+            ("true obstacle y".to_string(), col(&trace.truth_obstacle_n, 1)),
+        ];
+        crate::plot::plot_time_series(
+            &plots,
+            &format!("estimation_{case}_link_{i:02}"),
+            &format!("{case}: link {i}, external force"),
+            "force (N)",
+            &trace.time_s,
+            &series,
+        )
+        .map_err(|e| ExperimentError::Data(format!("plot: {e}")))?;
+    }
+    Ok(())
+}
+
+/// RMS of the horizontal error against the true obstacle force, relative to the RMS obstacle
+/// force, over the samples in which the link pushes (truth ≥ the detection threshold).
+fn obstacle_relative_rms(trace: &Trace, link: usize) -> (f64, usize) {
+    let (mut err, mut truth, mut n) = (0.0, 0.0, 0);
+    for (e, t) in trace.estimate_n.iter().zip(&trace.truth_obstacle_n) {
+        let (e, t) = (e[link], t[link]);
+        if t[0].hypot(t[1]).hypot(t[2]) >= DETECTION_THRESHOLD_N {
+            err += (e[0] - t[0]).powi(2) + (e[1] - t[1]).powi(2);
+            truth += t[0].powi(2) + t[1].powi(2);
+            n += 1;
+        }
+    }
+    ((err / truth.max(f64::MIN_POSITIVE)).sqrt(), n)
+}
+
+/// Relative RMS error against the true total force over all samples.
+fn total_relative_rms(trace: &Trace, link: usize) -> f64 {
+    let (mut err, mut truth) = (0.0, 0.0);
+    for (e, t) in trace.estimate_n.iter().zip(&trace.truth_total_n) {
+        err += (0..3).map(|k| (e[link][k] - t[link][k]).powi(2)).sum::<f64>();
+        truth += (0..3).map(|k| t[link][k].powi(2)).sum::<f64>();
+    }
+    (err / truth.max(f64::MIN_POSITIVE)).sqrt()
+}
+
+/// Obstacle contact detection: a contact is present when the true obstacle force reaches the
+/// threshold, detected when the estimate's horizontal part does. (hits, misses, false alarms)
+fn detection(trace: &Trace, link: usize) -> (usize, usize, usize) {
+    let (mut hits, mut misses, mut false_alarms) = (0, 0, 0);
+    for (e, t) in trace.estimate_n.iter().zip(&trace.truth_obstacle_n) {
+        let present = t[link][0].hypot(t[link][1]).hypot(t[link][2]) >= DETECTION_THRESHOLD_N;
+        let detected = e[link][0].hypot(e[link][1]) >= DETECTION_THRESHOLD_N;
+        match (detected, present) {
+            (true, true) => hits += 1,
+            (false, true) => misses += 1,
+            (true, false) => false_alarms += 1,
+            (false, false) => {}
+        }
+    }
+    (hits, misses, false_alarms)
+}
+
+/// Runs the experiment.
+pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
+    let duration_secs = if ctx.quick { 1.0 } else { 3.0 };
+    let mut section =
+        Section { heading: "Contact-force estimation from joint force/torque sensors".into(), ..Default::default() };
+    let mut rows = Vec::new();
+    let header: Vec<String> = [
+        "case",
+        "link",
+        "RMSE vs total (N)",
+        "bias x (N)",
+        "bias y (N)",
+        "rel. RMS vs obstacle",
+        "hits",
+        "misses",
+        "false alarms",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+
+    let a_n = base.sensors.accelerometer.std;
+    let f_n = base.sensors.joint_force.std;
+    for (case, friction, noisy) in
+        [("no_friction", 0.0, false), ("friction", 0.5, false), ("friction_noise", 0.5, true)]
+    {
+        let mut config = pinch_config(base, friction);
+        if noisy {
+            config.sensors.noise_enabled = true;
+            let white = |std: f64| SensorModel {
+                std,
+                bias: 0.0,
+                bias_random_walk_per_sqrt_s: 0.0,
+                resolution: 0.0,
+                rate_hz: 0.0,
+            };
+            config.sensors.accelerometer = white(a_n);
+            config.sensors.joint_force = white(f_n);
+            config.sensors.joint_torque = white(0.0);
+        }
+        let steps = (duration_secs / config.general.timestep_secs).round() as usize;
+        let (score, trace) = score_estimator(&config, TORQUE_NM, steps, &mut NewtonEulerEstimator::default())?;
+        write_trace(ctx, case, &trace)?;
+        for i in 0..N_LINKS {
+            let bias = score.bias_n(i);
+            let (rel_obstacle, pushing) = obstacle_relative_rms(&trace, i);
+            let (hits, misses, false_alarms) = detection(&trace, i);
+            rows.push(vec![
+                case.to_string(),
+                i.to_string(),
+                sig(score.rmse_norm_n(i)),
+                sig(bias[0]),
+                sig(bias[1]),
+                if pushing > 0 { format!("{:.3} %", 100.0 * rel_obstacle) } else { "no push".into() },
+                hits.to_string(),
+                misses.to_string(),
+                false_alarms.to_string(),
+            ]);
+            match case {
+                "no_friction" if pushing > 0 => {
+                    section.checks.push(Check::at_most(
+                        &format!("no friction, link {i}: RMS error of the obstacle force / RMS obstacle force"),
+                        rel_obstacle,
+                        0.02,
+                        "",
+                    ));
+                    // The contact point, once the pinch has settled (second half of the run; the
+                    // estimate neglects the link's angular acceleration).
+                    let settled = trace.contact_point_error_m.len() / 2;
+                    let worst = trace.contact_point_error_m[settled..]
+                        .iter()
+                        .map(|row| row[i].unwrap_or(f64::INFINITY))
+                        .fold(0.0, f64::max);
+                    section.checks.push(Check::at_most(
+                        &format!("no friction, link {i}: contact point along the link, largest error after settling"),
+                        worst,
+                        0.005,
+                        "m",
+                    ));
+                }
+                "friction" => section.checks.push(Check::at_most(
+                    &format!("friction, link {i}: RMS error / RMS true total external force"),
+                    total_relative_rms(&trace, i),
+                    0.02,
+                    "",
+                )),
+                "friction_noise" => {
+                    // Error against the exact-sensor estimate: the noise's part only.
+                    let n = trace.time_s.len() as f64;
+                    let predicted = predicted_error_std_n(trace.link_mass_kg[i], adjacent_joints(i, N_LINKS), a_n, f_n);
+                    for axis in 0..3 {
+                        let errors: Vec<f64> = trace
+                            .estimate_n
+                            .iter()
+                            .zip(&trace.exact_estimate_n)
+                            .map(|(e, x)| e[i][axis] - x[i][axis])
+                            .collect();
+                        let mean = errors.iter().sum::<f64>() / n;
+                        let std = (errors.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+                        section.checks.push(Check::relative(
+                            &format!("noise, link {i} axis {}: error std vs sqrt(m²σa² + kσf²)", ["x", "y", "z"][axis]),
+                            std,
+                            predicted,
+                            4.0 / (2.0 * (n - 1.0)).sqrt(),
+                            "N",
+                        ));
+                    }
+                }
+                _ => {}
+            }
+        }
+        if case == "no_friction" {
+            let (hits, misses): (usize, usize) =
+                (0..N_LINKS).map(|i| detection(&trace, i)).fold((0, 0), |(h, m), d| (h + d.0, m + d.1));
+            section.checks.push(Check::at_least(
+                "no friction: obstacle contacts detected (hits / (hits + misses))",
+                hits as f64 / (hits + misses).max(1) as f64,
+                0.99,
+                "",
+            ));
+        }
+    }
+    section.tables.push((header, rows));
+    section.text = format!(
+        "A {N_LINKS}-link snake bent 30° per joint between three pegs (first-order form closure), every joint \
+         driven with {TORQUE_NM} N·m so that it presses against all three. {duration_secs} s per case, \
+         timestep {} s. Estimator: Newton per link, f_ext = m·R·acc − R_i·s_i + R_(i+1)·s_(i+1) \
+         (`simserpent::estimation`). Noise case: σ_a = {a_n} m/s² per accelerometer axis, σ_f = {f_n} N per \
+         force-sensor axis (white; `sensors.accelerometer.std`, `sensors.joint_force.std`). Detection threshold \
+         {DETECTION_THRESHOLD_N} N (true obstacle force vs horizontal estimate). Data: `estimation_<case>.csv`; \
+         plots: `plots/estimation_<case>_link_<i>.png`.",
+        base.general.timestep_secs
+    );
+    Ok(section)
+}

@@ -1,0 +1,250 @@
+//! Proprioceptive contact-force estimation (`simserpent::estimation`) against the simulator's
+//! ground truth (`Snapshot`'s per-link floor / obstacle / total contact forces).
+#![allow(clippy::unwrap_used)]
+
+use simserpent::config::Config;
+use simserpent::control::{Command, Controller, Observation};
+use simserpent::estimation::{
+    ContactEstimator, EstimateOutput, EstimatorInput, NewtonEulerEstimator, adjacent_joints, predicted_error_std_n,
+};
+use simserpent::sim::{SensorNoise, Simulation, Snapshot, World};
+
+/// Constant joint torques.
+struct ConstTorque(Vec<f64>);
+impl Controller for ConstTorque {
+    fn update(&mut self, _obs: &Observation, cmd: &mut Command) {
+        cmd.torque_nm.copy_from_slice(&self.0);
+    }
+}
+
+use simserpent::experiments::estimation::{N_LINKS, TORQUE_NM};
+
+/// The estimation experiment's scene (`simserpent::experiments::estimation`): a 5-link snake
+/// bent 30° per joint between three pegs (first-order form closure); a straightening torque
+/// presses it against all three, a sustained push held by the pegs even without friction.
+fn pinch_config(ground_friction: f64) -> Config {
+    simserpent::experiments::estimation::pinch_config(&Config::default(), ground_friction)
+}
+
+/// One instant: the truth and the estimates from exact and from noisy sensors.
+struct Sample {
+    snap: Snapshot,
+    exact: EstimateOutput,
+    noisy: EstimateOutput,
+}
+
+/// Runs `steps` steps and calls `visit` at every step with the snapshot (forward pass at the
+/// state of that step with its command) and the estimates from the fresh sensor values.
+fn run(config: &Config, noise: Option<&simserpent::config::Sensors>, steps: usize, mut visit: impl FnMut(&Sample)) {
+    let world = World::from_config(config).unwrap();
+    let (nl, nj) = (world.n_links(), world.n_joints());
+    let masses: Vec<f64> = world.index.links.iter().map(|l| l.mass_kg).collect();
+    let mut sim = Simulation::with_controller(config, world, Box::new(ConstTorque(vec![TORQUE_NM; nj])));
+    let mut noise = noise.map(|s| SensorNoise::new(s, config.general.seed, nl, nj));
+    let mut obs = Observation::new(nl, nj);
+    let mut measured = Observation::new(nl, nj);
+    let mut input = EstimatorInput::new(nl);
+    input.link_mass_kg.copy_from_slice(&masses);
+    let mut estimator = NewtonEulerEstimator::default();
+    let mut sample =
+        Sample { snap: Snapshot::new(nl, nj), exact: EstimateOutput::new(nl), noisy: EstimateOutput::new(nl) };
+    for _ in 0..steps {
+        sim.control();
+        sim.snapshot(&mut sample.snap);
+        // After the forward pass the sensors describe this instant.
+        sim.world.observe_true(&mut obs);
+        let s = &sample.snap;
+        input.fill(&obs, &s.link_quat, &s.link_position_m, &s.link_origin_m);
+        estimator.estimate(&input, &mut sample.exact);
+        if let Some(noise) = noise.as_mut() {
+            noise.measure(&obs, &mut measured);
+            input.fill(&measured, &s.link_quat, &s.link_position_m, &s.link_origin_m);
+            estimator.estimate(&input, &mut sample.noisy);
+        }
+        visit(&sample);
+        sim.advance().unwrap();
+    }
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+#[test]
+fn without_friction_the_estimated_obstacle_force_matches_the_truth_within_2_percent_rms() {
+    let config = pinch_config(0.0);
+    // Per link: sum of squared horizontal errors and of squared true obstacle forces, over the
+    // steps in which the link pushes against a peg (≥ 0.1 N).
+    let mut err_sq = [0.0; N_LINKS];
+    let mut truth_sq = [0.0; N_LINKS];
+    let mut pushing_steps = [0usize; N_LINKS];
+    let mut max_floor_friction_n: f64 = 0.0;
+    run(&config, None, 2000, |s| {
+        for i in 0..N_LINKS {
+            let floor = s.snap.link_floor_force_n[i];
+            max_floor_friction_n = max_floor_friction_n.max(floor[0].hypot(floor[1]));
+            let truth = s.snap.link_obstacle_force_n[i];
+            let est = s.exact.link_force_n[i];
+            // Without friction the floor only pushes up: the horizontal estimate is the obstacles'
+            // force, the vertical one the floor's.
+            assert!((est[2] - floor[2] - truth[2]).abs() < 1e-3 * floor[2].abs().max(1.0), "link {i} vertical");
+            if norm(truth) >= 0.1 {
+                pushing_steps[i] += 1;
+                err_sq[i] += (est[0] - truth[0]).powi(2) + (est[1] - truth[1]).powi(2);
+                truth_sq[i] += truth[0].powi(2) + truth[1].powi(2);
+            }
+        }
+    });
+    // Frictionless floor contacts still carry ~1e-5 N sideways (the solver's tolerance): four
+    // orders of magnitude below the pushes.
+    assert!(max_floor_friction_n < 1e-3, "floor friction should be off: {max_floor_friction_n} N");
+    // The pegs hold the head, the apex (link 2) and the tail.
+    for i in [0, 2, 4] {
+        assert!(pushing_steps[i] > 1500, "link {i} pushed in only {} of 2000 steps", pushing_steps[i]);
+        let relative = (err_sq[i] / truth_sq[i]).sqrt();
+        assert!(relative < 0.02, "link {i}: RMS error {:.3} % of the RMS obstacle force", 100.0 * relative);
+    }
+}
+
+#[test]
+fn with_friction_the_estimate_matches_the_total_external_force() {
+    let config = pinch_config(0.5);
+    let mut err_sq = [0.0; N_LINKS];
+    let mut truth_sq = [0.0; N_LINKS];
+    let mut max_floor_friction_n: f64 = 0.0;
+    let mut total_err_sq = 0.0;
+    let mut total_sq = 0.0;
+    run(&config, None, 2000, |s| {
+        let mut total_truth = [0.0; 3];
+        for i in 0..N_LINKS {
+            let floor = s.snap.link_floor_force_n[i];
+            max_floor_friction_n = max_floor_friction_n.max(floor[0].hypot(floor[1]));
+            // Ground reaction + obstacles + other links = every contact on the link.
+            let truth = s.snap.link_contact_force_n[i];
+            let split: Vec<f64> = (0..3)
+                .map(|k| floor[k] + s.snap.link_obstacle_force_n[i][k] + s.snap.link_other_contact_force_n[i][k])
+                .collect();
+            assert!((0..3).all(|k| (split[k] - truth[k]).abs() < 1e-9), "the split adds up to the total");
+            let est = s.exact.link_force_n[i];
+            err_sq[i] += (0..3).map(|k| (est[k] - truth[k]).powi(2)).sum::<f64>();
+            truth_sq[i] += norm(truth).powi(2);
+            (0..3).for_each(|k| total_truth[k] += truth[k]);
+        }
+        total_err_sq += (0..3).map(|k| (s.exact.total_force_n[k] - total_truth[k]).powi(2)).sum::<f64>();
+        total_sq += norm(total_truth).powi(2);
+    });
+    assert!(max_floor_friction_n > 0.05, "friction should act: {max_floor_friction_n} N");
+    for i in 0..N_LINKS {
+        let relative = (err_sq[i] / truth_sq[i]).sqrt();
+        assert!(relative < 0.02, "link {i}: RMS error {:.3} % of the RMS external force", 100.0 * relative);
+    }
+    assert!((total_err_sq / total_sq).sqrt() < 0.02, "total push");
+}
+
+#[test]
+fn the_contact_point_is_where_the_peg_touches_the_link() {
+    // Without friction, once the pinch has settled (last second of 2 s), the estimated point lies
+    // on the link axis where the true (force-weighted) contact point projects onto it.
+    let config = pinch_config(0.0);
+    let mut worst_m: f64 = 0.0;
+    let mut checked = 0;
+    run(&config, None, 2000, |s| {
+        if s.snap.time_secs < 1.0 {
+            return;
+        }
+        for i in [0, 2, 4] {
+            let (Some(truth), Some(est)) = (s.snap.link_obstacle_point_m[i], s.exact.link_contact_point_m[i]) else {
+                panic!("link {i}: no contact point at t = {}", s.snap.time_secs);
+            };
+            // Link axis: the link frame's x axis through the centre of mass.
+            let q = s.snap.link_quat[i];
+            let r = simserpent::estimation::quat_to_matrix(q);
+            let axis = [r[0][0], r[1][0], r[2][0]];
+            let c = s.snap.link_position_m[i];
+            let along = |p: [f64; 3]| (0..3).map(|k| (p[k] - c[k]) * axis[k]).sum::<f64>();
+            worst_m = worst_m.max((along(truth) - along(est)).abs());
+            checked += 1;
+        }
+    });
+    assert!(checked > 2000);
+    assert!(worst_m < 0.005, "contact point off by {worst_m} m along the link");
+}
+
+#[test]
+fn with_noise_the_estimation_error_has_the_predicted_spread() {
+    // Independent Gaussian noise σ_a on each accelerometer axis and σ_f on each force-sensor
+    // axis: each world axis of a link's error has std sqrt(m²σ_a² + k·σ_f²) (k adjacent joints;
+    // derivation in `simserpent::estimation`). With n samples the sample std's relative standard
+    // error is 1/sqrt(2(n−1)) ≈ 1.3 % for n = 3000; allow 4 standard errors per link and axis.
+    let config = pinch_config(0.5);
+    let mut sensors = config.sensors.clone();
+    sensors.noise_enabled = true;
+    sensors.accelerometer.std = 0.3;
+    sensors.joint_force.std = 0.2;
+    let masses: Vec<f64> = World::from_config(&config).unwrap().index.links.iter().map(|l| l.mass_kg).collect();
+    let n = 3000;
+    let mut sum = [[0.0; 3]; N_LINKS];
+    let mut sum_sq = [[0.0; 3]; N_LINKS];
+    run(&config, Some(&sensors), n, |s| {
+        for i in 0..N_LINKS {
+            for k in 0..3 {
+                let e = s.noisy.link_force_n[i][k] - s.exact.link_force_n[i][k];
+                sum[i][k] += e;
+                sum_sq[i][k] += e * e;
+            }
+        }
+    });
+    let nf = n as f64;
+    for i in 0..N_LINKS {
+        let predicted = predicted_error_std_n(masses[i], adjacent_joints(i, N_LINKS), 0.3, 0.2);
+        for k in 0..3 {
+            let mean = sum[i][k] / nf;
+            let std = ((sum_sq[i][k] - nf * mean * mean) / (nf - 1.0)).sqrt();
+            let se = predicted / (2.0 * (nf - 1.0)).sqrt();
+            assert!((std - predicted).abs() < 4.0 * se, "link {i} axis {k}: std {std} predicted {predicted}");
+            assert!(mean.abs() < 4.0 * predicted / nf.sqrt(), "link {i} axis {k}: mean error {mean}");
+        }
+    }
+}
+
+#[test]
+fn the_estimation_experiment_passes_and_writes_data_and_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    let outcome = simserpent::experiments::run_experiment("estimation", &Config::default(), dir.path(), true).unwrap();
+    let checks: Vec<_> = outcome.report.checks().collect();
+    // 3 pushing links × (force, contact point) + detection (no friction) + 5 links (friction)
+    // + 5 links × 3 axes (noise).
+    assert_eq!(checks.len(), 27);
+    let failed: Vec<_> = checks.iter().filter(|c| !c.passed).map(|c| (&c.name, c.measured)).collect();
+    assert!(failed.is_empty(), "{failed:#?}");
+    for case in ["no_friction", "friction", "friction_noise"] {
+        assert!(outcome.folder.join(format!("estimation_{case}.csv")).is_file());
+        assert!(outcome.folder.join(format!("plots/estimation_{case}_link_00.png")).is_file());
+    }
+}
+
+/// A user's estimator: reports no force at all.
+struct Blind;
+impl ContactEstimator for Blind {
+    fn estimate(&mut self, _input: &EstimatorInput, out: &mut EstimateOutput) {
+        out.link_force_n.iter_mut().for_each(|f| *f = [0.0; 3]);
+        out.total_force_n = [0.0; 3];
+    }
+}
+
+#[test]
+fn a_users_estimator_is_scored_the_same_way() {
+    use simserpent::experiments::estimation::{pinch_config, score_estimator};
+    let config = pinch_config(&Config::default(), 0.5);
+    let (score, trace) = score_estimator(&config, TORQUE_NM, 200, &mut Blind).unwrap();
+    for i in 0..N_LINKS {
+        // Its error is the truth itself: RMSE = RMS of the true force, bias = −mean truth, and
+        // every contact is a miss.
+        let rms = (trace.truth_total_n.iter().map(|t| norm(t[i]).powi(2)).sum::<f64>() / 200.0).sqrt();
+        assert!((score.rmse_norm_n(i) - rms).abs() < 1e-9 * rms.max(1.0));
+        let mean_x = trace.truth_total_n.iter().map(|t| t[i][0]).sum::<f64>() / 200.0;
+        assert!((score.bias_n(i)[0] + mean_x).abs() < 1e-9);
+        assert_eq!(score.hits[i] + score.false_alarms[i], 0);
+        assert!(score.misses[i] > 0);
+    }
+}
