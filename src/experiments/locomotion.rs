@@ -69,18 +69,24 @@ fn cycles(ctx: &Context, full: f64, quick: f64) -> f64 {
     if ctx.quick { quick } else { full }
 }
 
+/// Lateral undulation with δ = 40° and no offset, through the position servos: the wave of
+/// thesis table 7 and of Liljebäck et al.'s standard set.
+fn sine_wave_by_position(c: &mut Config, amplitude_deg: f64, frequency_hz: f64, ramp_secs: f64) {
+    c.gait.kind = GaitKind::SineWave;
+    c.gait.ramp_secs = ramp_secs;
+    c.gait.sine_wave.amplitude_deg = amplitude_deg;
+    c.gait.sine_wave.frequency_hz = frequency_hz;
+    c.gait.sine_wave.phase_lag_deg = 40.0;
+    c.gait.sine_wave.offset_deg = 0.0;
+    c.control.method = ControlMethod::Position;
+}
+
 /// Thesis table 7: 10 links, 0.3 kg, 0.2 m (0.10 m half length), radius 0.08 m, position
 /// control of a sine wave (A = 30°, f = 0.5 Hz, δ = 40°).
 fn undulation_config(base: &Config, ctx: &Context) -> Config {
     let mut c = snake_on_floor(base, 10, 0.08, 0.5);
     c.terrain.kind = TerrainKind::None;
-    c.gait.kind = GaitKind::SineWave;
-    c.gait.ramp_secs = 2.0;
-    c.gait.sine_wave.amplitude_deg = 30.0;
-    c.gait.sine_wave.frequency_hz = 0.5;
-    c.gait.sine_wave.phase_lag_deg = 40.0;
-    c.gait.sine_wave.offset_deg = 0.0;
-    c.control.method = ControlMethod::Position;
+    sine_wave_by_position(&mut c, 30.0, 0.5, 2.0);
     c.general.duration_secs = c.gait.ramp_secs + cycles(ctx, 20.0, 8.0);
     c
 }
@@ -196,13 +202,7 @@ fn viscous_config(base: &Config, ctx: &Context) -> Config {
     c.ground.viscous_tangential_n_s_per_m = 1.0;
     c.ground.viscous_normal_n_s_per_m = 10.0;
     c.terrain.kind = TerrainKind::None;
-    c.gait.kind = GaitKind::SineWave;
-    c.gait.sine_wave.amplitude_deg = 30.0;
-    c.gait.sine_wave.frequency_hz = 50.0 / 360.0;
-    c.gait.sine_wave.phase_lag_deg = 40.0;
-    c.gait.sine_wave.offset_deg = 0.0;
-    c.gait.ramp_secs = 1.0 / c.gait.sine_wave.frequency_hz;
-    c.control.method = ControlMethod::Position;
+    sine_wave_by_position(&mut c, 30.0, 50.0 / 360.0, 360.0 / 50.0);
     c.control.position_kp_nm_per_rad = 50.0;
     c.control.position_kv_nm_s_per_rad = 2.0;
     c.recording.every_n_steps = 20;
@@ -400,13 +400,7 @@ pub fn oal(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
     c.terrain.obstacle_friction = [0.0, 0.0, 0.0];
     c.terrain.form_closure.order = 1;
     // Lateral undulation started in its own shape (no ramp-in), so the pegs sit at its bends.
-    c.gait.kind = GaitKind::SineWave;
-    c.gait.ramp_secs = 0.0;
-    c.gait.sine_wave.amplitude_deg = 30.0;
-    c.gait.sine_wave.frequency_hz = 0.5;
-    c.gait.sine_wave.phase_lag_deg = 40.0;
-    c.gait.sine_wave.offset_deg = 0.0;
-    c.control.method = ControlMethod::Position;
+    sine_wave_by_position(&mut c, 30.0, 0.5, 0.0);
     c.control.position_kp_nm_per_rad = 20.0;
     c.control.position_kv_nm_s_per_rad = 0.2;
     // The pegs cover the snake's starting track only: 5 s (2.2 gait cycles) keep it among them.
