@@ -400,37 +400,52 @@ pub fn oal(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
     c.terrain.obstacle_friction = [0.0, 0.0, 0.0];
     c.terrain.form_closure.order = 1;
     // Lateral undulation started in its own shape (no ramp-in), so the pegs sit at its bends.
-    sine_wave_by_position(&mut c, 30.0, 0.5, 0.0);
+    // A = 25°, δ = 50°: on a Coulomb floor the drift grows with the amplitude (see the report's
+    // text), and this wave keeps it within the 2 %-per-cycle bound of experiment III.
+    sine_wave_by_position(&mut c, 25.0, 0.5, 0.0);
+    c.gait.sine_wave.phase_lag_deg = 50.0;
     c.control.position_kp_nm_per_rad = 20.0;
     c.control.position_kv_nm_s_per_rad = 0.2;
-    // The pegs cover the snake's starting track only: 5 s (2.2 gait cycles) keep it among them.
-    c.general.duration_secs = 5.0;
     let period = 1.0 / c.gait.sine_wave.frequency_hz;
     let body_m = c.snake.n_links as f64 * c.snake.link_length_m;
     let mut results = Vec::new();
-    for (label, kind) in [("bare floor", TerrainKind::None), ("pegs at the bends", TerrainKind::FormClosure)] {
+    // Progress is measured over whole gait cycles after the first one (the start from rest is a
+    // transient): the centre of mass oscillates within a cycle, so a window of 1.5 cycles would
+    // add half an oscillation to the drift. The pegs cover the snake's starting track only, so
+    // the peg run measures PEG_CYCLES cycles; the bare floor, where nothing runs out, measures
+    // BARE_CYCLES for a steadier mean.
+    const PEG_CYCLES: f64 = 2.0;
+    const BARE_CYCLES: f64 = 10.0;
+    for (label, kind, cycles) in [
+        ("bare floor", TerrainKind::None, if ctx.quick { PEG_CYCLES } else { BARE_CYCLES }),
+        ("pegs at the bends", TerrainKind::FormClosure, PEG_CYCLES),
+    ] {
         let mut cc = c.clone();
         cc.terrain.kind = kind;
+        cc.general.duration_secs = period * (1.0 + cycles);
         let run = ctx.sub_run(&format!("oal-{}", label.replace(' ', "-")), &cc, |_| {})?;
-        // Measured after the first cycle: the start from rest is a transient.
         let (forward, sideways) = progress_along_start(&run, cc.snake.n_links, period)?;
-        let cycles = (cc.general.duration_secs - period) / period;
         results.push((label, forward, sideways, forward / cycles / body_m * 100.0));
     }
     let mut section = Section {
         heading: "Obstacle-aided locomotion".into(),
         text: format!(
             "16 links (0.3 kg, 0.2 m, radius 0.04 m), isotropic ground friction 0.5, frictionless pegs (radius \
-             0.05 m). Lateral undulation A = 30°, δ = 40°, f = {} Hz without ramp-in, so the snake starts in the \
+             0.05 m). Lateral undulation A = 25°, δ = 50°, f = {} Hz without ramp-in, so the snake starts in the \
              wave's shape; position servos kp 20 N·m/rad, ±10 N·m. Pegs: one on the inner side of every bend of \
-             the starting shape plus one beside the head and the tail (the first-order form-closure arrangement); \
-             they cover the starting track only, so runs last 5 s. \
-             Progress is the centre of mass's displacement along the starting chord (tail → head) after the first \
-             gait cycle (the start from rest is a transient), per cycle and body length ({} m). Note: with \
-             isotropic *Coulomb* friction a bare-floor drift of 1.5–3 % per cycle is physics, not a numerical \
-             artefact: it stays at slow gaits (1.5 % at 0.1 Hz) and with flat box links that cannot rock (1.4 %); \
-             the friction forces μ·N·v̂ of the links cancel, which, unlike viscous friction, does not force the \
-             centre of mass to stand still.",
+             the starting shape plus one beside the head and the tail (the first-order form-closure arrangement). \
+             Progress is the centre of mass's displacement along the starting chord (tail → head) over whole gait \
+             cycles after the first one (the start from rest is a transient; the centre of mass oscillates within \
+             a cycle), per cycle and body length ({} m): 2 cycles among the pegs (they cover the starting track \
+             only), 10 on the bare floor. \
+             Why this wave: with isotropic *Coulomb* friction the bare floor does not hold the snake exactly still. \
+             Each link's friction μ·N·v̂ depends only on the direction of its velocity, so slow links (at the \
+             crests) weigh as much as fast ones and the forces need not cancel over a cycle; unlike viscous \
+             friction, nothing forces zero mean motion. The drift grows with the amplitude: on this floor \
+             (10 cycles, `simserpent sweep`, BENCHMARKS.md) δ = 40° gives 1.2 / 3.1 / 5.6 % per cycle at \
+             A = 20° / 30° / 40°, δ = 60° gives 1.0 / 1.9 / 3.4 %. It stays at slow gaits (1.5 % at 0.1 Hz) and \
+             with flat box links that cannot rock (1.4 %), so it is physics, not numerics. A = 25°, δ = 50° keeps \
+             it under the 2 % bound of experiment III while pushing on the pegs hard enough to travel.",
             sig(1.0 / period),
             sig(body_m)
         ),
