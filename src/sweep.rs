@@ -837,7 +837,9 @@ impl SummaryTable {
                 }
             })
             .collect();
-        let mut table = ParquetTable::create(path, &self.header, &kinds, 10_000).map_err(err)?;
+        let mut table =
+            ParquetTable::create(path, &self.header, &kinds, 10_000, crate::config::ParquetCompression::Zstd)
+                .map_err(err)?;
         for row in &self.rows {
             for (cell, kind) in row.iter().zip(&kinds) {
                 match kind {

@@ -270,6 +270,8 @@ enabled = false
 every_n_steps = 5
 format = "both"
 parquet_row_group_rows = 77
+parquet_rows_per_file = 1234
+parquet_compression = "zstd"
 link_position = false
 link_orientation = false
 link_velocity = false
@@ -459,6 +461,8 @@ fn all_fields_expected() -> Config {
         every_n_steps: 5,
         format: TableFormat::Both,
         parquet_row_group_rows: 77,
+        parquet_rows_per_file: 1234,
+        parquet_compression: ParquetCompression::Zstd,
         link_position: false,
         link_orientation: false,
         link_velocity: false,
@@ -685,6 +689,7 @@ const RULES: &[(&[&str], &str)] = &[
     // recording
     (&["recording.every_n_steps=0"], "recording.every_n_steps"),
     (&["recording.parquet_row_group_rows=0"], "recording.parquet_row_group_rows"),
+    (&["recording.parquet_rows_per_file=0"], "recording.parquet_rows_per_file"),
     (&["recording.format=\"xml\""], "recording.format"),
     (&["recording.every_n_steps=20001"], "recording.every_n_steps"),
 ];

@@ -36,7 +36,29 @@ mod with_parquet {
     use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
     use simserpent::run::{self, RunOptions};
 
-    fn read_parquet(path: &Path) -> (Vec<(String, DataType)>, Vec<RecordBatch>, usize) {
+    type Columns = Vec<(String, DataType)>;
+
+    /// Reads a table's folder of part files in order: (columns, batches, row groups, rows per part).
+    fn read_dataset(dir: &Path) -> (Columns, Vec<RecordBatch>, usize, Vec<usize>) {
+        assert!(dir.is_dir(), "{} is a folder of parts", dir.display());
+        let mut parts: Vec<_> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();
+        parts.sort();
+        let (mut fields, mut batches, mut row_groups, mut part_rows) = (Vec::new(), Vec::new(), 0, Vec::new());
+        for (i, part) in parts.iter().enumerate() {
+            assert_eq!(part.file_name().unwrap().to_str().unwrap(), format!("part-{i:05}.parquet"));
+            let (f, b, g) = read_parquet(part);
+            if i > 0 {
+                assert_eq!(f, fields, "{}: same columns in every part", part.display());
+            }
+            fields = f;
+            part_rows.push(b.iter().map(RecordBatch::num_rows).sum());
+            batches.extend(b);
+            row_groups += g;
+        }
+        (fields, batches, row_groups, part_rows)
+    }
+
+    fn read_parquet(path: &Path) -> (Columns, Vec<RecordBatch>, usize) {
         let file = std::fs::File::open(path).unwrap();
         let builder = ParquetRecordBatchReaderBuilder::try_new(file).unwrap();
         let row_groups = builder.metadata().num_row_groups();
@@ -83,7 +105,7 @@ mod with_parquet {
         let folder = summary.run_folder;
         for table in ["links", "joints", "sensors", "contacts"] {
             let (header, rows) = read_csv(&folder.join(format!("{table}.csv")));
-            let (fields, batches, row_groups) = read_parquet(&folder.join(format!("{table}.parquet")));
+            let (fields, batches, row_groups, _) = read_dataset(&folder.join(format!("{table}.parquet")));
             let names: Vec<&String> = fields.iter().map(|(n, _)| n).collect();
             assert_eq!(names, header.iter().collect::<Vec<_>>(), "{table}: columns");
             let n_rows: usize = batches.iter().map(RecordBatch::num_rows).sum();
@@ -115,14 +137,51 @@ mod with_parquet {
         let c = config(dir.path(), &["recording.format=parquet", "recording.contacts=false"]).unwrap();
         let folder = run::run(&c, &RunOptions::default()).unwrap().run_folder;
         for table in ["links", "joints", "sensors"] {
-            assert!(folder.join(format!("{table}.parquet")).is_file(), "{table}.parquet");
+            assert!(folder.join(format!("{table}.parquet")).is_dir(), "{table}.parquet");
             assert!(!folder.join(format!("{table}.csv")).exists(), "{table}.csv");
         }
         assert!(!folder.join("contacts.parquet").exists());
         // Default row groups (2500 rows): a 0.5 s run at every 5th step has 101 rows, one group.
-        let (_, batches, row_groups) = read_parquet(&folder.join("links.parquet"));
+        let (_, batches, row_groups, parts) = read_dataset(&folder.join("links.parquet"));
         assert_eq!(row_groups, 1);
+        assert_eq!(parts, [101]);
         assert_eq!(batches.iter().map(RecordBatch::num_rows).sum::<usize>(), 101);
+    }
+
+    #[test]
+    fn parts_close_every_rows_per_file_rows_with_any_compression() {
+        let dir = tempfile::tempdir().unwrap();
+        for compression in ["lz4", "zstd", "snappy", "none"] {
+            let c = config(
+                dir.path(),
+                &[
+                    "recording.format=\"parquet\"",
+                    "recording.parquet_row_group_rows=8",
+                    "recording.parquet_rows_per_file=30",
+                    &format!("recording.parquet_compression=\"{compression}\""),
+                ],
+            )
+            .unwrap();
+            let folder = run::run(&c, &RunOptions::default()).unwrap().run_folder;
+            // 101 rows: three full parts and the rest; 30-row parts hold row groups 8+8+8+6.
+            let (_, batches, row_groups, parts) = read_dataset(&folder.join("joints.parquet"));
+            assert_eq!(parts, [30, 30, 30, 11], "{compression}");
+            assert_eq!(row_groups, 4 * 3 + 2, "{compression}");
+            let times: Vec<String> = (0..101).map(|r| cell(&batches, 0, r)).collect();
+            let parsed: Vec<f64> = times.iter().map(|t| t.parse().unwrap()).collect();
+            assert!(parsed.windows(2).all(|w| w[1] > w[0]), "{compression}: rows in order across parts");
+        }
+    }
+
+    #[test]
+    fn a_table_without_rows_still_has_its_columns() {
+        let dir = tempfile::tempdir().unwrap();
+        // No contact happens in free fall above the floor: the contacts table stays empty.
+        let c = config(dir.path(), &["recording.format=\"parquet\"", "snake.head_position_m=[0.0, 0.0, 5.0]"]).unwrap();
+        let folder = run::run(&c, &RunOptions::default()).unwrap().run_folder;
+        let (fields, _, _, parts) = read_dataset(&folder.join("contacts.parquet"));
+        assert_eq!(parts, [0]);
+        assert!(fields.iter().any(|(n, _)| n == "geom1"), "{fields:?}");
     }
 
     #[test]
@@ -133,7 +192,11 @@ mod with_parquet {
             return;
         }
         let dir = tempfile::tempdir().unwrap();
-        let c = config(dir.path(), &["recording.format=both", "recording.parquet_row_group_rows=10"]).unwrap();
+        let c = config(
+            dir.path(),
+            &["recording.format=both", "recording.parquet_row_group_rows=10", "recording.parquet_rows_per_file=40"],
+        )
+        .unwrap();
         let folder = run::run(&c, &RunOptions::default()).unwrap().run_folder;
         let script = r#"
 import sys, pandas as pd, pyarrow.parquet as pq, numpy as np
@@ -145,7 +208,9 @@ for t in ["links", "joints", "sensors", "contacts"]:
     assert len(c) == len(p), t
     num = c.select_dtypes("number").columns
     assert np.array_equal(c[num].to_numpy(), p[num].to_numpy(), equal_nan=True), t
-    assert pq.ParquetFile(f"{d}/{t}.parquet").num_row_groups > 1, t
+    assert pq.read_table(f"{d}/{t}.parquet").num_rows == len(c), t
+    parts = sorted(__import__("glob").glob(f"{d}/{t}.parquet/part-*.parquet"))
+    assert sum(pq.ParquetFile(f).num_row_groups for f in parts) > 1, t
 print("ok")
 "#;
         let out = std::process::Command::new("python3").args(["-c", script, &folder.display().to_string()]).output();

@@ -431,6 +431,8 @@ pub struct Recording {
     pub every_n_steps: u64,
     pub format: TableFormat,
     pub parquet_row_group_rows: usize,
+    pub parquet_rows_per_file: u64,
+    pub parquet_compression: ParquetCompression,
     pub link_position: bool,
     pub link_orientation: bool,
     pub link_velocity: bool,
@@ -471,6 +473,20 @@ impl TableFormat {
     pub fn parquet(self) -> bool {
         matches!(self, Self::Parquet | Self::Both)
     }
+}
+
+/// Compression of the Parquet tables (`recording.parquet_compression`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ParquetCompression {
+    /// LZ4 (the `LZ4_RAW` codec): fast, small memory.
+    Lz4,
+    /// Zstandard: the smallest files, the most memory while writing.
+    Zstd,
+    /// Snappy: what older readers expect.
+    Snappy,
+    /// No compression.
+    None,
 }
 
 /// Plots of a run (`[plot]`).

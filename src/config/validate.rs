@@ -405,6 +405,12 @@ impl Config {
             r.parquet_row_group_rows,
             "must be at least 1",
         )?;
+        ensure(
+            r.parquet_rows_per_file >= 1,
+            "recording.parquet_rows_per_file",
+            r.parquet_rows_per_file,
+            "must be at least 1",
+        )?;
         if r.format.parquet() && !cfg!(feature = "parquet") {
             fail(
                 "recording.format",

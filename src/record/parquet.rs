@@ -1,15 +1,26 @@
-//! A streaming Parquet table (feature `parquet`): the same columns as the CSV table, typed
-//! (float64, int64, UTF-8 strings), ZSTD-compressed, written one row group at a time.
+//! Streaming Parquet tables (feature `parquet`): the same columns as the CSV table, typed
+//! (float64, int64, UTF-8 strings), compressed, written one row group at a time.
 //!
-//! Values go into one buffer per column, preallocated for a batch of at most 1024 rows (no
-//! allocation per value). Every full batch becomes an Arrow record batch that the writer encodes
-//! and compresses into the row group in progress; every `row_group_rows` rows the row group goes
-//! to the file. Memory therefore holds one raw batch, one compressed row group and the footer's
-//! metadata (kept small: no page indexes, statistics only for `time_s`/`step`), and does not grow
-//! with the length of the run beyond that metadata. `finish` writes the last row group and the footer; a file without its
-//! footer (process killed) is not readable, which is why CSV stays available beside it.
+//! [`ParquetTable`] is one file. Values go into one buffer per column, preallocated for a batch
+//! of at most 1024 rows (no allocation per value). Every full batch becomes an Arrow record batch
+//! that the writer encodes and compresses into the row group in progress; every `row_group_rows`
+//! rows the row group goes to the file. `finish` writes the last row group and the footer; a file
+//! without its footer (process killed) is not readable.
+//!
+//! [`ParquetDataset`] is what a run records: a folder `<table>.parquet/` of part files
+//! `part-00000.parquet`, … with `rows_per_file` rows each, which pandas, pyarrow, polars and
+//! DuckDB read as one table. Two measured reasons (BENCHMARKS.md):
+//! - memory: a Parquet writer keeps the metadata of every row group it wrote (the footer, ~0.7 KB
+//!   per column chunk, ~0.5 MB per row group of a 10-link snake) until the file is closed, so one
+//!   file per table grows with the run; closing a part every `rows_per_file` rows bounds it;
+//! - nothing lost: a killed process leaves every closed part readable.
+//!
+//! Compression is LZ4 (raw) by default: ZSTD is 8 % smaller, but arrow-rs creates a ZSTD
+//! compression *and* decompression context for every column of every row group (about 0.1 MB
+//! each, 75 MB at once for a 10-link snake's 656 columns), which dominates the memory of a run.
 
 use super::sink::{ColumnKind, TableSink};
+use crate::config::ParquetCompression;
 use arrow_array::builder::{ArrayBuilder, StringBuilder};
 use arrow_array::{ArrayRef, Float64Array, Int64Array, RecordBatch};
 use arrow_schema::{DataType, Field, Schema, SchemaRef};
@@ -78,6 +89,7 @@ impl ParquetTable {
         header: &[String],
         kinds: &[ColumnKind],
         row_group_rows: usize,
+        compression: ParquetCompression,
     ) -> std::io::Result<Self> {
         let row_group_rows = row_group_rows.max(1);
         let batch_rows = row_group_rows.min(1024);
@@ -99,7 +111,12 @@ impl ParquetTable {
         // so keep that metadata small: no page indexes, and min/max statistics only for the time
         // and step columns (what readers filter on); otherwise memory would grow with the run.
         let mut props = WriterProperties::builder()
-            .set_compression(Compression::ZSTD(ZstdLevel::default()))
+            .set_compression(match compression {
+                ParquetCompression::Lz4 => Compression::LZ4_RAW,
+                ParquetCompression::Zstd => Compression::ZSTD(ZstdLevel::default()),
+                ParquetCompression::Snappy => Compression::SNAPPY,
+                ParquetCompression::None => Compression::UNCOMPRESSED,
+            })
             .set_dictionary_enabled(false)
             .set_statistics_enabled(EnabledStatistics::None)
             .set_offset_index_disabled(true)
@@ -264,6 +281,119 @@ impl TableSink for ParquetTable {
 
     fn path(&self) -> &Path {
         &self.path
+    }
+
+    fn rows(&self) -> u64 {
+        self.rows
+    }
+}
+
+/// A table recorded as a folder of Parquet part files (see the module documentation).
+pub struct ParquetDataset {
+    dir: PathBuf,
+    header: Vec<String>,
+    kinds: Vec<ColumnKind>,
+    row_group_rows: usize,
+    rows_per_file: u64,
+    compression: ParquetCompression,
+    /// The part being written; opened at the first value of its first row.
+    part: Option<ParquetTable>,
+    parts_closed: usize,
+    rows: u64,
+}
+
+impl ParquetDataset {
+    /// Creates the folder `dir` (it must not exist yet); parts are created as rows arrive.
+    pub fn create(
+        dir: &Path,
+        header: &[String],
+        kinds: &[ColumnKind],
+        row_group_rows: usize,
+        rows_per_file: u64,
+        compression: ParquetCompression,
+    ) -> std::io::Result<Self> {
+        std::fs::create_dir(dir)?;
+        Ok(Self {
+            dir: dir.to_path_buf(),
+            header: header.to_vec(),
+            kinds: kinds.to_vec(),
+            row_group_rows,
+            rows_per_file: rows_per_file.max(1),
+            compression,
+            part: None,
+            parts_closed: 0,
+            rows: 0,
+        })
+    }
+
+    /// The part file number `index`.
+    pub fn part_path(dir: &Path, index: usize) -> PathBuf {
+        dir.join(format!("part-{index:05}.parquet"))
+    }
+
+    /// The part being written, opened if needed (once per `rows_per_file` rows, not per value).
+    #[inline]
+    fn part(&mut self) -> std::io::Result<&mut ParquetTable> {
+        if self.part.is_none() {
+            let path = Self::part_path(&self.dir, self.parts_closed);
+            self.part =
+                Some(ParquetTable::create(&path, &self.header, &self.kinds, self.row_group_rows, self.compression)?);
+        }
+        // Just set when it was empty.
+        self.part.as_mut().ok_or_else(|| Error::other("no part file"))
+    }
+
+    fn close_part(&mut self) -> std::io::Result<()> {
+        if let Some(part) = self.part.take() {
+            part.finish()?;
+            self.parts_closed += 1;
+        }
+        Ok(())
+    }
+
+    /// Closes the last part. A table without rows still gets one (empty) part, so that readers
+    /// find its columns.
+    pub fn finish(mut self) -> std::io::Result<()> {
+        if self.part.is_none() && self.parts_closed == 0 {
+            self.part()?;
+        }
+        self.close_part()
+    }
+}
+
+impl TableSink for ParquetDataset {
+    #[inline]
+    fn num(&mut self, value: f64) -> std::io::Result<()> {
+        self.part()?.num(value)
+    }
+
+    #[inline]
+    fn int(&mut self, value: u64) -> std::io::Result<()> {
+        self.part()?.int(value)
+    }
+
+    #[inline]
+    fn text(&mut self, value: &str) -> std::io::Result<()> {
+        self.part()?.text(value)
+    }
+
+    fn end_row(&mut self) -> std::io::Result<()> {
+        let part = self.part()?;
+        part.end_row()?;
+        let full = part.rows() >= self.rows_per_file;
+        self.rows += 1;
+        if full { self.close_part() } else { Ok(()) }
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        match self.part.as_mut() {
+            Some(part) => part.flush(),
+            None => Ok(()),
+        }
+    }
+
+    fn path(&self) -> &Path {
+        &self.dir
     }
 
     fn rows(&self) -> u64 {

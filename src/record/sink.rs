@@ -67,7 +67,7 @@ impl TableSink for CsvTable {
 }
 
 #[cfg(feature = "parquet")]
-type ParquetSink = super::parquet::ParquetTable;
+type ParquetSink = super::parquet::ParquetDataset;
 
 /// Stand-in when the `parquet` feature is off: never constructed (the config validation rejects
 /// `recording.format = "parquet"` or `"both"` in such a build).
@@ -137,6 +137,8 @@ impl Table {
                 header,
                 kinds,
                 recording.parquet_row_group_rows,
+                recording.parquet_rows_per_file,
+                recording.parquet_compression,
             )?)
         } else {
             None
