@@ -205,7 +205,7 @@ impl Config {
                     &key(k),
                     v,
                     format!(
-                        "the surface (centre_m = {}) spans x {}..{}, y {}..{}; it must lie on the floor, within \
+                        "the surface (center_m = {}) spans x {}..{}, y {}..{}; it must lie on the floor, within \
                          terrain.floor_size_m = {} of the origin in x and y",
                         fmt_a(&s.center_m),
                         fmt_f(x0),
