@@ -40,7 +40,9 @@
 //!   constraint force between link `j` and its parent, like Boa's force/torque sensors),
 //!   `joint_jj_angle` (jointpos), `joint_jj_angvel` (jointvel).
 //! - Floor: plane `floor` at z = 0, half-size `terrain.floor_size_m`. Obstacles: see
-//!   [`terrain`].
+//!   [`terrain`]. Floor surfaces (`[[ground.surfaces]]`): visual tiles `surface_kk` only (see
+//!   [`surfaces`]); with surfaces the isotropic model also gets the link–floor pairs
+//!   (`friction = "μ μ torsional rolling rolling"`), whose friction `sim::ground` switches.
 //! - Keyframe `initial`: `qpos` = head position, head quaternion, initial joint angles (zero, or
 //!   with `gait.kind = "form_closure"` joint j at `pattern_deg[(j − 1) % len]`); `ctrl` = initial
 //!   angles for the position servos (zero otherwise); `act` = initial angles for the intvelocity
