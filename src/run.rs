@@ -202,7 +202,7 @@ pub fn run_simulation(config: &Config, options: &RunOptions, mut sim: Simulation
     };
     manifest.write(&folder)?;
     let mut recorder = if config.recording.enabled {
-        Some(Recorder::create(&folder, &config.recording, &sim.world.index)?)
+        Some(Recorder::create(&folder, &config.recording, &sim.world.index, !sim.ground().surfaces().is_empty())?)
     } else {
         None
     };

@@ -143,6 +143,7 @@ lateral_friction = 1.5
 backward_friction = 0.45
 viscous_tangential_n_s_per_m = 2.0
 viscous_normal_n_s_per_m = 20.0
+surfaces = [{ shape = "circle", center_m = [3.0, 3.0], radius_m = 0.5, preset = "ice" }]
 
 [sensors]
 noise_enabled = true
@@ -367,6 +368,20 @@ fn all_fields_expected() -> Config {
     gr.backward_friction = 0.45;
     gr.viscous_tangential_n_s_per_m = 2.0;
     gr.viscous_normal_n_s_per_m = 20.0;
+    gr.surfaces = vec![simserpent::config::Surface {
+        name: String::new(),
+        shape: simserpent::config::SurfaceShape::Circle,
+        center_m: [3.0, 3.0],
+        size_m: None,
+        radius_m: Some(0.5),
+        preset: Some("ice".into()),
+        friction: None,
+        axial_friction: None,
+        lateral_friction: None,
+        backward_friction: None,
+        viscous_tangential_n_s_per_m: None,
+        viscous_normal_n_s_per_m: None,
+    }];
 
     let n = &mut c.sensors;
     n.noise_enabled = true;

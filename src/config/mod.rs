@@ -11,9 +11,11 @@
 
 mod legacy;
 mod load;
+pub mod surfaces;
 mod validate;
 
 pub use load::{ConfigSource, load_config, load_config_str, parse_override};
+pub use surfaces::{PRESETS, Preset, Surface, SurfaceFriction, SurfaceShape};
 
 use serde::{Deserialize, Serialize};
 
@@ -204,6 +206,9 @@ pub struct Ground {
     pub backward_friction: f64,
     pub viscous_tangential_n_s_per_m: f64,
     pub viscous_normal_n_s_per_m: f64,
+    /// Regions of the floor with their own friction (`[[ground.surfaces]]`; later entries win
+    /// where they overlap). See [`surfaces`].
+    pub surfaces: Vec<Surface>,
 }
 
 /// The ground friction model.

@@ -40,7 +40,9 @@
 //!   constraint force between link `j` and its parent, like Boa's force/torque sensors),
 //!   `joint_jj_angle` (jointpos), `joint_jj_angvel` (jointvel).
 //! - Floor: plane `floor` at z = 0, half-size `terrain.floor_size_m`. Obstacles: see
-//!   [`terrain`].
+//!   [`terrain`]. Floor surfaces (`[[ground.surfaces]]`): visual tiles `surface_kk` only (see
+//!   [`surfaces`]); with surfaces the isotropic model also gets the link–floor pairs
+//!   (`friction = "μ μ torsional rolling rolling"`), whose friction `sim::ground` switches.
 //! - Keyframe `initial`: `qpos` = head position, head quaternion, initial joint angles (zero, or
 //!   with `gait.kind = "form_closure"` joint j at `pattern_deg[(j − 1) % len]`); `ctrl` = initial
 //!   angles for the position servos (zero otherwise); `act` = initial angles for the intvelocity
@@ -57,11 +59,13 @@
 mod geometry;
 pub mod names;
 mod snake;
+pub mod surfaces;
 pub mod terrain;
 
 use std::fmt::{self, Write};
 
 pub use geometry::link_axis_segments_m;
+pub use surfaces::SurfaceMap;
 
 use crate::config::{Config, ConfigError, FrictionCone, GaitKind, GroundModel};
 use geometry::{V3, dist_xy_point_segment};
@@ -143,6 +147,15 @@ pub fn scene_with_robot(robot_file: &str, cfg: &Config) -> Result<GeneratedModel
             "\"form_closure\"",
             "the form-closure pegs are placed around the generated snake's bends; with your own robot use \
              \"none\", \"two_cylinders\", \"random_cylinders\" or \"cylinder_path\"",
+        )
+        .into());
+    }
+    if !cfg.ground.surfaces.is_empty() {
+        return Err(ConfigError::invalid(
+            "ground.surfaces",
+            format!("({} surfaces)", cfg.ground.surfaces.len()),
+            "surfaces switch the friction of the generated snake's link-floor contact pairs, which a robot of \
+             your own does not have; remove them (ground.surfaces = [])",
         )
         .into());
     }
@@ -394,8 +407,14 @@ fn write_xml(cfg: &Config, body: Body<'_>, obstacles: &[Cylinder]) -> Result<Str
     let fs = cfg.terrain.floor_size_m;
     // The floor's own contacts with the links: isotropic friction, none at all (the viscous model
     // applies its forces itself), or left to the explicit link-floor pairs below.
+    // With surfaces the isotropic model also goes through the pairs (their friction is switched
+    // by the surface under each link); without surfaces the model is exactly as before.
     let snake_pairs = matches!(body, Body::Snake(_))
-        && matches!(cfg.ground.model, GroundModel::Anisotropic | GroundModel::Directional);
+        && match cfg.ground.model {
+            GroundModel::Anisotropic | GroundModel::Directional => true,
+            GroundModel::Isotropic => !cfg.ground.surfaces.is_empty(),
+            GroundModel::Viscous => false,
+        };
     let floor_attrs = match cfg.ground.model {
         GroundModel::Viscous => env_attrs([0.0; 3]),
         _ if snake_pairs => format!(
@@ -411,6 +430,9 @@ fn write_xml(cfg: &Config, body: Body<'_>, obstacles: &[Cylinder]) -> Result<Str
         n(fs),
         n(fs),
     )?;
+    if matches!(body, Body::Snake(_)) {
+        surfaces::write_tiles(&mut out, cfg)?;
+    }
     for c in obstacles {
         writeln!(
             out,
@@ -432,16 +454,24 @@ fn write_xml(cfg: &Config, body: Body<'_>, obstacles: &[Cylinder]) -> Result<Str
                 // One pair per link: MuJoCo aligns a capsule-plane contact frame's first tangent with
                 // the capsule axis, so friction = "axial lateral ..." is anisotropic along the link.
                 let g = &cfg.ground;
+                // Isotropic (only with surfaces): the floor's own coefficients, torsional and
+                // rolling included, as the geom friction would give them.
+                let (friction, condim) = match g.model {
+                    GroundModel::Isotropic => {
+                        let [s, t, r] = cfg.snake.ground_friction;
+                        ([s, s, t, r, r], snake::condim(cfg.snake.ground_friction))
+                    }
+                    _ => ([g.axial_friction, g.lateral_friction, 0.0, 0.0, 0.0], 3),
+                };
                 out.push_str("  <contact>\n");
                 for i in 0..cfg.snake.n_links {
                     writeln!(
                         out,
-                        "    <pair name=\"{}\" geom1=\"{}\" geom2=\"{}\" condim=\"3\" friction=\"{} {} 0 0 0\" solref=\"{solref}\"/>",
+                        "    <pair name=\"{}\" geom1=\"{}\" geom2=\"{}\" condim=\"{condim}\" friction=\"{}\" solref=\"{solref}\"/>",
                         names::ground_pair(i),
                         names::FLOOR,
                         names::link_geom(i),
-                        n(g.axial_friction),
-                        n(g.lateral_friction),
+                        Nums(&friction),
                     )?;
                 }
                 out.push_str("  </contact>\n");

@@ -16,6 +16,7 @@
 //! | floor plane | `floor` | [`FLOOR`] |
 //! | keyframe with the starting pose | `initial` | [`INITIAL_KEYFRAME`] |
 //! | obstacle `k` (cylinder geom in the world body) | `obstacle_00` | [`obstacle`] |
+//! | visual tile of floor surface `k` (`ground.surfaces[k]`; no collisions) | `surface_00` | [`surface`] |
 //! | sensors | `link_00_vel`, `link_00_acc`, `link_00_gyro`, `link_00_pos`, `link_00_quat`, `joint_01_force`, `joint_01_torque`, `joint_01_angle`, `joint_01_angvel` | [`sensor`], [`SensorKind`] |
 //!
 //! Indices are written with at least two digits (`{:02}`): `link_00` … `link_99`. Models with more
@@ -77,8 +78,14 @@ pub fn obstacle(k: usize) -> String {
     format!("obstacle_{}", idx(k))
 }
 
+/// Visual tile of floor surface `k` (`ground.surfaces[k]`, a box or cylinder geom in the world
+/// body that never collides): `surface_00`.
+pub fn surface(k: usize) -> String {
+    format!("surface_{}", idx(k))
+}
+
 /// The contact pair between link `i` and the floor (anisotropic and directional ground
-/// friction): `link_00_ground`.
+/// friction, and isotropic with floor surfaces): `link_00_ground`.
 pub fn ground_pair(i: usize) -> String {
     format!("{}_ground", link_body(i))
 }
@@ -234,6 +241,7 @@ mod tests {
         assert_eq!(joint_site(1), "joint_01_site");
         assert_eq!(actuator(ControlMethod::Intvelocity, 2), "intvelocity_02");
         assert_eq!(obstacle(0), "obstacle_00");
+        assert_eq!(surface(7), "surface_07");
         assert_eq!(link_body(119), "link_119");
         assert_eq!(sensor(SensorKind::JointAngularVelocity, 4), "joint_04_angvel");
         assert_eq!(link_framequat(0), "link_00_quat");

@@ -95,11 +95,17 @@ pub struct Recorder {
     contacts: Option<Table>,
     contact_names: (Vec<String>, Vec<String>),
     step: u64,
+    /// Whether `links` has the `link_ii_surface` columns.
+    surfaces: bool,
 }
 
 impl Recorder {
     /// Creates the tables in `folder` with headers for the robot described by `index`.
-    pub fn create(folder: &Path, flags: &Recording, index: &Index) -> Result<Self, RecordError> {
+    ///
+    /// With `surfaces` (the config has floor surfaces) `links` gets one more column per link,
+    /// `link_ii_surface`: the index of the surface under the link's centre in `ground.surfaces`,
+    /// or −1 on the plain floor.
+    pub fn create(folder: &Path, flags: &Recording, index: &Index, surfaces: bool) -> Result<Self, RecordError> {
         let f = flags;
         let mut h = vec!["time_s".to_string()];
         for link in &index.links {
@@ -129,6 +135,9 @@ impl Recorder {
                 push3(&mut h, n, "floor_force", "n");
                 push3(&mut h, n, "obstacle_force", "n");
                 push3(&mut h, n, "obstacle_point", "m");
+            }
+            if surfaces {
+                h.push(format!("{n}_surface"));
             }
         }
         let links = Table::numeric(folder, "links", &h, f).map_err(io_err(&folder.join("links")))?;
@@ -223,6 +232,7 @@ impl Recorder {
             contacts,
             contact_names: (index.geom_names.clone(), index.body_names.clone()),
             step: 0,
+            surfaces,
         })
     }
 
@@ -271,6 +281,10 @@ impl Recorder {
                 t.nums(&s.link_obstacle_force_n[i])?;
                 // No obstacle contact: zeros (tables hold finite numbers only); obstacle_force is 0.
                 t.nums(&s.link_obstacle_point_m[i].unwrap_or([0.0; 3]))?;
+            }
+            if self.surfaces {
+                // Region 0 is the plain floor (-1), region k + 1 is surface k.
+                t.num(s.link_region[i] as f64 - 1.0)?;
             }
         }
         t.end_row()

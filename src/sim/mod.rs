@@ -407,5 +407,11 @@ impl Simulation {
     pub fn snapshot(&mut self, snapshot: &mut Snapshot) {
         self.world.forward();
         snapshot.read(&self.world, &self.obs_true, &self.obs);
+        snapshot.link_region.copy_from_slice(self.ground.link_regions());
+    }
+
+    /// The ground model's per-step state (floor surfaces, the region under each link).
+    pub fn ground(&self) -> &Ground {
+        &self.ground
     }
 }

@@ -69,6 +69,10 @@ pub struct Snapshot {
     /// Per link: origin of the link's frame (m): the anchor of the joint to its parent (for the
     /// generated snake; the head's front end for link 0).
     pub link_origin_m: Vec<[f64; 3]>,
+    /// Floor region under each link's centre in the step that starts at this instant: 0 = plain
+    /// floor, `k + 1` = `ground.surfaces[k]` (filled by `Simulation::snapshot`; all 0 without
+    /// surfaces).
+    pub link_region: Vec<usize>,
     /// Per joint: angle (rad) and velocity (rad/s).
     pub joint_angle_rad: Vec<f64>,
     pub joint_velocity_rad_per_s: Vec<f64>,
@@ -126,6 +130,7 @@ impl Snapshot {
             link_obstacle_point_m: vec![None; n_links],
             link_other_contact_force_n: vec![[0.0; 3]; n_links],
             link_origin_m: vec![[0.0; 3]; n_links],
+            link_region: vec![0; n_links],
             joint_angle_rad: vec![0.0; n_joints],
             joint_velocity_rad_per_s: vec![0.0; n_joints],
             actuator_force_nm: vec![[0.0; 4]; n_joints],
