@@ -178,6 +178,13 @@ pub fn run_simulation(config: &Config, options: &RunOptions, mut sim: Simulation
     for (name, text) in &sim.world.included_files {
         write(name, text)?;
     }
+    for c in &sim.world.copied_files {
+        let dest = folder.join(&c.dest);
+        if let Some(parent) = dest.parent() {
+            std::fs::create_dir_all(parent).map_err(record::io_err(parent))?;
+        }
+        std::fs::copy(&c.source, &dest).map_err(record::io_err(&dest))?;
+    }
     let dt = config.general.timestep_secs;
     let total_steps = (config.general.duration_secs / dt).round().max(1.0) as u64;
     let mut manifest = Manifest {
