@@ -461,7 +461,8 @@ fn missing_or_malformed_terrain_files_give_errors_naming_the_file() {
     std::fs::write(path("broken.xml"), "<mujoco><worldbody></mujoco>").unwrap();
     std::fs::write(path("wrong_root.xml"), "<robot name=\"x\"/>").unwrap();
     std::fs::write(path("missing_asset.xml"), "<mujoco><asset><mesh file=\"gone.stl\"/></asset></mujoco>").unwrap();
-    let cases: Vec<(Box<dyn Fn(&mut Config)>, String, &str, &str)> = vec![
+    type Case<'a> = (Box<dyn Fn(&mut Config) + 'a>, String, &'a str, &'a str);
+    let cases: Vec<Case> = vec![
         (
             Box::new(|c: &mut Config| c.terrain.heightfield.file = path("none.png")),
             path("none.png"),

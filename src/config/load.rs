@@ -64,10 +64,11 @@ pub const FILE_KEYS: [&str; 4] =
 /// relative to `base`, the config file's folder, so that a config finds its files from anywhere.
 fn resolve_file_paths(user: &mut Table, base: &Path) {
     fn fix(value: &mut Value, base: &Path) {
-        if let Value::String(s) = value {
-            if !s.is_empty() && Path::new(s.as_str()).is_relative() {
-                *s = base.join(s.as_str()).display().to_string();
-            }
+        if let Value::String(s) = value
+            && !s.is_empty()
+            && Path::new(s.as_str()).is_relative()
+        {
+            *s = base.join(s.as_str()).display().to_string();
         }
     }
     fn walk(table: &mut Table, segments: &[&str], leaf_in_array: Option<&str>, base: &Path) {
@@ -77,10 +78,10 @@ fn resolve_file_paths(user: &mut Table, base: &Path) {
             (false, Value::Table(sub), _) => walk(sub, rest, leaf_in_array, base),
             (true, Value::Array(items), Some(leaf)) => {
                 for item in items {
-                    if let Value::Table(t) = item {
-                        if let Some(v) = t.get_mut(leaf) {
-                            fix(v, base);
-                        }
+                    if let Value::Table(t) = item
+                        && let Some(v) = t.get_mut(leaf)
+                    {
+                        fix(v, base);
                     }
                 }
             }

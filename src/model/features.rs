@@ -341,8 +341,8 @@ pub(crate) fn build(
         let key = "terrain.mesh_terrain.file";
         let mut mesh = files::read_mesh(key, &mt.file)?;
         for v in &mut mesh.vertices {
-            for k in 0..3 {
-                v[k] = v[k] * mt.scale + mt.position_m[k];
+            for (x, offset) in v.iter_mut().zip(mt.position_m) {
+                *x = *x * mt.scale + offset;
             }
         }
         let raster = files::rasterise(&mesh, mt.resolution_m).map_err(|why| {
@@ -576,6 +576,7 @@ pub(crate) fn write_geoms(out: &mut String, f: &Features, obstacle: &str, ground
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 

@@ -413,6 +413,7 @@ pub fn check_mjcf_terrain(key: &str, file: &str) -> Result<MjcfAssets, ConfigErr
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 
