@@ -296,9 +296,15 @@ fn a_run_folder_holds_the_split_files_and_the_copied_terrain_sources() {
     ] {
         assert!(f.join(name).is_file(), "{name} in the run folder");
     }
-    // The run folder is self-contained: both entry points load from there.
-    MjModel::from_xml(f.join("model.xml")).unwrap();
+    // The run folder is self-contained: both entry points load from there, and its config.toml
+    // points at the copies, so it rebuilds the same model from the folder alone.
+    let a = MjModel::from_xml(f.join("model.xml")).unwrap();
     MjModel::from_xml(f.join("scene.xml")).unwrap();
+    let recorded = simserpent::config::load_config(&f.join("config.toml"), &[]).unwrap();
+    assert_eq!(recorded.terrain.include_mjcf, f.join("user_terrain.xml").display().to_string());
+    let again = World::from_config(&recorded).unwrap();
+    assert_eq!(again.model().ffi().ngeom, a.ffi().ngeom);
+    assert_eq!(again.model().hfield_data(), a.hfield_data());
 }
 
 // --- peg boards, walls, channels -------------------------------------------------------------
