@@ -210,6 +210,13 @@ pub(crate) fn build(
     let mut wall = |key: String, value: String, a: [f64; 2], b: [f64; 2], height: f64, thickness: f64| {
         let d = [b[0] - a[0], b[1] - a[1]];
         let len = d[0].hypot(d[1]);
+        if !(len > 1e-9 && len.is_finite() && height > 0.0 && thickness > 0.0) {
+            return Err(ConfigError::invalid(
+                &key,
+                value,
+                "a wall needs two different finite ends and a positive height and thickness",
+            ));
+        }
         let u = [d[0] / len, d[1] / len];
         if let Some((i, dist)) = wall_overlap(segments, r, a, b, thickness) {
             return Err(ConfigError::invalid(
