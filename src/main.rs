@@ -116,6 +116,10 @@ enum Command {
         /// Output file.
         #[arg(long, short)]
         output: Option<PathBuf>,
+        /// Also write the model as separate files into this folder: scene.xml (open this one),
+        /// terrain.xml, robot.xml, plus model.xml and the copied terrain files.
+        #[arg(long)]
+        scene_dir: Option<PathBuf>,
     },
     /// Check a config and print it fully resolved, without running anything.
     Check {
@@ -340,10 +344,16 @@ fn init(path: &Path, force: bool) -> Result<(), Failure> {
     Ok(())
 }
 
-fn model(args: &ConfigArgs, output: Option<&Path>) -> Result<(), Failure> {
+fn model(args: &ConfigArgs, output: Option<&Path>, scene_dir: Option<&Path>) -> Result<(), Failure> {
     let (config, source) = load(args)?;
     let generated = simserpent::model::generate(&config)
         .map_err(|e| bad_input(anyhow::Error::new(e).context(format!("config {source}"))))?;
+    if let Some(dir) = scene_dir {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        let f = &generated.files;
+        simserpent::sim::write_model_folder(dir, &generated.xml, &f.texts, &f.copies)?;
+        eprintln!("wrote {} (scene.xml, terrain.xml, robot.xml, model.xml)", dir.display());
+    }
     match output {
         Some(path) => {
             std::fs::write(path, &generated.xml).with_context(|| format!("cannot write {}", path.display()))?;
@@ -506,7 +516,7 @@ fn main() -> ExitCode {
         Some(Command::View { path, overrides }) => view_command(path.as_deref(), &overrides),
         Some(Command::Init { path, force }) => init(&path, force),
         Some(Command::Experiment { name, config, quick }) => experiment(&name, &config, quick),
-        Some(Command::Model { config, output }) => model(&config, output.as_deref()),
+        Some(Command::Model { config, output, scene_dir }) => model(&config, output.as_deref(), scene_dir.as_deref()),
         Some(Command::Check { config }) => load(&config).map(|(c, _)| print!("{}", c.to_toml_string())),
         Some(Command::Bench { config, links, duration_secs, output_dir, repeats }) => {
             bench(&config, &links, duration_secs, &output_dir, repeats)

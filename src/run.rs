@@ -173,10 +173,17 @@ pub fn run_simulation(config: &Config, options: &RunOptions, mut sim: Simulation
         let path = folder.join(name);
         std::fs::write(&path, text).map_err(record::io_err(&path))
     };
-    write("config.toml", &config.to_toml_string())?;
+    write("config.toml", &run_folder_config(config, &sim.world.copied_files).to_toml_string())?;
     write("model.xml", &sim.world.mjcf)?;
     for (name, text) in &sim.world.included_files {
         write(name, text)?;
+    }
+    for c in &sim.world.copied_files {
+        let dest = folder.join(&c.dest);
+        if let Some(parent) = dest.parent() {
+            std::fs::create_dir_all(parent).map_err(record::io_err(parent))?;
+        }
+        std::fs::copy(&c.source, &dest).map_err(record::io_err(&dest))?;
     }
     let dt = config.general.timestep_secs;
     let total_steps = (config.general.duration_secs / dt).round().max(1.0) as u64;
@@ -257,6 +264,26 @@ pub fn run_simulation(config: &Config, options: &RunOptions, mut sim: Simulation
             Err(e)
         }
     }
+}
+
+/// The config as recorded in the run folder: its terrain file keys point at the copies in the
+/// run folder (paths relative to `config.toml`, which is how a config file's paths are read),
+/// so `simserpent run <run folder>/config.toml` rebuilds the same scene from the folder alone.
+fn run_folder_config(config: &Config, copies: &[crate::model::features::FileCopy]) -> Config {
+    let mut c = config.clone();
+    for copy in copies {
+        let source = copy.source.display().to_string();
+        let t = &mut c.terrain;
+        let fields = [&mut t.heightfield.file, &mut t.mesh_terrain.file, &mut t.include_mjcf]
+            .into_iter()
+            .chain(t.mesh_obstacles.iter_mut().map(|m| &mut m.file));
+        for field in fields {
+            if *field == source {
+                field.clone_from(&copy.dest);
+            }
+        }
+    }
+    c
 }
 
 fn step_loop(

@@ -244,6 +244,9 @@ kind = "random_cylinders"
 obstacle_friction = [0.7, 0.02, 0.002]
 cylinder_height_m = 0.4
 floor_size_m = 30.0
+include_mjcf = "/abs/yard.xml"
+walls = [{ start_m = [0.0, 2.0], end_m = [1.0, 2.0], height_m = 0.3, thickness_m = 0.1 }]
+mesh_obstacles = [{ file = "/abs/rock.stl", position_m = [1.0, 2.0, 0.0], rotation_deg = [0.0, 0.0, 45.0], scale = 0.001 }]
 
 [terrain.two_cylinders]
 distance_m = 3.0
@@ -265,6 +268,46 @@ start_m = 1.0
 [terrain.form_closure]
 order = 1
 radius_m = 0.07
+
+[terrain.pegboard]
+layout = "hexagonal"
+peg_radius_m = 0.04
+peg_height_m = 0.25
+spacing_m = 0.3
+region_min_m = [1.0, -2.0]
+region_max_m = [3.0, 2.0]
+count = 12
+skip_pegs_on_snake = false
+
+[terrain.channel]
+enabled = true
+start_m = [1.0, 1.0]
+end_m = [4.0, 1.0]
+width_m = 0.5
+height_m = 0.3
+thickness_m = 0.08
+
+[terrain.slope]
+angle_deg = 12.0
+start_m = [2.0, 3.0]
+direction_deg = 90.0
+length_m = 1.5
+width_m = 1.0
+
+[terrain.heightfield]
+file = "/abs/hills.png"
+center_m = [1.0, -1.0]
+size_x_m = 2.0
+size_y_m = 3.0
+height_m = 0.2
+base_m = 0.1
+
+[terrain.mesh_terrain]
+file = "/abs/ground.obj"
+position_m = [0.5, 0.5, -0.1]
+scale = 0.01
+resolution_m = 0.05
+base_m = 0.2
 
 [recording]
 enabled = false
@@ -470,6 +513,48 @@ fn all_fields_expected() -> Config {
     t.random_cylinders = RandomCylinders { count: 5, radius_range_m: [0.1, 0.2], half_size_m: 2.0, min_gap_m: 0.2 };
     t.cylinder_path = CylinderPath { n_pairs: 4, spacing_m: 0.6, width_m: 1.0, radius_m: 0.06, start_m: 1.0 };
     t.form_closure = FormClosureTerrain { order: 1, radius_m: 0.07 };
+    t.include_mjcf = "/abs/yard.xml".into();
+    t.walls = vec![Wall { start_m: [0.0, 2.0], end_m: [1.0, 2.0], height_m: 0.3, thickness_m: 0.1 }];
+    t.mesh_obstacles = vec![MeshObstacle {
+        file: "/abs/rock.stl".into(),
+        position_m: [1.0, 2.0, 0.0],
+        rotation_deg: [0.0, 0.0, 45.0],
+        scale: 0.001,
+    }];
+    t.pegboard = Pegboard {
+        layout: PegLayout::Hexagonal,
+        peg_radius_m: 0.04,
+        peg_height_m: 0.25,
+        spacing_m: 0.3,
+        region_min_m: [1.0, -2.0],
+        region_max_m: [3.0, 2.0],
+        count: 12,
+        skip_pegs_on_snake: false,
+    };
+    t.channel = Channel {
+        enabled: true,
+        start_m: [1.0, 1.0],
+        end_m: [4.0, 1.0],
+        width_m: 0.5,
+        height_m: 0.3,
+        thickness_m: 0.08,
+    };
+    t.slope = Slope { angle_deg: 12.0, start_m: [2.0, 3.0], direction_deg: 90.0, length_m: 1.5, width_m: 1.0 };
+    t.heightfield = Heightfield {
+        file: "/abs/hills.png".into(),
+        center_m: [1.0, -1.0],
+        size_x_m: 2.0,
+        size_y_m: 3.0,
+        height_m: 0.2,
+        base_m: 0.1,
+    };
+    t.mesh_terrain = MeshTerrain {
+        file: "/abs/ground.obj".into(),
+        position_m: [0.5, 0.5, -0.1],
+        scale: 0.01,
+        resolution_m: 0.05,
+        base_m: 0.2,
+    };
 
     c.recording = Recording {
         enabled: false,
@@ -566,6 +651,22 @@ fn every_field_can_be_set_from_toml() {
 
 /// (overrides, key path of the expected error). Every rule of `Config::validate`.
 const RULES: &[(&[&str], &str)] = &[
+    // terrain features
+    (&["terrain.pegboard.spacing_m=0.05"], "terrain.pegboard.spacing_m"),
+    (&["terrain.pegboard.peg_radius_m=0"], "terrain.pegboard.peg_radius_m"),
+    (&["terrain.pegboard.region_max_m=[0.0, 0.0]"], "terrain.pegboard.region_max_m"),
+    (&["terrain.channel.enabled=true", "terrain.channel.width_m=0.05"], "terrain.channel.width_m"),
+    (&["terrain.channel.enabled=true", "terrain.channel.end_m=[0.0, 0.0]"], "terrain.channel.end_m"),
+    (&["terrain.slope.angle_deg=-1"], "terrain.slope.angle_deg"),
+    (&["terrain.slope.length_m=0"], "terrain.slope.length_m"),
+    (&["terrain.heightfield.height_m=0"], "terrain.heightfield.height_m"),
+    (&["terrain.heightfield.base_m=-1"], "terrain.heightfield.base_m"),
+    (&["terrain.mesh_terrain.resolution_m=0"], "terrain.mesh_terrain.resolution_m"),
+    (&["terrain.walls=[{start_m=[0,0], end_m=[1,0], height_m=0.2, thickness_m=-1}]"], "terrain.walls[0].thickness_m"),
+    (
+        &["terrain.mesh_obstacles=[{file=\"\", position_m=[0,0,0], rotation_deg=[0,0,0], scale=1}]"],
+        "terrain.mesh_obstacles[0].file",
+    ),
     // general
     (&["general.duration_secs=0"], "general.duration_secs"),
     (&["general.duration_secs=-1"], "general.duration_secs"),

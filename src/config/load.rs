@@ -52,7 +52,51 @@ pub fn load_config(path: &Path, overrides: &[String]) -> Result<Config, ConfigEr
     };
     let text =
         std::fs::read_to_string(path).map_err(|e| ConfigError::Io { file: file.clone(), message: e.to_string() })?;
-    load_named(&text, source, overrides, &file)
+    let base = path.parent().filter(|p| !p.as_os_str().is_empty());
+    load_named(&text, source, overrides, &file, base)
+}
+
+/// The config keys that name files (`terrain.…`), with `[]` for every element of an array.
+pub const FILE_KEYS: [&str; 4] =
+    ["terrain.include_mjcf", "terrain.heightfield.file", "terrain.mesh_terrain.file", "terrain.mesh_obstacles[].file"];
+
+/// Rewrites the relative, non-empty file paths of `user` (a config file's own table) as paths
+/// relative to `base`, the config file's folder, so that a config finds its files from anywhere.
+fn resolve_file_paths(user: &mut Table, base: &Path) {
+    fn fix(value: &mut Value, base: &Path) {
+        if let Value::String(s) = value
+            && !s.is_empty()
+            && Path::new(s.as_str()).is_relative()
+        {
+            *s = base.join(s.as_str()).display().to_string();
+        }
+    }
+    fn walk(table: &mut Table, segments: &[&str], leaf_in_array: Option<&str>, base: &Path) {
+        let Some((first, rest)) = segments.split_first() else { return };
+        let Some(value) = table.get_mut(*first) else { return };
+        match (rest.is_empty(), value, leaf_in_array) {
+            (false, Value::Table(sub), _) => walk(sub, rest, leaf_in_array, base),
+            (true, Value::Array(items), Some(leaf)) => {
+                for item in items {
+                    if let Value::Table(t) = item
+                        && let Some(v) = t.get_mut(leaf)
+                    {
+                        fix(v, base);
+                    }
+                }
+            }
+            (true, v, None) => fix(v, base),
+            _ => {}
+        }
+    }
+    for key in FILE_KEYS {
+        let (path, leaf_in_array) = match key.split_once("[]") {
+            Some((array, leaf)) => (array, Some(leaf.trim_start_matches('.'))),
+            None => (key, None),
+        };
+        let segments: Vec<&str> = path.split('.').collect();
+        walk(user, &segments, leaf_in_array, base);
+    }
 }
 
 /// Same as [`load_config`] on a string; `source` says which syntax it is in.
@@ -60,7 +104,7 @@ pub fn load_config(path: &Path, overrides: &[String]) -> Result<Config, ConfigEr
 /// # Errors
 /// As [`load_config`], without the file-related ones.
 pub fn load_config_str(text: &str, source: ConfigSource, overrides: &[String]) -> Result<Config, ConfigError> {
-    load_named(text, source, overrides, TEXT_NAME)
+    load_named(text, source, overrides, TEXT_NAME, None)
 }
 
 /// Parses a `--set` argument `key.path=value`.
@@ -107,12 +151,24 @@ pub fn parse_override(s: &str) -> Result<(String, Value), ConfigError> {
 }
 
 /// The whole pipeline; `file` names the text in syntax errors.
-fn load_named(text: &str, source: ConfigSource, overrides: &[String], file: &str) -> Result<Config, ConfigError> {
+fn load_named(
+    text: &str,
+    source: ConfigSource,
+    overrides: &[String],
+    file: &str,
+    base: Option<&Path>,
+) -> Result<Config, ConfigError> {
     let syntax =
         |message: String| ConfigError::Syntax { file: file.to_string(), message: message.trim_end().to_string() };
     let defaults = default_table()?;
     let user = match source {
-        ConfigSource::Toml => text.parse::<Table>().map_err(|e| syntax(e.to_string()))?,
+        ConfigSource::Toml => {
+            let mut user = text.parse::<Table>().map_err(|e| syntax(e.to_string()))?;
+            if let Some(base) = base {
+                resolve_file_paths(&mut user, base);
+            }
+            user
+        }
         ConfigSource::LegacyJson => {
             let json: serde_json::Value = serde_json::from_str(text).map_err(|e| syntax(e.to_string()))?;
             let converted = legacy::convert(&json, &defaults)?;

@@ -384,6 +384,112 @@ pub struct Terrain {
     pub random_cylinders: RandomCylinders,
     pub cylinder_path: CylinderPath,
     pub form_closure: FormClosureTerrain,
+    /// A third-party MJCF terrain file included into the scene (`""` = none).
+    pub include_mjcf: String,
+    /// Box walls.
+    pub walls: Vec<Wall>,
+    /// Obstacles from STL/OBJ meshes (collided as their convex hull).
+    pub mesh_obstacles: Vec<MeshObstacle>,
+    pub pegboard: Pegboard,
+    pub channel: Channel,
+    pub slope: Slope,
+    pub heightfield: Heightfield,
+    pub mesh_terrain: MeshTerrain,
+}
+
+/// One box wall between two points of the floor (`terrain.walls`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Wall {
+    /// Centre line from `start_m` to `end_m` (xy, world).
+    pub start_m: [f64; 2],
+    pub end_m: [f64; 2],
+    pub height_m: f64,
+    pub thickness_m: f64,
+}
+
+/// An obstacle mesh (`terrain.mesh_obstacles`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshObstacle {
+    /// STL (binary or ASCII) or OBJ file.
+    pub file: String,
+    /// Where the mesh's own origin goes (world).
+    pub position_m: [f64; 3],
+    /// Euler angles about x, y, z (degrees), as `snake.head_rotation_deg`.
+    pub rotation_deg: [f64; 3],
+    /// Uniform scale of the file's coordinates (to metres).
+    pub scale: f64,
+}
+
+/// Peg layouts (`terrain.pegboard.layout`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PegLayout {
+    None,
+    Square,
+    Hexagonal,
+    Random,
+}
+
+/// A board of pegs (`[terrain.pegboard]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pegboard {
+    pub layout: PegLayout,
+    pub peg_radius_m: f64,
+    pub peg_height_m: f64,
+    pub spacing_m: f64,
+    pub region_min_m: [f64; 2],
+    pub region_max_m: [f64; 2],
+    pub count: usize,
+    pub skip_pegs_on_snake: bool,
+}
+
+/// Two parallel walls around a centre line (`[terrain.channel]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Channel {
+    pub enabled: bool,
+    pub start_m: [f64; 2],
+    pub end_m: [f64; 2],
+    pub width_m: f64,
+    pub height_m: f64,
+    pub thickness_m: f64,
+}
+
+/// A tilted plane region (ramp) rising from the floor (`[terrain.slope]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Slope {
+    pub angle_deg: f64,
+    pub start_m: [f64; 2],
+    pub direction_deg: f64,
+    pub length_m: f64,
+    pub width_m: f64,
+}
+
+/// A heightfield from a grayscale image (`[terrain.heightfield]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Heightfield {
+    pub file: String,
+    pub center_m: [f64; 2],
+    pub size_x_m: f64,
+    pub size_y_m: f64,
+    pub height_m: f64,
+    pub base_m: f64,
+}
+
+/// A (non-convex) terrain mesh rasterised into a heightfield (`[terrain.mesh_terrain]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshTerrain {
+    pub file: String,
+    pub position_m: [f64; 3],
+    pub scale: f64,
+    pub resolution_m: f64,
+    pub base_m: f64,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -555,7 +555,122 @@ impl Config {
 
         let f = &t.form_closure;
         ensure(matches!(f.order, 1 | 2), "terrain.form_closure.order", f.order, "must be 1 or 2")?;
-        positive("terrain.form_closure.radius_m", f.radius_m)
+        positive("terrain.form_closure.radius_m", f.radius_m)?;
+        self.validate_terrain_features()
+    }
+
+    /// Walls, mesh obstacles, peg board, channel, slope, heightfield, mesh terrain. Files are
+    /// checked (exist, parse) by model generation.
+    fn validate_terrain_features(&self) -> Check {
+        let t = &self.terrain;
+        for (i, w) in t.walls.iter().enumerate() {
+            let key = |k: &str| format!("terrain.walls[{i}].{k}");
+            all_finite(&key("start_m"), &w.start_m)?;
+            all_finite(&key("end_m"), &w.end_m)?;
+            let len = (w.end_m[0] - w.start_m[0]).hypot(w.end_m[1] - w.start_m[1]);
+            ensure(
+                len > 1e-6,
+                &key("end_m"),
+                fmt_a(&w.end_m),
+                format!("must differ from start_m {} (a wall needs a length)", fmt_a(&w.start_m)),
+            )?;
+            positive(&key("height_m"), w.height_m)?;
+            positive(&key("thickness_m"), w.thickness_m)?;
+        }
+        for (i, m) in t.mesh_obstacles.iter().enumerate() {
+            let key = |k: &str| format!("terrain.mesh_obstacles[{i}].{k}");
+            ensure(
+                !m.file.trim().is_empty(),
+                &key("file"),
+                "\"\"",
+                "must name an STL or OBJ file (remove the entry to have no mesh obstacle)",
+            )?;
+            all_finite(&key("position_m"), &m.position_m)?;
+            all_finite(&key("rotation_deg"), &m.rotation_deg)?;
+            positive(&key("scale"), m.scale)?;
+        }
+
+        let p = &t.pegboard;
+        positive("terrain.pegboard.peg_radius_m", p.peg_radius_m)?;
+        positive("terrain.pegboard.peg_height_m", p.peg_height_m)?;
+        positive("terrain.pegboard.spacing_m", p.spacing_m)?;
+        ensure(
+            p.spacing_m > 2.0 * p.peg_radius_m,
+            "terrain.pegboard.spacing_m",
+            fmt_f(p.spacing_m),
+            format!(
+                "must be greater than 2 x terrain.pegboard.peg_radius_m = {} so that neighbouring pegs do not touch",
+                fmt_f(2.0 * p.peg_radius_m)
+            ),
+        )?;
+        all_finite("terrain.pegboard.region_min_m", &p.region_min_m)?;
+        all_finite("terrain.pegboard.region_max_m", &p.region_max_m)?;
+        for (axis, k) in ["x", "y"].into_iter().zip(0..2) {
+            ensure(
+                p.region_max_m[k] >= p.region_min_m[k],
+                "terrain.pegboard.region_max_m",
+                fmt_a(&p.region_max_m),
+                format!(
+                    "must be at least terrain.pegboard.region_min_m {} in every axis; {axis} is smaller",
+                    fmt_a(&p.region_min_m)
+                ),
+            )?;
+        }
+        ensure(
+            p.count <= crate::model::terrain::MAX_OBSTACLES,
+            "terrain.pegboard.count",
+            p.count,
+            format!("must be at most {}", crate::model::terrain::MAX_OBSTACLES),
+        )?;
+
+        let c = &t.channel;
+        all_finite("terrain.channel.start_m", &c.start_m)?;
+        all_finite("terrain.channel.end_m", &c.end_m)?;
+        positive("terrain.channel.width_m", c.width_m)?;
+        positive("terrain.channel.height_m", c.height_m)?;
+        positive("terrain.channel.thickness_m", c.thickness_m)?;
+        if c.enabled {
+            let len = (c.end_m[0] - c.start_m[0]).hypot(c.end_m[1] - c.start_m[1]);
+            ensure(
+                len > 1e-6,
+                "terrain.channel.end_m",
+                fmt_a(&c.end_m),
+                format!("must differ from terrain.channel.start_m {} (a channel needs a length)", fmt_a(&c.start_m)),
+            )?;
+            let needed = 2.0 * self.snake.link_radius_m;
+            ensure(
+                c.width_m > needed,
+                "terrain.channel.width_m",
+                fmt_f(c.width_m),
+                format!("must be greater than the snake's diameter 2 x snake.link_radius_m = {}", fmt_f(needed)),
+            )?;
+        }
+
+        let sl = &t.slope;
+        finite("terrain.slope.angle_deg", sl.angle_deg)?;
+        ensure(
+            (0.0..90.0).contains(&sl.angle_deg),
+            "terrain.slope.angle_deg",
+            fmt_f(sl.angle_deg),
+            "must be at least 0 (0 = no slope) and less than 90",
+        )?;
+        all_finite("terrain.slope.start_m", &sl.start_m)?;
+        finite("terrain.slope.direction_deg", sl.direction_deg)?;
+        positive("terrain.slope.length_m", sl.length_m)?;
+        positive("terrain.slope.width_m", sl.width_m)?;
+
+        let h = &t.heightfield;
+        all_finite("terrain.heightfield.center_m", &h.center_m)?;
+        positive("terrain.heightfield.size_x_m", h.size_x_m)?;
+        positive("terrain.heightfield.size_y_m", h.size_y_m)?;
+        positive("terrain.heightfield.height_m", h.height_m)?;
+        positive("terrain.heightfield.base_m", h.base_m)?;
+
+        let m = &t.mesh_terrain;
+        all_finite("terrain.mesh_terrain.position_m", &m.position_m)?;
+        positive("terrain.mesh_terrain.scale", m.scale)?;
+        positive("terrain.mesh_terrain.resolution_m", m.resolution_m)?;
+        positive("terrain.mesh_terrain.base_m", m.base_m)
     }
 
     fn validate_recording(&self) -> Check {

@@ -56,6 +56,8 @@
 //! checked by `Config::validate`; here only what would make the text invalid or the code panic is
 //! rechecked.
 
+pub mod features;
+pub mod files;
 mod geometry;
 pub mod names;
 mod snake;
@@ -92,7 +94,44 @@ pub struct GeneratedModel {
     pub obstacles: Vec<Cylinder>,
     /// Starting angle of each joint (index `j - 1` for joint `j`), rad; also in the `initial` key.
     pub initial_joint_angles_rad: Vec<f64>,
+    /// The same model as separate files joined with `<include>` (see [`SceneFiles`]).
+    pub files: SceneFiles,
+    /// The terrain features beyond `terrain.kind` (pegs, walls, meshes, slope, heightfields).
+    pub features: features::Features,
 }
+
+/// The model split into reusable files, written beside `model.xml` into every run folder:
+///
+/// - `scene.xml`: compiler, options, defaults, sky and light; `<include file="terrain.xml"/>`,
+///   `<include file="robot.xml"/>`; the contact pairs between robot and floor; the `initial`
+///   keyframe (it spans the whole model's `qpos`).
+/// - `terrain.xml`: the floor, the obstacles, the features and their assets (heightfield data
+///   and meshes written inline), and `<include file="user_terrain.xml"/>` when
+///   `terrain.include_mjcf` is set.
+/// - `robot.xml`: the snake's bodies, actuators and sensors (absent with a user's robot, which
+///   is included as it is).
+///
+/// Included files must have a `<mujoco>` root whose children MuJoCo merges into the including
+/// file; file references inside them are resolved from the main file's folder. `scene.xml`
+/// compiles to the same model as `model.xml` (`tests/terrain.rs` checks it).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SceneFiles {
+    /// `(file name, text)` of `scene.xml`, `terrain.xml` and (generated snake) `robot.xml`.
+    pub texts: Vec<(String, String)>,
+    /// Files copied into the run folder: the source images and meshes (for the record), the
+    /// third-party terrain and its assets (needed to compile).
+    pub copies: Vec<features::FileCopy>,
+    /// Whether `model.xml` includes other files, so that it must be compiled from a folder
+    /// holding them (a third-party terrain), not from a string.
+    pub model_needs_files: bool,
+}
+
+/// Scene, terrain and robot file names.
+pub const SCENE_FILE: &str = "scene.xml";
+/// See [`SCENE_FILE`].
+pub const TERRAIN_FILE: &str = "terrain.xml";
+/// See [`SCENE_FILE`].
+pub const ROBOT_FILE: &str = "robot.xml";
 
 /// Why a model could not be generated.
 #[derive(thiserror::Error, Debug)]
@@ -121,9 +160,12 @@ pub fn generate(cfg: &Config) -> Result<GeneratedModel, ModelError> {
     check_above_floor(cfg, &segments)?;
     let placed = terrain::place_obstacles(cfg, &segments)?;
     check_obstacles_clear(cfg, &segments, &placed)?;
-    let obstacles: Vec<Cylinder> = placed.into_iter().map(|p| p.cylinder).collect();
-    let xml = write_xml(cfg, Body::Snake(&angles), &obstacles)?;
-    Ok(GeneratedModel { xml, obstacles, initial_joint_angles_rad: angles })
+    let mut obstacles: Vec<Cylinder> = placed.into_iter().map(|p| p.cylinder).collect();
+    let overlap = |c: &Cylinder| cylinder_overlap(cfg, &segments, c);
+    let features = features::build(cfg, obstacles.len(), &overlap, &segments)?;
+    obstacles.extend(features.pegs.iter().cloned());
+    let (xml, files) = write_xml(cfg, Body::Snake(&angles), &obstacles, &features)?;
+    Ok(GeneratedModel { xml, obstacles, initial_joint_angles_rad: angles, files, features })
 }
 
 /// A scene for a user's robot: the options, floor and obstacles of `cfg`, with the robot's MJCF
@@ -161,9 +203,12 @@ pub fn scene_with_robot(robot_file: &str, cfg: &Config) -> Result<GeneratedModel
     }
     let segments = link_axis_segments_m(cfg, &[]);
     let placed = terrain::place_obstacles(cfg, &segments)?;
-    let obstacles: Vec<Cylinder> = placed.into_iter().map(|p| p.cylinder).collect();
-    let xml = write_xml(cfg, Body::Include(robot_file), &obstacles)?;
-    Ok(GeneratedModel { xml, obstacles, initial_joint_angles_rad: Vec::new() })
+    let mut obstacles: Vec<Cylinder> = placed.into_iter().map(|p| p.cylinder).collect();
+    // The robot's shape is unknown: features are not checked against it.
+    let features = features::build(cfg, obstacles.len(), &|_| None, &[])?;
+    obstacles.extend(features.pegs.iter().cloned());
+    let (xml, files) = write_xml(cfg, Body::Include(robot_file), &obstacles, &features)?;
+    Ok(GeneratedModel { xml, obstacles, initial_joint_angles_rad: Vec::new(), files, features })
 }
 
 /// Starting joint angles (index `j - 1` for joint `j`), rad: zero, except with
@@ -284,7 +329,7 @@ fn check_above_floor(cfg: &Config, segments: &[[V3; 2]]) -> Result<(), ConfigErr
 }
 
 /// Capsule core (segment whose r-neighbourhood is the capsule) of a link axis segment.
-fn capsule_core(seg: [V3; 2], r: f64) -> [V3; 2] {
+pub(crate) fn capsule_core(seg: [V3; 2], r: f64) -> [V3; 2] {
     let d = geometry::sub(seg[1], seg[0]);
     let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     if len <= 2.0 * r || len == 0.0 {
@@ -295,34 +340,42 @@ fn capsule_core(seg: [V3; 2], r: f64) -> [V3; 2] {
     [geometry::add(seg[0], u), geometry::sub(seg[1], u)]
 }
 
+/// The first link of the starting snake (axis `segments`) that the vertical cylinder `c`
+/// overlaps (the real capsule seen from above, where the link's height range meets the
+/// cylinder's), with the xy-distance from the cylinder's axis to the link's capsule core.
+pub(crate) fn cylinder_overlap(cfg: &Config, segments: &[[V3; 2]], c: &Cylinder) -> Option<(usize, f64)> {
+    let r = cfg.snake.link_radius_m;
+    segments.iter().enumerate().find_map(|(i, seg)| {
+        let core = capsule_core(*seg, r);
+        let (zlo, zhi) = (core[0][2].min(core[1][2]) - r, core[0][2].max(core[1][2]) + r);
+        if zlo >= c.height_m || zhi <= 0.0 {
+            return None; // the link passes above the cylinder
+        }
+        let dist = dist_xy_point_segment(c.center_m, core[0], core[1]);
+        (dist < r + c.radius_m).then_some((i, dist))
+    })
+}
+
 fn check_obstacles_clear(cfg: &Config, segments: &[[V3; 2]], placed: &[terrain::Placed]) -> Result<(), ConfigError> {
     let r = cfg.snake.link_radius_m;
     for p in placed {
         let c = &p.cylinder;
-        for (i, seg) in segments.iter().enumerate() {
-            let core = capsule_core(*seg, r);
-            let (zlo, zhi) = (core[0][2].min(core[1][2]) - r, core[0][2].max(core[1][2]) + r);
-            if zlo >= c.height_m || zhi <= 0.0 {
-                continue; // the link passes above the cylinder
-            }
-            let dist = dist_xy_point_segment(c.center_m, core[0], core[1]);
-            if dist < r + c.radius_m {
-                return Err(ConfigError::invalid(
-                    p.key,
-                    &p.value,
-                    format!(
-                        "{} (centre [{}, {}], radius {} m) would overlap {} of the snake at its starting pose: \
-                         its centre is {dist} m from the link, needs at least {} m; move the obstacle clear of \
-                         the snake",
-                        c.name,
-                        c.center_m[0],
-                        c.center_m[1],
-                        c.radius_m,
-                        names::link_body(i),
-                        r + c.radius_m
-                    ),
-                ));
-            }
+        if let Some((i, dist)) = cylinder_overlap(cfg, segments, c) {
+            return Err(ConfigError::invalid(
+                p.key,
+                &p.value,
+                format!(
+                    "{} (centre [{}, {}], radius {} m) would overlap {} of the snake at its starting pose: \
+                     its centre is {dist} m from the link, needs at least {} m; move the obstacle clear of \
+                     the snake",
+                    c.name,
+                    c.center_m[0],
+                    c.center_m[1],
+                    c.radius_m,
+                    names::link_body(i),
+                    r + c.radius_m
+                ),
+            ));
         }
     }
     Ok(())
@@ -356,22 +409,46 @@ enum Body<'a> {
     Include(&'a str),
 }
 
-fn write_xml(cfg: &Config, body: Body<'_>, obstacles: &[Cylinder]) -> Result<String, fmt::Error> {
+/// The pieces of the model, put together as `model.xml` (one file) and as
+/// `scene.xml` + `terrain.xml` + `robot.xml` (see [`SceneFiles`]).
+#[derive(Default)]
+struct Pieces {
+    /// `<compiler>`, `<option>`, `<default>` (scene).
+    header: String,
+    /// Sky texture and floor material (scene).
+    scene_assets: String,
+    /// The light (scene world body).
+    light: String,
+    /// Heightfield and mesh assets (terrain).
+    terrain_assets: String,
+    /// Floor, obstacles and features (terrain world body).
+    terrain_geoms: String,
+    /// Snake bodies (robot world body).
+    robot_bodies: String,
+    /// Actuators and sensors (robot).
+    robot_rest: String,
+    /// `<contact>` pairs between links and floor (scene).
+    pairs: String,
+    /// `<keyframe>` (scene).
+    keyframe: String,
+}
+
+fn write_xml(
+    cfg: &Config,
+    body: Body<'_>,
+    obstacles: &[Cylinder],
+    feats: &features::Features,
+) -> Result<(String, SceneFiles), fmt::Error> {
     let n = fmt_num;
-    let mut out = String::with_capacity(4096 + 2048 * cfg.snake.n_links);
+    let mut p = Pieces::default();
     let cone = match cfg.physics.friction_cone {
         FrictionCone::Elliptic => "elliptic",
         FrictionCone::Pyramidal => "pyramidal",
     };
     let solref = format!("{} {}", n(cfg.physics.contact_time_constant_secs), n(cfg.physics.contact_damping_ratio));
-    out.push_str("<mujoco model=\"simserpent\">\n");
-    writeln!(out, "  <!-- Generated by SimSerpent {} from the resolved configuration. -->", env!("CARGO_PKG_VERSION"))?;
-    if let Body::Include(file) = body {
-        writeln!(out, "  <include file=\"{}\"/>", xml_escape(file))?;
-    }
-    out.push_str("  <compiler angle=\"radian\" autolimits=\"true\"/>\n");
+    p.header.push_str("  <compiler angle=\"radian\" autolimits=\"true\"/>\n");
     writeln!(
-        out,
+        p.header,
         "  <option timestep=\"{}\" integrator=\"{}\" gravity=\"{}\" cone=\"{cone}\" iterations=\"{}\"/>",
         n(cfg.general.timestep_secs),
         cfg.general.integrator.mjcf_name(),
@@ -381,20 +458,17 @@ fn write_xml(cfg: &Config, body: Body<'_>, obstacles: &[Cylinder]) -> Result<Str
     // With a user's robot its own defaults stay in force; floor and obstacles get the solref directly.
     let env_solref = match body {
         Body::Snake(_) => {
-            writeln!(out, "  <default>\n    <geom solref=\"{solref}\"/>\n  </default>")?;
+            writeln!(p.header, "  <default>\n    <geom solref=\"{solref}\"/>\n  </default>")?;
             String::new()
         }
         Body::Include(_) => format!(" solref=\"{solref}\""),
     };
-    out.push_str(concat!(
-        "  <asset>\n",
+    p.scene_assets.push_str(concat!(
         "    <texture name=\"skybox\" type=\"skybox\" builtin=\"gradient\" rgb1=\"1 1 1\" rgb2=\"0 0 0\" width=\"100\" height=\"100\"/>\n",
         "    <texture name=\"texplane\" type=\"2d\" builtin=\"checker\" rgb1=\"0 0 0\" rgb2=\"0.8 0.8 0.8\" width=\"100\" height=\"100\"/>\n",
         "    <material name=\"MatPlane\" texture=\"texplane\" texuniform=\"true\" texrepeat=\"2 2\" reflectance=\"0.5\" shininess=\"1\" specular=\"1\"/>\n",
-        "  </asset>\n",
-        "  <worldbody>\n",
-        "    <light name=\"light\" directional=\"true\" pos=\"0 0 1.3\" dir=\"0 0 -1.3\" diffuse=\"1 1 1\" specular=\"0.1 0.1 0.1\" cutoff=\"100\" exponent=\"1\"/>\n",
     ));
+    p.light.push_str("    <light name=\"light\" directional=\"true\" pos=\"0 0 1.3\" dir=\"0 0 -1.3\" diffuse=\"1 1 1\" specular=\"0.1 0.1 0.1\" cutoff=\"100\" exponent=\"1\"/>\n");
     let env_attrs = |friction: [f64; 3]| {
         format!(
             "contype=\"{}\" conaffinity=\"{}\" priority=\"1\" friction=\"{}\" condim=\"{}\"{env_solref}",
@@ -423,19 +497,26 @@ fn write_xml(cfg: &Config, body: Body<'_>, obstacles: &[Cylinder]) -> Result<Str
         ),
         _ => env_attrs(cfg.snake.ground_friction),
     };
+    // Ground-like terrain surfaces: isotropic ground friction through the default collision
+    // filter (no pairs: a capsule-hfield or capsule-box contact frame does not follow the link).
+    let ground_attrs = match cfg.ground.model {
+        GroundModel::Viscous => env_attrs([0.0; 3]),
+        _ => env_attrs(cfg.snake.ground_friction),
+    };
     writeln!(
-        out,
+        p.terrain_geoms,
         "    <geom name=\"{}\" type=\"plane\" pos=\"0 0 0\" size=\"{} {} 0.1\" material=\"MatPlane\" {floor_attrs}/>",
         names::FLOOR,
         n(fs),
         n(fs),
     )?;
     if matches!(body, Body::Snake(_)) {
-        surfaces::write_tiles(&mut out, cfg)?;
+        surfaces::write_tiles(&mut p.terrain_geoms, cfg)?;
     }
-    for c in obstacles {
+    let kind_cylinders = obstacles.len() - feats.pegs.len();
+    for c in &obstacles[..kind_cylinders] {
         writeln!(
-            out,
+            p.terrain_geoms,
             "    <geom name=\"{}\" type=\"cylinder\" pos=\"{} {} {}\" size=\"{} {}\" rgba=\"0.6 0.6 0.6 1\" {}/>",
             c.name,
             n(c.center_m[0]),
@@ -446,44 +527,119 @@ fn write_xml(cfg: &Config, body: Body<'_>, obstacles: &[Cylinder]) -> Result<Str
             env_attrs(cfg.terrain.obstacle_friction),
         )?;
     }
-    match body {
-        Body::Snake(angles) => {
-            snake::write_bodies(&mut out, cfg, 2)?;
-            out.push_str("  </worldbody>\n");
-            if snake_pairs {
-                // One pair per link: MuJoCo aligns a capsule-plane contact frame's first tangent with
-                // the capsule axis, so friction = "axial lateral ..." is anisotropic along the link.
-                let g = &cfg.ground;
-                // Isotropic (only with surfaces): the floor's own coefficients, torsional and
-                // rolling included, as the geom friction would give them.
-                let (friction, condim) = match g.model {
-                    GroundModel::Isotropic => {
-                        let [s, t, r] = cfg.snake.ground_friction;
-                        ([s, s, t, r, r], snake::condim(cfg.snake.ground_friction))
-                    }
-                    _ => ([g.axial_friction, g.lateral_friction, 0.0, 0.0, 0.0], 3),
-                };
-                out.push_str("  <contact>\n");
-                for i in 0..cfg.snake.n_links {
-                    writeln!(
-                        out,
-                        "    <pair name=\"{}\" geom1=\"{}\" geom2=\"{}\" condim=\"{condim}\" friction=\"{}\" solref=\"{solref}\"/>",
-                        names::ground_pair(i),
-                        names::FLOOR,
-                        names::link_geom(i),
-                        Nums(&friction),
-                    )?;
+    features::write_geoms(&mut p.terrain_geoms, feats, &env_attrs(cfg.terrain.obstacle_friction), &ground_attrs)?;
+    features::write_assets(&mut p.terrain_assets, feats)?;
+    if let Body::Snake(angles) = body {
+        snake::write_bodies(&mut p.robot_bodies, cfg, 2)?;
+        if snake_pairs {
+            // One pair per link: MuJoCo aligns a capsule-plane contact frame's first tangent with
+            // the capsule axis, so friction = "axial lateral ..." is anisotropic along the link.
+            let g = &cfg.ground;
+            // Isotropic (only with surfaces): the floor's own coefficients, torsional and
+            // rolling included, as the geom friction would give them.
+            let (friction, condim) = match g.model {
+                GroundModel::Isotropic => {
+                    let [s, t, r] = cfg.snake.ground_friction;
+                    ([s, s, t, r, r], snake::condim(cfg.snake.ground_friction))
                 }
-                out.push_str("  </contact>\n");
+                _ => ([g.axial_friction, g.lateral_friction, 0.0, 0.0, 0.0], 3),
+            };
+            p.pairs.push_str("  <contact>\n");
+            for i in 0..cfg.snake.n_links {
+                writeln!(
+                    p.pairs,
+                    "    <pair name=\"{}\" geom1=\"{}\" geom2=\"{}\" condim=\"{condim}\" friction=\"{}\" solref=\"{solref}\"/>",
+                    names::ground_pair(i),
+                    names::FLOOR,
+                    names::link_geom(i),
+                    Nums(&friction),
+                )?;
             }
-            snake::write_actuators(&mut out, cfg)?;
-            snake::write_sensors(&mut out, cfg)?;
-            snake::write_keyframe(&mut out, cfg, angles)?;
+            p.pairs.push_str("  </contact>\n");
         }
-        Body::Include(_) => out.push_str("  </worldbody>\n"),
+        snake::write_actuators(&mut p.robot_rest, cfg)?;
+        snake::write_sensors(&mut p.robot_rest, cfg)?;
+        snake::write_keyframe(&mut p.keyframe, cfg, angles)?;
     }
-    out.push_str("</mujoco>\n");
-    Ok(out)
+    let robot_include = match body {
+        Body::Include(file) => Some(file),
+        Body::Snake(_) => None,
+    };
+    let user = feats.user_terrain.as_deref();
+    let version = env!("CARGO_PKG_VERSION");
+
+    // model.xml: everything in one file (only a third-party terrain and a user's robot are included).
+    let mut model = String::with_capacity(4096 + 2048 * cfg.snake.n_links + p.terrain_assets.len());
+    model.push_str("<mujoco model=\"simserpent\">\n");
+    writeln!(model, "  <!-- Generated by SimSerpent {version} from the resolved configuration. -->")?;
+    if let Some(file) = robot_include {
+        writeln!(model, "  <include file=\"{}\"/>", xml_escape(file))?;
+    }
+    model.push_str(&p.header);
+    writeln!(model, "  <asset>\n{}{}  </asset>", p.scene_assets, p.terrain_assets)?;
+    writeln!(model, "  <worldbody>\n{}{}  </worldbody>", p.light, p.terrain_geoms)?;
+    if let Some(file) = user {
+        writeln!(model, "  <include file=\"{}\"/>", xml_escape(file))?;
+    }
+    if !p.robot_bodies.is_empty() {
+        writeln!(model, "  <worldbody>\n{}  </worldbody>", p.robot_bodies)?;
+    }
+    model.push_str(&p.pairs);
+    model.push_str(&p.robot_rest);
+    model.push_str(&p.keyframe);
+    model.push_str("</mujoco>\n");
+
+    // terrain.xml
+    let mut terrain = String::new();
+    terrain.push_str("<mujoco model=\"simserpent-terrain\">\n");
+    writeln!(
+        terrain,
+        "  <!-- Generated by SimSerpent {version}: floor, obstacles and terrain features. Included by {SCENE_FILE}; \
+         reusable with another robot (links collide with geoms of conaffinity 1). -->"
+    )?;
+    if !p.terrain_assets.is_empty() {
+        writeln!(terrain, "  <asset>\n{}  </asset>", p.terrain_assets)?;
+    }
+    writeln!(terrain, "  <worldbody>\n{}  </worldbody>", p.terrain_geoms)?;
+    if let Some(file) = user {
+        writeln!(terrain, "  <include file=\"{}\"/>", xml_escape(file))?;
+    }
+    terrain.push_str("</mujoco>\n");
+
+    // scene.xml
+    let mut scene = String::new();
+    scene.push_str("<mujoco model=\"simserpent\">\n");
+    writeln!(scene, "  <!-- Generated by SimSerpent {version}: the scene joins {TERRAIN_FILE} and the robot. -->")?;
+    if let Some(file) = robot_include {
+        writeln!(scene, "  <include file=\"{}\"/>", xml_escape(file))?;
+    }
+    scene.push_str(&p.header);
+    writeln!(scene, "  <asset>\n{}  </asset>", p.scene_assets)?;
+    writeln!(scene, "  <worldbody>\n{}  </worldbody>", p.light)?;
+    writeln!(scene, "  <include file=\"{TERRAIN_FILE}\"/>")?;
+    if robot_include.is_none() {
+        writeln!(scene, "  <include file=\"{ROBOT_FILE}\"/>")?;
+    }
+    scene.push_str(&p.pairs);
+    scene.push_str(&p.keyframe);
+    scene.push_str("</mujoco>\n");
+
+    let mut texts = vec![(SCENE_FILE.to_string(), scene), (TERRAIN_FILE.to_string(), terrain)];
+    if robot_include.is_none() {
+        let mut robot = String::new();
+        robot.push_str("<mujoco model=\"simserpent-robot\">\n");
+        writeln!(
+            robot,
+            "  <!-- Generated by SimSerpent {version}: the snake's bodies, actuators and sensors. Included by {SCENE_FILE}, \
+             which holds the contact defaults, the link-floor pairs and the starting keyframe. -->"
+        )?;
+        writeln!(robot, "  <worldbody>\n{}  </worldbody>", p.robot_bodies)?;
+        robot.push_str(&p.robot_rest);
+        robot.push_str("</mujoco>\n");
+        texts.push((ROBOT_FILE.to_string(), robot));
+    }
+    let files = SceneFiles { texts, copies: feats.copies.clone(), model_needs_files: user.is_some() };
+    Ok((model, files))
 }
 
 fn xml_escape(s: &str) -> String {

@@ -15,7 +15,9 @@
 //! | free joint of the head | `head_free` | [`HEAD_FREE_JOINT`] |
 //! | floor plane | `floor` | [`FLOOR`] |
 //! | keyframe with the starting pose | `initial` | [`INITIAL_KEYFRAME`] |
-//! | obstacle `k` (cylinder geom in the world body) | `obstacle_00` | [`obstacle`] |
+//! | obstacle `k` (geom in the world body: cylinders of `terrain.kind`, then pegs, walls, channel walls, mesh obstacles) | `obstacle_00` | [`obstacle`] |
+//! | mesh asset of a mesh obstacle | `obstacle_05_mesh` | [`obstacle_mesh`] |
+//! | ground-like terrain surfaces (counted as floor): slope box, heightfield from a PNG, rasterised mesh terrain (geom and hfield asset) | `terrain_slope`, `terrain_heightfield`, `terrain_mesh` | [`TERRAIN_SLOPE`], [`TERRAIN_HEIGHTFIELD`], [`TERRAIN_MESH`], [`is_ground`] |
 //! | visual tile of floor surface `k` (`ground.surfaces[k]`; no collisions) | `surface_00` | [`surface`] |
 //! | sensors | `link_00_vel`, `link_00_acc`, `link_00_gyro`, `link_00_pos`, `link_00_quat`, `joint_01_force`, `joint_01_torque`, `joint_01_angle`, `joint_01_angvel` | [`sensor`], [`SensorKind`] |
 //!
@@ -33,6 +35,24 @@ use crate::config::ControlMethod;
 pub const HEAD_FREE_JOINT: &str = "head_free";
 /// Name of the floor plane geom.
 pub const FLOOR: &str = "floor";
+/// The slope's box geom (`[terrain.slope]`).
+pub const TERRAIN_SLOPE: &str = "terrain_slope";
+/// The heightfield from a PNG image (`[terrain.heightfield]`): geom and hfield asset.
+pub const TERRAIN_HEIGHTFIELD: &str = "terrain_heightfield";
+/// The rasterised mesh terrain (`[terrain.mesh_terrain]`): geom and hfield asset.
+pub const TERRAIN_MESH: &str = "terrain_mesh";
+
+/// Whether a geom carries the snake like the floor: the floor and the ground-like terrain
+/// surfaces (`terrain_*`). Contact forces with them count as floor forces.
+pub fn is_ground(geom_name: &str) -> bool {
+    geom_name == FLOOR || geom_name.starts_with("terrain_")
+}
+
+/// Mesh asset of the mesh obstacle geom `obstacle`: `obstacle_05_mesh`.
+pub fn obstacle_mesh(obstacle: &str) -> String {
+    format!("{obstacle}_mesh")
+}
+
 /// Name of the keyframe that holds the starting pose (head pose and initial joint angles).
 pub const INITIAL_KEYFRAME: &str = "initial";
 

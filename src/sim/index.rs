@@ -41,7 +41,8 @@ pub struct JointIndex {
 /// What a geom is, for splitting contact forces into ground reaction, obstacle and link–link.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum GeomClass {
-    /// The floor plane (`model::names::FLOOR`).
+    /// The floor plane (`model::names::FLOOR`) and the ground-like terrain surfaces (`terrain_*`:
+    /// slope, heightfield, mesh terrain; see `model::names::is_ground`).
     Floor,
     /// An obstacle (a geom named `obstacle_*`).
     Obstacle,
@@ -195,7 +196,7 @@ impl Index {
             .zip(&geom_link)
             .map(|(name, link): (&String, &Option<usize>)| match link {
                 Some(i) => GeomClass::Link(*i),
-                None if name == names::FLOOR => GeomClass::Floor,
+                None if names::is_ground(name) => GeomClass::Floor,
                 None if name.starts_with("obstacle_") => GeomClass::Obstacle,
                 None => GeomClass::Other,
             })

@@ -53,6 +53,50 @@ pub enum SimError {
     },
 }
 
+/// A fresh scratch folder in the system's temp dir.
+fn scratch_dir(what: &str) -> Result<std::path::PathBuf, SimError> {
+    static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let k = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("simserpent-{what}-{}-{k}", std::process::id()));
+    std::fs::create_dir_all(&dir)
+        .map_err(|e| SimError::Model(format!("cannot create scratch folder {} ({e})", dir.display())))?;
+    Ok(dir)
+}
+
+/// The third-party terrain's source file among `copies`, for error messages.
+fn user_terrain_source(copies: &[model::features::FileCopy]) -> String {
+    copies
+        .iter()
+        .find(|c| c.dest == model::features::USER_TERRAIN_FILE)
+        .map_or_else(String::new, |c| c.source.display().to_string())
+}
+
+/// Writes `model.xml`, the texts and the copies into `dir` (as in a run folder); returns the
+/// path of `model.xml`.
+pub fn write_model_folder(
+    dir: &Path,
+    model_xml: &str,
+    texts: &[(String, String)],
+    copies: &[model::features::FileCopy],
+) -> Result<std::path::PathBuf, SimError> {
+    let io = |path: &Path, e: std::io::Error| SimError::Model(format!("cannot write {} ({e})", path.display()));
+    for c in copies {
+        let dest = dir.join(&c.dest);
+        if let Some(parent) = dest.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| io(parent, e))?;
+        }
+        std::fs::copy(&c.source, &dest)
+            .map_err(|e| SimError::Model(format!("cannot copy {} to {} ({e})", c.source.display(), dest.display())))?;
+    }
+    for (name, text) in texts {
+        let path = dir.join(name);
+        std::fs::write(&path, text).map_err(|e| io(&path, e))?;
+    }
+    let path = dir.join("model.xml");
+    std::fs::write(&path, model_xml).map_err(|e| io(&path, e))?;
+    Ok(path)
+}
+
 impl From<model::ModelError> for SimError {
     fn from(e: model::ModelError) -> Self {
         match e {
@@ -74,8 +118,11 @@ pub struct World {
     pub index: Index,
     /// The MJCF the world was compiled from.
     pub mjcf: String,
-    /// Files that `mjcf` includes (name, contents), written beside it into the run folder.
+    /// Files written beside `mjcf` into the run folder (name, contents): the scene split into
+    /// `scene.xml`, `terrain.xml`, `robot.xml` (see `model::SceneFiles`), and a user's robot.
     pub included_files: Vec<(String, String)>,
+    /// Files copied into the run folder (terrain sources, a third-party terrain and its assets).
+    pub copied_files: Vec<model::features::FileCopy>,
     /// Initial joint angles (rad) the world starts from.
     pub initial_joint_angles_rad: Vec<f64>,
     /// Simulated time that `sensordata` describes (the last complete model evaluation).
@@ -91,14 +138,31 @@ impl World {
 
     /// Compiles a generated model.
     pub fn from_generated(config: &Config, generated: GeneratedModel) -> Result<Self, SimError> {
-        let model = MjModel::from_xml_string(&generated.xml)
-            .map_err(|e| SimError::Model(format!("MuJoCo rejected the generated model: {e}")))?;
+        let model = if generated.files.model_needs_files {
+            // A third-party terrain is included: compile from a folder that holds every file.
+            let scratch = scratch_dir("model")?;
+            let model = write_model_folder(&scratch, &generated.xml, &generated.files.texts, &generated.files.copies)
+                .and_then(|path| {
+                    MjModel::from_xml(&path).map_err(|e| {
+                        SimError::Model(format!(
+                            "MuJoCo rejected the model with the third-party terrain {}: {e}",
+                            user_terrain_source(&generated.files.copies)
+                        ))
+                    })
+                });
+            let _ = std::fs::remove_dir_all(&scratch);
+            model?
+        } else {
+            MjModel::from_xml_string(&generated.xml)
+                .map_err(|e| SimError::Model(format!("MuJoCo rejected the generated model: {e}")))?
+        };
         let index = Index::for_snake(&model, config.snake.n_links)?;
         let mut world = Self {
             data: MjData::new(Box::new(model)),
             index,
             mjcf: generated.xml,
-            included_files: Vec::new(),
+            included_files: generated.files.texts,
+            copied_files: generated.files.copies,
             initial_joint_angles_rad: generated.initial_joint_angles_rad,
             sensor_time_secs: 0.0,
         };
@@ -126,9 +190,10 @@ impl World {
         let robot_text = std::fs::read_to_string(&robot_mjcf)
             .map_err(|e| robot_err(format!("cannot read back {} ({e})", robot_mjcf.display())))?;
         let scene = model::scene_with_robot("robot.xml", config)?;
-        let scene_path = scratch_dir.join("model.xml");
-        std::fs::write(&scene_path, &scene.xml)
-            .map_err(|e| robot_err(format!("cannot write {} ({e})", scene_path.display())))?;
+        let mut texts = vec![("robot.xml".to_string(), robot_text)];
+        texts.extend(scene.files.texts.iter().cloned());
+        let scene_path = write_model_folder(scratch_dir, &scene.xml, &texts, &scene.files.copies)
+            .map_err(|e| robot_err(e.to_string()))?;
         let model = MjModel::from_xml(&scene_path)
             .map_err(|e| robot_err(format!("MuJoCo cannot load the robot inside the terrain ({e})")))?;
         let index = Index::for_robot(&model, config.control.method);
@@ -136,7 +201,8 @@ impl World {
         let mut world = Self {
             data: MjData::new(Box::new(model)),
             mjcf: scene.xml,
-            included_files: vec![("robot.xml".to_string(), robot_text)],
+            included_files: texts,
+            copied_files: scene.files.copies,
             initial_joint_angles_rad: vec![0.0; index.joints.len()],
             index,
             sensor_time_secs: 0.0,

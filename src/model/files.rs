@@ -1,0 +1,449 @@
+//! Terrain input files, read and checked in pure Rust (no MuJoCo): grayscale PNG heightfields,
+//! STL/OBJ meshes, and third-party MJCF terrain files.
+//!
+//! Every error names the file and, where it helps, the config key that named it, so a user
+//! never meets a panic or an anonymous "cannot load" from MuJoCo.
+
+use std::path::{Path, PathBuf};
+
+use crate::config::ConfigError;
+
+/// The largest heightfield image side (pixels).
+pub const MAX_IMAGE_SIDE_PX: u32 = 2048;
+/// The most triangles a mesh file may have.
+pub const MAX_TRIANGLES: usize = 2_000_000;
+
+fn file_err(key: &str, file: &str, allowed: impl Into<String>) -> ConfigError {
+    ConfigError::invalid(key, format!("{file:?}"), allowed)
+}
+
+fn read_bytes(key: &str, file: &str) -> Result<Vec<u8>, ConfigError> {
+    std::fs::read(file).map_err(|e| {
+        let what = match e.kind() {
+            std::io::ErrorKind::NotFound => "the file does not exist".to_string(),
+            _ => format!("the file cannot be read ({e})"),
+        };
+        file_err(key, file, format!("{what}: {file}"))
+    })
+}
+
+/// A grayscale image: `rows × cols` values in 0..=1, row 0 at the top of the image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GrayImage {
+    pub rows: usize,
+    pub cols: usize,
+    pub values: Vec<f64>,
+}
+
+/// Reads a PNG (gray, gray+alpha, RGB, RGBA or palette; 1 to 16 bits) as gray values in 0..=1:
+/// 0.299 R + 0.587 G + 0.114 B for colour images; alpha is ignored.
+///
+/// # Errors
+/// The file does not exist or cannot be read, is not a PNG, is smaller than 2 × 2 or larger than
+/// [`MAX_IMAGE_SIDE_PX`] on a side; the error names `key` and the file.
+pub fn read_gray_png(key: &str, file: &str) -> Result<GrayImage, ConfigError> {
+    let bytes = read_bytes(key, file)?;
+    let bad = |why: String| file_err(key, file, format!("{file} is not a readable PNG image ({why})"));
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(&bytes));
+    decoder.set_transformations(png::Transformations::EXPAND);
+    let mut reader = decoder.read_info().map_err(|e| bad(e.to_string()))?;
+    let (w, h) = (reader.info().width, reader.info().height);
+    if w < 2 || h < 2 || w > MAX_IMAGE_SIDE_PX || h > MAX_IMAGE_SIDE_PX {
+        return Err(file_err(
+            key,
+            file,
+            format!(
+                "{file} is {w} x {h} pixels; a heightfield image must be 2..={MAX_IMAGE_SIDE_PX} pixels on each side"
+            ),
+        ));
+    }
+    let size = reader.output_buffer_size().ok_or_else(|| bad("image too large".into()))?;
+    let mut buf = vec![0u8; size];
+    let info = reader.next_frame(&mut buf).map_err(|e| bad(e.to_string()))?;
+    let (color, depth) = (info.color_type, info.bit_depth);
+    let channels = match color {
+        png::ColorType::Grayscale => 1,
+        png::ColorType::GrayscaleAlpha => 2,
+        png::ColorType::Rgb => 3,
+        png::ColorType::Rgba => 4,
+        png::ColorType::Indexed => return Err(bad("palette image was not expanded".into())),
+    };
+    let (bytes_per, max) = match depth {
+        png::BitDepth::Sixteen => (2, 65535.0),
+        png::BitDepth::Eight => (1, 255.0),
+        other => return Err(bad(format!("unexpected bit depth {other:?} after expansion"))),
+    };
+    let sample = |k: usize| -> f64 {
+        if bytes_per == 2 { f64::from(u16::from_be_bytes([buf[2 * k], buf[2 * k + 1]])) } else { f64::from(buf[k]) }
+    };
+    let (rows, cols) = (h as usize, w as usize);
+    let line = info.line_size / bytes_per;
+    let mut values = Vec::with_capacity(rows * cols);
+    for r in 0..rows {
+        for c in 0..cols {
+            let k = r * line + c * channels;
+            let v = if channels >= 3 {
+                0.299 * sample(k) + 0.587 * sample(k + 1) + 0.114 * sample(k + 2)
+            } else {
+                sample(k)
+            };
+            values.push((v / max).clamp(0.0, 1.0));
+        }
+    }
+    Ok(GrayImage { rows, cols, values })
+}
+
+/// A triangle mesh: vertices (file units) and triangles (vertex indices).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Mesh {
+    pub vertices: Vec<[f64; 3]>,
+    pub triangles: Vec<[usize; 3]>,
+}
+
+/// Reads an STL (binary or ASCII) or OBJ (`v` and `f` lines; polygons are fanned into
+/// triangles; negative indices count from the end) file, chosen by the extension.
+///
+/// # Errors
+/// Missing or unreadable file, an extension other than `.stl`/`.obj`, a malformed file, or one
+/// without triangles; the error names `key` and the file (and the line for OBJ).
+pub fn read_mesh(key: &str, file: &str) -> Result<Mesh, ConfigError> {
+    let ext = Path::new(file).extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
+    let mesh = match ext.as_deref() {
+        Some("stl") => parse_stl(&read_bytes(key, file)?),
+        Some("obj") => parse_obj(&read_bytes(key, file)?),
+        _ => {
+            return Err(file_err(key, file, format!("{file}: a mesh file must be STL (`.stl`) or OBJ (`.obj`)")));
+        }
+    }
+    .map_err(|why| file_err(key, file, format!("{file} is not a valid mesh file: {why}")))?;
+    if mesh.triangles.is_empty() {
+        return Err(file_err(key, file, format!("{file} has no triangles")));
+    }
+    if mesh.vertices.iter().flatten().any(|x| !x.is_finite()) {
+        return Err(file_err(key, file, format!("{file} has a vertex that is not a finite number")));
+    }
+    Ok(mesh)
+}
+
+fn parse_stl(bytes: &[u8]) -> Result<Mesh, String> {
+    // Binary STL: 80-byte header, u32 count, 50 bytes per triangle. ASCII files start with
+    // "solid" but so do some binary ones: trust the size check first.
+    if bytes.len() >= 84 {
+        let n = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as usize;
+        if n > 0 && n <= MAX_TRIANGLES && bytes.len() == 84 + 50 * n {
+            let mut mesh = Mesh::default();
+            for t in 0..n {
+                let base = 84 + 50 * t + 12;
+                let mut tri = [0usize; 3];
+                for (v, slot) in tri.iter_mut().enumerate() {
+                    let mut p = [0.0; 3];
+                    for (k, x) in p.iter_mut().enumerate() {
+                        let o = base + 12 * v + 4 * k;
+                        *x = f64::from(f32::from_le_bytes([bytes[o], bytes[o + 1], bytes[o + 2], bytes[o + 3]]));
+                    }
+                    *slot = mesh.vertices.len();
+                    mesh.vertices.push(p);
+                }
+                mesh.triangles.push(tri);
+            }
+            return Ok(mesh);
+        }
+    }
+    let text = std::str::from_utf8(bytes)
+        .map_err(|_| "neither a binary STL (size does not match its triangle count) nor ASCII text".to_string())?;
+    if !text.trim_start().starts_with("solid") {
+        return Err("an ASCII STL must start with `solid` (and a binary STL's size must be 84 + 50 x triangles)".into());
+    }
+    let mut mesh = Mesh::default();
+    let mut corner: Vec<usize> = Vec::new();
+    for (no, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("vertex") => {
+                let p: Vec<f64> = words
+                    .map(str::parse)
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| format!("line {}: bad vertex", no + 1))?;
+                if p.len() != 3 {
+                    return Err(format!("line {}: a vertex needs 3 numbers", no + 1));
+                }
+                corner.push(mesh.vertices.len());
+                mesh.vertices.push([p[0], p[1], p[2]]);
+            }
+            Some("endloop") => {
+                if corner.len() != 3 {
+                    return Err(format!("line {}: a facet needs exactly 3 vertices, found {}", no + 1, corner.len()));
+                }
+                mesh.triangles.push([corner[0], corner[1], corner[2]]);
+                corner.clear();
+            }
+            _ => {}
+        }
+        if mesh.triangles.len() > MAX_TRIANGLES {
+            return Err(format!("more than {MAX_TRIANGLES} triangles"));
+        }
+    }
+    Ok(mesh)
+}
+
+fn parse_obj(bytes: &[u8]) -> Result<Mesh, String> {
+    let text = std::str::from_utf8(bytes).map_err(|_| "an OBJ file must be UTF-8 text".to_string())?;
+    let mut mesh = Mesh::default();
+    for (no, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => {
+                let p: Vec<f64> = words
+                    .take(3)
+                    .map(str::parse)
+                    .collect::<Result<_, _>>()
+                    .map_err(|_| format!("line {}: bad vertex `{line}`", no + 1))?;
+                if p.len() != 3 {
+                    return Err(format!("line {}: a vertex needs 3 numbers: `{line}`", no + 1));
+                }
+                mesh.vertices.push([p[0], p[1], p[2]]);
+            }
+            Some("f") => {
+                let mut idx = Vec::new();
+                for w in words {
+                    let first = w.split('/').next().unwrap_or("");
+                    let i: i64 = first.parse().map_err(|_| format!("line {}: bad face index `{w}`", no + 1))?;
+                    let n = mesh.vertices.len() as i64;
+                    let i = if i < 0 { n + i } else { i - 1 };
+                    if i < 0 || i >= n {
+                        return Err(format!(
+                            "line {}: face index `{w}` refers to no vertex (there are {n} so far)",
+                            no + 1
+                        ));
+                    }
+                    idx.push(i as usize);
+                }
+                if idx.len() < 3 {
+                    return Err(format!("line {}: a face needs at least 3 vertices", no + 1));
+                }
+                for k in 1..idx.len() - 1 {
+                    mesh.triangles.push([idx[0], idx[k], idx[k + 1]]);
+                }
+            }
+            _ => {}
+        }
+        if mesh.triangles.len() > MAX_TRIANGLES {
+            return Err(format!("more than {MAX_TRIANGLES} triangles"));
+        }
+    }
+    Ok(mesh)
+}
+
+/// Heights of the top surface of `vertices`/`triangles` (already in world metres) on a grid:
+/// `(rows, cols, values, x_min, x_max, y_min, y_max)`, row 0 at `y_max` (as an image), column 0
+/// at `x_min`. Each value is the highest triangle above that grid point, or the lowest vertex
+/// height where no triangle covers it.
+pub(crate) fn rasterise(mesh: &Mesh, resolution: f64) -> Result<Raster, String> {
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for v in &mesh.vertices {
+        for k in 0..3 {
+            lo[k] = lo[k].min(v[k]);
+            hi[k] = hi[k].max(v[k]);
+        }
+    }
+    let cols = ((hi[0] - lo[0]) / resolution).ceil() as usize + 1;
+    let rows = ((hi[1] - lo[1]) / resolution).ceil() as usize + 1;
+    if !(2..=4096).contains(&cols) || !(2..=4096).contains(&rows) {
+        return Err(format!(
+            "the grid would be {cols} x {rows} points (mesh {} x {} m at {resolution} m); it must be 2..=4096 on each side",
+            hi[0] - lo[0],
+            hi[1] - lo[1]
+        ));
+    }
+    let dx = (hi[0] - lo[0]) / (cols - 1) as f64;
+    let dy = (hi[1] - lo[1]) / (rows - 1) as f64;
+    let mut z = vec![f64::NEG_INFINITY; rows * cols];
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|i| mesh.vertices[i]);
+        let det = (b[1] - c[1]) * (a[0] - c[0]) + (c[0] - b[0]) * (a[1] - c[1]);
+        if det.abs() < 1e-15 {
+            continue; // vertical or degenerate: seen from above it has no area
+        }
+        let (x0, x1) = (a[0].min(b[0]).min(c[0]), a[0].max(b[0]).max(c[0]));
+        let (y0, y1) = (a[1].min(b[1]).min(c[1]), a[1].max(b[1]).max(c[1]));
+        let c0 = (((x0 - lo[0]) / dx).floor().max(0.0)) as usize;
+        let c1 = ((((x1 - lo[0]) / dx).ceil()) as usize).min(cols - 1);
+        let r0 = (((y0 - lo[1]) / dy).floor().max(0.0)) as usize;
+        let r1 = ((((y1 - lo[1]) / dy).ceil()) as usize).min(rows - 1);
+        for gy in r0..=r1 {
+            let y = lo[1] + gy as f64 * dy;
+            for gx in c0..=c1 {
+                let x = lo[0] + gx as f64 * dx;
+                let l1 = ((b[1] - c[1]) * (x - c[0]) + (c[0] - b[0]) * (y - c[1])) / det;
+                let l2 = ((c[1] - a[1]) * (x - c[0]) + (a[0] - c[0]) * (y - c[1])) / det;
+                let l3 = 1.0 - l1 - l2;
+                let eps = -1e-9;
+                if l1 >= eps && l2 >= eps && l3 >= eps {
+                    let h = l1 * a[2] + l2 * b[2] + l3 * c[2];
+                    let slot = &mut z[(rows - 1 - gy) * cols + gx];
+                    *slot = slot.max(h);
+                }
+            }
+        }
+    }
+    for v in &mut z {
+        if !v.is_finite() {
+            *v = lo[2];
+        }
+    }
+    Ok(Raster { rows, cols, z, x: [lo[0], hi[0]], y: [lo[1], hi[1]] })
+}
+
+/// A grid of heights (m), row 0 at `y[1]` (top), column 0 at `x[0]`.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Raster {
+    pub rows: usize,
+    pub cols: usize,
+    pub z: Vec<f64>,
+    pub x: [f64; 2],
+    pub y: [f64; 2],
+}
+
+/// What a third-party MJCF terrain file needs copied beside it: every relative `file=` path,
+/// resolved against the file's folder (and its compiler's meshdir/texturedir/assetdir).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MjcfAssets {
+    /// (source path, destination relative to the folder of the including scene).
+    pub copies: Vec<(PathBuf, String)>,
+}
+
+/// Checks that `file` is well-formed XML with a `<mujoco>` root, and lists the files it refers to.
+///
+/// # Errors
+/// Missing or unreadable file, malformed XML (with the position), another root element, a
+/// referenced file that does not exist, or a relative reference that leaves the file's folder
+/// (`..`), which could not be copied into the run folder.
+pub fn check_mjcf_terrain(key: &str, file: &str) -> Result<MjcfAssets, ConfigError> {
+    use quick_xml::events::Event;
+    let bytes = read_bytes(key, file)?;
+    let bad = |why: String| file_err(key, file, format!("{file} is not a usable MJCF file: {why}"));
+    let mut reader = quick_xml::Reader::from_reader(bytes.as_slice());
+    reader.config_mut().check_end_names = true;
+    let mut buf = Vec::new();
+    let mut depth = 0usize;
+    let mut root_seen = false;
+    let (mut meshdir, mut texturedir, mut assetdir) = (None::<String>, None::<String>, None::<String>);
+    let mut refs: Vec<(String, String)> = Vec::new(); // (element, file)
+    loop {
+        let event = reader
+            .read_event_into(&mut buf)
+            .map_err(|e| bad(format!("malformed XML at byte {} ({e})", reader.error_position())))?;
+        let (start, empty) = match &event {
+            Event::Start(s) => (Some(s.clone()), false),
+            Event::Empty(s) => (Some(s.clone()), true),
+            Event::End(_) => {
+                depth = depth.saturating_sub(1);
+                (None, false)
+            }
+            Event::Eof => break,
+            _ => (None, false),
+        };
+        if let Some(s) = start {
+            let name = String::from_utf8_lossy(s.name().as_ref()).into_owned();
+            if depth == 0 {
+                if root_seen || name != "mujoco" {
+                    return Err(bad(format!(
+                        "the root element must be <mujoco> (MuJoCo's rule for included files), found <{name}>"
+                    )));
+                }
+                root_seen = true;
+            }
+            for attr in s.attributes() {
+                let attr = attr.map_err(|e| bad(format!("malformed attribute in <{name}> ({e})")))?;
+                let value = attr
+                    .normalized_value(quick_xml::XmlVersion::Implicit1_0)
+                    .map_err(|e| bad(format!("bad attribute value in <{name}> ({e})")))?
+                    .into_owned();
+                match (name.as_str(), attr.key.as_ref()) {
+                    ("compiler", b"meshdir") => meshdir = Some(value),
+                    ("compiler", b"texturedir") => texturedir = Some(value),
+                    ("compiler", b"assetdir") => assetdir = Some(value),
+                    (_, b"file") => refs.push((name.clone(), value)),
+                    _ => {}
+                }
+            }
+            if !empty {
+                depth += 1;
+            }
+        }
+        buf.clear();
+    }
+    if !root_seen {
+        return Err(bad("no <mujoco> root element".into()));
+    }
+    let dir = Path::new(file).parent().unwrap_or(Path::new(""));
+    let mut copies = Vec::new();
+    for (element, reference) in refs {
+        if element == "include" {
+            return Err(bad(format!(
+                "it includes {reference:?}; a terrain file for SimSerpent must be one file (inline the include)"
+            )));
+        }
+        let prefix = match element.as_str() {
+            "texture" => texturedir.clone().or_else(|| assetdir.clone()),
+            _ => meshdir.clone().or_else(|| assetdir.clone()),
+        }
+        .unwrap_or_default();
+        let rel = Path::new(&prefix).join(&reference);
+        if rel.is_absolute() {
+            let path = rel.clone();
+            if !path.is_file() {
+                return Err(bad(format!("<{element} file={reference:?}>: {} does not exist", path.display())));
+            }
+            continue; // absolute: MuJoCo finds it where it is; not copied
+        }
+        if rel.components().any(|c| matches!(c, std::path::Component::ParentDir)) {
+            return Err(bad(format!(
+                "<{element} file={reference:?}> leaves the terrain file's folder (`..`); keep the terrain's files in \
+                 its folder or below so they can be copied into the run folder"
+            )));
+        }
+        let source = dir.join(&rel);
+        if !source.is_file() {
+            return Err(bad(format!("<{element} file={reference:?}>: {} does not exist", source.display())));
+        }
+        copies.push((source, rel.to_string_lossy().replace('\\', "/")));
+    }
+    Ok(MjcfAssets { copies })
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn obj_fans_polygons_and_rasterises_a_pyramid() {
+        let obj = b"v 0 0 0\nv 2 0 0\nv 2 2 0\nv 0 2 0\nv 1 1 1\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\nf 1 2 3 4\n";
+        let mesh = parse_obj(obj).unwrap();
+        assert_eq!(mesh.triangles.len(), 6);
+        let r = rasterise(&mesh, 0.5).unwrap();
+        assert_eq!((r.rows, r.cols), (5, 5));
+        assert!((r.z[2 * 5 + 2] - 1.0).abs() < 1e-12, "apex at the centre");
+        assert!((r.z[2 * 5 + 1] - 0.5).abs() < 1e-12, "half way up");
+        assert!(r.z[0].abs() < 1e-12, "corner at the base");
+    }
+
+    #[test]
+    fn stl_ascii_and_binary_agree() {
+        let ascii = "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n";
+        let a = parse_stl(ascii.as_bytes()).unwrap();
+        let mut bin = vec![0u8; 80];
+        bin.extend_from_slice(&1u32.to_le_bytes());
+        bin.extend_from_slice(&[0u8; 12]);
+        for v in [[0f32, 0., 0.], [1., 0., 0.], [0., 1., 0.]] {
+            for x in v {
+                bin.extend_from_slice(&x.to_le_bytes());
+            }
+        }
+        bin.extend_from_slice(&[0u8; 2]);
+        assert_eq!(parse_stl(&bin).unwrap(), a);
+        assert!(parse_stl(b"garbage").is_err());
+        assert!(parse_obj(b"v 0 0 0\nf 1 2 3\n").unwrap_err().contains("line 2"));
+    }
+}
