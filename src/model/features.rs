@@ -323,14 +323,12 @@ pub(crate) fn build(
     let h = &t.heightfield;
     if !h.file.is_empty() {
         let img = files::read_gray_png("terrain.heightfield.file", &h.file)?;
-        let lo = img.values.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = img.values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         f.hfields.push(hfield(
             names::TERRAIN_HEIGHTFIELD,
             img.rows,
             img.cols,
             &img.values,
-            (lo, hi),
+            min_max(&img.values),
             h.height_m,
             [h.size_x_m / 2.0, h.size_y_m / 2.0],
             h.base_m,
@@ -355,14 +353,12 @@ pub(crate) fn build(
         let raster = files::rasterise(&mesh, mt.resolution_m).map_err(|why| {
             ConfigError::invalid("terrain.mesh_terrain.resolution_m", n(mt.resolution_m), format!("{}: {why}", mt.file))
         })?;
-        let lo = raster.z.iter().copied().fold(f64::INFINITY, f64::min);
-        let hi = raster.z.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         f.hfields.push(hfield(
             names::TERRAIN_MESH,
             raster.rows,
             raster.cols,
             &raster.z,
-            (lo, hi),
+            min_max(&raster.z),
             1.0,
             [(raster.x[1] - raster.x[0]) / 2.0, (raster.y[1] - raster.y[0]) / 2.0],
             mt.base_m,
@@ -532,18 +528,28 @@ fn write_unit(out: &mut String, v: f64) -> std::fmt::Result {
 
 /// Writes the geoms of the features into `<worldbody>`, indented by 4. `obstacle` and `ground`
 /// are the contact attributes of obstacles and of ground-like surfaces.
+/// The smallest and the largest value.
+fn min_max(values: &[f64]) -> (f64, f64) {
+    values.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(*v), hi.max(*v)))
+}
+
+/// One upright cylinder obstacle standing on the floor (`attrs`: its contact attributes).
+pub(crate) fn write_cylinder(out: &mut String, c: &Cylinder, attrs: &str) -> std::fmt::Result {
+    writeln!(
+        out,
+        "    <geom name=\"{}\" type=\"cylinder\" pos=\"{} {} {}\" size=\"{} {}\" rgba=\"0.6 0.6 0.6 1\" {attrs}/>",
+        c.name,
+        n(c.center_m[0]),
+        n(c.center_m[1]),
+        n(c.height_m / 2.0),
+        n(c.radius_m),
+        n(c.height_m / 2.0),
+    )
+}
+
 pub(crate) fn write_geoms(out: &mut String, f: &Features, obstacle: &str, ground: &str) -> std::fmt::Result {
     for c in &f.pegs {
-        writeln!(
-            out,
-            "    <geom name=\"{}\" type=\"cylinder\" pos=\"{} {} {}\" size=\"{} {}\" rgba=\"0.6 0.6 0.6 1\" {obstacle}/>",
-            c.name,
-            n(c.center_m[0]),
-            n(c.center_m[1]),
-            n(c.height_m / 2.0),
-            n(c.radius_m),
-            n(c.height_m / 2.0),
-        )?;
+        write_cylinder(out, c, obstacle)?;
     }
     let boxes = f
         .walls

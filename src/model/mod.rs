@@ -514,20 +514,11 @@ fn write_xml(
         surfaces::write_tiles(&mut p.terrain_geoms, cfg)?;
     }
     let kind_cylinders = obstacles.len() - feats.pegs.len();
+    let obstacle_attrs = env_attrs(cfg.terrain.obstacle_friction);
     for c in &obstacles[..kind_cylinders] {
-        writeln!(
-            p.terrain_geoms,
-            "    <geom name=\"{}\" type=\"cylinder\" pos=\"{} {} {}\" size=\"{} {}\" rgba=\"0.6 0.6 0.6 1\" {}/>",
-            c.name,
-            n(c.center_m[0]),
-            n(c.center_m[1]),
-            n(c.height_m / 2.0),
-            n(c.radius_m),
-            n(c.height_m / 2.0),
-            env_attrs(cfg.terrain.obstacle_friction),
-        )?;
+        features::write_cylinder(&mut p.terrain_geoms, c, &obstacle_attrs)?;
     }
-    features::write_geoms(&mut p.terrain_geoms, feats, &env_attrs(cfg.terrain.obstacle_friction), &ground_attrs)?;
+    features::write_geoms(&mut p.terrain_geoms, feats, &obstacle_attrs, &ground_attrs)?;
     features::write_assets(&mut p.terrain_assets, feats)?;
     if let Body::Snake(angles) = body {
         snake::write_bodies(&mut p.robot_bodies, cfg, 2)?;
