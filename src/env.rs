@@ -280,8 +280,8 @@ impl EnvCore {
                 break;
             }
             let (qfrc, qvel) = (self.world.data.qfrc_actuator(), self.world.data.qvel());
-            energy_j += self.world.index.joints.iter().map(|j| (qfrc[j.dof_adr] * qvel[j.dof_adr]).abs()).sum::<f64>()
-                * dt;
+            energy_j +=
+                self.world.index.joints.iter().map(|j| (qfrc[j.dof_adr] * qvel[j.dof_adr]).abs()).sum::<f64>() * dt;
         }
         self.steps += 1;
         let e = &self.config.env;
