@@ -434,6 +434,8 @@ impl VecEnv {
             }
         }
         let nenv = n as u64;
+        // One contiguous block of environments per thread: the fewest rayon tasks.
+        let min_len = n.div_ceil(self.pool.current_num_threads().max(1));
         let Self {
             envs,
             pool,
@@ -452,6 +454,7 @@ impl VecEnv {
         py.detach(|| {
             pool.install(|| {
                 envs.par_iter_mut()
+                    .with_min_len(min_len)
                     .zip(obs.par_chunks_mut(no))
                     .zip(actions.par_chunks(na))
                     .zip(rewards.par_iter_mut())
