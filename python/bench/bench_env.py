@@ -120,10 +120,15 @@ class PyMujocoEnv:
         return self._obs(), reward, terminated, truncated, {"energy_j": energy}
 
 
+#: CPU use (process CPU time / wall time, %) of the latest `timed` call.
+LAST_CPU_PERCENT = [0.0]
+
+
 def timed(step, reset, seconds: float) -> tuple[float, int]:
     reset()
     n = 0
     t0 = time.perf_counter()
+    c0 = time.process_time()
     while True:
         for _ in range(50):
             if step():
@@ -131,6 +136,7 @@ def timed(step, reset, seconds: float) -> tuple[float, int]:
             n += 1
         dt = time.perf_counter() - t0
         if dt >= seconds:
+            LAST_CPU_PERCENT[0] = 100.0 * (time.process_time() - c0) / dt
             return n / dt, n
 
 
@@ -142,6 +148,7 @@ def main():
     ap.add_argument("--integrator", default="RK4", help="general.integrator (RK4, implicitfast, Euler)")
     ap.add_argument("--repeats", type=int, default=3, help="take the best of this many measurements")
     ap.add_argument("--json", help="write the results here")
+    ap.add_argument("--vector-only", action="store_true", help="only the vector env (1 and 2 threads)")
     a = ap.parse_args()
     overrides = {
         "snake.n_links": a.links,
@@ -224,13 +231,24 @@ def main():
 
         best(f"SimSerpentVectorEnv 8 envs, {threads} thread(s)", rate)
 
+    if a.vector_only:
+        variants[:] = [v for v in variants if v[0].startswith("SimSerpentVectorEnv")]
+    cpu: dict[str, float] = {}
     for _ in range(a.repeats):
         for name, fn in variants:
-            results[name] = max(results.get(name, 0.0), fn()[0])
+            rate = fn()[0]
+            if rate > results.get(name, 0.0):
+                results[name] = rate
+                cpu[name] = LAST_CPU_PERCENT[0]
     for name, _ in variants:
-        print(f"{name:<45s} {results[name]:10.1f} env steps/s", flush=True)
+        print(f"{name:<45s} {results[name]:10.1f} env steps/s   (CPU {cpu[name]:5.0f} %)", flush=True)
+    results["cpu_percent"] = cpu
 
-    results["speedup_gym_vs_python"] = results["SimSerpentEnv (gymnasium, 1 env)"] / results["pure Python + mujoco bindings (1 env)"]
+    if not a.vector_only:
+        results["speedup_gym_vs_python"] = (
+            results["SimSerpentEnv (gymnasium, 1 env)"] / results["pure Python + mujoco bindings (1 env)"]
+        )
+        print(f"speed-up of SimSerpentEnv over the pure-Python env: {results['speedup_gym_vs_python']:.2f}x")
     results["vector_scaling_2_vs_1_thread"] = (
         results["SimSerpentVectorEnv 8 envs, 2 thread(s)"] / results["SimSerpentVectorEnv 8 envs, 1 thread(s)"]
     )
@@ -244,7 +262,6 @@ def main():
         "python": platform.python_version(),
         "mujoco": mujoco.__version__,
     }
-    print(f"speed-up of SimSerpentEnv over the pure-Python env: {results['speedup_gym_vs_python']:.2f}x")
     print(f"vector env scaling, 2 threads vs 1: {results['vector_scaling_2_vs_1_thread']:.2f}x")
     if a.json:
         with open(a.json, "w") as f:

@@ -489,7 +489,7 @@ impl VecEnv {
                     });
             })
         });
-        let errors = PyList::new(py, self.errors.iter().map(|e| e.clone()))?;
+        let errors = PyList::new(py, self.errors.iter().cloned())?;
         Ok((
             PyArray1::from_slice(py, &self.obs).reshape([n, no])?,
             PyArray1::from_slice(py, &self.rewards),
@@ -557,6 +557,9 @@ fn sweep_spec(
     })
 }
 
+/// A planned run for Python: (index, id, [(key, value as written)]).
+type PlannedRunRow = (usize, String, Vec<(String, String)>);
+
 /// A sweep, planned once by the driver and run run-by-run elsewhere (Ray tasks): the same
 /// plan, run ids, run folders and summary table as `simserpent sweep`.
 #[pyclass(module = "simserpent._core", frozen)]
@@ -601,7 +604,7 @@ impl Sweep {
     }
 
     /// The planned runs: (index, id, {key: value as written}).
-    fn runs(&self) -> Vec<(usize, String, Vec<(String, String)>)> {
+    fn runs(&self) -> Vec<PlannedRunRow> {
         self.runs
             .iter()
             .map(|r| (r.index, r.id.clone(), r.params.iter().map(|(k, v)| (k.clone(), v.to_string())).collect()))
