@@ -241,7 +241,11 @@ def main():
                 results[name] = rate
                 cpu[name] = LAST_CPU_PERCENT[0]
     for name, _ in variants:
-        print(f"{name:<45s} {results[name]:10.1f} env steps/s   (CPU {cpu[name]:5.0f} %)", flush=True)
+        per_cpu = results[name] / max(cpu[name] / 100.0, 1e-9)
+        print(
+            f"{name:<45s} {results[name]:10.1f} env steps/s   (CPU {cpu[name]:5.0f} %, {per_cpu:8.1f} per CPU-second)",
+            flush=True,
+        )
     results["cpu_percent"] = cpu
 
     if not a.vector_only:

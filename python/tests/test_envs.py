@@ -147,3 +147,43 @@ def test_vector_env_shape_errors():
     vec.reset(seed=0)
     with pytest.raises(ValueError, match="expected"):
         vec.core.step(np.zeros((3, 4)))
+
+
+def longest_pause_of_this_thread(step) -> tuple[float, float]:
+    """Runs `step` in another thread while this one spins; returns (the call's duration, the
+    longest time this thread did not run during the call)."""
+    import threading
+    import time
+
+    window = {}
+
+    def worker():
+        window["start"] = time.perf_counter()
+        step()
+        window["end"] = time.perf_counter()
+
+    ticks = []
+    t = threading.Thread(target=worker)
+    t.start()
+    while t.is_alive():
+        ticks.append(time.perf_counter())
+    t.join()
+    start, end = window["start"], window["end"]
+    inside = [start] + [x for x in ticks if start < x < end] + [end]
+    return end - start, max(b - a for a, b in zip(inside, inside[1:]))
+
+
+def test_vector_step_releases_the_gil():
+    """Python code in another thread runs while the vector env steps (py.detach in Rust); a
+    call that held the GIL would stop this thread for all but one switch interval (5 ms)."""
+    long_step = {**NOISY, "env.control_period_secs": 0.5, "env.max_episode_secs": 10.0}
+    vec = SimSerpentVectorEnv(num_envs=4, overrides=long_step, threads=1)
+    vec.reset(seed=0)
+    duration, pause = longest_pause_of_this_thread(lambda: vec.step(np.zeros((4, 4))))
+    assert duration > 0.05, "the step was too short to tell"
+    assert pause < 0.5 * duration, (pause, duration)
+    # The check itself: a single env's step holds the GIL, and the pause shows it.
+    single = simserpent.World(simserpent.load_config(overrides=long_step))
+    single.reset(0)
+    duration, pause = longest_pause_of_this_thread(lambda: single.step(np.zeros(4)))
+    assert pause > 0.5 * duration, (pause, duration)
