@@ -318,6 +318,24 @@ impl Env {
     }
 }
 
+/// One environment's slice of the vector environment's buffers, as the step loop sees it.
+type Slot<'a> = (
+    (
+        (
+            (
+                (
+                    (((((&'a mut EnvCore, &'a mut [f64]), &'a [f64]), &'a mut f64), &'a mut [f64]), &'a mut bool),
+                    &'a mut bool,
+                ),
+                &'a mut Option<String>,
+            ),
+            &'a mut bool,
+        ),
+        &'a mut u64,
+    ),
+    &'a u64,
+);
+
 /// Many environments stepped together in Rust on a rayon pool, with the GIL released
 /// (the core of `simserpent.SimSerpentVectorEnv`). Automatic reset on the next step after an
 /// episode ends (Gymnasium's `NEXT_STEP` mode).
@@ -434,8 +452,7 @@ impl VecEnv {
             }
         }
         let nenv = n as u64;
-        // One contiguous block of environments per thread: the fewest rayon tasks.
-        let min_len = n.div_ceil(self.pool.current_num_threads().max(1));
+        let sequential = self.pool.current_num_threads() == 1;
         let Self {
             envs,
             pool,
@@ -451,43 +468,62 @@ impl VecEnv {
             actions,
             ..
         } = self;
+        let one = |((((((((((env, o), a), r), t), term), trunc), err), reset), episode), seed): Slot<'_>| {
+            if *reset {
+                *episode += 1;
+                let s = seed.wrapping_add(*episode * nenv);
+                *err = env.reset(s, o).err().map(|e| e.to_string());
+                *r = 0.0;
+                t.fill(0.0);
+                *term = err.is_some();
+                *trunc = false;
+                *reset = *term;
+                return;
+            }
+            let out = env.step(a, o);
+            *r = out.reward;
+            t[0] = out.terms.forward_progress_m;
+            t[1] = out.terms.energy_j;
+            t[2] = out.terms.peak_contact_force_n;
+            *term = out.terminated;
+            *trunc = out.truncated;
+            *reset = out.terminated || out.truncated;
+            *err = out.error;
+        };
         py.detach(|| {
-            pool.install(|| {
-                envs.par_iter_mut()
-                    .with_min_len(min_len)
-                    .zip(obs.par_chunks_mut(no))
-                    .zip(actions.par_chunks(na))
-                    .zip(rewards.par_iter_mut())
-                    .zip(terms.par_chunks_mut(3))
-                    .zip(terminated.par_iter_mut())
-                    .zip(truncated.par_iter_mut())
-                    .zip(errors.par_iter_mut())
-                    .zip(needs_reset.par_iter_mut())
-                    .zip(episodes.par_iter_mut())
-                    .zip(seeds.par_iter())
-                    .for_each(|((((((((((env, o), a), r), t), term), trunc), err), reset), episode), seed)| {
-                        if *reset {
-                            *episode += 1;
-                            let s = seed.wrapping_add(*episode * nenv);
-                            *err = env.reset(s, o).err().map(|e| e.to_string());
-                            *r = 0.0;
-                            t.fill(0.0);
-                            *term = err.is_some();
-                            *trunc = false;
-                            *reset = *term;
-                            return;
-                        }
-                        let out = env.step(a, o);
-                        *r = out.reward;
-                        t[0] = out.terms.forward_progress_m;
-                        t[1] = out.terms.energy_j;
-                        t[2] = out.terms.peak_contact_force_n;
-                        *term = out.terminated;
-                        *trunc = out.truncated;
-                        *reset = out.terminated || out.truncated;
-                        *err = out.error;
-                    });
-            })
+            if sequential {
+                // One thread: step in this thread, no hand-over to the pool.
+                envs.iter_mut()
+                    .zip(obs.chunks_mut(no))
+                    .zip(actions.chunks(na))
+                    .zip(rewards.iter_mut())
+                    .zip(terms.chunks_mut(3))
+                    .zip(terminated.iter_mut())
+                    .zip(truncated.iter_mut())
+                    .zip(errors.iter_mut())
+                    .zip(needs_reset.iter_mut())
+                    .zip(episodes.iter_mut())
+                    .zip(seeds.iter())
+                    .for_each(one);
+            } else {
+                // One rayon task per environment: an idle thread takes over the environments of
+                // a thread that the OS preempted (the step waits for the slowest thread).
+                pool.install(|| {
+                    envs.par_iter_mut()
+                        .with_max_len(1)
+                        .zip(obs.par_chunks_mut(no))
+                        .zip(actions.par_chunks(na))
+                        .zip(rewards.par_iter_mut())
+                        .zip(terms.par_chunks_mut(3))
+                        .zip(terminated.par_iter_mut())
+                        .zip(truncated.par_iter_mut())
+                        .zip(errors.par_iter_mut())
+                        .zip(needs_reset.par_iter_mut())
+                        .zip(episodes.par_iter_mut())
+                        .zip(seeds.par_iter())
+                        .for_each(one);
+                })
+            }
         });
         let errors = PyList::new(py, self.errors.iter().cloned())?;
         Ok((
