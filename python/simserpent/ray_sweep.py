@@ -39,8 +39,9 @@ METRICS = (
 
 
 def init_ray(address: str | None = None, num_cpus: int | None = None, **kwargs: Any) -> None:
-    """Connects to Ray once per process: ``address`` (an existing cluster) or a local cluster
-    with ``num_cpus`` CPUs (default: all cores) on the loopback interface."""
+    """Connects to Ray once per process: ``address`` (an existing cluster: ``"auto"``, a GCS
+    address ``"host:port"`` or ``"ray://host:port"``) or, by default, a new local cluster of
+    this process with ``num_cpus`` CPUs (default: all cores) on the loopback interface."""
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
     import ray
 
@@ -52,7 +53,9 @@ def init_ray(address: str | None = None, num_cpus: int | None = None, **kwargs: 
         kwargs.setdefault("include_dashboard", False)
         kwargs.setdefault("_node_ip_address", "127.0.0.1")
         kwargs.setdefault("log_to_driver", False)
-        ray.init(num_cpus=num_cpus or os.cpu_count() or 1, **kwargs)
+        # "local": always a new cluster of our own; without it, ray.init() joins whatever cluster
+        # another process on this machine started last (/tmp/ray/ray_current_cluster).
+        ray.init(address="local", num_cpus=num_cpus or os.cpu_count() or 1, **kwargs)
 
 
 def _abs(path) -> str | None:

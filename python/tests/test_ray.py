@@ -67,3 +67,24 @@ def test_cross_entropy_improves_forward_speed(ray_local, tmp_path):
     assert result["best_value"] == pytest.approx(hist["forward_speed_m_per_s"].max())
     assert 0.1 <= result["best_params"]["gait.sine_wave.frequency_hz"] <= 1.5
     assert Path(result["csv"]).is_file()
+
+
+def test_sweep_on_an_existing_cluster_by_address(ray_local, tmp_path):
+    """Another process joins the session's Ray cluster by its address and sweeps on it."""
+    import sys
+    import textwrap
+
+    address = ray_local.get_runtime_context().gcs_address
+    code = textwrap.dedent(
+        f"""
+        from simserpent import ray_sweep
+        df, csv = ray_sweep.sweep(vary=["gait.sine_wave.frequency_hz=0.5,1.0"], overrides={SETS!r},
+                                  sweep_dir={str(tmp_path / "addr")!r}, address={address!r})
+        import ray
+        assert ray.get_runtime_context().gcs_address == {address!r}
+        print(",".join(df["status"]))
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip().splitlines()[-1] == "complete,complete"
