@@ -431,6 +431,19 @@ mod tests {
     }
 
     #[test]
+    fn reset_restores_directional_pair_friction_and_viscous_ground() {
+        // Directional friction changes the model's pair friction during an episode; a reset
+        // must undo that, or the next episode would start from another friction state.
+        for model in ["directional", "viscous"] {
+            let c = config(&[&format!("ground.model=\"{model}\"")]);
+            let mut env = EnvCore::new(&c).expect("env");
+            let first = rollout(&mut env, 2, 30);
+            let second = rollout(&mut env, 2, 30);
+            assert_eq!(first, second, "{model}");
+        }
+    }
+
+    #[test]
     fn travelling_wave_moves_forward_and_truncates() {
         let c = config(&["env.max_episode_secs=3.0", "env.reward_energy_weight=0.1"]);
         let mut env = EnvCore::new(&c).expect("env");
