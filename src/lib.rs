@@ -6,11 +6,14 @@
 //! - the engine: [`sim`] (the only module that calls MuJoCo);
 //! - I/O: [`record`] (run folder, manifest, tables), [`run`] (one whole run), [`bench`],
 //!   [`sweep`] (parallel parameter sweeps);
+//! - [`env`]: the reinforcement-learning environment core (actions in, observations and
+//!   rewards out) behind the Python package's Gymnasium environments;
 //! - [`interrupt`]: the clean stop on SIGINT/SIGTERM;
 //! - the command line lives in `src/main.rs`.
 pub mod bench;
 pub mod config;
 pub mod control;
+pub mod env;
 pub mod estimation;
 pub mod experiments;
 pub mod interrupt;

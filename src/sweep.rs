@@ -648,11 +648,7 @@ fn run_one(spec: &SweepSpec, run: &PlannedRun, folder: &Path, command_line: &[St
 /// Bad arguments or base config; the sweep folder or summary cannot be written. Failing runs
 /// are not errors.
 pub fn run_sweep(spec: &SweepSpec) -> Result<SweepReport, SweepError> {
-    let (base, runs) = plan(spec)?;
-    let sweep_dir = spec.sweep_dir.clone().unwrap_or_else(|| default_sweep_dir(spec, &base));
-    let runs_dir = sweep_dir.join("runs");
-    std::fs::create_dir_all(&runs_dir).map_err(io_error(&runs_dir))?;
-    write_plan(spec, &sweep_dir, &runs)?;
+    let (sweep_dir, runs) = prepare(spec)?;
     let mine: Vec<&PlannedRun> = match spec.shard {
         Some(s) => runs.iter().filter(|r| r.index % s.count == s.index).collect(),
         None => runs.iter().collect(),
@@ -671,32 +667,65 @@ pub fn run_sweep(spec: &SweepSpec) -> Result<SweepReport, SweepError> {
         mine.par_iter()
             .with_max_len(1)
             .map(|run| {
-                let folder = runs_dir.join(&run.id);
-                let t0 = Instant::now();
-                let outcome = run_one(spec, run, &folder, &command_line);
-                let wall_secs = t0.elapsed().as_secs_f64();
-                if let RunOutcome::Failed(message) = &outcome {
+                let row = run_planned(spec, run, &sweep_dir, &command_line);
+                if let RunOutcome::Failed(message) = &row.outcome {
                     let n = failed.fetch_add(1, Ordering::Relaxed) + 1;
                     bar.set_message(format!("{n} failed"));
                     log::debug!("sweep run {} failed: {message}", run.id);
                 }
                 bar.inc(1);
-                SweepRow { run: (*run).clone(), outcome, folder, wall_secs }
+                row
             })
             .collect()
     });
     bar.finish_and_clear();
     let wall_secs = started.elapsed().as_secs_f64();
+    let table = SummaryTable::from_rows(&spec.variations, &rows);
+    let summary_csv = write_summary(spec, &sweep_dir, &table)?;
+    Ok(SweepReport { sweep_dir, summary_csv, rows, wall_secs, threads })
+}
+
+/// Plans a sweep, creates its folder (`<sweep>/runs/`) and writes `sweep.json`: the first part
+/// of [`run_sweep`], for drivers that run the planned runs elsewhere (the Python package's Ray
+/// sweep runs each with [`run_planned`] in a Ray task and writes the summary with
+/// [`write_summary`]).
+///
+/// # Errors
+/// Bad arguments or base config; the sweep folder cannot be written.
+pub fn prepare(spec: &SweepSpec) -> Result<(PathBuf, Vec<PlannedRun>), SweepError> {
+    let (base, runs) = plan(spec)?;
+    let sweep_dir = spec.sweep_dir.clone().unwrap_or_else(|| default_sweep_dir(spec, &base));
+    let runs_dir = sweep_dir.join("runs");
+    std::fs::create_dir_all(&runs_dir).map_err(io_error(&runs_dir))?;
+    write_plan(spec, &sweep_dir, &runs)?;
+    Ok((sweep_dir, runs))
+}
+
+/// Runs one planned run into `<sweep_dir>/runs/<id>/` (or reads it back if a manifest says it
+/// is complete). A failing run is a row with its error, not an error.
+pub fn run_planned(spec: &SweepSpec, run: &PlannedRun, sweep_dir: &Path, command_line: &[String]) -> SweepRow {
+    let folder = sweep_dir.join("runs").join(&run.id);
+    let t0 = Instant::now();
+    let outcome = run_one(spec, run, &folder, command_line);
+    let wall_secs = t0.elapsed().as_secs_f64();
+    SweepRow { run: run.clone(), outcome, folder, wall_secs }
+}
+
+/// Writes `summary.csv` (and `summary.parquet` with the `parquet` feature), or
+/// `summary-shard-i-of-n.*` for a shard, into `sweep_dir`; returns the CSV's path.
+///
+/// # Errors
+/// [`SweepError::Io`].
+pub fn write_summary(spec: &SweepSpec, sweep_dir: &Path, table: &SummaryTable) -> Result<PathBuf, SweepError> {
     let name = match spec.shard {
         Some(s) => format!("summary-shard-{}-of-{}", s.index, s.count),
         None => "summary".to_string(),
     };
-    let table = SummaryTable::from_rows(&spec.variations, &rows);
     let summary_csv = sweep_dir.join(format!("{name}.csv"));
     table.write_csv(&summary_csv)?;
     #[cfg(feature = "parquet")]
     table.write_parquet(&sweep_dir.join(format!("{name}.parquet")))?;
-    Ok(SweepReport { sweep_dir, summary_csv, rows, wall_secs, threads })
+    Ok(summary_csv)
 }
 
 fn progress_bar(enabled: bool, total: u64) -> indicatif::ProgressBar {
@@ -749,7 +778,9 @@ fn fmt_f64(x: f64) -> String {
 }
 
 impl SummaryTable {
-    fn from_rows(variations: &[Variation], rows: &[SweepRow]) -> Self {
+    /// The summary of `rows` (columns: index, id, the varied keys, status, error, folder,
+    /// [`METRICS`], `wall_secs`).
+    pub fn from_rows(variations: &[Variation], rows: &[SweepRow]) -> Self {
         let mut header: Vec<String> = ["run_index", "run_id"].map(String::from).to_vec();
         header.extend(variations.iter().map(|v| v.key.clone()));
         header.extend(["status", "error", "run_folder"].map(String::from));

@@ -356,6 +356,18 @@ enabled = true
 format = "gif"
 frames_per_sec = 12.5
 playback_speed = 2.0
+
+[env]
+observation_version = 1
+observe_imu = true
+observe_joint_force_torque = true
+action = "torque"
+control_period_secs = 0.01
+max_episode_secs = 5.0
+reward_forward_weight = 2.0
+reward_energy_weight = 0.5
+reward_contact_force_weight = 0.001
+terminate_contact_force_n = 500.0
 "#;
 
 fn all_fields_expected() -> Config {
@@ -596,6 +608,18 @@ fn all_fields_expected() -> Config {
         record_state: false,
     };
     c.video = Video { enabled: true, format: VideoFormat::Gif, frames_per_sec: 12.5, playback_speed: 2.0 };
+    c.env = Env {
+        observation_version: 1,
+        observe_imu: true,
+        observe_joint_force_torque: true,
+        action: EnvAction::Torque,
+        control_period_secs: 0.01,
+        max_episode_secs: 5.0,
+        reward_forward_weight: 2.0,
+        reward_energy_weight: 0.5,
+        reward_contact_force_weight: 0.001,
+        terminate_contact_force_n: 500.0,
+    };
     c
 }
 
@@ -643,7 +667,9 @@ fn every_field_can_be_set_from_toml() {
     assert_eq!(all, in_file, "ALL_FIELDS must set every key of the default config");
     let mut changed = Vec::new();
     differing_leaves(&defaults, &file, "", &mut changed);
-    let unchanged: Vec<&String> = all.iter().filter(|k| !changed.contains(k)).collect();
+    // `env.observation_version` has one allowed value so far (1, the default).
+    let unchanged: Vec<&String> =
+        all.iter().filter(|k| !changed.contains(k) && k.as_str() != "env.observation_version").collect();
     assert!(unchanged.is_empty(), "keys left at their default: {unchanged:?}");
 }
 
@@ -808,6 +834,16 @@ const RULES: &[(&[&str], &str)] = &[
     (&["recording.parquet_rows_per_file=0"], "recording.parquet_rows_per_file"),
     (&["recording.format=\"xml\""], "recording.format"),
     (&["recording.every_n_steps=20001"], "recording.every_n_steps"),
+    // env
+    (&["env.observation_version=2"], "env.observation_version"),
+    (&["env.control_period_secs=0"], "env.control_period_secs"),
+    (&["env.control_period_secs=nan"], "env.control_period_secs"),
+    (&["env.max_episode_secs=-1"], "env.max_episode_secs"),
+    (&["env.reward_forward_weight=inf"], "env.reward_forward_weight"),
+    (&["env.reward_energy_weight=-0.1"], "env.reward_energy_weight"),
+    (&["env.reward_contact_force_weight=-1"], "env.reward_contact_force_weight"),
+    (&["env.terminate_contact_force_n=-5"], "env.terminate_contact_force_n"),
+    (&["env.action=\"velocity\""], "env.action"),
 ];
 
 #[test]

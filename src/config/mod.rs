@@ -88,6 +88,7 @@ pub struct Config {
     pub plot: Plot,
     pub render: Render,
     pub video: Video,
+    pub env: Env,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -679,6 +680,52 @@ pub enum VideoFormat {
     Mp4,
     /// Animated GIF, built in.
     Gif,
+}
+
+/// The reinforcement-learning environment (`[env]`; see `crate::env`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Env {
+    /// Layout of the observation vector (1 is the only one).
+    pub observation_version: u32,
+    /// Per link IMU readings in the observation.
+    pub observe_imu: bool,
+    /// Per joint force/torque sensor readings in the observation.
+    pub observe_joint_force_torque: bool,
+    /// What an action is.
+    pub action: EnvAction,
+    /// Time between two actions (s), a whole number of timesteps.
+    pub control_period_secs: f64,
+    /// Episode length (s): reaching it truncates the episode.
+    pub max_episode_secs: f64,
+    /// Weight of the forward progress (per m).
+    pub reward_forward_weight: f64,
+    /// Weight of the actuator energy (per J).
+    pub reward_energy_weight: f64,
+    /// Weight of the largest contact normal force (per N).
+    pub reward_contact_force_weight: f64,
+    /// Terminate when a contact normal force exceeds this (N); 0 = never.
+    pub terminate_contact_force_n: f64,
+}
+
+/// What an action of the environment is (`env.action`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EnvAction {
+    /// Joint target angles (rad) for the position servos.
+    Position,
+    /// Joint torques (N·m) for the torque motors.
+    Torque,
+}
+
+impl EnvAction {
+    /// The actuator kind the model must drive.
+    pub fn control_method(self) -> ControlMethod {
+        match self {
+            Self::Position => ControlMethod::Position,
+            Self::Torque => ControlMethod::Torque,
+        }
+    }
 }
 
 impl Default for Config {

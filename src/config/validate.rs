@@ -23,6 +23,9 @@ use super::{Config, ConfigError, GaitKind, GroundModel, JointAxes, TerrainKind};
 /// The most surfaces a config may have (`ground.surfaces`).
 pub const MAX_SURFACES: usize = 100;
 
+/// The observation layouts this build knows (`env.observation_version`).
+pub const OBSERVATION_VERSIONS: [u32; 1] = [1];
+
 type Check = Result<(), ConfigError>;
 
 /// A float as TOML writes it (`1.0`, `nan`, `inf`).
@@ -106,7 +109,8 @@ impl Config {
         self.validate_gait()?;
         self.validate_terrain()?;
         self.validate_recording()?;
-        self.validate_pictures()
+        self.validate_pictures()?;
+        self.validate_env()
     }
 
     fn validate_general(&self) -> Check {
@@ -750,5 +754,55 @@ impl Config {
         ensure(v.frames_per_sec <= 240.0, "video.frames_per_sec", fmt_f(v.frames_per_sec), "must be at most 240")?;
         positive("video.playback_speed", v.playback_speed)?;
         ensure(v.playback_speed <= 100.0, "video.playback_speed", fmt_f(v.playback_speed), "must be at most 100")
+    }
+
+    /// `[env]`: ranges only. The rule that ties it to `[general]` (a whole number of timesteps
+    /// per action) is checked by [`Config::validate_env_use`] when an environment is built.
+    fn validate_env(&self) -> Check {
+        let e = &self.env;
+        ensure(
+            OBSERVATION_VERSIONS.contains(&e.observation_version),
+            "env.observation_version",
+            e.observation_version,
+            format!(
+                "unknown observation layout; this build knows version{} {}",
+                if OBSERVATION_VERSIONS.len() > 1 { "s" } else { "" },
+                OBSERVATION_VERSIONS.map(|v| v.to_string()).join(", ")
+            ),
+        )?;
+        positive("env.control_period_secs", e.control_period_secs)?;
+        positive("env.max_episode_secs", e.max_episode_secs)?;
+        finite("env.reward_forward_weight", e.reward_forward_weight)?;
+        non_negative("env.reward_energy_weight", e.reward_energy_weight)?;
+        non_negative("env.reward_contact_force_weight", e.reward_contact_force_weight)?;
+        non_negative("env.terminate_contact_force_n", e.terminate_contact_force_n)
+    }
+
+    /// The `[env]` rules that involve other sections, checked when an environment is built
+    /// (a config used only for `simserpent run` need not satisfy them).
+    ///
+    /// # Errors
+    /// [`ConfigError::InvalidValue`] naming the `env` key.
+    pub fn validate_env_use(&self) -> Result<(), ConfigError> {
+        let e = &self.env;
+        let dt = self.general.timestep_secs;
+        let ratio = e.control_period_secs / dt;
+        let n = ratio.round();
+        ensure(
+            n >= 1.0 && (ratio - n).abs() <= 1e-6 * n.max(1.0),
+            "env.control_period_secs",
+            fmt_f(e.control_period_secs),
+            format!(
+                "must be a whole number (at least 1) of general.timestep_secs = {}; it is {} timesteps",
+                fmt_f(dt),
+                fmt_f(ratio)
+            ),
+        )?;
+        ensure(
+            e.max_episode_secs >= e.control_period_secs,
+            "env.max_episode_secs",
+            fmt_f(e.max_episode_secs),
+            format!("must be at least env.control_period_secs ({})", fmt_f(e.control_period_secs)),
+        )
     }
 }

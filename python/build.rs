@@ -1,0 +1,13 @@
+//! Links the extension so it finds MuJoCo inside the installed `mujoco==3.17.0` wheel: the
+//! extension is `site-packages/simserpent/_core.abi3.so`, the wheel's library is
+//! `site-packages/mujoco/libmujoco.so.3.17.0`, hence the rpath `$ORIGIN/../mujoco`. `import
+//! mujoco` and `import simserpent` then share one library, and no `LD_LIBRARY_PATH` is needed.
+//!
+//! At build time mujoco-rs finds a copy of the same library through the root package's
+//! pkg-config file (`build/pkgconfig`, via `.cargo/config.toml`) or `MUJOCO_DYNAMIC_LINK_DIR`;
+//! only the SONAME `libmujoco.so.3.17.0` is recorded, so which copy it links against does not
+//! matter at run time.
+fn main() {
+    println!("cargo::rerun-if-changed=build.rs");
+    println!("cargo::rustc-link-arg-cdylib=-Wl,-rpath,$ORIGIN/../mujoco");
+}

@@ -1,0 +1,233 @@
+"""SimSerpent: a snake-robot simulator on MuJoCo 3.17, from Python.
+
+The heavy lifting is the Rust library (``simserpent._core``, built with PyO3); this package adds
+the Python conveniences:
+
+- :func:`load_config` -- a config from a file (``.toml`` or the original tool's ``.json``), a
+  dict, or the embedded default, with overrides like the CLI's ``--set``;
+- :class:`World` -- the snake world stepped by actions (``reset(seed)``, ``step(action)``;
+  observations as numpy arrays);
+- :func:`run` -- a whole configured run, as ``simserpent run`` does, returning its summary;
+- :func:`open_run` -- a run folder's tables as pandas DataFrames;
+- :mod:`simserpent.envs` -- the Gymnasium environment ``SimSerpent-v0`` (registered on import)
+  and a vector environment stepped in Rust on all cores;
+- :mod:`simserpent.ray_sweep` -- sweeps and cross-entropy optimisation on a Ray cluster.
+
+Errors are :class:`SimSerpentError` subclasses (:class:`ConfigError`, :class:`ModelError`,
+:class:`SimulationError`, :class:`RecordError`, :class:`SweepError`) carrying the CLI's message.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any, Union
+
+from . import _core
+from ._core import (
+    Config,
+    ConfigError,
+    ModelError,
+    RecordError,
+    SimSerpentError,
+    SimulationError,
+    SweepError,
+    default_config_toml,
+    mujoco_version,
+)
+
+__version__ = _core.__version__
+
+#: The snake world stepped by actions: ``World(config)``, ``reset(seed) -> obs``,
+#: ``step(action) -> (obs, reward, terminated, truncated, info)``, plus its sizes, bounds,
+#: observation names, ``mjcf`` and ``centre_of_mass``. (The core of :class:`envs.SimSerpentEnv`.)
+World = _core.Env
+
+ConfigLike = Union[str, "os.PathLike[str]", Mapping[str, Any], Config, None]
+Overrides = Union[Iterable[str], Mapping[str, Any], None]
+
+__all__ = [
+    "Config",
+    "ConfigError",
+    "ModelError",
+    "RecordError",
+    "Run",
+    "SimSerpentError",
+    "SimulationError",
+    "SweepError",
+    "World",
+    "default_config_toml",
+    "load_config",
+    "make_world",
+    "mujoco_version",
+    "open_run",
+    "run",
+    "toml_literal",
+]
+
+
+def toml_literal(value: Any) -> str:
+    """A Python value as a TOML literal, for ``key=value`` overrides."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(toml_literal(v) for v in value) + "]"
+    if hasattr(value, "item"):  # numpy scalars
+        return toml_literal(value.item())
+    if hasattr(value, "tolist"):  # numpy arrays
+        return toml_literal(value.tolist())
+    raise TypeError(f"cannot write {value!r} as a TOML value")
+
+
+def _override_list(overrides: Overrides) -> list[str]:
+    if overrides is None:
+        return []
+    if isinstance(overrides, Mapping):
+        return [f"{k}={toml_literal(v)}" for k, v in overrides.items()]
+    if isinstance(overrides, str):
+        return [overrides]
+    return [str(o) for o in overrides]
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if hasattr(value, "item") and not isinstance(value, (str, bytes)):
+        return value.item()
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    return value
+
+
+def load_config(source: ConfigLike = None, overrides: Overrides = None) -> Config:
+    """Loads and validates a config.
+
+    ``source``: a path to a ``.toml`` file (or the original tool's ``config.json``), a dict
+    shaped like the TOML file (``{"snake": {"n_links": 5}}``), a :class:`Config`, or ``None``
+    for the embedded default. ``overrides``: ``["snake.n_links=15", ...]`` (as the CLI's
+    ``--set``) or a dict ``{"snake.n_links": 15}``.
+
+    Raises :class:`ConfigError` with the CLI's message (key, value, what is allowed).
+    """
+    sets = _override_list(overrides)
+    if isinstance(source, Config):
+        return source.with_overrides(sets) if sets else source
+    if source is None:
+        return _core.load_config(overrides=sets)
+    if isinstance(source, Mapping):
+        return _core.load_config(json=json.dumps(_jsonable(source)), overrides=sets)
+    return _core.load_config(path=os.fspath(source), overrides=sets)
+
+
+def make_world(config: ConfigLike = None, overrides: Overrides = None) -> World:
+    """Builds the world of a config for stepping with actions (see :data:`World`)."""
+    return World(load_config(config, overrides))
+
+
+def run(
+    config: ConfigLike = None,
+    overrides: Overrides = None,
+    run_folder: Union[str, "os.PathLike[str]", None] = None,
+) -> dict[str, Any]:
+    """Runs a whole configured simulation, as ``simserpent run`` does (the GIL is released
+    while it runs). Returns the summary dict (``run_folder``, ``distance_m``,
+    ``forward_speed_m_per_s``, ``peak_contact_force_n``, ``actuator_energy_j``, ...).
+
+    ``run_folder``: record into exactly this folder instead of a new
+    ``<general.output_dir>/<run_name>-<UTC time>/``.
+    """
+    cfg = load_config(config, overrides)
+    return _core.run(cfg, os.fspath(run_folder) if run_folder is not None else None)
+
+
+class Run:
+    """A run folder: ``manifest`` (dict), ``config_toml`` (text), ``model_xml`` (text) and the
+    tables as pandas DataFrames, by name (``run.links``, ``run["joints"]``, ``run.tables``).
+
+    Tables are read when first asked for: ``<name>.csv``, or ``<name>.parquet`` (a folder of
+    part files, read as one table) when there is no CSV (Parquet needs pyarrow).
+    """
+
+    def __init__(self, path: Union[str, "os.PathLike[str]"]):
+        self.path = Path(path)
+        manifest = self.path / "manifest.json"
+        if not manifest.is_file():
+            raise RecordError(f"{self.path}: not a run folder (no manifest.json)")
+        self.manifest: dict[str, Any] = json.loads(manifest.read_text())
+        self._cache: dict[str, Any] = {}
+
+    @property
+    def status(self) -> str:
+        return self.manifest.get("status", "")
+
+    @property
+    def summary(self) -> dict[str, Any] | None:
+        return self.manifest.get("summary")
+
+    @property
+    def config_toml(self) -> str:
+        return (self.path / "config.toml").read_text()
+
+    @property
+    def model_xml(self) -> str:
+        return (self.path / "model.xml").read_text()
+
+    @property
+    def table_names(self) -> list[str]:
+        names = {p.stem for p in self.path.glob("*.csv")} | {p.stem for p in self.path.glob("*.parquet")}
+        return sorted(names)
+
+    @property
+    def tables(self) -> dict[str, Any]:
+        return {name: self[name] for name in self.table_names}
+
+    def __getitem__(self, name: str):
+        if name not in self._cache:
+            import pandas as pd
+
+            csv, parquet = self.path / f"{name}.csv", self.path / f"{name}.parquet"
+            if csv.is_file():
+                self._cache[name] = pd.read_csv(csv)
+            elif parquet.exists():
+                self._cache[name] = pd.read_parquet(parquet)
+            else:
+                raise KeyError(f"{self.path} has no table {name!r}; it has {self.table_names}")
+        return self._cache[name]
+
+    def __getattr__(self, name: str):
+        if name.startswith("_"):
+            raise AttributeError(name)
+        try:
+            return self[name]
+        except KeyError as e:
+            raise AttributeError(str(e)) from None
+
+    def __repr__(self) -> str:
+        return f"simserpent.Run({str(self.path)!r}, status={self.status!r}, tables={self.table_names})"
+
+
+def open_run(run_dir: Union[str, "os.PathLike[str]"]) -> Run:
+    """Opens a run folder; its tables are pandas DataFrames (``open_run(p).links``)."""
+    return Run(run_dir)
+
+
+# Registers SimSerpent-v0 with Gymnasium (when gymnasium is installed).
+try:
+    from . import envs as envs  # noqa: E402
+except ImportError:  # pragma: no cover - gymnasium is a dependency, but keep the core usable
+    envs = None  # type: ignore[assignment]
