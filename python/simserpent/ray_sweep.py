@@ -24,18 +24,8 @@ import numpy as np
 
 from . import _core, load_config, toml_literal
 
-#: The metric columns of a run, as in the CLI's sweep summary.
-METRICS = (
-    "simulated_secs",
-    "distance_m",
-    "mean_speed_m_per_s",
-    "forward_speed_m_per_s",
-    "heading_deg",
-    "peak_contact_force_n",
-    "max_penetration_m",
-    "actuator_energy_j",
-    "steps_per_wall_sec",
-)
+#: The metric columns of a run, as in the CLI's sweep summary (`simserpent::sweep::METRICS`).
+METRICS = tuple(_core.SWEEP_METRICS)
 
 
 def init_ray(address: str | None = None, num_cpus: int | None = None, **kwargs: Any) -> None:

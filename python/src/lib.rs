@@ -698,6 +698,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(default_config_toml, m)?)?;
     m.add_function(wrap_pyfunction!(mujoco_version, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add("SWEEP_METRICS", simserpent::sweep::METRICS.to_vec())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }
