@@ -218,6 +218,8 @@ fn step_info<'py>(py: Python<'py>, out: &StepOutcome, time_secs: f64) -> PyResul
 struct Env {
     core: EnvCore,
     obs: Vec<f64>,
+    /// The action, copied out of the numpy array so the step can run without the GIL.
+    action: Vec<f64>,
     source: String,
 }
 
@@ -227,7 +229,8 @@ impl Env {
     fn new(config: &PyConfig) -> PyResult<Self> {
         let core = EnvCore::new(&config.inner).map_err(|e| sim_err(&config.source, &e))?;
         let obs = vec![0.0; core.observation_size()];
-        Ok(Self { core, obs, source: config.source.clone() })
+        let action = vec![0.0; core.action_size()];
+        Ok(Self { core, obs, action, source: config.source.clone() })
     }
 
     /// Starts an episode; returns the first observation.
@@ -251,7 +254,10 @@ impl Env {
                 self.core.action_size()
             )));
         }
-        let out = self.core.step(action, &mut self.obs);
+        self.action.copy_from_slice(action);
+        // The physics runs without the GIL: other Python threads (e.g. one env per thread) go on.
+        let Self { core, obs, action, .. } = self;
+        let out = py.detach(|| core.step(action, obs));
         let info = step_info(py, &out, self.core.time_secs())?;
         Ok((PyArray1::from_slice(py, &self.obs), out.reward, out.terminated, out.truncated, info))
     }
