@@ -42,7 +42,7 @@ fn main() {
             sim.control();
             sim.advance().unwrap();
         }
-        states.push(sim.world.data.state(simserpent::render::state::STATE_SPEC));
+        states.push(sim.world().data().state(simserpent::render::state::STATE_SPEC));
     }
     let mut frame = vec![0u8; w * h * 3];
     let mut measure = |label: &str, sink: Option<VideoFormat>, overlay: bool| {

@@ -50,12 +50,12 @@ fn bare(config: &Config, steps: u64, with_gait: bool) -> Result<f64, SimError> {
     for k in 0..steps {
         if with_gait {
             trajectory.targets(k as f64 * dt, &mut angle, &mut velocity);
-            let ctrl = world.data.ctrl_mut();
+            let ctrl = world.ctrl_mut();
             for (a, target) in actuator_ids.iter().zip(&angle) {
                 ctrl[*a] = *target;
             }
         }
-        world.data.step();
+        world.step();
     }
     Ok(steps as f64 / start.elapsed().as_secs_f64())
 }

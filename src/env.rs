@@ -15,8 +15,8 @@
 //! contact_force_weight · peak force` (see [`RewardTerms`]).
 
 use crate::config::{Config, ControlMethod, EnvAction};
-use crate::control::{Command, Observation};
-use crate::sim::{EnergyGuard, Ground, SensorNoise, SimError, World};
+use crate::control::{Command, HeldCommand};
+use crate::sim::{LoopPlan, Observer, SimError, Simulation, StepView, World};
 
 /// The reward terms of one action, before weighting.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -46,25 +46,36 @@ pub struct StepOutcome {
     pub error: Option<String>,
 }
 
-/// One environment: world, ground model, sensor noise and the episode's bookkeeping.
+/// One environment: the simulation (world, ground model, sensor models) with the agent's
+/// held command as its controller, and the episode's bookkeeping. An action is the step loop
+/// run for `substeps` physics steps ([`Simulation::run`]).
 pub struct EnvCore {
     config: Config,
-    world: World,
-    ground: Ground,
-    guard: EnergyGuard,
-    noise: SensorNoise,
-    obs_true: Observation,
-    obs: Observation,
-    cmd: Command,
+    sim: Simulation<HeldCommand>,
     substeps: u64,
     steps: u64,
     max_steps: u64,
     com: [f64; 3],
     heading: [f64; 2],
-    pair_friction: Vec<[f64; 5]>,
     lo: Vec<f64>,
     hi: Vec<f64>,
     done: bool,
+}
+
+/// Adds up the actuator energy of an action: the power after each physics step (MuJoCo's
+/// joint-space actuator torque of the step times the joint velocity it reached), times dt.
+#[derive(Default)]
+struct EnergyMeter {
+    energy_j: f64,
+}
+
+impl Observer<SimError> for EnergyMeter {
+    fn on_step(&mut self, view: &StepView<'_>) -> Result<(), SimError> {
+        if view.k > 0 {
+            self.energy_j += view.world.actuator_power_w() * view.world.timestep_secs();
+        }
+        Ok(())
+    }
 }
 
 /// The model of an environment: `config` with `control.method` taken from `env.action`.
@@ -84,7 +95,7 @@ impl EnvCore {
         config.validate_env_use()?;
         let config = env_model_config(config);
         let world = World::from_config(&config)?;
-        let (nl, nj) = (world.n_links(), world.n_joints());
+        let nj = world.n_joints();
         let substeps = (config.env.control_period_secs / config.general.timestep_secs).round().max(1.0) as u64;
         let max_steps = ((config.env.max_episode_secs / config.env.control_period_secs) + 1e-9).floor().max(1.0) as u64;
         let (lo, hi) = match config.env.action {
@@ -97,24 +108,17 @@ impl EnvCore {
                 (vec![a; nj], vec![b; nj])
             }
         };
-        let pair_friction = world.model().pair_friction().to_vec();
+        let held = HeldCommand { command: Command::new(nj) };
         let mut env = Self {
-            ground: Ground::new(&config, &world),
-            guard: EnergyGuard::new(&config, &world),
-            noise: SensorNoise::new(&config.sensors, config.general.seed, nl, nj),
-            obs_true: Observation::new(nl, nj),
-            obs: Observation::new(nl, nj),
-            cmd: Command::new(nj),
+            sim: Simulation::with_typed_controller(&config, world, held),
             substeps,
             steps: 0,
             max_steps,
             com: [0.0; 3],
             heading: [1.0, 0.0],
-            pair_friction,
             lo,
             hi,
             done: false,
-            world,
             config,
         };
         env.reset_state(env.config.general.seed)?;
@@ -128,17 +132,17 @@ impl EnvCore {
 
     /// The world (read only).
     pub fn world(&self) -> &World {
-        &self.world
+        self.sim.world()
     }
 
     /// The MJCF of the world.
     pub fn mjcf(&self) -> &str {
-        &self.world.mjcf
+        &self.sim.world().mjcf
     }
 
     /// Length of an action (one value per joint).
     pub fn action_size(&self) -> usize {
-        self.world.n_joints()
+        self.sim.world().n_joints()
     }
 
     /// Action bounds (lower, upper) per joint; actions are clipped to them.
@@ -163,31 +167,22 @@ impl EnvCore {
 
     /// Simulated time (s).
     pub fn time_secs(&self) -> f64 {
-        self.world.data.time()
+        self.sim.world().time_secs()
     }
 
     /// Length of the observation vector.
     pub fn observation_size(&self) -> usize {
-        observation_names(&self.config, self.world.n_links(), self.world.n_joints()).len()
+        observation_names(&self.config, self.sim.world().n_links(), self.sim.world().n_joints()).len()
     }
 
     /// The name of each observation element, in order (the versioned layout).
     pub fn observation_names(&self) -> Vec<String> {
-        observation_names(&self.config, self.world.n_links(), self.world.n_joints())
+        observation_names(&self.config, self.sim.world().n_links(), self.sim.world().n_joints())
     }
 
     /// Centre of mass of the links (m).
     pub fn centre_of_mass(&self) -> [f64; 3] {
-        let xipos = self.world.data.xipos();
-        let mut c = [0.0; 3];
-        let mut total = 0.0;
-        for link in &self.world.index.links {
-            for k in 0..3 {
-                c[k] += link.mass_kg * xipos[link.body][k];
-            }
-            total += link.mass_kg;
-        }
-        if total > 0.0 { c.map(|x| x / total) } else { c }
+        self.sim.world().centre_of_mass_m()
     }
 
     /// Starts a new episode from the initial pose; `seed` seeds the sensor noise. Writes the
@@ -205,31 +200,14 @@ impl EnvCore {
     }
 
     fn reset_state(&mut self, seed: u64) -> Result<(), SimError> {
-        for (pair, friction) in self.pair_friction.iter().enumerate() {
-            self.world.set_pair_friction(pair, *friction);
-        }
-        self.world.reset()?;
         // No command until the first action.
-        self.world.data.ctrl_mut().fill(0.0);
-        self.ground = Ground::new(&self.config, &self.world);
-        let (nl, nj) = (self.world.n_links(), self.world.n_joints());
-        self.noise = SensorNoise::new(&self.config.sensors, seed, nl, nj);
-        self.world.forward();
+        self.sim.controller_mut().command = Command::new(self.sim.world().n_joints());
+        self.sim.reset(seed)?;
         self.steps = 0;
         self.done = false;
         self.com = self.centre_of_mass();
-        self.heading = self.head_heading_xy();
-        self.world.observe_true(&mut self.obs_true);
-        self.noise.measure(&self.obs_true, &mut self.obs);
+        self.heading = self.sim.world().head_heading_xy();
         Ok(())
-    }
-
-    fn head_heading_xy(&self) -> [f64; 2] {
-        let Some(head) = self.world.index.links.first() else { return [1.0, 0.0] };
-        let [w, x, y, z] = self.world.data.xquat()[head.body];
-        let (hx, hy) = (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z));
-        let norm = hx.hypot(hy);
-        if norm > 1e-9 { [hx / norm, hy / norm] } else { [1.0, 0.0] }
     }
 
     /// Holds `action` (clipped to [`EnvCore::action_bounds`]) for one control period and
@@ -249,9 +227,10 @@ impl EnvCore {
                 ..StepOutcome::default()
             };
         }
+        let held = &mut self.sim.controller_mut().command;
         let block = match self.config.env.action {
-            EnvAction::Position => &mut self.cmd.position_rad,
-            EnvAction::Torque => &mut self.cmd.torque_nm,
+            EnvAction::Position => &mut held.position_rad,
+            EnvAction::Torque => &mut held.torque_nm,
         };
         let gear = self.config.control.torque_gear;
         for (j, a) in action.iter().enumerate() {
@@ -262,34 +241,17 @@ impl EnvCore {
                 block[j] = f64::NAN;
             }
         }
-        self.world.apply_command(&self.cmd);
-        let dt = self.world.model().opt().timestep;
-        let mut energy_j = 0.0;
-        let mut error = None;
-        for _ in 0..self.substeps {
-            self.ground.before_step(&mut self.world);
-            let reached = self.world.data.time() + dt;
-            self.world.step();
-            let step_no = self.steps * self.substeps;
-            if let Err(e) = self
-                .world
-                .check_finite(step_no, reached)
-                .and_then(|()| self.guard.check(&mut self.world, step_no, reached))
-            {
-                error = Some(e.to_string());
-                break;
-            }
-            let (qfrc, qvel) = (self.world.data.qfrc_actuator(), self.world.data.qvel());
-            energy_j +=
-                self.world.index.joints.iter().map(|j| (qfrc[j.dof_adr] * qvel[j.dof_adr]).abs()).sum::<f64>() * dt;
-        }
+        let mut meter = EnergyMeter::default();
+        let plan = LoopPlan { steps: self.substeps, record_every_n_steps: 0 };
+        let mut error = self.sim.run(plan, &mut [&mut meter]).err().map(|e| e.to_string());
+        let energy_j = meter.energy_j;
         self.steps += 1;
         let e = &self.config.env;
         let com = self.centre_of_mass();
         let progress = (com[0] - self.com[0]) * self.heading[0] + (com[1] - self.com[1]) * self.heading[1];
         self.com = com;
         let want_force = e.reward_contact_force_weight > 0.0 || e.terminate_contact_force_n > 0.0;
-        let peak = if want_force && error.is_none() { self.peak_contact_force_n() } else { 0.0 };
+        let peak = if want_force && error.is_none() { self.sim.world().peak_contact_force_n() } else { 0.0 };
         let terms = RewardTerms { forward_progress_m: progress, energy_j, peak_contact_force_n: peak };
         let mut reward = e.reward_forward_weight * progress
             - e.reward_energy_weight * energy_j
@@ -298,7 +260,7 @@ impl EnvCore {
             error = Some(format!(
                 "contact normal force {peak:.3} N exceeds env.terminate_contact_force_n = {} N at t = {:.6} s",
                 e.terminate_contact_force_n,
-                self.world.data.time()
+                self.sim.world().time_secs()
             ));
         }
         let terminated = error.is_some();
@@ -308,23 +270,16 @@ impl EnvCore {
         let truncated = !terminated && self.steps >= self.max_steps;
         self.done = terminated || truncated;
         if error.is_none() {
-            self.world.observe_true(&mut self.obs_true);
-            self.noise.measure(&self.obs_true, &mut self.obs);
+            self.sim.sense();
         }
         self.write_observation(obs_out);
         StepOutcome { reward, terms, terminated, truncated, error }
     }
 
-    /// Largest contact normal force at the current state (N).
-    fn peak_contact_force_n(&self) -> f64 {
-        let d = &self.world.data;
-        (0..d.contact().len()).map(|c| d.contact_force(c)[0].abs()).fold(0.0, f64::max)
-    }
-
     /// Writes the current observation (version 1 layout); non-finite values (a diverged
     /// state) become 0.
     fn write_observation(&self, out: &mut [f64]) {
-        let o = &self.obs;
+        let o = self.sim.observation();
         let mut k = 0;
         let mut put = |x: f64| {
             out[k] = if x.is_finite() { x } else { 0.0 };

@@ -1,23 +1,23 @@
 //! SimSerpent: a physics-based snake-robot simulator on MuJoCo 3.17.
 //!
 //! Map (see ARCHITECTURE.md):
-//! - pure core, no MuJoCo and no I/O: [`config`], [`model`] (MJCF generation), [`control`],
-//!   [`estimation`] (contact forces from joint force/torque sensors);
-//! - the engine: [`sim`] (the only module that calls MuJoCo);
+//! - the pure core, the crate `simserpent-core` (no MuJoCo, no I/O; re-exported here under the
+//!   same paths): [`config`], [`model`] (MJCF generation), [`control`], [`estimation`] (contact
+//!   forces from joint force/torque sensors), [`state`] (the plain state of an instant and the
+//!   physics summaries);
+//! - the engine: [`sim`] (the only module that calls MuJoCo, and the only step loop);
 //! - I/O: [`record`] (run folder, manifest, tables), [`run`] (one whole run), [`bench`],
-//!   [`sweep`] (parallel parameter sweeps);
+//!   [`sweep`] (parallel parameter sweeps), [`render`], [`plot`], [`experiments`];
 //! - [`env`]: the reinforcement-learning environment core (actions in, observations and
 //!   rewards out) behind the Python package's Gymnasium environments;
 //! - [`interrupt`]: the clean stop on SIGINT/SIGTERM;
 //! - the command line lives in `src/main.rs`.
+pub use simserpent_core::{config, control, estimation, model, state};
+
 pub mod bench;
-pub mod config;
-pub mod control;
 pub mod env;
-pub mod estimation;
 pub mod experiments;
 pub mod interrupt;
-pub mod model;
 pub mod plot;
 pub mod record;
 pub mod render;

@@ -3,7 +3,8 @@
 use crate::config::Config;
 use crate::control::Controller;
 use crate::record::{self, Manifest, RecordError, Recorder, RunStatus};
-use crate::sim::{SimError, Simulation, Snapshot, World};
+use crate::sim::{Every, LoopPlan, Observer, SimError, Simulation, StepView, World};
+use crate::state::{RunTotals, Snapshot};
 use serde::Serialize;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -102,26 +103,6 @@ pub struct RunSummary {
     pub real_time_factor: f64,
 }
 
-/// Mass-weighted centre of the links in a snapshot.
-fn centre_of_mass(world: &World, s: &Snapshot) -> [f64; 3] {
-    let mut c = [0.0; 3];
-    let mut total = 0.0;
-    for (link, p) in world.index.links.iter().zip(&s.link_position_m) {
-        for k in 0..3 {
-            c[k] += link.mass_kg * p[k];
-        }
-        total += link.mass_kg;
-    }
-    if total > 0.0 { c.map(|x| x / total) } else { c }
-}
-
-/// Σ over joints of |τ·q̇| (W) at the latest forward pass: joint-space actuator torque times
-/// joint velocity (no allocation).
-fn actuator_power_w(world: &World) -> f64 {
-    let (qfrc, qvel) = (world.data.qfrc_actuator(), world.data.qvel());
-    world.index.joints.iter().map(|j| (qfrc[j.dof_adr] * qvel[j.dof_adr]).abs()).sum()
-}
-
 /// Builds the world described by `config` (and `options.robot`). Fails before anything is
 /// written, so a bad config or robot never leaves a run folder behind.
 pub fn build_world(config: &Config, options: &RunOptions) -> Result<World, SimError> {
@@ -159,7 +140,11 @@ pub fn run_with_controller(
 }
 
 /// Runs a prepared simulation for the configured duration, recording into a new run folder.
-pub fn run_simulation(config: &Config, options: &RunOptions, mut sim: Simulation) -> Result<RunSummary, RunError> {
+pub fn run_simulation<C: Controller>(
+    config: &Config,
+    options: &RunOptions,
+    mut sim: Simulation<C>,
+) -> Result<RunSummary, RunError> {
     let unix_secs = SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
     let stamp = record::utc_stamp(unix_secs);
     let folder = match &options.run_folder {
@@ -173,12 +158,12 @@ pub fn run_simulation(config: &Config, options: &RunOptions, mut sim: Simulation
         let path = folder.join(name);
         std::fs::write(&path, text).map_err(record::io_err(&path))
     };
-    write("config.toml", &run_folder_config(config, &sim.world.copied_files).to_toml_string())?;
-    write("model.xml", &sim.world.mjcf)?;
-    for (name, text) in &sim.world.included_files {
+    write("config.toml", &run_folder_config(config, &sim.world().copied_files).to_toml_string())?;
+    write("model.xml", &sim.world().mjcf)?;
+    for (name, text) in &sim.world().included_files {
         write(name, text)?;
     }
-    for c in &sim.world.copied_files {
+    for c in &sim.world().copied_files {
         let dest = folder.join(&c.dest);
         if let Some(parent) = dest.parent() {
             std::fs::create_dir_all(parent).map_err(record::io_err(parent))?;
@@ -209,22 +194,54 @@ pub fn run_simulation(config: &Config, options: &RunOptions, mut sim: Simulation
     };
     manifest.write(&folder)?;
     let mut recorder = if config.recording.enabled {
-        Some(Recorder::create(&folder, &config.recording, &sim.world.index, !sim.ground().surfaces().is_empty())?)
+        Some(Recorder::create(&folder, &config.recording, &sim.world().index, !sim.ground().surfaces().is_empty())?)
     } else {
         None
     };
 
-    let mut visuals = crate::render::RunVisuals::create(config, &folder, &sim.world.data, options.viewer)?;
+    let mut visuals = crate::render::RunVisuals::create(config, &folder, sim.world().data(), options.viewer)?;
 
     let started = Instant::now();
-    let outcome = step_loop(config, options, &mut sim, recorder.as_mut(), visuals.as_mut(), total_steps, &folder);
+    let plan = LoopPlan { steps: total_steps, record_every_n_steps: config.recording.every_n_steps.max(1) };
+    let mut totals = Totals::default();
+    let mut interrupt = Every::new(crate::interrupt::CHECK_EVERY_N_STEPS, InterruptPoll);
+    let mut progress = Every::new(1024, Progress::new(options.progress, total_steps));
+    let outcome = {
+        let mut observers: Vec<&mut dyn Observer<RunError>> = vec![&mut totals];
+        if let Some(r) = recorder.as_mut() {
+            observers.push(r);
+        }
+        if let Some(v) = visuals.as_mut() {
+            observers.push(v);
+        }
+        observers.push(&mut interrupt);
+        observers.push(&mut progress);
+        sim.run(plan, &mut observers)
+    };
     let visuals_done = visuals.map_or(Ok(()), |v| v.finish().map(|_| ()));
-    let outcome = outcome.and_then(|s| visuals_done.map(|()| s).map_err(RunError::from));
+    let outcome = outcome.and_then(|()| visuals_done.map_err(RunError::from)).map(|()| {
+        let simulated_secs = sim.world().time_secs();
+        let d = totals.0.displacement();
+        let per_sec = |x: f64| if simulated_secs > 0.0 { x / simulated_secs } else { 0.0 };
+        RunSummary {
+            run_folder: folder.clone(),
+            simulated_secs,
+            distance_m: d.distance_m,
+            mean_speed_m_per_s: per_sec(d.distance_m),
+            heading_deg: d.heading_deg,
+            forward_speed_m_per_s: per_sec(d.forward_m),
+            peak_contact_force_n: totals.0.peak_contact_force_n,
+            max_penetration_m: totals.0.max_penetration_m,
+            actuator_energy_j: totals.0.actuator_energy_j,
+            steps_per_wall_sec: 0.0,
+            real_time_factor: 0.0,
+        }
+    });
     let wall = started.elapsed().as_secs_f64();
     manifest.wall_time_secs = wall;
     manifest.steps = sim.steps();
-    manifest.simulated_secs = sim.world.data.time();
-    manifest.mujoco_warnings = sim.world.warning_counts();
+    manifest.simulated_secs = sim.world().time_secs();
+    manifest.mujoco_warnings = sim.world().warning_counts();
     let tables = match recorder {
         Some(r) => r.finish(),
         None => Ok(Vec::new()),
@@ -243,7 +260,7 @@ pub fn run_simulation(config: &Config, options: &RunOptions, mut sim: Simulation
     match result {
         Ok(mut summary) => {
             summary.steps_per_wall_sec = sim.steps() as f64 / wall.max(1e-9);
-            summary.real_time_factor = sim.world.data.time() / wall.max(1e-9);
+            summary.real_time_factor = sim.world().time_secs() / wall.max(1e-9);
             manifest.status = RunStatus::Complete;
             manifest.summary = Some(summary.clone());
             manifest.write(&folder)?;
@@ -286,91 +303,46 @@ fn run_folder_config(config: &Config, copies: &[crate::model::features::FileCopy
     c
 }
 
-fn step_loop(
-    config: &Config,
-    options: &RunOptions,
-    sim: &mut Simulation,
-    mut recorder: Option<&mut Recorder>,
-    mut visuals: Option<&mut crate::render::RunVisuals>,
-    total_steps: u64,
-    folder: &Path,
-) -> Result<RunSummary, RunError> {
-    let every = config.recording.every_n_steps.max(1);
-    let mut snapshot = Snapshot::new(sim.world.n_links(), sim.world.n_joints());
-    let mut peak_force_n: f64 = 0.0;
-    let mut max_penetration_m: f64 = 0.0;
-    let mut actuator_energy_j: f64 = 0.0;
-    let dt = sim.world.data.model_opt().timestep;
-    let mut start_com = None;
-    let mut start_heading = None;
-    let mut end_com = [0.0; 3];
-    let progress = Progress::new(options.progress, total_steps);
-    for k in 0..=total_steps {
-        sim.control();
-        if k % every == 0 || k == total_steps {
-            sim.snapshot(&mut snapshot);
-            peak_force_n = peak_force_n.max(snapshot.peak_contact_force_n());
-            for c in &snapshot.contacts {
-                max_penetration_m = max_penetration_m.max(c.penetration_m());
-            }
-            end_com = centre_of_mass(&sim.world, &snapshot);
-            start_com.get_or_insert(end_com);
-            start_heading.get_or_insert_with(|| head_heading_xy(&snapshot));
-            let held_steps = ((k / every + 1) * every).min(total_steps) - k;
-            actuator_energy_j += actuator_power_w(&sim.world) * dt * held_steps as f64;
-            if let Some(r) = recorder.as_deref_mut() {
-                r.write(k, &snapshot)?;
-            }
-            if let Some(v) = visuals.as_deref_mut() {
-                v.on_recorded_step(&sim.world.data)?;
-            }
-        }
-        if let Some(v) = visuals.as_deref_mut() {
-            v.on_step(&mut sim.world.data, dt)?;
-        }
-        if k == total_steps {
-            break;
-        }
-        if k % crate::interrupt::CHECK_EVERY_N_STEPS == 0 && crate::interrupt::requested() {
-            progress.finish();
-            return Err(RunError::Interrupted { time_secs: sim.world.data.time(), step: k });
-        }
-        if let Err(e) = sim.advance() {
-            // `run_simulation` flushes and closes the tables, and reports their errors too.
-            return Err(e.into());
-        }
-        if k % 1024 == 0 {
-            progress.tick(k);
-        }
+/// The run summary's physics, added up over the recorded instants.
+#[derive(Default)]
+struct Totals(RunTotals);
+
+impl Observer<RunError> for Totals {
+    fn on_record(&mut self, view: &StepView<'_>, snapshot: &Snapshot) -> Result<(), RunError> {
+        // Each recorded instant's power holds until the next recorded one (or the end).
+        let every = view.plan.record_every_n_steps;
+        let held_steps = ((view.k / every + 1) * every).min(view.plan.steps) - view.k;
+        self.0.add(snapshot, view.world.timestep_secs(), held_steps);
+        Ok(())
     }
-    progress.finish();
-    let start = start_com.unwrap_or(end_com);
-    let (dx, dy) = (end_com[0] - start[0], end_com[1] - start[1]);
-    let distance_m = dx.hypot(dy);
-    let simulated_secs = sim.world.data.time();
-    let heading = start_heading.unwrap_or([1.0, 0.0]);
-    let forward_m = dx * heading[0] + dy * heading[1];
-    Ok(RunSummary {
-        run_folder: folder.to_path_buf(),
-        simulated_secs,
-        distance_m,
-        mean_speed_m_per_s: if simulated_secs > 0.0 { distance_m / simulated_secs } else { 0.0 },
-        heading_deg: dy.atan2(dx).to_degrees(),
-        forward_speed_m_per_s: if simulated_secs > 0.0 { forward_m / simulated_secs } else { 0.0 },
-        peak_contact_force_n: peak_force_n,
-        max_penetration_m,
-        actuator_energy_j,
-        steps_per_wall_sec: 0.0,
-        real_time_factor: 0.0,
-    })
 }
 
-/// Unit vector in the xy-plane along the head link's +x axis (the way the snake faces).
-fn head_heading_xy(s: &Snapshot) -> [f64; 2] {
-    let Some(&[w, x, y, z]) = s.link_quat.first() else { return [1.0, 0.0] };
-    let (hx, hy) = (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z));
-    let norm = hx.hypot(hy);
-    if norm > 1e-9 { [hx / norm, hy / norm] } else { [1.0, 0.0] }
+impl Observer<RunError> for Recorder {
+    fn on_record(&mut self, view: &StepView<'_>, snapshot: &Snapshot) -> Result<(), RunError> {
+        Ok(self.write(view.k, snapshot)?)
+    }
+}
+
+impl Observer<RunError> for crate::render::RunVisuals {
+    fn on_record(&mut self, view: &StepView<'_>, _snapshot: &Snapshot) -> Result<(), RunError> {
+        Ok(self.on_recorded_step(view.world.data())?)
+    }
+    fn on_step(&mut self, view: &StepView<'_>) -> Result<(), RunError> {
+        Ok(self.on_step(view.world.data(), view.world.timestep_secs())?)
+    }
+}
+
+/// Stops the run when SIGINT/SIGTERM arrived (one relaxed atomic load; used every
+/// [`crate::interrupt::CHECK_EVERY_N_STEPS`] steps).
+struct InterruptPoll;
+
+impl Observer<RunError> for InterruptPoll {
+    fn on_step(&mut self, view: &StepView<'_>) -> Result<(), RunError> {
+        if !view.is_last() && crate::interrupt::requested() {
+            return Err(RunError::Interrupted { time_secs: view.time_secs(), step: view.k });
+        }
+        Ok(())
+    }
 }
 
 /// A progress bar that appears only after two seconds and only on a terminal.
@@ -409,5 +381,16 @@ impl Progress {
         if let Some(bar) = &self.bar {
             bar.finish_and_clear();
         }
+    }
+}
+
+impl Observer<RunError> for Progress {
+    fn on_step(&mut self, view: &StepView<'_>) -> Result<(), RunError> {
+        self.tick(view.k);
+        Ok(())
+    }
+    fn on_end(&mut self, _view: &StepView<'_>, _completed: bool) -> Result<(), RunError> {
+        self.finish();
+        Ok(())
     }
 }

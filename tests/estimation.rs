@@ -52,7 +52,7 @@ fn run(config: &Config, noise: Option<&simserpent::config::Sensors>, steps: usiz
         sim.control();
         sim.snapshot(&mut sample.snap);
         // After the forward pass the sensors describe this instant.
-        sim.world.observe_true(&mut obs);
+        sim.world().observe_true(&mut obs);
         let s = &sample.snap;
         input.fill(&obs, &s.link_quat, &s.link_position_m, &s.link_origin_m);
         estimator.estimate(&input, &mut sample.exact);

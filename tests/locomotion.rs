@@ -25,7 +25,7 @@ fn one_link(model: GroundModel) -> Config {
 fn launch(config: &Config, direction_deg: f64, speed: f64) -> Simulation {
     let mut world = World::from_config(config).unwrap();
     let heading = (30.0 + direction_deg).to_radians();
-    let qvel = world.data.qvel_mut();
+    let qvel = world.qvel_mut();
     qvel[0] = speed * heading.cos();
     qvel[1] = speed * heading.sin();
     world.forward();
@@ -85,7 +85,7 @@ fn viscous_friction_decays_velocity_exponentially() {
         for _ in 0..300 {
             sim.step().unwrap();
         }
-        let v = sim.world.data.qvel();
+        let v = sim.world().data().qvel();
         let speed = v[0].hypot(v[1]);
         let expected = 0.5 * (-c_value * 0.3 / 1.0_f64).exp();
         assert!((speed - expected).abs() < 0.01 * expected, "direction {direction}: {speed} vs {expected}");
@@ -198,12 +198,12 @@ fn viscous_undulation_matches_the_averaged_model() {
     let mut x0 = 0.0;
     for k in 0..total_steps {
         if k == ramp_steps {
-            x0 = sim.world.data.subtree_com()[1][0];
+            x0 = sim.world().data().subtree_com()[1][0];
         }
         sim.step().unwrap();
     }
-    sim.world.forward();
-    let v = (sim.world.data.subtree_com()[1][0] - x0) / 14.4;
+    sim.world_mut().forward();
+    let v = (sim.world().data().subtree_com()[1][0] - x0) / 14.4;
     let theory = simserpent::experiments::averaged_viscous_speed(
         10,
         0.14,

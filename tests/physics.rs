@@ -17,7 +17,7 @@ fn bare(n_links: usize, height_m: f64) -> Config {
 }
 
 fn snapshot(sim: &mut Simulation) -> Snapshot {
-    let mut s = Snapshot::new(sim.world.n_links(), sim.world.n_joints());
+    let mut s = Snapshot::new(sim.world().n_links(), sim.world().n_joints());
     sim.control();
     sim.snapshot(&mut s);
     s
@@ -53,11 +53,8 @@ fn free_fall_follows_g_t_squared_over_two() {
 /// Total linear momentum and angular momentum about the centre of mass, from MuJoCo's
 /// subtree quantities of the head (the root of the whole snake).
 fn momenta(world: &mut World) -> ([f64; 3], [f64; 3]) {
-    world.data.subtree_vel();
     let head = world.index.links[0].body;
-    let mass = world.index.robot_mass_kg;
-    let v = world.data.subtree_linvel()[head];
-    (v.map(|x| x * mass), world.data.subtree_angmom()[head])
+    world.subtree_momentum(head)
 }
 
 /// Runs a weightless 6-link snake through 2 s of vigorous undulation and returns the largest
@@ -81,7 +78,7 @@ fn floating_momentum_error(timestep_secs: f64) -> (f64, f64, f64) {
         sim.step().unwrap();
         sim.control();
         sim.snapshot(&mut s);
-        let (p, l) = momenta(&mut sim.world);
+        let (p, l) = momenta(sim.world_mut());
         let m = c.snake.link_mass_kg;
         let com =
             s.link_position_m.iter().fold([0.0; 3], |a, x| [a[0] + x[0] / 6.0, a[1] + x[1] / 6.0, a[2] + x[2] / 6.0]);
@@ -185,7 +182,7 @@ fn recording_interval_does_not_change_the_trajectory() {
         c.recording.every_n_steps = every;
         let world = World::from_config(&c).unwrap();
         let mut sim = Simulation::new(&c, world);
-        let mut s = Snapshot::new(sim.world.n_links(), sim.world.n_joints());
+        let mut s = Snapshot::new(sim.world().n_links(), sim.world().n_joints());
         for k in 0..500 {
             sim.control();
             if k % every == 0 {
@@ -193,7 +190,7 @@ fn recording_interval_does_not_change_the_trajectory() {
             }
             sim.advance().unwrap();
         }
-        sim.world.data.qpos().to_vec()
+        sim.world().data().qpos().to_vec()
     };
     assert_eq!(run(1), run(7));
 }

@@ -56,10 +56,10 @@ fn launch(config: &Config, dir: [f64; 2], speed: f64, steps: usize) -> Vec<Sampl
     for _ in 0..SETTLE_STEPS {
         sim.step().unwrap();
     }
-    let qvel = sim.world.data.qvel_mut();
+    let qvel = sim.world_mut().qvel_mut();
     qvel[0] = speed * dir[0];
     qvel[1] = speed * dir[1];
-    sim.world.forward();
+    sim.world_mut().forward();
     let mut s = Snapshot::new(1, 0);
     let mut out = Vec::with_capacity(steps);
     for _ in 0..steps {
@@ -297,7 +297,7 @@ fn a_surface_no_link_reaches_leaves_the_trajectory_unchanged() {
         for _ in 0..500 {
             sim.step().unwrap();
         }
-        sim.world.data.qpos().to_vec()
+        sim.world().data().qpos().to_vec()
     };
     let (a, b) = (run(&plain), run(&far));
     assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "{a:?} != {b:?}");

@@ -29,14 +29,14 @@ fn one_link(mu: f64) -> Config {
 }
 
 fn snapshot(sim: &mut Simulation) -> Snapshot {
-    let mut s = Snapshot::new(sim.world.n_links(), sim.world.n_joints());
+    let mut s = Snapshot::new(sim.world().n_links(), sim.world().n_joints());
     sim.control();
     sim.snapshot(&mut s);
     s
 }
 
 fn run_for(sim: &mut Simulation, secs: f64) {
-    let dt = sim.world.model().opt().timestep;
+    let dt = sim.world().model().opt().timestep;
     for _ in 0..(secs / dt).round() as usize {
         sim.step().unwrap();
     }
@@ -90,7 +90,7 @@ fn on_a_slope_a_link_holds_when_mu_exceeds_tan_and_slides_with_g_sin_minus_mu_co
     eprintln!("hold: moved {} m, v0 {v0} v1 {v1}", s1 - s0);
     assert!(
         s.contacts.iter().all(|k| {
-            let names = [geom_name(&sim.world, k.geom[0]), geom_name(&sim.world, k.geom[1])];
+            let names = [geom_name(sim.world(), k.geom[0]), geom_name(sim.world(), k.geom[1])];
             names.contains(&names::TERRAIN_SLOPE)
         }) && !s.contacts.is_empty(),
         "the link rests on the slope only"
@@ -157,7 +157,7 @@ fn drop_on_heightfield(png: &Path, x: f64, y: f64) -> (f64, Option<f64>, usize) 
     let hf = s
         .contacts
         .iter()
-        .filter(|k| k.geom.iter().any(|g| geom_name(&sim.world, *g) == names::TERRAIN_HEIGHTFIELD))
+        .filter(|k| k.geom.iter().any(|g| geom_name(sim.world(), *g) == names::TERRAIN_HEIGHTFIELD))
         .map(|k| k.position_m[2])
         .fold(None, |m: Option<f64>, z| Some(m.map_or(z, |m| m.max(z))));
     (s.link_position_m[0][2], hf, s.contacts.len())
@@ -200,7 +200,7 @@ fn a_third_party_terrain_loads_and_the_snake_touches_it() {
     let mut sim = Simulation::new(&c, world);
     run_for(&mut sim, 1.0);
     let s = snapshot(&mut sim);
-    let touching: Vec<&str> = s.contacts.iter().flat_map(|k| k.geom.map(|g| geom_name(&sim.world, g))).collect();
+    let touching: Vec<&str> = s.contacts.iter().flat_map(|k| k.geom.map(|g| geom_name(sim.world(), g))).collect();
     assert!(touching.contains(&"tp_platform"), "contacts: {touching:?}");
     assert!((s.link_position_m[0][2] - 0.14).abs() < 2e-3, "resting on the platform: {:?}", s.link_position_m[0]);
     // The run folder files: the third-party terrain and its mesh are copied.
@@ -377,11 +377,11 @@ fn a_wall_stops_a_sliding_link_and_a_channel_keeps_it_between_its_walls() {
     let mut c = one_link(0.0);
     c.terrain.walls = vec![Wall { start_m: [0.525, -1.0], end_m: [0.525, 1.0], height_m: 0.2, thickness_m: 0.05 }];
     let mut sim = Simulation::new(&c, World::from_config(&c).unwrap());
-    sim.world.data.qvel_mut()[0] = 1.0;
+    sim.world_mut().qvel_mut()[0] = 1.0;
     let mut max_tip = f64::NEG_INFINITY;
     for _ in 0..1500 {
         sim.step().unwrap();
-        max_tip = max_tip.max(sim.world.data.qpos()[0]);
+        max_tip = max_tip.max(sim.world().data().qpos()[0]);
     }
     // A soft contact with time constant τ and damping ratio 1 is a critically damped
     // spring-damper: hit at v0 it penetrates at most v0 τ / e (at t = τ).
@@ -392,7 +392,7 @@ fn a_wall_stops_a_sliding_link_and_a_channel_keeps_it_between_its_walls() {
         (pen - depth).abs() < 0.05 * depth,
         "penetration into the wall {pen} m, critically damped v0 τ/e = {depth} m"
     );
-    assert!(sim.world.data.qpos()[0] < 0.5, "and it does not pass through");
+    assert!(sim.world().data().qpos()[0] < 0.5, "and it does not pass through");
 
     // A channel 0.2 m wide around y = 0: the link slides sideways at 1 m/s and stays inside.
     let mut c = one_link(0.0);
@@ -401,11 +401,11 @@ fn a_wall_stops_a_sliding_link_and_a_channel_keeps_it_between_its_walls() {
     c.terrain.channel.end_m = [1.0, 0.0];
     c.terrain.channel.width_m = 0.2;
     let mut sim = Simulation::new(&c, World::from_config(&c).unwrap());
-    sim.world.data.qvel_mut()[1] = 1.0;
+    sim.world_mut().qvel_mut()[1] = 1.0;
     let mut max_y = f64::NEG_INFINITY;
     for _ in 0..1500 {
         sim.step().unwrap();
-        max_y = max_y.max(sim.world.data.qpos()[1]);
+        max_y = max_y.max(sim.world().data().qpos()[1]);
     }
     let limit = 0.1 - c.snake.link_radius_m;
     let pen = max_y - limit;
@@ -414,7 +414,7 @@ fn a_wall_stops_a_sliding_link_and_a_channel_keeps_it_between_its_walls() {
         (pen - depth).abs() < 0.05 * depth,
         "inner face at y = 0.1: penetration {pen} m, expected v0 τ/e = {depth} m"
     );
-    assert!(sim.world.data.qpos()[1] < limit, "bounced back inside the channel");
+    assert!(sim.world().data().qpos()[1] < limit, "bounced back inside the channel");
 }
 
 #[test]

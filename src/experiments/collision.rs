@@ -187,7 +187,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
         let config = case_config(base, n_links);
         let label = format!("{n_links} link{} along {}", if n_links == 1 { "" } else { "s" }, ["x", "y"][axis]);
         let run = ctx.sub_run(&format!("collision-{n_links}-{}", ["x", "y"][axis]), &config, |world| {
-            let qvel = world.data.qvel_mut();
+            let qvel = world.qvel_mut();
             qvel[axis] = LAUNCH_SPEED_M_PER_S;
         })?;
         let i = analyse(&run, &config, axis)?;

@@ -31,7 +31,7 @@ use crate::estimation::{
     predicted_error_std_n,
 };
 use crate::run::RunError;
-use crate::sim::{SensorNoise, Simulation, Snapshot, World};
+use crate::sim::{LoopPlan, Observer, SensorNoise, SimError, Simulation, Snapshot, StepView, World};
 use std::io::Write;
 use std::path::Path;
 
@@ -107,30 +107,59 @@ pub fn score_estimator(
     let world = World::from_config(config).map_err(RunError::Sim)?;
     let (nl, nj) = (world.n_links(), world.n_joints());
     let masses: Vec<f64> = world.index.links.iter().map(|l| l.mass_kg).collect();
-    let mut sim = Simulation::with_controller(config, world, Box::new(ConstTorque(vec![torque_nm; nj])));
-    let mut noise = SensorNoise::new(&config.sensors, config.general.seed, nl, nj);
-    let mut snap = Snapshot::new(nl, nj);
-    let (mut obs, mut measured) = (Observation::new(nl, nj), Observation::new(nl, nj));
+    let mut sim = Simulation::with_typed_controller(config, world, ConstTorque(vec![torque_nm; nj]));
     let mut input = EstimatorInput::new(nl);
     input.link_mass_kg.copy_from_slice(&masses);
-    let (mut out, mut exact) = (EstimateOutput::new(nl), EstimateOutput::new(nl));
-    let mut reference = NewtonEulerEstimator::default();
-    let mut score = EstimationScore::new(nl, DETECTION_THRESHOLD_N);
-    let mut trace = Trace { link_mass_kg: masses, ..Trace::default() };
-    for _ in 0..steps {
-        sim.control();
-        sim.snapshot(&mut snap);
-        // After the forward pass the sensors describe this instant.
-        sim.world.observe_true(&mut obs);
-        noise.measure(&obs, &mut measured);
-        input.fill(&obs, &snap.link_quat, &snap.link_position_m, &snap.link_origin_m);
-        reference.estimate(&input, &mut exact);
-        input.fill(&measured, &snap.link_quat, &snap.link_position_m, &snap.link_origin_m);
-        estimator.estimate(&input, &mut out);
-        score.add(&out.link_force_n, &snap.link_contact_force_n);
+    let mut scorer = Scorer {
+        estimator,
+        noise: SensorNoise::new(&config.sensors, config.general.seed, nl, nj),
+        obs: Observation::new(nl, nj),
+        measured: Observation::new(nl, nj),
+        input,
+        out: EstimateOutput::new(nl),
+        exact: EstimateOutput::new(nl),
+        reference: NewtonEulerEstimator::default(),
+        score: EstimationScore::new(nl, DETECTION_THRESHOLD_N),
+        trace: Trace { link_mass_kg: masses, ..Trace::default() },
+    };
+    if steps > 0 {
+        // Instants 0 ..= steps − 1, each recorded (a forward pass, so the sensors describe it).
+        let plan = LoopPlan { steps: steps as u64 - 1, record_every_n_steps: 1 };
+        sim.run(plan, &mut [&mut scorer]).map_err(RunError::Sim)?;
+    }
+    Ok((scorer.score, scorer.trace))
+}
+
+/// Scores an estimator at every recorded instant of the step loop.
+struct Scorer<'a> {
+    estimator: &'a mut dyn ContactEstimator,
+    noise: SensorNoise,
+    obs: Observation,
+    measured: Observation,
+    input: EstimatorInput,
+    out: EstimateOutput,
+    exact: EstimateOutput,
+    reference: NewtonEulerEstimator,
+    score: EstimationScore,
+    trace: Trace,
+}
+
+impl Observer<SimError> for Scorer<'_> {
+    fn on_record(&mut self, view: &StepView<'_>, snap: &Snapshot) -> Result<(), SimError> {
+        let nl = snap.link_position_m.len();
+        // After the record's forward pass the sensors describe this instant.
+        view.world.observe_true(&mut self.obs);
+        self.noise.measure(&self.obs, &mut self.measured);
+        let input = &mut self.input;
+        input.fill(&self.obs, &snap.link_quat, &snap.link_position_m, &snap.link_origin_m);
+        self.reference.estimate(input, &mut self.exact);
+        input.fill(&self.measured, &snap.link_quat, &snap.link_position_m, &snap.link_origin_m);
+        self.estimator.estimate(input, &mut self.out);
+        let (out, trace) = (&self.out, &mut self.trace);
+        self.score.add(&out.link_force_n, &snap.link_contact_force_n);
         trace.time_s.push(snap.time_secs);
         trace.estimate_n.push(out.link_force_n.clone());
-        trace.exact_estimate_n.push(exact.link_force_n.clone());
+        trace.exact_estimate_n.push(self.exact.link_force_n.clone());
         trace.truth_total_n.push(snap.link_contact_force_n.clone());
         trace.truth_obstacle_n.push(snap.link_obstacle_force_n.clone());
         trace.contact_point_error_m.push(
@@ -145,9 +174,8 @@ pub fn score_estimator(
                 })
                 .collect(),
         );
-        sim.advance().map_err(RunError::Sim)?;
+        Ok(())
     }
-    Ok((score, trace))
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> ExperimentError + '_ {

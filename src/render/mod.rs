@@ -225,7 +225,7 @@ impl RunVisuals {
     #[allow(unused_variables)]
     pub fn on_step<M: mujoco_rs::wrappers::mj_model::traits::ModelType>(
         &mut self,
-        data: &mut mujoco_rs::prelude::MjData<M>,
+        data: &mujoco_rs::prelude::MjData<M>,
         dt: f64,
     ) -> Result<(), RenderError> {
         #[cfg(feature = "render")]

@@ -180,6 +180,9 @@ mod native {
     /// The viewer showing a run as it goes, paced to real time (at most 60 redraws per second).
     pub struct LiveViewer {
         viewer: MjViewer,
+        /// The viewer's own copy of the state: the simulation's is only read, so the viewer
+        /// (its mouse perturbations included) never changes the trajectory.
+        data: MjData<Box<MjModel>>,
         started: Instant,
         last_draw: Option<Instant>,
     }
@@ -188,11 +191,16 @@ mod native {
         /// Opens the viewer on the run's model.
         pub fn open(model: &MjModel) -> Result<Self, RenderError> {
             check_display()?;
-            Ok(Self { viewer: open(model)?, started: Instant::now(), last_draw: None })
+            Ok(Self {
+                viewer: open(model)?,
+                data: MjData::new(Box::new(model.clone())),
+                started: Instant::now(),
+                last_draw: None,
+            })
         }
 
         /// Shows the state of `data` if a redraw is due; waits so the run goes at real time.
-        pub fn sync<M: ModelType>(&mut self, data: &mut MjData<M>) {
+        pub fn sync<M: ModelType>(&mut self, data: &MjData<M>) {
             if !self.viewer.running() {
                 return;
             }
@@ -201,7 +209,12 @@ mod native {
                 std::thread::sleep(Duration::from_secs_f64(ahead));
             }
             if self.last_draw.is_none_or(|t| t.elapsed() >= Duration::from_millis(16)) {
-                self.viewer.sync_data(data);
+                let spec = super::super::state::STATE_SPEC;
+                if let Err(e) = self.data.set_state(&data.state(spec), spec) {
+                    log::warn!("viewer: {e}");
+                }
+                self.data.forward();
+                self.viewer.sync_data(&mut self.data);
                 if let Err(e) = self.viewer.render() {
                     log::warn!("viewer: {e}");
                 }

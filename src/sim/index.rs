@@ -1,6 +1,7 @@
 //! Name → id resolution, done once when a world is built, so the step loop never looks up a name.
 
 use super::SimError;
+use crate::state::GeomClass;
 use crate::config::ControlMethod;
 use crate::model::names;
 use mujoco_rs::prelude::*;
@@ -36,20 +37,6 @@ pub struct JointIndex {
     pub torque_adr: Option<usize>,
     /// Actuator id per kind, in [`ControlMethod::ALL`] order.
     pub actuators: [Option<usize>; 4],
-}
-
-/// What a geom is, for splitting contact forces into ground reaction, obstacle and link–link.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum GeomClass {
-    /// The floor plane (`model::names::FLOOR`) and the ground-like terrain surfaces (`terrain_*`:
-    /// slope, heightfield, mesh terrain; see `model::names::is_ground`).
-    Floor,
-    /// An obstacle (a geom named `obstacle_*`).
-    Obstacle,
-    /// A geom of link `i`.
-    Link(usize),
-    /// Anything else (a user's scenery).
-    Other,
 }
 
 /// Everything the read-out needs, resolved once.

@@ -1,25 +1,29 @@
-//! The simulation: the only module that talks to MuJoCo.
+//! The engine: compiling models and stepping them. MuJoCo's state is private to this module;
+//! everything else reads it through [`World`]'s accessors or a [`Snapshot`].
 //!
 //! [`World`] holds the compiled model, the engine state and the resolved [`Index`].
-//! [`Simulation`] runs the step loop: observe → controller → actuators → `mj_step`, and on
-//! recorded steps a full `mj_forward` so that everything in a [`Snapshot`] describes one instant
-//! (see ARCHITECTURE.md, "Order of work in a step").
+//! [`Simulation`] owns the only step loop ([`Simulation::run`]): sense → controller → actuators →
+//! ground → (record) → observers → `mj_step` → checks, with [`Observer`]s hooked in at the start,
+//! every step, every recorded step and the end (see ARCHITECTURE.md, "Order of work in a step").
 
 mod ground;
 mod index;
 mod noise;
 mod safety;
 mod snapshot;
+mod step_loop;
 
+pub use crate::state::{ContactRow, GeomClass, Snapshot};
 pub use ground::Ground;
-pub use index::{GeomClass, Index, JointIndex, LinkIndex};
+pub use index::{Index, JointIndex, LinkIndex};
 pub use noise::SensorNoise;
 pub use safety::EnergyGuard;
-pub use snapshot::{ContactRow, Snapshot};
+pub use step_loop::{Every, LoopPlan, Observer, Simulation, StepView};
 
 use crate::config::{Config, ControlMethod};
-use crate::control::{Command, Controller, Observation, TrajectoryController};
+use crate::control::{Command, Observation};
 use crate::model::{self, GeneratedModel};
+use crate::state;
 use mujoco_rs::prelude::*;
 use std::path::Path;
 
@@ -33,6 +37,15 @@ pub enum SimError {
     /// MuJoCo rejected a model, or a model lacks what the run needs.
     #[error("model: {0}")]
     Model(String),
+    /// A scratch file or folder for compiling a model could not be written.
+    #[error("cannot write {}", path.display())]
+    Write {
+        /// The file or folder.
+        path: std::path::PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
     /// A user's robot file could not be used.
     #[error("robot file {file}: {message}")]
     RobotFile {
@@ -58,9 +71,13 @@ fn scratch_dir(what: &str) -> Result<std::path::PathBuf, SimError> {
     static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let k = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let dir = std::env::temp_dir().join(format!("simserpent-{what}-{}-{k}", std::process::id()));
-    std::fs::create_dir_all(&dir)
-        .map_err(|e| SimError::Model(format!("cannot create scratch folder {} ({e})", dir.display())))?;
+    std::fs::create_dir_all(&dir).map_err(write_err(&dir))?;
     Ok(dir)
+}
+
+/// [`SimError::Write`] for `path`.
+fn write_err(path: &Path) -> impl Fn(std::io::Error) -> SimError + '_ {
+    move |source| SimError::Write { path: path.to_path_buf(), source }
 }
 
 /// The third-party terrain's source file among `copies`, for error messages.
@@ -79,21 +96,19 @@ pub fn write_model_folder(
     texts: &[(String, String)],
     copies: &[model::features::FileCopy],
 ) -> Result<std::path::PathBuf, SimError> {
-    let io = |path: &Path, e: std::io::Error| SimError::Model(format!("cannot write {} ({e})", path.display()));
     for c in copies {
         let dest = dir.join(&c.dest);
         if let Some(parent) = dest.parent() {
-            std::fs::create_dir_all(parent).map_err(|e| io(parent, e))?;
+            std::fs::create_dir_all(parent).map_err(write_err(parent))?;
         }
-        std::fs::copy(&c.source, &dest)
-            .map_err(|e| SimError::Model(format!("cannot copy {} to {} ({e})", c.source.display(), dest.display())))?;
+        std::fs::copy(&c.source, &dest).map_err(write_err(&dest))?;
     }
     for (name, text) in texts {
         let path = dir.join(name);
-        std::fs::write(&path, text).map_err(|e| io(&path, e))?;
+        std::fs::write(&path, text).map_err(write_err(&path))?;
     }
     let path = dir.join("model.xml");
-    std::fs::write(&path, model_xml).map_err(|e| io(&path, e))?;
+    std::fs::write(&path, model_xml).map_err(write_err(&path))?;
     Ok(path)
 }
 
@@ -112,8 +127,8 @@ impl From<model::ModelError> for SimError {
 /// change during a run (contact-pair friction, for directional friction) can be changed; use
 /// [`World::model`] to read it.
 pub struct World {
-    /// The engine state (with its model).
-    pub data: MjData<Box<MjModel>>,
+    /// The engine state (with its model): private, read through the accessors.
+    data: MjData<Box<MjModel>>,
     /// Resolved ids and addresses.
     pub index: Index,
     /// The MJCF the world was compiled from.
@@ -127,6 +142,9 @@ pub struct World {
     pub initial_joint_angles_rad: Vec<f64>,
     /// Simulated time that `sensordata` describes (the last complete model evaluation).
     sensor_time_secs: f64,
+    /// Contact-pair friction as compiled, restored by [`World::reset`] (the ground model
+    /// changes it during a run).
+    initial_pair_friction: Vec<[f64; 5]>,
 }
 
 impl World {
@@ -157,6 +175,7 @@ impl World {
                 .map_err(|e| SimError::Model(format!("MuJoCo rejected the generated model: {e}")))?
         };
         let index = Index::for_snake(&model, config.snake.n_links)?;
+        let initial_pair_friction = model.pair_friction().to_vec();
         let mut world = Self {
             data: MjData::new(Box::new(model)),
             index,
@@ -165,6 +184,7 @@ impl World {
             copied_files: generated.files.copies,
             initial_joint_angles_rad: generated.initial_joint_angles_rad,
             sensor_time_secs: 0.0,
+            initial_pair_friction,
         };
         world.reset()?;
         Ok(world)
@@ -198,6 +218,7 @@ impl World {
             .map_err(|e| robot_err(format!("MuJoCo cannot load the robot inside the terrain ({e})")))?;
         let index = Index::for_robot(&model, config.control.method);
         safety::check_robot_actuators(config, &index).map_err(robot_err)?;
+        let initial_pair_friction = model.pair_friction().to_vec();
         let mut world = Self {
             data: MjData::new(Box::new(model)),
             mjcf: scene.xml,
@@ -206,14 +227,19 @@ impl World {
             initial_joint_angles_rad: vec![0.0; index.joints.len()],
             index,
             sensor_time_secs: 0.0,
+            initial_pair_friction,
         };
         world.reset()?;
         Ok(world)
     }
 
-    /// Resets the state to the model's "initial" keyframe (or its default pose) and computes
-    /// all derived quantities.
+    /// Resets the state to the model's "initial" keyframe (or its default pose), the contact-pair
+    /// friction to the compiled one, and computes all derived quantities.
     pub fn reset(&mut self) -> Result<(), SimError> {
+        for pair in 0..self.initial_pair_friction.len() {
+            let friction = self.initial_pair_friction[pair];
+            self.set_pair_friction(pair, friction);
+        }
         match self.model().name_to_id(MjtObjBase::mjOBJ_KEY, model::names::INITIAL_KEYFRAME) {
             Some(key) => {
                 self.data.reset_keyframe(key).map_err(|e| SimError::Model(format!("cannot reset to keyframe: {e}")))?
@@ -240,6 +266,77 @@ impl World {
     /// The compiled model.
     pub fn model(&self) -> &MjModel {
         self.data.model()
+    }
+
+    /// The engine state, read-only (for rendering and for analyses that need MuJoCo's own
+    /// arrays; the step loop is the only writer).
+    pub fn data(&self) -> &MjData<Box<MjModel>> {
+        &self.data
+    }
+
+    /// Simulated time (s).
+    pub fn time_secs(&self) -> f64 {
+        self.data.time()
+    }
+
+    /// The physics timestep (s).
+    pub fn timestep_secs(&self) -> f64 {
+        self.data.model().opt().timestep
+    }
+
+    /// Joint positions, writable: for setting an initial condition before a run (call
+    /// [`World::forward`] afterwards).
+    pub fn qpos_mut(&mut self) -> &mut [f64] {
+        self.data.qpos_mut()
+    }
+
+    /// Joint velocities, writable: for setting an initial condition before a run (call
+    /// [`World::forward`] afterwards).
+    pub fn qvel_mut(&mut self) -> &mut [f64] {
+        self.data.qvel_mut()
+    }
+
+    /// The actuator controls, writable (the bare-engine benchmark writes them directly).
+    pub fn ctrl_mut(&mut self) -> &mut [f64] {
+        self.data.ctrl_mut()
+    }
+
+    /// Linear momentum (kg·m/s) and angular momentum about the centre of mass (kg·m²/s) of
+    /// the subtree of `body` at the current state (computes MuJoCo's subtree velocities).
+    pub fn subtree_momentum(&mut self, body: usize) -> ([f64; 3], [f64; 3]) {
+        self.data.subtree_vel();
+        let mass = self.data.model().body_subtreemass()[body];
+        let v = self.data.subtree_linvel()[body];
+        (v.map(|x| x * mass), self.data.subtree_angmom()[body])
+    }
+
+    /// Centre of mass of the subtree of `body` (m), of the last kinematics computed.
+    pub fn subtree_com_m(&self, body: usize) -> [f64; 3] {
+        self.data.subtree_com()[body]
+    }
+
+    /// Mass-weighted centre of the robot's links (m), from the last kinematics computed.
+    pub fn centre_of_mass_m(&self) -> [f64; 3] {
+        let xipos = self.data.xipos();
+        state::centre_of_mass_m(self.index.links.iter().map(|l| (l.mass_kg, xipos[l.body])))
+    }
+
+    /// The way the head faces in the xy-plane (its link's +x axis), from the last kinematics.
+    pub fn head_heading_xy(&self) -> [f64; 2] {
+        self.index.links.first().map_or([1.0, 0.0], |head| state::heading_xy(self.data.xquat()[head.body]))
+    }
+
+    /// Σ over joints of |τ·q̇| (W): MuJoCo's joint-space actuator torque of the last evaluation
+    /// times the current joint velocity.
+    pub fn actuator_power_w(&self) -> f64 {
+        let (qfrc, qvel) = (self.data.qfrc_actuator(), self.data.qvel());
+        state::actuator_power_w(self.index.joints.iter().map(|j| (qfrc[j.dof_adr], qvel[j.dof_adr])))
+    }
+
+    /// Largest contact normal force of the last evaluation's contacts (N).
+    pub fn peak_contact_force_n(&self) -> f64 {
+        let d = &self.data;
+        state::peak_contact_force_n((0..d.contact().len()).map(|c| d.contact_force(c)[0]))
     }
 
     /// Sets the friction of contact pair `pair` (tangent 1, tangent 2, torsional, rolling 1, 2).
@@ -370,114 +467,3 @@ const WARNING_NAMES: [&str; 7] = [
     "bad qacc (mjWARN_BADQACC)",
     "bad ctrl (mjWARN_BADCTRL)",
 ];
-
-/// A world with its controller and sensor noise: the step loop.
-pub struct Simulation {
-    /// The world.
-    pub world: World,
-    controller: Box<dyn Controller>,
-    noise: SensorNoise,
-    obs_true: Observation,
-    /// What the controller saw at the latest step (measured values).
-    pub obs: Observation,
-    cmd: Command,
-    steps: u64,
-    /// Full state for controllers that ask for it.
-    controller_state: Option<Snapshot>,
-    /// Per-step work of the ground friction model.
-    ground: Ground,
-    /// Runaway-energy check (`[safety]`).
-    energy_guard: EnergyGuard,
-}
-
-impl Simulation {
-    /// The world with the built-in controller that `config` describes.
-    pub fn new(config: &Config, world: World) -> Self {
-        let controller = Box::new(TrajectoryController::from_config(config, world.n_joints()));
-        Self::with_controller(config, world, controller)
-    }
-
-    /// The world with a controller of your own.
-    pub fn with_controller(config: &Config, world: World, mut controller: Box<dyn Controller>) -> Self {
-        let (nl, nj) = (world.n_links(), world.n_joints());
-        controller.reset();
-        let controller_state = controller.needs_full_state().then(|| Snapshot::new(nl, nj));
-        let ground = Ground::new(config, &world);
-        let energy_guard = EnergyGuard::new(config, &world);
-        Self {
-            ground,
-            energy_guard,
-            controller_state,
-            noise: SensorNoise::new(&config.sensors, config.general.seed, nl, nj),
-            obs_true: Observation::new(nl, nj),
-            obs: Observation::new(nl, nj),
-            cmd: Command::new(nj),
-            controller,
-            world,
-            steps: 0,
-        }
-    }
-
-    /// Steps taken so far.
-    pub fn steps(&self) -> u64 {
-        self.steps
-    }
-
-    /// The noise-free observation at the latest step.
-    pub fn true_observation(&self) -> &Observation {
-        &self.obs_true
-    }
-
-    /// The controller's command at the latest step.
-    pub fn command(&self) -> &Command {
-        &self.cmd
-    }
-
-    /// Observe, run the controller and write `ctrl` for the step that starts now. Called by
-    /// [`Simulation::step`]; separate so a forward pass for recording can see the new controls.
-    pub fn control(&mut self) {
-        if self.controller_state.is_some() {
-            self.world.forward();
-        }
-        self.world.observe_true(&mut self.obs_true);
-        self.noise.measure(&self.obs_true, &mut self.obs);
-        match self.controller_state.as_mut() {
-            Some(state) => {
-                state.read(&self.world, &self.obs_true, &self.obs);
-                self.controller.update_with_state(&self.obs, state, &mut self.cmd);
-            }
-            None => self.controller.update(&self.obs, &mut self.cmd),
-        }
-        self.world.apply_command(&self.cmd);
-        self.ground.before_step(&mut self.world);
-    }
-
-    /// Advances the physics by one timestep with the controls already written.
-    pub fn advance(&mut self) -> Result<(), SimError> {
-        let reached_secs = self.world.data.time() + self.world.model().opt().timestep;
-        self.world.step();
-        self.steps += 1;
-        self.world.check_finite(self.steps, reached_secs)?;
-        self.energy_guard.check(&mut self.world, self.steps, reached_secs)
-    }
-
-    /// One full step: [`Simulation::control`] then [`Simulation::advance`].
-    pub fn step(&mut self) -> Result<(), SimError> {
-        self.control();
-        self.advance()
-    }
-
-    /// Runs MuJoCo's forward pass at the current state and controls, so that positions,
-    /// velocities, accelerations, contacts, sensors and constraint forces all describe this
-    /// instant, and reads them into `snapshot`.
-    pub fn snapshot(&mut self, snapshot: &mut Snapshot) {
-        self.world.forward();
-        snapshot.read(&self.world, &self.obs_true, &self.obs);
-        snapshot.link_region.copy_from_slice(self.ground.link_regions());
-    }
-
-    /// The ground model's per-step state (floor surfaces, the region under each link).
-    pub fn ground(&self) -> &Ground {
-        &self.ground
-    }
-}

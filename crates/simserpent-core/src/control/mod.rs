@@ -10,6 +10,7 @@ mod pid;
 pub use gait::{FormClosureShift, JointTrajectory, SineWave, Still, TwoPlaneWave, serpenoid, trajectory_from_config};
 pub use pid::Pid;
 
+
 use crate::config::{Config, ControlMethod};
 
 /// What a controller sees at one step. All vectors are per joint (`n_joints`) or per link
@@ -107,6 +108,14 @@ impl Command {
         }
     }
 
+    /// Copies `other` into this command (same sizes: no allocation).
+    pub fn copy_from(&mut self, other: &Command) {
+        self.torque_nm.clone_from(&other.torque_nm);
+        self.position_rad.clone_from(&other.position_rad);
+        self.velocity_rad_per_s.clone_from(&other.velocity_rad_per_s);
+        self.intvelocity_rad_per_s.clone_from(&other.intvelocity_rad_per_s);
+    }
+
     /// The command block of one actuator kind.
     pub fn block(&self, kind: ControlMethod) -> &[f64] {
         match kind {
@@ -125,7 +134,7 @@ impl Command {
 /// A controller that needs more than the sensors — link poses and velocities, every contact and
 /// its force, actuator and joint forces (everything of thesis table 3) — returns `true` from
 /// [`Controller::needs_full_state`] and implements [`Controller::update_with_state`]; the
-/// simulation then runs a forward pass before every step so the [`crate::sim::Snapshot`] it
+/// simulation then runs a forward pass before every step so the [`crate::state::Snapshot`] it
 /// passes describes the current instant (costs about one extra model evaluation per step).
 pub trait Controller {
     /// Called once before the first step (and again if the simulation is reset).
@@ -139,8 +148,50 @@ pub trait Controller {
     }
     /// Like `update`, with the full simulator state of this instant (positions, velocities,
     /// contacts, forces) computed with the previous step's commands.
-    fn update_with_state(&mut self, obs: &Observation, _state: &crate::sim::Snapshot, cmd: &mut Command) {
+    fn update_with_state(&mut self, obs: &Observation, _state: &crate::state::Snapshot, cmd: &mut Command) {
         self.update(obs, cmd);
+    }
+    /// Whether the controller looks at the sensors. One that does not (a command held from
+    /// outside, as a reinforcement-learning environment's action is) lets the step loop skip
+    /// reading and measuring them at every step.
+    fn reads_sensors(&self) -> bool {
+        true
+    }
+}
+
+impl<C: Controller + ?Sized> Controller for Box<C> {
+    fn reset(&mut self) {
+        (**self).reset();
+    }
+    fn update(&mut self, obs: &Observation, cmd: &mut Command) {
+        (**self).update(obs, cmd);
+    }
+    fn needs_full_state(&self) -> bool {
+        (**self).needs_full_state()
+    }
+    fn update_with_state(&mut self, obs: &Observation, state: &crate::state::Snapshot, cmd: &mut Command) {
+        (**self).update_with_state(obs, state, cmd);
+    }
+    fn reads_sensors(&self) -> bool {
+        (**self).reads_sensors()
+    }
+}
+
+/// A command set from outside and held: the controller of a reinforcement-learning
+/// environment, whose agent sets [`HeldCommand::command`] before stepping. It does not read the
+/// sensors.
+#[derive(Debug, Clone, Default)]
+pub struct HeldCommand {
+    /// The command sent at every step.
+    pub command: Command,
+}
+
+impl Controller for HeldCommand {
+    fn update(&mut self, _obs: &Observation, cmd: &mut Command) {
+        cmd.copy_from(&self.command);
+    }
+    fn reads_sensors(&self) -> bool {
+        false
     }
 }
 

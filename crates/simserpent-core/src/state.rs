@@ -1,0 +1,413 @@
+//! The plain state of one instant and the physics summaries computed from it.
+//!
+//! A [`Snapshot`] holds everything of thesis table 3 at one instant; the engine
+//! (`simserpent::sim::World::read_snapshot`) fills it after a forward pass. Everything here is
+//! plain numbers: controllers, estimators, recorders and analyses use it without the engine.
+//!
+//! The summaries of a run — centre of mass, heading, actuator power, peak contact force — have
+//! one implementation each, here ([`centre_of_mass_m`], [`heading_xy`], [`actuator_power_w`],
+//! [`peak_contact_force_n`]); [`RunTotals`] accumulates them over the recorded instants of a run.
+
+use crate::control::Observation;
+
+/// What a geom is, for splitting contact forces into ground reaction, obstacle and link–link.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GeomClass {
+    /// The floor plane (`model::names::FLOOR`) and the ground-like terrain surfaces (`terrain_*`:
+    /// slope, heightfield, mesh terrain; see `model::names::is_ground`).
+    Floor,
+    /// An obstacle (a geom named `obstacle_*`).
+    Obstacle,
+    /// A geom of link `i`.
+    Link(usize),
+    /// Anything else (a user's scenery).
+    Other,
+}
+
+/// One contact (MuJoCo's contact list), in the world frame.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ContactRow {
+    /// Geom ids (names in `simserpent::sim::Index::geom_names`).
+    pub geom: [usize; 2],
+    /// Body ids of the two geoms.
+    pub body: [usize; 2],
+    /// Contact point (m), midway between the surfaces.
+    pub position_m: [f64; 3],
+    /// Contact normal, pointing from geom 0 to geom 1.
+    pub normal: [f64; 3],
+    /// Signed distance between the surfaces (m); negative = penetration.
+    pub distance_m: f64,
+    /// Normal force (N, ≥ 0: geom 0 pushes geom 1 along `normal`).
+    pub normal_force_n: f64,
+    /// Friction force along the contact frame's two tangent axes (N).
+    pub friction_force_n: [f64; 2],
+    /// Total contact force on the second geom (`geom[1]`, column geom2) in the world frame (N); the first feels the opposite.
+    pub force_on_geom2_n: [f64; 3],
+}
+
+impl ContactRow {
+    /// Penetration depth (m, ≥ 0).
+    pub fn penetration_m(&self) -> f64 {
+        (-self.distance_m).max(0.0)
+    }
+}
+
+/// Every quantity of thesis table 3 at one instant. Sized once; reading does not allocate
+/// (except when a step has more contacts than any before it).
+#[derive(Debug, Clone, Default)]
+pub struct Snapshot {
+    /// Simulated time (s).
+    pub time_secs: f64,
+    /// Per link: mass (kg).
+    pub link_mass_kg: Vec<f64>,
+    /// Per link: centre-of-mass position (m).
+    pub link_position_m: Vec<[f64; 3]>,
+    /// Per link: orientation quaternion (w, x, y, z).
+    pub link_quat: Vec<[f64; 4]>,
+    /// Per link: centre-of-mass linear velocity (m/s).
+    pub link_velocity_m_per_s: Vec<[f64; 3]>,
+    /// Per link: angular velocity (rad/s).
+    pub link_angular_velocity_rad_per_s: Vec<[f64; 3]>,
+    /// Per link: centre-of-mass linear acceleration (m/s², gravity not included: free fall reads g).
+    pub link_acceleration_m_per_s2: Vec<[f64; 3]>,
+    /// Per link: angular acceleration (rad/s²).
+    pub link_angular_acceleration_rad_per_s2: Vec<[f64; 3]>,
+    /// Per link: sum of all contact forces on the link (N).
+    pub link_contact_force_n: Vec<[f64; 3]>,
+    /// Per link: moment of those forces about the link's centre of mass (N·m).
+    pub link_contact_torque_nm: Vec<[f64; 3]>,
+    /// Per link: the part of `link_contact_force_n` that the floor exerts (ground reaction: normal
+    /// plus friction, N), and its moment about the centre of mass (N·m).
+    pub link_floor_force_n: Vec<[f64; 3]>,
+    pub link_floor_torque_nm: Vec<[f64; 3]>,
+    /// Per link: the part that obstacles (geoms named `obstacle_*`) exert (N), its moment about
+    /// the centre of mass (N·m) and its point of application: the contact points weighted by the
+    /// magnitude of each contact's force (m; `None` without obstacle contact).
+    pub link_obstacle_force_n: Vec<[f64; 3]>,
+    pub link_obstacle_torque_nm: Vec<[f64; 3]>,
+    pub link_obstacle_point_m: Vec<Option<[f64; 3]>>,
+    /// Per link: the part that other links (self-collision) and other geoms exert (N).
+    pub link_other_contact_force_n: Vec<[f64; 3]>,
+    /// Per link: origin of the link's frame (m): the anchor of the joint to its parent (for the
+    /// generated snake; the head's front end for link 0).
+    pub link_origin_m: Vec<[f64; 3]>,
+    /// Floor region under each link's centre in the step that starts at this instant: 0 = plain
+    /// floor, `k + 1` = `ground.surfaces[k]` (all 0 without surfaces).
+    pub link_region: Vec<usize>,
+    /// Per joint: angle (rad) and velocity (rad/s).
+    pub joint_angle_rad: Vec<f64>,
+    pub joint_velocity_rad_per_s: Vec<f64>,
+    /// Per joint: torque of all its actuators together in joint space (N·m, MuJoCo's
+    /// `qfrc_actuator`) at this instant.
+    pub joint_actuator_torque_nm: Vec<f64>,
+    /// Per joint and actuator kind (torque, position, velocity, intvelocity): actuator force (N·m).
+    pub actuator_force_nm: Vec<[f64; 4]>,
+    /// Per joint: internal force and torque between the links, as the joint's force/torque
+    /// sensor measures it (exerted by the parent link on the child, child's frame at the joint).
+    pub joint_force_n: Vec<[f64; 3]>,
+    pub joint_torque_nm: Vec<[f64; 3]>,
+    /// The sensor values the controller saw: true and measured.
+    pub observation_true: Observation,
+    pub observation_measured: Observation,
+    /// Per link velocimeter (link frame, m/s), true.
+    pub link_velocimeter_m_per_s: Vec<[f64; 3]>,
+    /// All contacts.
+    pub contacts: Vec<ContactRow>,
+    /// Per link: sum of obstacle contact force magnitudes (weights of the point of application).
+    obstacle_weight: Vec<f64>,
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+fn add_to(acc: &mut [f64; 3], v: [f64; 3], sign: f64) {
+    for k in 0..3 {
+        acc[k] += sign * v[k];
+    }
+}
+
+impl Snapshot {
+    /// A snapshot sized for `n_links` links and `n_joints` joints.
+    pub fn new(n_links: usize, n_joints: usize) -> Self {
+        Self {
+            link_mass_kg: vec![0.0; n_links],
+            link_position_m: vec![[0.0; 3]; n_links],
+            link_quat: vec![[1.0, 0.0, 0.0, 0.0]; n_links],
+            link_velocity_m_per_s: vec![[0.0; 3]; n_links],
+            link_angular_velocity_rad_per_s: vec![[0.0; 3]; n_links],
+            link_acceleration_m_per_s2: vec![[0.0; 3]; n_links],
+            link_angular_acceleration_rad_per_s2: vec![[0.0; 3]; n_links],
+            link_contact_force_n: vec![[0.0; 3]; n_links],
+            link_contact_torque_nm: vec![[0.0; 3]; n_links],
+            link_floor_force_n: vec![[0.0; 3]; n_links],
+            link_floor_torque_nm: vec![[0.0; 3]; n_links],
+            link_obstacle_force_n: vec![[0.0; 3]; n_links],
+            link_obstacle_torque_nm: vec![[0.0; 3]; n_links],
+            link_obstacle_point_m: vec![None; n_links],
+            link_other_contact_force_n: vec![[0.0; 3]; n_links],
+            link_origin_m: vec![[0.0; 3]; n_links],
+            link_region: vec![0; n_links],
+            joint_angle_rad: vec![0.0; n_joints],
+            joint_velocity_rad_per_s: vec![0.0; n_joints],
+            joint_actuator_torque_nm: vec![0.0; n_joints],
+            actuator_force_nm: vec![[0.0; 4]; n_joints],
+            joint_force_n: vec![[0.0; 3]; n_joints],
+            joint_torque_nm: vec![[0.0; 3]; n_joints],
+            observation_true: Observation::new(n_links, n_joints),
+            observation_measured: Observation::new(n_links, n_joints),
+            link_velocimeter_m_per_s: vec![[0.0; 3]; n_links],
+            contacts: Vec::with_capacity(64),
+            obstacle_weight: vec![0.0; n_links],
+            time_secs: 0.0,
+        }
+    }
+
+    /// Clears the contact list and every per-link contact sum, before the contacts of a new
+    /// instant are added with [`Snapshot::add_contact`]. Needs `link_position_m` of this instant.
+    pub fn begin_contacts(&mut self) {
+        self.contacts.clear();
+        for v in [
+            &mut self.link_contact_force_n,
+            &mut self.link_contact_torque_nm,
+            &mut self.link_floor_force_n,
+            &mut self.link_floor_torque_nm,
+            &mut self.link_obstacle_force_n,
+            &mut self.link_obstacle_torque_nm,
+            &mut self.link_other_contact_force_n,
+        ] {
+            v.fill([0.0; 3]);
+        }
+        self.link_obstacle_point_m.fill(None);
+        self.obstacle_weight.fill(0.0);
+    }
+
+    /// Adds one contact: to the contact list, and to the per-link sums of each side that is a
+    /// link (`link[side]`), split by what the other side is (`class[1 - side]`: floor, obstacle,
+    /// or anything else). The force on the first geom is the opposite of `force_on_geom2_n`.
+    pub fn add_contact(&mut self, row: ContactRow, link: [Option<usize>; 2], class: [Option<GeomClass>; 2]) {
+        let force = row.force_on_geom2_n;
+        for (side, sign) in [(0, -1.0), (1, 1.0)] {
+            let Some(link) = link[side] else { continue };
+            add_to(&mut self.link_contact_force_n[link], force, sign);
+            let arm = sub(row.position_m, self.link_position_m[link]);
+            let moment = cross(arm, force);
+            add_to(&mut self.link_contact_torque_nm[link], moment, sign);
+            match class[1 - side] {
+                Some(GeomClass::Floor) => {
+                    add_to(&mut self.link_floor_force_n[link], force, sign);
+                    add_to(&mut self.link_floor_torque_nm[link], moment, sign);
+                }
+                Some(GeomClass::Obstacle) => {
+                    add_to(&mut self.link_obstacle_force_n[link], force, sign);
+                    add_to(&mut self.link_obstacle_torque_nm[link], moment, sign);
+                    let w = norm(force);
+                    let point = self.link_obstacle_point_m[link].get_or_insert([0.0; 3]);
+                    add_to(point, row.position_m, w);
+                    self.obstacle_weight[link] += w;
+                }
+                _ => add_to(&mut self.link_other_contact_force_n[link], force, sign),
+            }
+        }
+        self.contacts.push(row);
+    }
+
+    /// Ends the contacts of this instant: the obstacle points of application become weighted
+    /// means (a contact without force has no point of application).
+    pub fn end_contacts(&mut self) {
+        for (point, &w) in self.link_obstacle_point_m.iter_mut().zip(&self.obstacle_weight) {
+            match point {
+                Some(p) if w > 0.0 => p.iter_mut().for_each(|x| *x /= w),
+                _ => *point = None,
+            }
+        }
+    }
+
+    /// Largest contact normal force in this snapshot (N).
+    pub fn peak_contact_force_n(&self) -> f64 {
+        peak_contact_force_n(self.contacts.iter().map(|c| c.normal_force_n))
+    }
+
+    /// Largest penetration in this snapshot (m, ≥ 0).
+    pub fn max_penetration_m(&self) -> f64 {
+        self.contacts.iter().map(ContactRow::penetration_m).fold(0.0, f64::max)
+    }
+
+    /// Mass-weighted centre of the links (m).
+    pub fn centre_of_mass_m(&self) -> [f64; 3] {
+        centre_of_mass_m(self.link_mass_kg.iter().copied().zip(self.link_position_m.iter().copied()))
+    }
+
+    /// Σ over joints of |τ·q̇| at this instant (W).
+    pub fn actuator_power_w(&self) -> f64 {
+        actuator_power_w(
+            self.joint_actuator_torque_nm.iter().copied().zip(self.joint_velocity_rad_per_s.iter().copied()),
+        )
+    }
+
+    /// The way the head faces in the xy-plane (see [`heading_xy`]).
+    pub fn head_heading_xy(&self) -> [f64; 2] {
+        self.link_quat.first().map_or([1.0, 0.0], |q| heading_xy(*q))
+    }
+}
+
+/// Mass-weighted centre of `(mass_kg, position_m)` pairs (m); the origin if the mass is zero.
+pub fn centre_of_mass_m(links: impl IntoIterator<Item = (f64, [f64; 3])>) -> [f64; 3] {
+    let mut c = [0.0; 3];
+    let mut total = 0.0;
+    for (mass_kg, p) in links {
+        for k in 0..3 {
+            c[k] += mass_kg * p[k];
+        }
+        total += mass_kg;
+    }
+    if total > 0.0 { c.map(|x| x / total) } else { c }
+}
+
+/// Unit vector in the xy-plane along a body's +x axis, for the orientation quaternion
+/// `(w, x, y, z)`; `[1, 0]` when the axis is vertical.
+pub fn heading_xy([w, x, y, z]: [f64; 4]) -> [f64; 2] {
+    let (hx, hy) = (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z));
+    let norm = hx.hypot(hy);
+    if norm > 1e-9 { [hx / norm, hy / norm] } else { [1.0, 0.0] }
+}
+
+/// Σ over joints of |τ·q̇| (W) for `(joint-space actuator torque N·m, joint velocity rad/s)`
+/// pairs: the rate at which the actuators do work, counting braking as work too.
+pub fn actuator_power_w(joints: impl IntoIterator<Item = (f64, f64)>) -> f64 {
+    joints.into_iter().map(|(torque_nm, velocity)| (torque_nm * velocity).abs()).sum()
+}
+
+/// Largest of the contact normal forces (N, ≥ 0; 0 without contacts).
+pub fn peak_contact_force_n(normal_forces_n: impl IntoIterator<Item = f64>) -> f64 {
+    normal_forces_n.into_iter().map(f64::abs).fold(0.0, f64::max)
+}
+
+/// What a run's summary adds up over its recorded instants: displacement and heading of the
+/// centre of mass, peak contact force, largest penetration and actuator energy.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RunTotals {
+    start_com_m: Option<[f64; 3]>,
+    start_heading_xy: Option<[f64; 2]>,
+    end_com_m: [f64; 3],
+    /// Largest contact normal force seen (N).
+    pub peak_contact_force_n: f64,
+    /// Largest penetration seen (m).
+    pub max_penetration_m: f64,
+    /// ∫ Σ_joints |τ·q̇| dt over the recorded instants, each held until the next one (J).
+    pub actuator_energy_j: f64,
+}
+
+/// The displacement part of a run's summary.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Displacement {
+    /// Horizontal displacement of the centre of mass from the first to the last instant (m).
+    pub distance_m: f64,
+    /// Its direction in the xy-plane (degrees from +x).
+    pub heading_deg: f64,
+    /// The displacement projected on the direction the head faced at the first instant (m).
+    pub forward_m: f64,
+}
+
+impl RunTotals {
+    /// Adds a recorded instant whose values hold for `held_steps` steps of `dt_secs` (for the
+    /// energy).
+    pub fn add(&mut self, s: &Snapshot, dt_secs: f64, held_steps: u64) {
+        self.peak_contact_force_n = self.peak_contact_force_n.max(s.peak_contact_force_n());
+        self.max_penetration_m = self.max_penetration_m.max(s.max_penetration_m());
+        self.end_com_m = s.centre_of_mass_m();
+        self.start_com_m.get_or_insert(self.end_com_m);
+        self.start_heading_xy.get_or_insert_with(|| s.head_heading_xy());
+        self.actuator_energy_j += s.actuator_power_w() * dt_secs * held_steps as f64;
+    }
+
+    /// Displacement from the first to the last instant added.
+    pub fn displacement(&self) -> Displacement {
+        let start = self.start_com_m.unwrap_or(self.end_com_m);
+        let (dx, dy) = (self.end_com_m[0] - start[0], self.end_com_m[1] - start[1]);
+        let heading = self.start_heading_xy.unwrap_or([1.0, 0.0]);
+        Displacement {
+            distance_m: dx.hypot(dy),
+            heading_deg: dy.atan2(dx).to_degrees(),
+            forward_m: dx * heading[0] + dy * heading[1],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn centre_of_mass_weights_by_mass() {
+        let c = centre_of_mass_m([(1.0, [0.0, 0.0, 0.0]), (3.0, [4.0, 8.0, -4.0])]);
+        assert_eq!(c, [3.0, 6.0, -3.0]);
+        assert_eq!(centre_of_mass_m([(0.0, [1.0, 1.0, 1.0])]), [0.0; 3]);
+    }
+
+    #[test]
+    fn heading_of_a_yaw_rotation() {
+        let yaw = 30f64.to_radians();
+        let h = heading_xy([(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()]);
+        assert!((h[0] - yaw.cos()).abs() < 1e-12 && (h[1] - yaw.sin()).abs() < 1e-12);
+        // Pointing straight up: no heading, +x by convention.
+        let pitch = -90f64.to_radians();
+        assert_eq!(heading_xy([(pitch / 2.0).cos(), 0.0, (pitch / 2.0).sin(), 0.0]), [1.0, 0.0]);
+    }
+
+    #[test]
+    fn power_counts_braking_and_peak_ignores_sign() {
+        assert_eq!(actuator_power_w([(2.0, 3.0), (-1.0, 4.0)]), 10.0);
+        assert_eq!(peak_contact_force_n([1.0, -5.0, 3.0]), 5.0);
+        assert_eq!(peak_contact_force_n(std::iter::empty()), 0.0);
+    }
+
+    #[test]
+    fn contacts_split_by_the_other_side() {
+        let mut s = Snapshot::new(2, 1);
+        s.link_position_m = vec![[0.0; 3], [1.0, 0.0, 0.0]];
+        s.begin_contacts();
+        // Floor (geom 0) pushes link 0 (geom 1) up with 2 N at (0.5, 0, 0).
+        let row = ContactRow { position_m: [0.5, 0.0, 0.0], force_on_geom2_n: [0.0, 0.0, 2.0], ..ContactRow::default() };
+        s.add_contact(row, [None, Some(0)], [Some(GeomClass::Floor), Some(GeomClass::Link(0))]);
+        // Link 1 (geom 0) against an obstacle (geom 1): the link feels the opposite force.
+        let row = ContactRow { position_m: [1.0, 1.0, 0.0], force_on_geom2_n: [0.0, 3.0, 0.0], ..ContactRow::default() };
+        s.add_contact(row, [Some(1), None], [Some(GeomClass::Link(1)), Some(GeomClass::Obstacle)]);
+        s.end_contacts();
+        assert_eq!(s.link_floor_force_n[0], [0.0, 0.0, 2.0]);
+        assert_eq!(s.link_floor_torque_nm[0], [0.0, -1.0, 0.0]);
+        assert_eq!(s.link_obstacle_force_n[1], [0.0, -3.0, 0.0]);
+        assert_eq!(s.link_obstacle_point_m[1], Some([1.0, 1.0, 0.0]));
+        assert_eq!(s.link_obstacle_point_m[0], None);
+        assert_eq!(s.contacts.len(), 2);
+        // A new instant starts from zero.
+        s.begin_contacts();
+        assert_eq!(s.link_floor_force_n[0], [0.0; 3]);
+        assert!(s.contacts.is_empty());
+    }
+
+    #[test]
+    fn totals_of_a_straight_run() {
+        let mut s = Snapshot::new(1, 1);
+        s.link_mass_kg[0] = 1.0;
+        s.joint_actuator_torque_nm[0] = 2.0;
+        s.joint_velocity_rad_per_s[0] = -0.5;
+        let mut t = RunTotals::default();
+        t.add(&s, 0.1, 1);
+        s.link_position_m[0] = [3.0, 4.0, 0.0];
+        t.add(&s, 0.1, 1);
+        let d = t.displacement();
+        assert_eq!(d.distance_m, 5.0);
+        assert_eq!(d.forward_m, 3.0);
+        assert!((d.heading_deg - 53.130_102_354_155_98).abs() < 1e-9);
+        assert!((t.actuator_energy_j - 0.2).abs() < 1e-15);
+    }
+}

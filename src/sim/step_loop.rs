@@ -1,0 +1,370 @@
+//! The step loop: the only place where the simulation steps.
+//!
+//! [`Simulation::run`] visits the instants k = 0 ..= `plan.steps` of a [`LoopPlan`]. At each:
+//!
+//! 1. **sense** (skipped for a controller that does not read the sensors): the exact
+//!    observation from the state, then the sensor models ([`SensorNoise`]);
+//! 2. **control**: the controller writes a [`Command`], which goes to the actuators; the ground
+//!    model prepares the step ([`Ground::before_step`]);
+//! 3. **record** (every `plan.record_every_n_steps`-th instant and the last): a forward pass
+//!    at x_k with the new controls, read into the [`Snapshot`]; [`Observer::on_record`];
+//! 4. [`Observer::on_step`];
+//! 5. unless k is the last instant: **step** (`mj_step`), then the divergence check and the
+//!    runaway-energy guard.
+//!
+//! Observers see the world read-only, through a [`StepView`]; they cannot change the
+//! trajectory. Nothing in the loop allocates (observers are a slice the caller owns; the
+//! snapshot is sized once).
+
+use super::{EnergyGuard, Ground, SensorNoise, SimError, World};
+use crate::config::{Config, Sensors};
+use crate::control::{Command, Controller, Observation, TrajectoryController};
+use crate::state::Snapshot;
+
+/// How many steps one [`Simulation::run`] takes and which instants it records.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LoopPlan {
+    /// Physics steps to take: instants 0 ..= `steps` are visited, the last without a step
+    /// after it.
+    pub steps: u64,
+    /// Record every n-th instant, and the last one; 0 records nothing (no forward pass).
+    pub record_every_n_steps: u64,
+}
+
+impl LoopPlan {
+    /// Whether instant `k` is recorded.
+    pub fn records(&self, k: u64) -> bool {
+        self.record_every_n_steps > 0 && (k % self.record_every_n_steps == 0 || k == self.steps)
+    }
+}
+
+/// What an observer sees at one instant: read-only.
+pub struct StepView<'a> {
+    /// The instant's index in the current [`Simulation::run`] (0 ..= `plan.steps`).
+    pub k: u64,
+    /// The run's plan.
+    pub plan: LoopPlan,
+    /// Physics steps taken since the simulation was built or reset.
+    pub steps_since_reset: u64,
+    /// The world (model, engine state through read-only accessors, index).
+    pub world: &'a World,
+    /// What the controller saw at this instant (measured; the previous instant's when the
+    /// controller does not read the sensors).
+    pub observation: &'a Observation,
+    /// The same without sensor models.
+    pub observation_true: &'a Observation,
+    /// The command of the step that starts at this instant.
+    pub command: &'a Command,
+    /// The ground model's per-step state (floor surfaces, the region under each link).
+    pub ground: &'a Ground,
+}
+
+impl StepView<'_> {
+    /// Simulated time of this instant (s).
+    pub fn time_secs(&self) -> f64 {
+        self.world.time_secs()
+    }
+
+    /// Whether this is the run's last instant (no step follows).
+    pub fn is_last(&self) -> bool {
+        self.k == self.plan.steps
+    }
+}
+
+/// Something that watches the step loop: a recorder, the pictures, a run summary, the
+/// interrupt poll, a progress bar, an estimator's scorer. Every hook does nothing by default;
+/// an error from a hook stops the run with that error. `E` is the caller's error type (the
+/// loop's own failures arrive as `E::from(SimError)`).
+pub trait Observer<E> {
+    /// Once, before the first instant.
+    fn on_start(&mut self, _view: &StepView<'_>) -> Result<(), E> {
+        Ok(())
+    }
+    /// At every instant, after control (and recording), before the step.
+    fn on_step(&mut self, _view: &StepView<'_>) -> Result<(), E> {
+        Ok(())
+    }
+    /// At recorded instants, with the snapshot of the instant (after its forward pass).
+    fn on_record(&mut self, _view: &StepView<'_>, _snapshot: &Snapshot) -> Result<(), E> {
+        Ok(())
+    }
+    /// Once at the end, also when the run stopped early (`completed` false); the view is the
+    /// last instant reached.
+    fn on_end(&mut self, _view: &StepView<'_>, _completed: bool) -> Result<(), E> {
+        Ok(())
+    }
+}
+
+/// An observer whose `on_step` runs only every n-th instant (n ≥ 1); its other hooks always.
+#[derive(Debug)]
+pub struct Every<O> {
+    /// Period in instants.
+    pub n: u64,
+    /// The observer.
+    pub inner: O,
+}
+
+impl<O> Every<O> {
+    /// `inner`, stepped every `n` instants.
+    pub fn new(n: u64, inner: O) -> Self {
+        Self { n: n.max(1), inner }
+    }
+}
+
+impl<E, O: Observer<E>> Observer<E> for Every<O> {
+    fn on_start(&mut self, view: &StepView<'_>) -> Result<(), E> {
+        self.inner.on_start(view)
+    }
+    fn on_step(&mut self, view: &StepView<'_>) -> Result<(), E> {
+        if view.k % self.n == 0 { self.inner.on_step(view) } else { Ok(()) }
+    }
+    fn on_record(&mut self, view: &StepView<'_>, snapshot: &Snapshot) -> Result<(), E> {
+        self.inner.on_record(view, snapshot)
+    }
+    fn on_end(&mut self, view: &StepView<'_>, completed: bool) -> Result<(), E> {
+        self.inner.on_end(view, completed)
+    }
+}
+
+/// A world with its controller, sensor models and ground model: the step loop.
+///
+/// `C` is the controller; the default, a boxed trait object, takes any controller chosen at
+/// run time.
+pub struct Simulation<C: Controller = Box<dyn Controller>> {
+    world: World,
+    controller: C,
+    sensors: Sensors,
+    noise: SensorNoise,
+    obs_true: Observation,
+    obs: Observation,
+    cmd: Command,
+    steps: u64,
+    /// Full state for controllers that ask for it.
+    controller_state: Option<Snapshot>,
+    /// The snapshot of recorded instants.
+    snapshot: Snapshot,
+    /// Per-step work of the ground friction model, and its state at the start.
+    ground: Ground,
+    initial_ground: Ground,
+    /// Runaway-energy check (`[safety]`).
+    energy_guard: EnergyGuard,
+}
+
+impl Simulation<Box<dyn Controller>> {
+    /// The world with the built-in controller that `config` describes.
+    pub fn new(config: &Config, world: World) -> Self {
+        let controller: Box<dyn Controller> = Box::new(TrajectoryController::from_config(config, world.n_joints()));
+        Self::with_typed_controller(config, world, controller)
+    }
+
+    /// The world with a controller of your own, chosen at run time.
+    pub fn with_controller(config: &Config, world: World, controller: Box<dyn Controller>) -> Self {
+        Self::with_typed_controller(config, world, controller)
+    }
+}
+
+impl<C: Controller> Simulation<C> {
+    /// The world with a controller of your own, of a type known at compile time (so the
+    /// caller can reach it through [`Simulation::controller_mut`]).
+    pub fn with_typed_controller(config: &Config, world: World, mut controller: C) -> Self {
+        let (nl, nj) = (world.n_links(), world.n_joints());
+        controller.reset();
+        let controller_state = controller.needs_full_state().then(|| Snapshot::new(nl, nj));
+        let ground = Ground::new(config, &world);
+        Self {
+            initial_ground: ground.clone(),
+            ground,
+            energy_guard: EnergyGuard::new(config, &world),
+            controller_state,
+            snapshot: Snapshot::new(nl, nj),
+            sensors: config.sensors.clone(),
+            noise: SensorNoise::new(&config.sensors, config.general.seed, nl, nj),
+            obs_true: Observation::new(nl, nj),
+            obs: Observation::new(nl, nj),
+            cmd: Command::new(nj),
+            controller,
+            world,
+            steps: 0,
+        }
+    }
+
+    /// Back to the initial state: the world (state and contact-pair friction), zero controls,
+    /// the ground model, the controller, and the sensor models seeded with `seed`; then the
+    /// sensors are read at the initial state.
+    pub fn reset(&mut self, seed: u64) -> Result<(), SimError> {
+        self.world.reset()?;
+        self.world.ctrl_mut().fill(0.0);
+        self.world.forward();
+        self.ground.clone_from(&self.initial_ground);
+        self.controller.reset();
+        self.noise = SensorNoise::new(&self.sensors, seed, self.world.n_links(), self.world.n_joints());
+        self.steps = 0;
+        self.sense();
+        Ok(())
+    }
+
+    /// The world, read-only.
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+
+    /// The world, for setting initial conditions before a run ([`World::qvel_mut`] …).
+    pub fn world_mut(&mut self) -> &mut World {
+        &mut self.world
+    }
+
+    /// The controller.
+    pub fn controller(&self) -> &C {
+        &self.controller
+    }
+
+    /// The controller, to change its settings between runs (an agent's held command …).
+    pub fn controller_mut(&mut self) -> &mut C {
+        &mut self.controller
+    }
+
+    /// Steps taken since the simulation was built or reset.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// What the controller saw at the latest instant (measured values).
+    pub fn observation(&self) -> &Observation {
+        &self.obs
+    }
+
+    /// The noise-free observation at the latest instant.
+    pub fn true_observation(&self) -> &Observation {
+        &self.obs_true
+    }
+
+    /// The controller's command at the latest instant.
+    pub fn command(&self) -> &Command {
+        &self.cmd
+    }
+
+    /// The ground model's per-step state (floor surfaces, the region under each link).
+    pub fn ground(&self) -> &Ground {
+        &self.ground
+    }
+
+    /// Reads the sensors at the current state: the exact observation, then the sensor models.
+    pub fn sense(&mut self) {
+        self.world.observe_true(&mut self.obs_true);
+        self.noise.measure(&self.obs_true, &mut self.obs);
+    }
+
+    /// Sense (unless the controller does not read the sensors), run the controller, write the
+    /// controls and prepare the ground for the step that starts now. Step 1–2 of the loop;
+    /// public so a caller can take the loop apart (tests, a custom read-out).
+    pub fn control(&mut self) {
+        if self.controller_state.is_some() {
+            self.world.forward();
+        }
+        if self.controller.reads_sensors() || self.controller_state.is_some() {
+            self.sense();
+        }
+        match self.controller_state.as_mut() {
+            Some(state) => {
+                self.world.read_snapshot(state, &self.obs_true, &self.obs);
+                state.link_region.copy_from_slice(self.ground.link_regions());
+                self.controller.update_with_state(&self.obs, state, &mut self.cmd);
+            }
+            None => self.controller.update(&self.obs, &mut self.cmd),
+        }
+        self.world.apply_command(&self.cmd);
+        self.ground.before_step(&mut self.world);
+    }
+
+    /// Advances the physics by one timestep with the controls already written, then checks
+    /// for divergence and runaway energy. Step 5 of the loop.
+    pub fn advance(&mut self) -> Result<(), SimError> {
+        let reached_secs = self.world.time_secs() + self.world.timestep_secs();
+        self.world.step();
+        self.steps += 1;
+        self.world.check_finite(self.steps, reached_secs)?;
+        self.energy_guard.check(&mut self.world, self.steps, reached_secs)
+    }
+
+    /// One full step: [`Simulation::control`] then [`Simulation::advance`].
+    pub fn step(&mut self) -> Result<(), SimError> {
+        self.control();
+        self.advance()
+    }
+
+    /// Runs MuJoCo's forward pass at the current state and controls, so that positions,
+    /// velocities, accelerations, contacts, sensors and constraint forces all describe this
+    /// instant, and reads them into `snapshot`.
+    pub fn snapshot(&mut self, snapshot: &mut Snapshot) {
+        self.world.forward();
+        self.world.read_snapshot(snapshot, &self.obs_true, &self.obs);
+        snapshot.link_region.copy_from_slice(self.ground.link_regions());
+    }
+
+    fn view(&self, k: u64, plan: LoopPlan) -> StepView<'_> {
+        StepView {
+            k,
+            plan,
+            steps_since_reset: self.steps,
+            world: &self.world,
+            observation: &self.obs,
+            observation_true: &self.obs_true,
+            command: &self.cmd,
+            ground: &self.ground,
+        }
+    }
+
+    /// The step loop: visits the instants of `plan` (see the module's documentation for the
+    /// order of work), calling the observers in the order given. Stops at the first error —
+    /// the loop's own (divergence, runaway energy) or an observer's — after calling every
+    /// observer's `on_end`.
+    pub fn run<E: From<SimError>>(&mut self, plan: LoopPlan, observers: &mut [&mut dyn Observer<E>]) -> Result<(), E> {
+        let mut k = 0;
+        let mut outcome = self.run_instants(plan, observers, &mut k);
+        let view = self.view(k, plan);
+        for o in observers.iter_mut() {
+            let ended = o.on_end(&view, outcome.is_ok());
+            if outcome.is_ok() {
+                outcome = ended;
+            }
+        }
+        outcome
+    }
+
+    fn run_instants<E: From<SimError>>(
+        &mut self,
+        plan: LoopPlan,
+        observers: &mut [&mut dyn Observer<E>],
+        k: &mut u64,
+    ) -> Result<(), E> {
+        {
+            let view = self.view(0, plan);
+            for o in observers.iter_mut() {
+                o.on_start(&view)?;
+            }
+        }
+        loop {
+            self.control();
+            if plan.records(*k) {
+                self.world.forward();
+                self.world.read_snapshot(&mut self.snapshot, &self.obs_true, &self.obs);
+                self.snapshot.link_region.copy_from_slice(self.ground.link_regions());
+                let view = self.view(*k, plan);
+                for o in observers.iter_mut() {
+                    o.on_record(&view, &self.snapshot)?;
+                }
+            }
+            {
+                let view = self.view(*k, plan);
+                for o in observers.iter_mut() {
+                    o.on_step(&view)?;
+                }
+            }
+            if *k >= plan.steps {
+                return Ok(());
+            }
+            self.advance()?;
+            *k += 1;
+        }
+    }
+}
