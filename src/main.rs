@@ -198,6 +198,69 @@ fn bad_input(e: impl Into<anyhow::Error>) -> Failure {
     Failure { code: 2, error: e.into() }
 }
 
+/// The documented exit codes (README, "Exit codes"): 2 for bad input (config, model, robot
+/// file, run folder, arguments, no display), 1 for failures while running (divergence, output),
+/// 130 for an interrupted run. Decided here, at the binary's edge, not in the library.
+trait ExitCodeOf {
+    fn exit_code(&self) -> u8;
+}
+
+impl ExitCodeOf for RunError {
+    fn exit_code(&self) -> u8 {
+        use simserpent::sim::SimError;
+        match self {
+            RunError::Sim(SimError::Config(_) | SimError::RobotFile { .. }) => 2,
+            RunError::Render(e) => e.exit_code(),
+            RunError::Interrupted { .. } => 130,
+            _ => 1,
+        }
+    }
+}
+
+impl ExitCodeOf for simserpent::render::RenderError {
+    fn exit_code(&self) -> u8 {
+        use simserpent::render::RenderError;
+        match self {
+            RenderError::BadFile { .. }
+            | RenderError::Config { .. }
+            | RenderError::NoViewer(_)
+            | RenderError::Read { .. } => 2,
+            _ => 1,
+        }
+    }
+}
+
+impl ExitCodeOf for simserpent::plot::PlotError {
+    fn exit_code(&self) -> u8 {
+        match self {
+            simserpent::plot::PlotError::Write { .. } => 1,
+            _ => 2,
+        }
+    }
+}
+
+impl ExitCodeOf for simserpent::experiments::ExperimentError {
+    fn exit_code(&self) -> u8 {
+        use simserpent::experiments::ExperimentError;
+        match self {
+            ExperimentError::Unknown(_) => 2,
+            ExperimentError::Run(e) => e.exit_code(),
+            _ => 1,
+        }
+    }
+}
+
+impl ExitCodeOf for simserpent::sweep::SweepError {
+    fn exit_code(&self) -> u8 {
+        simserpent::sweep::SweepError::exit_code(self)
+    }
+}
+
+/// An error with its exit code.
+fn failure<E: ExitCodeOf + Into<anyhow::Error>>(e: E) -> Failure {
+    Failure { code: e.exit_code(), error: e.into() }
+}
+
 fn load(args: &ConfigArgs) -> Result<(Config, String), Failure> {
     let result: Result<Config, ConfigError> = match &args.config {
         Some(path) => config::load_config(path, &args.overrides),
@@ -260,16 +323,14 @@ fn run_command(args: &ConfigArgs, robot: Option<PathBuf>, quiet: bool, viewer: b
     );
     if viewer && !cfg!(feature = "viewer") {
         // Without the in-process viewer, show the finished run in Python's viewer.
-        simserpent::render::viewer::replay_run_folder(&summary.run_folder)
-            .map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
+        simserpent::render::viewer::replay_run_folder(&summary.run_folder).map_err(failure)?;
     }
     Ok(())
 }
 
 /// `simserpent plot RUN_FOLDER`.
 fn plot_command(folder: &Path) -> Result<(), Failure> {
-    let out =
-        simserpent::plot::plot_run_folder(folder).map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
+    let out = simserpent::plot::plot_run_folder(folder).map_err(failure)?;
     for (panel, why) in &out.skipped {
         eprintln!("skipped {panel}: {why}");
     }
@@ -283,8 +344,7 @@ fn render_command(folder: &Path, video: bool, images: bool, overrides: &[String]
         return Err(bad_input(anyhow::anyhow!("nothing to render: give --video and/or --images")));
     }
     let options = simserpent::render::ReplayOptions { video, images, overrides: overrides.to_vec(), progress: !quiet };
-    let files = simserpent::render::render_run_folder(folder, &options)
-        .map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
+    let files = simserpent::render::render_run_folder(folder, &options).map_err(failure)?;
     for f in files {
         println!("wrote {}", f.display());
     }
@@ -294,7 +354,7 @@ fn render_command(folder: &Path, video: bool, images: bool, overrides: &[String]
 /// `simserpent view [CONFIG|MODEL|RUN_FOLDER]`.
 fn view_command(path: Option<&Path>, overrides: &[String]) -> Result<(), Failure> {
     use simserpent::render::viewer;
-    let fail = |e: simserpent::render::RenderError| Failure { code: e.exit_code(), error: e.into() };
+    let fail = failure::<simserpent::render::RenderError>;
     viewer::check_display().map_err(fail)?;
     let is_model =
         |p: &Path| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml") || e.eq_ignore_ascii_case("urdf"));
@@ -317,7 +377,7 @@ fn view_command(path: Option<&Path>, overrides: &[String]) -> Result<(), Failure
 fn experiment(name: &str, args: &ConfigArgs, quick: bool) -> Result<(), Failure> {
     let (config, _) = load(args)?;
     let outcome = simserpent::experiments::run_experiment(name, &config, Path::new(&config.general.output_dir), quick)
-        .map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
+        .map_err(failure)?;
     let report = &outcome.report;
     for c in report.checks() {
         println!("{} {}", if c.passed { "pass" } else { "FAIL" }, c.name);
@@ -372,8 +432,7 @@ fn bench(
     repeats: usize,
 ) -> Result<(), Failure> {
     let (config, source) = load(args)?;
-    let rows = simserpent::bench::run_bench(&config, links, duration_secs, output_dir, repeats)
-        .map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
+    let rows = simserpent::bench::run_bench(&config, links, duration_secs, output_dir, repeats).map_err(failure)?;
     println!(
         "config: {source}; timestep {} s, integrator {:?}, {} s simulated per row",
         config.general.timestep_secs, config.general.integrator, duration_secs
@@ -427,7 +486,7 @@ fn sweep(
     if let Err(e) = simserpent::interrupt::install_handler() {
         log::warn!("cannot install the SIGINT/SIGTERM handler ({e}); a signal will end the sweep abruptly");
     }
-    let report = sweep::run_sweep(&spec).map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
+    let report = sweep::run_sweep(&spec).map_err(failure)?;
     let (done, skipped, failed) = report.counts();
     println!("sweep folder: {}", report.sweep_dir.display());
     println!(
@@ -464,8 +523,7 @@ fn sweep(
 }
 
 fn sweep_merge(dir: &Path) -> Result<(), Failure> {
-    let (table, files) =
-        simserpent::sweep::merge_shards(dir).map_err(|e| Failure { code: e.exit_code(), error: e.into() })?;
+    let (table, files) = simserpent::sweep::merge_shards(dir).map_err(failure)?;
     println!(
         "merged {} shard summaries, {} runs, into {}",
         files.len(),

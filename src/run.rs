@@ -29,7 +29,7 @@ pub struct RunOptions {
     pub run_folder: Option<PathBuf>,
 }
 
-/// Errors of a run; [`RunError::exit_code`] maps them to the documented exit codes.
+/// Errors of a run (the binary maps them to the documented exit codes).
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum RunError {
@@ -57,19 +57,6 @@ pub enum RunError {
         /// Steps taken.
         step: u64,
     },
-}
-
-impl RunError {
-    /// 2 for bad input (config, model or robot file), 1 for failures during the simulation
-    /// (divergence, output), 130 for an interrupted run.
-    pub fn exit_code(&self) -> u8 {
-        match self {
-            RunError::Sim(SimError::Config(_) | SimError::RobotFile { .. }) => 2,
-            RunError::Render(e) => e.exit_code(),
-            RunError::Interrupted { .. } => 130,
-            _ => 1,
-        }
-    }
 }
 
 /// The short summary printed at the end and stored in the manifest.

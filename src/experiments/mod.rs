@@ -37,17 +37,6 @@ pub enum ExperimentError {
     Unknown(String),
 }
 
-impl ExperimentError {
-    /// Exit code: 2 for an unknown name or a bad config, else 1.
-    pub fn exit_code(&self) -> u8 {
-        match self {
-            ExperimentError::Unknown(_) => 2,
-            ExperimentError::Run(e) => e.exit_code(),
-            ExperimentError::Data(_) => 1,
-        }
-    }
-}
-
 /// The experiments, by command name.
 pub const NAMES: [&str; 6] = ["configure", "collision", "undulation", "form-closure", "oal", "estimation"];
 

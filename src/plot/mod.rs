@@ -70,16 +70,6 @@ pub enum PlotError {
     },
 }
 
-impl PlotError {
-    /// 2 for a bad run folder, 1 for failures to write.
-    pub fn exit_code(&self) -> u8 {
-        match self {
-            Self::Write { .. } => 1,
-            _ => 2,
-        }
-    }
-}
-
 /// A CSV table read whole: column name → values (text columns are left out).
 #[derive(Debug, Default)]
 struct Table {

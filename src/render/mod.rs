@@ -89,14 +89,6 @@ impl RenderError {
     pub(crate) fn read(path: &Path) -> impl FnOnce(std::io::Error) -> RenderError + '_ {
         move |source| RenderError::Read { path: path.to_path_buf(), source }
     }
-
-    /// 2 for bad input (run folder, config, no display for the viewer), 1 otherwise.
-    pub fn exit_code(&self) -> u8 {
-        match self {
-            Self::BadFile { .. } | Self::Config { .. } | Self::NoViewer(_) | Self::Read { .. } => 2,
-            _ => 1,
-        }
-    }
 }
 
 /// Writes a PNG (RGB, 8 bits).

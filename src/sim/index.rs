@@ -1,9 +1,9 @@
 //! Name → id resolution, done once when a world is built, so the step loop never looks up a name.
 
 use super::SimError;
-use crate::state::GeomClass;
 use crate::config::ControlMethod;
 use crate::model::names;
+use crate::state::GeomClass;
 use mujoco_rs::prelude::*;
 use mujoco_rs::wrappers::mj_model::{MjtJoint, MjtObjBase, MjtTrn};
 

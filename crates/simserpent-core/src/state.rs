@@ -376,10 +376,12 @@ mod tests {
         s.link_position_m = vec![[0.0; 3], [1.0, 0.0, 0.0]];
         s.begin_contacts();
         // Floor (geom 0) pushes link 0 (geom 1) up with 2 N at (0.5, 0, 0).
-        let row = ContactRow { position_m: [0.5, 0.0, 0.0], force_on_geom2_n: [0.0, 0.0, 2.0], ..ContactRow::default() };
+        let row =
+            ContactRow { position_m: [0.5, 0.0, 0.0], force_on_geom2_n: [0.0, 0.0, 2.0], ..ContactRow::default() };
         s.add_contact(row, [None, Some(0)], [Some(GeomClass::Floor), Some(GeomClass::Link(0))]);
         // Link 1 (geom 0) against an obstacle (geom 1): the link feels the opposite force.
-        let row = ContactRow { position_m: [1.0, 1.0, 0.0], force_on_geom2_n: [0.0, 3.0, 0.0], ..ContactRow::default() };
+        let row =
+            ContactRow { position_m: [1.0, 1.0, 0.0], force_on_geom2_n: [0.0, 3.0, 0.0], ..ContactRow::default() };
         s.add_contact(row, [Some(1), None], [Some(GeomClass::Link(1)), Some(GeomClass::Obstacle)]);
         s.end_contacts();
         assert_eq!(s.link_floor_force_n[0], [0.0, 0.0, 2.0]);

@@ -10,7 +10,6 @@ mod pid;
 pub use gait::{FormClosureShift, JointTrajectory, SineWave, Still, TwoPlaneWave, serpenoid, trajectory_from_config};
 pub use pid::Pid;
 
-
 use crate::config::{Config, ControlMethod};
 
 /// What a controller sees at one step. All vectors are per joint (`n_joints`) or per link
