@@ -14,12 +14,10 @@
 //!
 //! Wall time only counts the stepping (model compilation is excluded in all three).
 
-use crate::config::{Config, TableFormat};
+use crate::config::{Config, ControlMethod, TableFormat};
 use crate::control::{JointTrajectory, trajectory_from_config};
-use crate::model::names;
 use crate::run::{self, RunError, RunOptions};
 use crate::sim::{SimError, World};
-use mujoco_rs::prelude::MjtObjBase;
 use std::time::Instant;
 
 /// One measured row.
@@ -39,11 +37,8 @@ fn bare(config: &Config, steps: u64, with_gait: bool) -> Result<f64, SimError> {
     let mut world = World::from_config(config)?;
     let trajectory: Box<dyn JointTrajectory> = trajectory_from_config(config);
     let n = world.n_joints();
-    let actuator_ids: Vec<usize> = (1..=n)
-        .filter_map(|j| {
-            world.model().name_to_id(MjtObjBase::mjOBJ_ACTUATOR, &names::actuator(config.control.method, j))
-        })
-        .collect();
+    let kind = ControlMethod::ALL.iter().position(|m| *m == config.control.method).unwrap_or(0);
+    let actuator_ids: Vec<usize> = world.index.joints.iter().filter_map(|j| j.actuators[kind]).collect();
     let (mut angle, mut velocity) = (vec![0.0; n], vec![0.0; n]);
     let dt = config.general.timestep_secs;
     let start = Instant::now();

@@ -161,8 +161,8 @@ pub fn run_simulation<C: Controller>(
     let total_steps = (config.general.duration_secs / dt).round().max(1.0) as u64;
     let mut manifest = Manifest {
         simserpent_version: env!("CARGO_PKG_VERSION").to_string(),
-        mujoco_version: mujoco_rs::mujoco_version().to_string(),
-        mujoco_rs_version: "7.0.0".to_string(),
+        mujoco_version: crate::sim::engine_version(),
+        mujoco_rs_version: crate::sim::BINDING_VERSION.to_string(),
         seed: config.general.seed,
         status: RunStatus::Incomplete,
         error: None,

@@ -103,7 +103,7 @@ pub fn run_experiment(name: &str, base: &Config, output_dir: &Path, quick: bool)
     report.intro = format!(
         "SimSerpent {}, MuJoCo {}. {cases} Quick mode: {quick}.",
         env!("CARGO_PKG_VERSION"),
-        mujoco_rs::mujoco_version()
+        crate::sim::engine_version()
     );
     let section = match name {
         "collision" => collision::run(&ctx, base)?,

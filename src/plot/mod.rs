@@ -118,35 +118,14 @@ struct Series<'a> {
     y: Vec<f64>,
 }
 
-/// Circles and rectangles of the obstacles, in the xy-plane: (x, y, kind).
-#[derive(Debug, Clone)]
-enum Obstacle {
-    Circle { x: f64, y: f64, r: f64 },
-    Rect { x: f64, y: f64, hx: f64, hy: f64 },
-}
+/// Circles and rectangles of the obstacles, in the xy-plane.
+type Obstacle = crate::sim::PlanarShape;
 
 fn obstacles(model_xml: &Path) -> Vec<Obstacle> {
-    use mujoco_rs::prelude::*;
-    let Ok(model) = MjModel::from_xml(model_xml) else {
-        log::warn!("{}: MuJoCo cannot load it; the top view has no obstacles", model_xml.display());
-        return Vec::new();
-    };
-    let mut out = Vec::new();
-    let (types, bodies, sizes, pos) = (model.geom_type(), model.geom_bodyid(), model.geom_size(), model.geom_pos());
-    for g in 0..types.len() {
-        if bodies[g] != 0 {
-            continue;
-        }
-        let (p, s) = (pos[g], sizes[g]);
-        match types[g] {
-            MjtGeomBase::mjGEOM_CYLINDER | MjtGeomBase::mjGEOM_SPHERE | MjtGeomBase::mjGEOM_CAPSULE => {
-                out.push(Obstacle::Circle { x: p[0], y: p[1], r: s[0] })
-            }
-            MjtGeomBase::mjGEOM_BOX => out.push(Obstacle::Rect { x: p[0], y: p[1], hx: s[0], hy: s[1] }),
-            _ => {}
-        }
-    }
-    out
+    crate::sim::world_body_shapes(model_xml).unwrap_or_else(|e| {
+        log::warn!("{e}; the top view has no obstacles");
+        Vec::new()
+    })
 }
 
 const COLORS: [RGBColor; 10] = [

@@ -66,6 +66,48 @@ pub enum SimError {
     },
 }
 
+/// MuJoCo's version string (for manifests and reports).
+pub fn engine_version() -> String {
+    mujoco_rs::mujoco_version().to_string()
+}
+
+/// The version of the `mujoco-rs` binding (pinned exactly in Cargo.toml).
+pub const BINDING_VERSION: &str = "7.0.0";
+
+/// A shape fixed to the world, seen from above (for plots): circles for cylinders, spheres
+/// and capsules, axis-aligned rectangles for boxes (x, y: centre; r, hx, hy: radius and half
+/// sizes; m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PlanarShape {
+    /// A cylinder, sphere or capsule.
+    Circle { x: f64, y: f64, r: f64 },
+    /// A box.
+    Rect { x: f64, y: f64, hx: f64, hy: f64 },
+}
+
+/// The shapes of the geoms fixed to the world body of the model in `model_xml` (a run folder's
+/// `model.xml`), seen from above.
+pub fn world_body_shapes(model_xml: &Path) -> Result<Vec<PlanarShape>, SimError> {
+    let model = MjModel::from_xml(model_xml)
+        .map_err(|e| SimError::Model(format!("MuJoCo cannot load {} ({e})", model_xml.display())))?;
+    let mut out = Vec::new();
+    let (types, bodies, sizes, pos) = (model.geom_type(), model.geom_bodyid(), model.geom_size(), model.geom_pos());
+    for g in 0..types.len() {
+        if bodies[g] != 0 {
+            continue;
+        }
+        let (p, s) = (pos[g], sizes[g]);
+        match types[g] {
+            MjtGeomBase::mjGEOM_CYLINDER | MjtGeomBase::mjGEOM_SPHERE | MjtGeomBase::mjGEOM_CAPSULE => {
+                out.push(PlanarShape::Circle { x: p[0], y: p[1], r: s[0] })
+            }
+            MjtGeomBase::mjGEOM_BOX => out.push(PlanarShape::Rect { x: p[0], y: p[1], hx: s[0], hy: s[1] }),
+            _ => {}
+        }
+    }
+    Ok(out)
+}
+
 /// A fresh scratch folder in the system's temp dir.
 fn scratch_dir(what: &str) -> Result<std::path::PathBuf, SimError> {
     static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
