@@ -33,11 +33,12 @@ pub struct Variation {
     pub values: Values,
 }
 
+/// A value as `--vary` (and `--set`) reads it: a TOML literal, or a bare word taken as a string.
 pub(super) fn parse_value(text: &str) -> Value {
-    // As `--set`: a TOML literal, or a bare word taken as a string.
     config::parse_override(&format!("x={text}")).map(|(_, v)| v).unwrap_or_else(|_| Value::String(text.to_string()))
 }
 
+/// The number a TOML integer or float holds.
 pub(super) fn number(v: &Value) -> Option<f64> {
     match v {
         Value::Integer(i) => Some(*i as f64),

@@ -495,6 +495,27 @@ mod tests {
     }
 
     #[test]
+    fn each_metric_is_the_run_summary_field_of_its_name() {
+        let summary = RunSummary {
+            run_folder: PathBuf::from("runs/x"),
+            simulated_secs: 1.0,
+            distance_m: 2.0,
+            mean_speed_m_per_s: 3.0,
+            heading_deg: 4.0,
+            forward_speed_m_per_s: 5.0,
+            peak_contact_force_n: 6.0,
+            max_penetration_m: 7.0,
+            actuator_energy_j: 8.0,
+            steps_per_wall_sec: 9.0,
+            real_time_factor: 10.0,
+        };
+        let json = serde_json::to_value(&summary).expect("serialisable");
+        for metric in METRICS {
+            assert_eq!(json[metric.name].as_f64(), Some((metric.value)(&summary)), "{}", metric.name);
+        }
+    }
+
+    #[test]
     fn missing_numbers_are_empty_and_equal() {
         assert_eq!(Cell::float(f64::NAN).as_str(), "");
         assert_eq!(Cell::float(f64::INFINITY), Cell::float(f64::NAN));
