@@ -60,7 +60,7 @@ pub enum RunError {
 }
 
 /// The short summary printed at the end and stored in the manifest.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize, PartialEq)]
 pub struct RunSummary {
     /// The run folder.
     pub run_folder: PathBuf,

@@ -169,15 +169,9 @@ fn mujoco_version() -> String {
 fn summary_dict<'py>(py: Python<'py>, s: &RunSummary) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("run_folder", s.run_folder.display().to_string())?;
-    d.set_item("simulated_secs", s.simulated_secs)?;
-    d.set_item("distance_m", s.distance_m)?;
-    d.set_item("mean_speed_m_per_s", s.mean_speed_m_per_s)?;
-    d.set_item("forward_speed_m_per_s", s.forward_speed_m_per_s)?;
-    d.set_item("heading_deg", s.heading_deg)?;
-    d.set_item("peak_contact_force_n", s.peak_contact_force_n)?;
-    d.set_item("max_penetration_m", s.max_penetration_m)?;
-    d.set_item("actuator_energy_j", s.actuator_energy_j)?;
-    d.set_item("steps_per_wall_sec", s.steps_per_wall_sec)?;
+    for metric in sweep::METRICS {
+        d.set_item(metric.name, (metric.value)(s))?;
+    }
     d.set_item("real_time_factor", s.real_time_factor)?;
     Ok(d)
 }
@@ -655,7 +649,7 @@ impl Sweep {
 
     /// The summary columns.
     fn header(&self) -> Vec<String> {
-        SummaryTable::from_rows(&self.spec.variations, &[]).header
+        SummaryTable::from_rows(&self.spec.variations, &[]).names()
     }
 
     /// Runs planned run `index` (GIL released) and returns its summary row (text cells).
@@ -669,7 +663,7 @@ impl Sweep {
         let (spec, dir) = (&self.spec, &self.sweep_dir);
         let row = py.detach(|| sweep::run_planned(spec, &run, dir, &["python: simserpent.ray_sweep".to_string()]));
         let table = SummaryTable::from_rows(&spec.variations, std::slice::from_ref(&row));
-        Ok(table.rows.into_iter().next().unwrap_or_default())
+        Ok(table.rows.first().map(|r| r.iter().map(|c| c.as_str().to_string()).collect()).unwrap_or_default())
     }
 
     /// Writes `summary.csv` (and `summary.parquet`) from rows returned by `run_one`, sorted by
@@ -681,7 +675,8 @@ impl Sweep {
             return Err(SweepError::new_err(format!("a row has {} cells; expected {}", bad.len(), header.len())));
         }
         rows.sort_by_key(|r| r.first().and_then(|c| c.parse::<usize>().ok()).unwrap_or(usize::MAX));
-        let table = SummaryTable { header, rows };
+        let table = SummaryTable::from_text(header, rows)
+            .ok_or_else(|| SweepError::new_err("the rows are not summary rows (a cell is not of its column's type)"))?;
         let path = sweep::write_summary(&self.spec, &self.sweep_dir, &table).map_err(|e| sweep_err(&e))?;
         Ok(path.display().to_string())
     }
@@ -704,7 +699,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(default_config_toml, m)?)?;
     m.add_function(wrap_pyfunction!(mujoco_version, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
-    m.add("SWEEP_METRICS", simserpent::sweep::METRICS.to_vec())?;
+    m.add("SWEEP_METRICS", sweep::METRICS.iter().map(|m| m.name).collect::<Vec<_>>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -1,11 +1,11 @@
 //! `manifest.json`: what produced a run folder and how the run ended.
 
 use super::{RecordError, io_err};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// How a run ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum RunStatus {
     /// Still running, or stopped without finishing (crash, signal): the tables hold every row
@@ -17,8 +17,9 @@ pub enum RunStatus {
     Failed,
 }
 
-/// The manifest of a run folder.
-#[derive(Debug, Clone, Serialize)]
+/// The manifest of a run folder (written when the run starts and when it ends; read back by
+/// sweeps to skip finished runs).
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct Manifest {
     /// SimSerpent version.
     pub simserpent_version: String,
