@@ -252,7 +252,11 @@ impl ExitCodeOf for simserpent::experiments::ExperimentError {
 
 impl ExitCodeOf for simserpent::sweep::SweepError {
     fn exit_code(&self) -> u8 {
-        simserpent::sweep::SweepError::exit_code(self)
+        use simserpent::sweep::SweepError;
+        match self {
+            SweepError::Config(_) | SweepError::Argument { .. } => 2,
+            _ => 1,
+        }
     }
 }
 

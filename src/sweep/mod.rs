@@ -99,16 +99,6 @@ pub enum SweepError {
     },
 }
 
-impl SweepError {
-    /// 2 for bad input (config or arguments), 1 otherwise.
-    pub fn exit_code(&self) -> u8 {
-        match self {
-            Self::Config(_) | Self::Argument { .. } => 2,
-            _ => 1,
-        }
-    }
-}
-
 fn io_error(path: &Path) -> impl FnOnce(std::io::Error) -> SweepError + '_ {
     move |source| SweepError::Io { path: path.to_path_buf(), source }
 }
