@@ -34,7 +34,7 @@ pub struct LoopPlan {
 impl LoopPlan {
     /// Whether instant `k` is recorded.
     pub fn records(&self, k: u64) -> bool {
-        self.record_every_n_steps > 0 && (k % self.record_every_n_steps == 0 || k == self.steps)
+        self.record_every_n_steps > 0 && (k.is_multiple_of(self.record_every_n_steps) || k == self.steps)
     }
 }
 
@@ -116,7 +116,7 @@ impl<E, O: Observer<E>> Observer<E> for Every<O> {
         self.inner.on_start(view)
     }
     fn on_step(&mut self, view: &StepView<'_>) -> Result<(), E> {
-        if view.k % self.n == 0 { self.inner.on_step(view) } else { Ok(()) }
+        if view.k.is_multiple_of(self.n) { self.inner.on_step(view) } else { Ok(()) }
     }
     fn on_record(&mut self, view: &StepView<'_>, snapshot: &Snapshot) -> Result<(), E> {
         self.inner.on_record(view, snapshot)
