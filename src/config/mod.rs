@@ -15,7 +15,7 @@ pub mod surfaces;
 mod validate;
 
 pub use load::{ConfigSource, load_config, load_config_str, parse_override};
-pub use surfaces::{PRESETS, Preset, Surface, SurfaceFriction, SurfaceShape};
+pub use surfaces::{ExplicitFriction, FrictionSource, PRESETS, Preset, Surface, SurfaceFriction, SurfaceShape};
 
 use serde::{Deserialize, Serialize};
 
