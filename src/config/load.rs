@@ -50,8 +50,8 @@ pub fn load_config(path: &Path, overrides: &[String]) -> Result<Config, ConfigEr
             });
         }
     };
-    let text =
-        std::fs::read_to_string(path).map_err(|e| ConfigError::Io { file: file.clone(), message: e.to_string() })?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|source| ConfigError::Io { file: path.to_path_buf(), source: source.into() })?;
     let base = path.parent().filter(|p| !p.as_os_str().is_empty());
     load_named(&text, source, overrides, &file, base)
 }
