@@ -55,6 +55,17 @@ pub enum ConfigError {
         /// Parser message (with line and column when known).
         message: String,
     },
+    /// A file that a config key names (a terrain image, mesh or MJCF file) could not be read.
+    #[error("`{key}` = {:?}: {}: {}", file.display().to_string(), unreadable(source.io()), file.display())]
+    FileUnreadable {
+        /// Full key path.
+        key: String,
+        /// The file as the key names it.
+        file: PathBuf,
+        /// What the OS said.
+        #[source]
+        source: IoSource,
+    },
     /// The file could not be read.
     #[error("cannot read config file {}: {source}", file.display())]
     Io {
@@ -99,6 +110,14 @@ impl std::fmt::Display for IoSource {
 impl std::error::Error for IoSource {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         self.0.source()
+    }
+}
+
+/// Why a file cannot be read, in words (the OS message is the error's source).
+fn unreadable(e: &std::io::Error) -> String {
+    match e.kind() {
+        std::io::ErrorKind::NotFound => "the file does not exist".to_string(),
+        _ => format!("the file cannot be read ({e})"),
     }
 }
 
