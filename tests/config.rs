@@ -425,17 +425,10 @@ fn all_fields_expected() -> Config {
     gr.viscous_normal_n_s_per_m = 20.0;
     gr.surfaces = vec![simserpent::config::Surface {
         name: String::new(),
-        shape: simserpent::config::SurfaceShape::Circle,
+        shape: simserpent::config::SurfaceShape::Circle { radius_m: 0.5 },
         center_m: [3.0, 3.0],
-        size_m: None,
-        radius_m: Some(0.5),
-        preset: Some("ice".into()),
-        friction: None,
-        axial_friction: None,
-        lateral_friction: None,
-        backward_friction: None,
-        viscous_tangential_n_s_per_m: None,
-        viscous_normal_n_s_per_m: None,
+        base: simserpent::config::surfaces::preset("ice").map(simserpent::config::FrictionSource::Preset),
+        explicit: simserpent::config::ExplicitFriction::default(),
     }];
 
     let n = &mut c.sensors;

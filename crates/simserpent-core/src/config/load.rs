@@ -50,8 +50,8 @@ pub fn load_config(path: &Path, overrides: &[String]) -> Result<Config, ConfigEr
             });
         }
     };
-    let text =
-        std::fs::read_to_string(path).map_err(|e| ConfigError::Io { file: file.clone(), message: e.to_string() })?;
+    let text = std::fs::read_to_string(path)
+        .map_err(|source| ConfigError::Io { file: path.to_path_buf(), source: source.into() })?;
     let base = path.parent().filter(|p| !p.as_os_str().is_empty());
     load_named(&text, source, overrides, &file, base)
 }
@@ -198,13 +198,28 @@ fn resolve(user: Table, defaults: &Table, overrides: &[String]) -> Result<Config
     }
     let as_written = merged.clone();
     ints_to_floats_table(&mut merged, defaults);
-    let config: Config = serde_path_to_error::deserialize(Value::Table(merged)).map_err(|e| {
+    let config: Config = serde_path_to_error::deserialize(Value::Table(merged.clone())).map_err(|e| {
         let key = e.path().to_string();
+        // A surface table whose keys are all well typed but do not make a surface: the
+        // conversion names the key inside it.
+        if let Some(error) = lookup(&merged, &key)
+            .filter(|_| names_a_surface(&key))
+            .and_then(|value| super::surfaces::conversion_error(&key, value))
+        {
+            return error;
+        }
         let value = lookup(&as_written, &key).map_or_else(|| "(missing)".to_string(), |v| v.to_string());
         ConfigError::InvalidValue { key, value, allowed: expectation(e.inner().message()) }
     })?;
     config.validate()?;
     Ok(config)
+}
+
+/// Whether the serde path `key` names one surface table (`ground.surfaces[3]`).
+fn names_a_surface(key: &str) -> bool {
+    key.strip_prefix("ground.surfaces[")
+        .and_then(|rest| rest.strip_suffix(']'))
+        .is_some_and(|index| index.parse::<usize>().is_ok())
 }
 
 /// The embedded default config as a table.

@@ -15,9 +15,10 @@ pub mod surfaces;
 mod validate;
 
 pub use load::{ConfigSource, load_config, load_config_str, parse_override};
-pub use surfaces::{PRESETS, Preset, Surface, SurfaceFriction, SurfaceShape};
+pub use surfaces::{ExplicitFriction, FrictionSource, PRESETS, Preset, Surface, SurfaceFriction, SurfaceShape};
 
 use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
 
 /// The embedded, fully commented default configuration.
 pub const DEFAULT_CONFIG_TOML: &str = include_str!("default.toml");
@@ -54,14 +55,70 @@ pub enum ConfigError {
         /// Parser message (with line and column when known).
         message: String,
     },
+    /// A file that a config key names (a terrain image, mesh or MJCF file) could not be read.
+    #[error("`{key}` = {:?}: {}: {}", file.display().to_string(), unreadable(source.io()), file.display())]
+    FileUnreadable {
+        /// Full key path.
+        key: String,
+        /// The file as the key names it.
+        file: PathBuf,
+        /// What the OS said.
+        #[source]
+        source: IoSource,
+    },
     /// The file could not be read.
-    #[error("cannot read config file {file}: {message}")]
+    #[error("cannot read config file {}: {source}", file.display())]
     Io {
         /// The file.
-        file: String,
-        /// OS message.
-        message: String,
+        file: PathBuf,
+        /// What the OS said.
+        #[source]
+        source: IoSource,
     },
+}
+
+/// An I/O error as the source of a [`ConfigError`]: shared, so that the error stays `Clone`, and
+/// equal to another of the same kind and message, so that it stays `PartialEq`.
+#[derive(Debug, Clone)]
+pub struct IoSource(std::sync::Arc<std::io::Error>);
+
+impl IoSource {
+    /// The I/O error.
+    pub fn io(&self) -> &std::io::Error {
+        &self.0
+    }
+}
+
+impl From<std::io::Error> for IoSource {
+    fn from(e: std::io::Error) -> Self {
+        Self(std::sync::Arc::new(e))
+    }
+}
+
+impl PartialEq for IoSource {
+    fn eq(&self, other: &Self) -> bool {
+        self.0.kind() == other.0.kind() && self.0.to_string() == other.0.to_string()
+    }
+}
+
+impl std::fmt::Display for IoSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+impl std::error::Error for IoSource {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.0.source()
+    }
+}
+
+/// Why a file cannot be read, in words (the OS message is the error's source).
+fn unreadable(e: &std::io::Error) -> String {
+    match e.kind() {
+        std::io::ErrorKind::NotFound => "the file does not exist".to_string(),
+        _ => format!("the file cannot be read ({e})"),
+    }
 }
 
 impl ConfigError {

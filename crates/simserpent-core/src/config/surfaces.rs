@@ -40,6 +40,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::validate::{fmt_a, fmt_f};
+
 /// A named floor material.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Preset {
@@ -146,54 +148,269 @@ pub fn preset_names() -> String {
     PRESETS.iter().map(|p| format!("\"{}\"", p.name)).collect::<Vec<_>>().join(", ")
 }
 
-/// Shape of a surface region.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+/// Shape and size of a surface region (`shape` with `size_m` or `radius_m`).
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum SurfaceShape {
-    /// Axis-aligned rectangle: `center_m` and `size_m` (full side lengths along x and y).
-    Rectangle,
-    /// Disc: `center_m` and `radius_m`.
-    Circle,
+    /// `shape = "rectangle"`: axis-aligned, with full side lengths along x and y, m.
+    Rectangle {
+        /// Full side lengths along x and y, m.
+        size_m: [f64; 2],
+    },
+    /// `shape = "circle"`: a disc.
+    Circle {
+        /// Radius, m.
+        radius_m: f64,
+    },
+}
+
+impl SurfaceShape {
+    /// Half the extent along x and y, m.
+    pub fn half_extent_m(&self) -> [f64; 2] {
+        match *self {
+            Self::Rectangle { size_m: [sx, sy] } => [sx / 2.0, sy / 2.0],
+            Self::Circle { radius_m } => [radius_m, radius_m],
+        }
+    }
+}
+
+/// Where a surface's base sliding coefficient μ comes from (`preset` or `friction`, never both).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FrictionSource {
+    /// A named material (`preset = "ice"`): its μ and its colour.
+    Preset(&'static Preset),
+    /// An explicit coefficient (`friction = 0.05`).
+    Coefficient(f64),
+}
+
+impl FrictionSource {
+    /// The base sliding coefficient μ.
+    pub fn coefficient(&self) -> f64 {
+        match *self {
+            Self::Preset(p) => p.friction,
+            Self::Coefficient(mu) => mu,
+        }
+    }
+}
+
+/// A surface's explicit per-model coefficients: each one given replaces the scaled floor value.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ExplicitFriction {
+    /// Axial (forward) coefficient (anisotropic, directional).
+    pub axial_friction: Option<f64>,
+    /// Lateral coefficient (anisotropic, directional).
+    pub lateral_friction: Option<f64>,
+    /// Backward coefficient (directional).
+    pub backward_friction: Option<f64>,
+    /// Viscous coefficient along the link, N·s/m (viscous).
+    pub viscous_tangential_n_s_per_m: Option<f64>,
+    /// Viscous coefficient across the link, N·s/m (viscous).
+    pub viscous_normal_n_s_per_m: Option<f64>,
+}
+
+impl ExplicitFriction {
+    /// Every coefficient with its key (in `ground.surfaces[i]`), in the order of the default file.
+    pub fn by_key(&self) -> [(&'static str, Option<f64>); 5] {
+        [
+            ("axial_friction", self.axial_friction),
+            ("lateral_friction", self.lateral_friction),
+            ("backward_friction", self.backward_friction),
+            ("viscous_tangential_n_s_per_m", self.viscous_tangential_n_s_per_m),
+            ("viscous_normal_n_s_per_m", self.viscous_normal_n_s_per_m),
+        ]
+    }
 }
 
 /// One region of the floor with its own friction (`[[ground.surfaces]]`).
+///
+/// Only consistent surfaces exist: the shape carries its own size, and the base coefficient has
+/// one source. Ranges (positive sizes, non-negative coefficients, on the floor) and the rules
+/// that involve `[ground]` are checked by `Config::validate`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(try_from = "RawSurface", into = "RawSurface")]
 pub struct Surface {
     /// Label (free text, for your own reference).
-    #[serde(default)]
     pub name: String,
-    /// `"rectangle"` or `"circle"`.
+    /// Shape and size.
     pub shape: SurfaceShape,
     /// Centre in the floor plane (world x, y), m.
     pub center_m: [f64; 2],
-    /// Rectangle: full side lengths along x and y, m.
+    /// The base coefficient μ; `None` when the surface gives only explicit per-model
+    /// coefficients (valid when they are all that `ground.model` needs).
+    pub base: Option<FrictionSource>,
+    /// Explicit per-model coefficients.
+    pub explicit: ExplicitFriction,
+}
+
+/// `shape` as written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum ShapeKind {
+    Rectangle,
+    Circle,
+}
+
+/// A `[[ground.surfaces]]` table as written: every key that a surface may have. Converted into a
+/// [`Surface`] by [`TryFrom`], which rejects the combinations that are not a surface.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "struct Surface")]
+struct RawSurface {
+    #[serde(default)]
+    name: String,
+    shape: ShapeKind,
+    center_m: [f64; 2],
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub size_m: Option<[f64; 2]>,
-    /// Circle: radius, m.
+    size_m: Option<[f64; 2]>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub radius_m: Option<f64>,
-    /// Named material ([`PRESETS`]).
+    radius_m: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub preset: Option<String>,
-    /// Explicit base sliding coefficient μ (instead of a preset).
+    preset: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub friction: Option<f64>,
-    /// Explicit axial (forward) coefficient (anisotropic, directional).
+    friction: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub axial_friction: Option<f64>,
-    /// Explicit lateral coefficient (anisotropic, directional).
+    axial_friction: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub lateral_friction: Option<f64>,
-    /// Explicit backward coefficient (directional).
+    lateral_friction: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub backward_friction: Option<f64>,
-    /// Explicit viscous coefficient along the link, N·s/m (viscous).
+    backward_friction: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub viscous_tangential_n_s_per_m: Option<f64>,
-    /// Explicit viscous coefficient across the link, N·s/m (viscous).
+    viscous_tangential_n_s_per_m: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub viscous_normal_n_s_per_m: Option<f64>,
+    viscous_normal_n_s_per_m: Option<f64>,
+}
+
+/// Why a surface table is not a surface: the key inside the table, its value as TOML writes it,
+/// and what is allowed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("`{key}` = {value}: {allowed}")]
+pub struct SurfaceError {
+    /// The key inside the surface table (`size_m`).
+    pub key: &'static str,
+    /// Its value (`[1.0, 2.0]`, or `(missing)`).
+    pub value: String,
+    /// What is allowed.
+    pub allowed: String,
+}
+
+impl SurfaceError {
+    fn new(key: &'static str, value: impl Into<String>, allowed: impl Into<String>) -> Self {
+        Self { key, value: value.into(), allowed: allowed.into() }
+    }
+}
+
+impl TryFrom<RawSurface> for Surface {
+    type Error = SurfaceError;
+
+    fn try_from(raw: RawSurface) -> Result<Self, SurfaceError> {
+        let shape = match raw.shape {
+            ShapeKind::Rectangle => {
+                if let Some(r) = raw.radius_m {
+                    return Err(SurfaceError::new(
+                        "radius_m",
+                        fmt_f(r),
+                        "only a circle has a radius; a rectangle takes size_m = [x, y] (full side lengths)",
+                    ));
+                }
+                let Some(size_m) = raw.size_m else {
+                    return Err(SurfaceError::new(
+                        "size_m",
+                        "(missing)",
+                        "a rectangle needs size_m = [x, y]: its full side lengths along x and y, m",
+                    ));
+                };
+                SurfaceShape::Rectangle { size_m }
+            }
+            ShapeKind::Circle => {
+                if let Some(size) = raw.size_m {
+                    return Err(SurfaceError::new(
+                        "size_m",
+                        fmt_a(&size),
+                        "only a rectangle has a size; a circle takes radius_m",
+                    ));
+                }
+                let Some(radius_m) = raw.radius_m else {
+                    return Err(SurfaceError::new("radius_m", "(missing)", "a circle needs radius_m (> 0), m"));
+                };
+                SurfaceShape::Circle { radius_m }
+            }
+        };
+        let base = match (raw.preset, raw.friction) {
+            (Some(name), friction) => {
+                let Some(p) = preset(&name) else {
+                    let names: Vec<&str> = PRESETS.iter().map(|p| p.name).collect();
+                    let hint = super::load::suggest(&name, &names)
+                        .map(|n| format!("did you mean \"{n}\"? "))
+                        .unwrap_or_default();
+                    return Err(SurfaceError::new(
+                        "preset",
+                        format!("{name:?}"),
+                        format!("{hint}unknown preset; allowed: {}", preset_names()),
+                    ));
+                };
+                if let Some(mu) = friction {
+                    return Err(SurfaceError::new(
+                        "friction",
+                        fmt_f(mu),
+                        format!("give either preset ({name:?}) or friction, not both"),
+                    ));
+                }
+                Some(FrictionSource::Preset(p))
+            }
+            (None, Some(mu)) => Some(FrictionSource::Coefficient(mu)),
+            (None, None) => None,
+        };
+        Ok(Self {
+            name: raw.name,
+            shape,
+            center_m: raw.center_m,
+            base,
+            explicit: ExplicitFriction {
+                axial_friction: raw.axial_friction,
+                lateral_friction: raw.lateral_friction,
+                backward_friction: raw.backward_friction,
+                viscous_tangential_n_s_per_m: raw.viscous_tangential_n_s_per_m,
+                viscous_normal_n_s_per_m: raw.viscous_normal_n_s_per_m,
+            },
+        })
+    }
+}
+
+impl From<Surface> for RawSurface {
+    fn from(s: Surface) -> Self {
+        let (shape, size_m, radius_m) = match s.shape {
+            SurfaceShape::Rectangle { size_m } => (ShapeKind::Rectangle, Some(size_m), None),
+            SurfaceShape::Circle { radius_m } => (ShapeKind::Circle, None, Some(radius_m)),
+        };
+        let (preset, friction) = match s.base {
+            Some(FrictionSource::Preset(p)) => (Some(p.name.to_string()), None),
+            Some(FrictionSource::Coefficient(mu)) => (None, Some(mu)),
+            None => (None, None),
+        };
+        let e = s.explicit;
+        Self {
+            name: s.name,
+            shape,
+            center_m: s.center_m,
+            size_m,
+            radius_m,
+            preset,
+            friction,
+            axial_friction: e.axial_friction,
+            lateral_friction: e.lateral_friction,
+            backward_friction: e.backward_friction,
+            viscous_tangential_n_s_per_m: e.viscous_tangential_n_s_per_m,
+            viscous_normal_n_s_per_m: e.viscous_normal_n_s_per_m,
+        }
+    }
+}
+
+/// The error of the surface table `value` at `key` (`ground.surfaces[i]`) when serde rejected
+/// it as a [`Surface`] although it has every key with the right type: the conversion's own
+/// error, with the full key path of the offending key. `None` for any other problem (serde's
+/// message is the precise one then).
+pub(super) fn conversion_error(key: &str, value: &toml::Value) -> Option<super::ConfigError> {
+    let raw = RawSurface::deserialize(value.clone()).ok()?;
+    let e = Surface::try_from(raw).err()?;
+    Some(super::ConfigError::invalid(&format!("{key}.{}", e.key), e.value, e.allowed))
 }
 
 /// The friction coefficients of every ground model on one surface (or on the plain floor).
@@ -229,40 +446,25 @@ impl SurfaceFriction {
 }
 
 impl Surface {
-    /// The surface's base coefficient μ: `friction`, else the preset's (None if neither is
-    /// given or the preset is unknown).
+    /// The surface's base coefficient μ: the preset's or the explicit `friction` (None when the
+    /// surface gives only explicit per-model coefficients).
     pub fn base_friction(&self) -> Option<f64> {
-        self.friction.or_else(|| self.preset.as_deref().and_then(preset).map(|p| p.friction))
+        self.base.map(|b| b.coefficient())
     }
 
     /// Whether the floor point (x, y) lies in this surface (borders included).
     pub fn contains(&self, x: f64, y: f64) -> bool {
         let [cx, cy] = self.center_m;
         match self.shape {
-            SurfaceShape::Rectangle => {
-                let [sx, sy] = self.size_m.unwrap_or([0.0; 2]);
-                (x - cx).abs() <= sx / 2.0 && (y - cy).abs() <= sy / 2.0
-            }
-            SurfaceShape::Circle => {
-                let r = self.radius_m.unwrap_or(0.0);
-                (x - cx) * (x - cx) + (y - cy) * (y - cy) <= r * r
-            }
+            SurfaceShape::Rectangle { size_m: [sx, sy] } => (x - cx).abs() <= sx / 2.0 && (y - cy).abs() <= sy / 2.0,
+            SurfaceShape::Circle { radius_m: r } => (x - cx) * (x - cx) + (y - cy) * (y - cy) <= r * r,
         }
     }
 
-    /// Axis-aligned bounding box `[min_x, min_y, max_x, max_y]`.
+    /// Axis-aligned bounding box `[min_x, min_y, max_x, max_y]`, m.
     pub fn bounds(&self) -> [f64; 4] {
         let [cx, cy] = self.center_m;
-        let [hx, hy] = match self.shape {
-            SurfaceShape::Rectangle => {
-                let [sx, sy] = self.size_m.unwrap_or([0.0; 2]);
-                [sx / 2.0, sy / 2.0]
-            }
-            SurfaceShape::Circle => {
-                let r = self.radius_m.unwrap_or(0.0);
-                [r, r]
-            }
-        };
+        let [hx, hy] = self.shape.half_extent_m();
         [cx - hx, cy - hy, cx + hx, cy + hy]
     }
 
@@ -272,20 +474,21 @@ impl Surface {
     pub fn resolve(&self, floor: &SurfaceFriction) -> SurfaceFriction {
         let base = self.base_friction().unwrap_or(f64::NAN);
         let k = if floor.sliding > 0.0 { base / floor.sliding } else { f64::NAN };
+        let e = &self.explicit;
         SurfaceFriction {
             sliding: base,
-            axial: self.axial_friction.unwrap_or(k * floor.axial),
-            lateral: self.lateral_friction.unwrap_or(k * floor.lateral),
-            backward: self.backward_friction.unwrap_or(k * floor.backward),
-            viscous_tangential: self.viscous_tangential_n_s_per_m.unwrap_or(k * floor.viscous_tangential),
-            viscous_normal: self.viscous_normal_n_s_per_m.unwrap_or(k * floor.viscous_normal),
+            axial: e.axial_friction.unwrap_or(k * floor.axial),
+            lateral: e.lateral_friction.unwrap_or(k * floor.lateral),
+            backward: e.backward_friction.unwrap_or(k * floor.backward),
+            viscous_tangential: e.viscous_tangential_n_s_per_m.unwrap_or(k * floor.viscous_tangential),
+            viscous_normal: e.viscous_normal_n_s_per_m.unwrap_or(k * floor.viscous_normal),
         }
     }
 
     /// The colour of the surface in pictures: the preset's, else a grey whose darkness grows with
     /// μ (light = slippery).
     pub fn rgba(&self) -> [f64; 4] {
-        if let Some(p) = self.preset.as_deref().and_then(preset) {
+        if let Some(FrictionSource::Preset(p)) = self.base {
             return p.rgba;
         }
         let mu = self.base_friction().unwrap_or(0.5);
@@ -314,23 +517,15 @@ mod tests {
     fn contains_borders_and_outside() {
         let mut s = Surface {
             name: String::new(),
-            shape: SurfaceShape::Rectangle,
+            shape: SurfaceShape::Rectangle { size_m: [2.0, 1.0] },
             center_m: [1.0, 0.0],
-            size_m: Some([2.0, 1.0]),
-            radius_m: None,
-            preset: Some("ice".into()),
-            friction: None,
-            axial_friction: None,
-            lateral_friction: None,
-            backward_friction: None,
-            viscous_tangential_n_s_per_m: None,
-            viscous_normal_n_s_per_m: None,
+            base: preset("ice").map(FrictionSource::Preset),
+            explicit: ExplicitFriction::default(),
         };
         assert!(s.contains(0.0, 0.5) && s.contains(2.0, -0.5) && s.contains(1.0, 0.0));
         assert!(!s.contains(-0.001, 0.0) && !s.contains(1.0, 0.501));
         assert_eq!(s.bounds(), [0.0, -0.5, 2.0, 0.5]);
-        s.shape = SurfaceShape::Circle;
-        s.radius_m = Some(0.5);
+        s.shape = SurfaceShape::Circle { radius_m: 0.5 };
         assert!(s.contains(1.5, 0.0) && !s.contains(1.4, 0.4));
     }
 }

@@ -17,7 +17,7 @@
 //! The ranges of every other key are checked whatever is selected. Whether obstacles overlap the
 //! snake is checked by model generation, not here.
 
-use super::surfaces::{self, SurfaceShape};
+use super::surfaces::{self, FrictionSource, SurfaceShape};
 use super::{Config, ConfigError, GaitKind, GroundModel, JointAxes, TerrainKind};
 
 /// The most surfaces a config may have (`ground.surfaces`).
@@ -29,7 +29,7 @@ pub const OBSERVATION_VERSIONS: [u32; 1] = [1];
 type Check = Result<(), ConfigError>;
 
 /// A float as TOML writes it (`1.0`, `nan`, `inf`).
-fn fmt_f(v: f64) -> String {
+pub(super) fn fmt_f(v: f64) -> String {
     if v.is_nan() {
         "nan".into()
     } else if v.is_infinite() {
@@ -40,7 +40,7 @@ fn fmt_f(v: f64) -> String {
 }
 
 /// An array of floats as TOML writes it.
-fn fmt_a(values: &[f64]) -> String {
+pub(super) fn fmt_a(values: &[f64]) -> String {
     format!("[{}]", values.iter().map(|v| fmt_f(*v)).collect::<Vec<_>>().join(", "))
 }
 
@@ -149,7 +149,9 @@ impl Config {
         self.validate_surfaces()
     }
 
-    /// `[[ground.surfaces]]`: shapes, friction sources, explicit values, inside the floor.
+    /// `[[ground.surfaces]]`: sizes, coefficients, inside the floor, and every coefficient that
+    /// `ground.model` needs known. (A shape without its size, or both a preset and a friction,
+    /// cannot be deserialized: see [`surfaces::Surface`].)
     fn validate_surfaces(&self) -> Check {
         let surfaces = &self.ground.surfaces;
         ensure(
@@ -160,54 +162,37 @@ impl Config {
         )?;
         let mu0 = self.snake.ground_friction[0];
         let fs = self.terrain.floor_size_m;
+        // The coefficients that the ground model uses, besides the base one.
+        let needed: &[&str] = match self.ground.model {
+            GroundModel::Isotropic => &[],
+            GroundModel::Anisotropic => &["axial_friction", "lateral_friction"],
+            GroundModel::Directional => &["axial_friction", "lateral_friction", "backward_friction"],
+            GroundModel::Viscous => &["viscous_tangential_n_s_per_m", "viscous_normal_n_s_per_m"],
+        };
         for (i, s) in surfaces.iter().enumerate() {
             let key = |k: &str| format!("ground.surfaces[{i}].{k}");
             all_finite(&key("center_m"), &s.center_m)?;
-            match s.shape {
-                SurfaceShape::Rectangle => {
+            let (size_key, size_value) = match s.shape {
+                SurfaceShape::Rectangle { size_m } => {
+                    all_finite(&key("size_m"), &size_m)?;
                     ensure(
-                        s.radius_m.is_none(),
-                        &key("radius_m"),
-                        fmt_f(s.radius_m.unwrap_or(f64::NAN)),
-                        "only a circle has a radius; a rectangle takes size_m = [x, y] (full side lengths)",
-                    )?;
-                    let Some(size) = s.size_m else {
-                        return fail(
-                            &key("size_m"),
-                            "(missing)",
-                            "a rectangle needs size_m = [x, y]: its full side lengths along x and y, m",
-                        );
-                    };
-                    all_finite(&key("size_m"), &size)?;
-                    ensure(
-                        size[0] > 0.0 && size[1] > 0.0,
+                        size_m[0] > 0.0 && size_m[1] > 0.0,
                         &key("size_m"),
-                        fmt_a(&size),
+                        fmt_a(&size_m),
                         "both side lengths must be greater than 0",
                     )?;
+                    ("size_m", fmt_a(&size_m))
                 }
-                SurfaceShape::Circle => {
-                    ensure(
-                        s.size_m.is_none(),
-                        &key("size_m"),
-                        fmt_a(&s.size_m.unwrap_or([f64::NAN; 2])),
-                        "only a rectangle has a size; a circle takes radius_m",
-                    )?;
-                    let Some(r) = s.radius_m else {
-                        return fail(&key("radius_m"), "(missing)", "a circle needs radius_m (> 0), m");
-                    };
-                    positive(&key("radius_m"), r)?;
+                SurfaceShape::Circle { radius_m } => {
+                    positive(&key("radius_m"), radius_m)?;
+                    ("radius_m", fmt_f(radius_m))
                 }
-            }
+            };
             let [x0, y0, x1, y1] = s.bounds();
             if x0 < -fs || y0 < -fs || x1 > fs || y1 > fs {
-                let (k, v) = match s.shape {
-                    SurfaceShape::Rectangle => ("size_m", fmt_a(&s.size_m.unwrap_or_default())),
-                    SurfaceShape::Circle => ("radius_m", fmt_f(s.radius_m.unwrap_or_default())),
-                };
                 fail(
-                    &key(k),
-                    v,
+                    &key(size_key),
+                    size_value,
                     format!(
                         "the surface (center_m = {}) spans x {}..{}, y {}..{}; it must lie on the floor, within \
                          terrain.floor_size_m = {} of the origin in x and y",
@@ -220,56 +205,19 @@ impl Config {
                     ),
                 )?;
             }
-            if let Some(name) = &s.preset {
-                if surfaces::preset(name).is_none() {
-                    let names: Vec<&str> = surfaces::PRESETS.iter().map(|p| p.name).collect();
-                    let hint = super::load::suggest(name, &names)
-                        .map(|n| format!("did you mean \"{n}\"? "))
-                        .unwrap_or_default();
-                    return fail(
-                        &key("preset"),
-                        format!("{name:?}"),
-                        format!("{hint}unknown preset; allowed: {}", surfaces::preset_names()),
-                    );
-                }
-                ensure(
-                    s.friction.is_none(),
-                    &key("friction"),
-                    fmt_f(s.friction.unwrap_or(f64::NAN)),
-                    format!("give either preset ({name:?}) or friction, not both"),
-                )?;
+            if let Some(FrictionSource::Coefficient(mu)) = s.base {
+                non_negative(&key("friction"), mu)?;
             }
-            for (k, v) in [
-                ("friction", s.friction),
-                ("axial_friction", s.axial_friction),
-                ("lateral_friction", s.lateral_friction),
-                ("backward_friction", s.backward_friction),
-                ("viscous_tangential_n_s_per_m", s.viscous_tangential_n_s_per_m),
-                ("viscous_normal_n_s_per_m", s.viscous_normal_n_s_per_m),
-            ] {
+            let explicit = s.explicit.by_key();
+            for (k, v) in explicit {
                 if let Some(v) = v {
                     non_negative(&key(k), v)?;
                 }
             }
             // Every coefficient that the chosen model uses must be known: explicit, or derived
             // from the base coefficient (which, except for the isotropic model, needs mu0 > 0).
-            let needed: &[(&str, Option<f64>)] = match self.ground.model {
-                GroundModel::Isotropic => &[],
-                GroundModel::Anisotropic => {
-                    &[("axial_friction", s.axial_friction), ("lateral_friction", s.lateral_friction)]
-                }
-                GroundModel::Directional => &[
-                    ("axial_friction", s.axial_friction),
-                    ("lateral_friction", s.lateral_friction),
-                    ("backward_friction", s.backward_friction),
-                ],
-                GroundModel::Viscous => &[
-                    ("viscous_tangential_n_s_per_m", s.viscous_tangential_n_s_per_m),
-                    ("viscous_normal_n_s_per_m", s.viscous_normal_n_s_per_m),
-                ],
-            };
-            let derived = self.ground.model == GroundModel::Isotropic || needed.iter().any(|(_, v)| v.is_none());
-            if derived && s.base_friction().is_none() {
+            let derived = needed.iter().any(|k| explicit.iter().any(|(e, v)| e == k && v.is_none()));
+            if (needed.is_empty() || derived) && s.base.is_none() {
                 return fail(
                     &format!("ground.surfaces[{i}]"),
                     "(no preset or friction)",
@@ -281,15 +229,14 @@ impl Config {
                         } else {
                             format!(
                                 ", or all of {} (ground.model = {:?})",
-                                needed.iter().map(|(k, _)| *k).collect::<Vec<_>>().join(", "),
+                                needed.join(", "),
                                 format!("{:?}", self.ground.model).to_lowercase()
                             )
                         }
                     ),
                 );
             }
-            let scaled = self.ground.model != GroundModel::Isotropic && needed.iter().any(|(_, v)| v.is_none());
-            if scaled {
+            if derived {
                 ensure(
                     mu0 > 0.0,
                     "snake.ground_friction",
@@ -298,7 +245,7 @@ impl Config {
                         "ground.surfaces[{i}] scales the [ground] coefficients by its friction / \
                          snake.ground_friction[0], which must then be greater than 0 (or give the surface's \
                          {} explicitly)",
-                        needed.iter().map(|(k, _)| *k).collect::<Vec<_>>().join(", ")
+                        needed.join(", ")
                     ),
                 )?;
             }

@@ -18,12 +18,10 @@ fn file_err(key: &str, file: &str, allowed: impl Into<String>) -> ConfigError {
 }
 
 fn read_bytes(key: &str, file: &str) -> Result<Vec<u8>, ConfigError> {
-    std::fs::read(file).map_err(|e| {
-        let what = match e.kind() {
-            std::io::ErrorKind::NotFound => "the file does not exist".to_string(),
-            _ => format!("the file cannot be read ({e})"),
-        };
-        file_err(key, file, format!("{what}: {file}"))
+    std::fs::read(file).map_err(|source| ConfigError::FileUnreadable {
+        key: key.to_string(),
+        file: file.into(),
+        source: source.into(),
     })
 }
 

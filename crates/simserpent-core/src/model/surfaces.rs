@@ -39,12 +39,11 @@ impl SurfaceMap {
         let mut map = Self { friction: vec![floor], ..Self::default() };
         for s in &cfg.ground.surfaces {
             match s.shape {
-                SurfaceShape::Rectangle => {
+                SurfaceShape::Rectangle { .. } => {
                     map.circle.push(false);
                     map.geometry.push(s.bounds());
                 }
-                SurfaceShape::Circle => {
-                    let r = s.radius_m.unwrap_or(0.0);
+                SurfaceShape::Circle { radius_m: r } => {
                     map.circle.push(true);
                     map.geometry.push([s.center_m[0], s.center_m[1], r * r, 0.0]);
                 }
@@ -106,8 +105,7 @@ pub(super) fn write_tiles(out: &mut String, cfg: &Config) -> fmt::Result {
         );
         let [cx, cy] = s.center_m;
         match s.shape {
-            SurfaceShape::Rectangle => {
-                let [sx, sy] = s.size_m.unwrap_or([0.0; 2]);
+            SurfaceShape::Rectangle { size_m: [sx, sy] } => {
                 writeln!(
                     out,
                     "    <geom name=\"{}\" type=\"box\" pos=\"{} {} {}\" size=\"{} {} {}\" {common}/>",
@@ -120,7 +118,7 @@ pub(super) fn write_tiles(out: &mut String, cfg: &Config) -> fmt::Result {
                     n(h)
                 )?;
             }
-            SurfaceShape::Circle => {
+            SurfaceShape::Circle { radius_m } => {
                 writeln!(
                     out,
                     "    <geom name=\"{}\" type=\"cylinder\" pos=\"{} {} {}\" size=\"{} {}\" {common}/>",
@@ -128,7 +126,7 @@ pub(super) fn write_tiles(out: &mut String, cfg: &Config) -> fmt::Result {
                     n(cx),
                     n(cy),
                     n(h),
-                    n(s.radius_m.unwrap_or(0.0)),
+                    n(radius_m),
                     n(h)
                 )?;
             }
