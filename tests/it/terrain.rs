@@ -1,7 +1,6 @@
 //! Terrains (issue 8): slopes against Coulomb's law, heightfields from PNG images, peg boards,
 //! walls and channels, mesh obstacles, a third-party MJCF terrain, and the model split into
 //! scene/terrain/robot files. Physics is asserted against analytic values.
-#![allow(clippy::unwrap_used)]
 
 use mujoco_rs::prelude::*;
 use simserpent::config::{Config, GaitKind, GroundModel, MeshObstacle, PegLayout, TerrainKind, Wall};

@@ -1,6 +1,5 @@
 //! The generated MJCF, checked numerically against MuJoCo 3.17 (the only place MuJoCo meets
 //! `simserpent::model`).
-#![allow(clippy::unwrap_used)]
 
 use mujoco_rs::prelude::*;
 use mujoco_rs::wrappers::mj_model::{MjtCone, MjtGeomBase, MjtJoint, MjtObjBase, MjtSensor};

@@ -1,6 +1,5 @@
 //! Plots of a run folder: valid PNG and SVG files with the expected panels, titles and axis
 //! labels, drawn with the embedded font (no system fonts, no display).
-#![allow(clippy::unwrap_used)]
 
 use simserpent::config::{ConfigSource, load_config_str};
 use simserpent::run::{self, RunOptions};

@@ -1,5 +1,4 @@
 //! Sensor models as they show in a run's `sensors.csv` (true and measured columns side by side).
-#![allow(clippy::unwrap_used)]
 
 use simserpent::config::{Config, GaitKind, SensorModel, TerrainKind};
 use simserpent::run::{self, RunOptions};

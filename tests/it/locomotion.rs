@@ -1,6 +1,5 @@
 //! Locomotion physics: ground friction models against their definitions, and shorter versions of
 //! the experiment checks (the full ones: `simserpent experiment <name>`).
-#![allow(clippy::unwrap_used)]
 
 use simserpent::config::{Config, ControlMethod, GaitKind, GroundModel, TerrainKind};
 use simserpent::experiments::{Check, run_experiment};

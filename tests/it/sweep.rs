@@ -1,6 +1,5 @@
 //! Parameter sweeps: plans (grid, random, Latin hypercube), stable run ids and folders, failed
 //! runs recorded, restarts that skip finished runs, shards and their merge, the command line.
-#![allow(clippy::unwrap_used)]
 
 use simserpent::sweep::{self, RunOutcome, SampleMode, Shard, SummaryTable, SweepError, SweepSpec, Values, Variation};
 use std::path::{Path, PathBuf};

@@ -1,7 +1,6 @@
 //! Parquet tables (`recording.format`): same columns and values as the CSV tables, typed
 //! columns, row groups written as the run goes, readable by the parquet crate (and by
 //! pandas/pyarrow when Python has them).
-#![allow(clippy::unwrap_used)]
 
 use simserpent::config::{Config, ConfigError, ConfigSource, load_config_str};
 use std::path::Path;

@@ -1,5 +1,4 @@
 //! Physics on short runs, asserted against analytic values and conservation laws.
-#![allow(clippy::unwrap_used)]
 
 use simserpent::config::{Config, ControlMethod, GaitKind, TerrainKind};
 use simserpent::control::{Command, Controller, Observation};

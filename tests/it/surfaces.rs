@@ -1,7 +1,6 @@
 //! Floor surfaces (`[[ground.surfaces]]`): a link crossing from one region into another meets the
 //! configured friction of each, with every ground model; presets resolve to their documented
 //! values; surfaces the snake never reaches change nothing.
-#![allow(clippy::unwrap_used)]
 
 use simserpent::config::{Config, ConfigSource, GaitKind, GroundModel, TerrainKind, load_config_str};
 use simserpent::model::SurfaceMap;

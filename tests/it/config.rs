@@ -1,6 +1,5 @@
 //! Config loading: defaults, `init` round trip, every field, every validation rule, unknown
 //! keys, `--set` overrides, the original tool's config.json.
-#![allow(clippy::unwrap_used)]
 
 use simserpent::config::*;
 use std::path::{Path, PathBuf};

@@ -3,8 +3,6 @@
 //! Rendering runs headless through EGL (Mesa's software renderer in CI). MP4 tests need `ffmpeg`
 //! and `ffprobe` and say "skipped" on stderr when they are missing; everything else must pass
 //! everywhere.
-#![cfg(feature = "render")]
-#![allow(clippy::unwrap_used)]
 
 use simserpent::config::{CameraKind, Config, ConfigSource, VideoFormat, load_config_str};
 use simserpent::render::{self, ReplayOptions, STATE_FILE};

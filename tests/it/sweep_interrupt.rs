@@ -1,12 +1,17 @@
 //! A sweep after SIGINT/SIGTERM (here: `interrupt::request`, which the signal handler calls):
 //! no new run starts, the summary marks the runs `incomplete`, and the next invocation does them.
-//! Its own test binary, because the stop request is process-wide.
-#![allow(clippy::unwrap_used)]
+//! In a child process of the test binary (`common::in_child_process`), because the stop request
+//! is process-wide: every run of the other tests in this binary would see it.
 
+use crate::common::in_child_process;
 use simserpent::sweep::{self, SampleMode, SummaryTable, SweepSpec, Variation};
 
 #[test]
 fn interrupted_sweep_marks_runs_incomplete_and_resumes() {
+    in_child_process("sweep_interrupt::interrupted_sweep_marks_runs_incomplete_and_resumes", interrupted_sweep);
+}
+
+fn interrupted_sweep() {
     let dir = tempfile::tempdir().unwrap();
     let spec = SweepSpec {
         config_path: None,

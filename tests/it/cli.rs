@@ -1,6 +1,5 @@
 //! The `simserpent` binary end to end: exit codes, run folders, tables, determinism, `init`,
 //! `model`, legacy configs and user robots.
-#![allow(clippy::unwrap_used)]
 
 use mujoco_rs::prelude::*;
 use std::path::{Path, PathBuf};

@@ -1,8 +1,8 @@
 //! Never lose a run (issue 7): bad configs (a corpus and random configs), bad robot files,
 //! divergence (NaN, MuJoCo warnings, runaway energy), interruption by SIGINT/SIGTERM, output
 //! problems (unwritable folder, full disk), determinism, and the documented exit codes.
-#![allow(clippy::unwrap_used)]
 
+use crate::common::in_child_process;
 use proptest::prelude::*;
 use simserpent::config::{self, Config, ConfigSource};
 use simserpent::sim::{SimError, Simulation, World};
@@ -54,25 +54,6 @@ fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
         assert!(time.is_finite());
     }
     (header, rows)
-}
-
-/// Runs `body` in a child process of this test binary whose working directory is a temporary
-/// folder: in-process MuJoCo warnings (no log hook is installed in tests) go to
-/// `MUJOCO_LOG.TXT` in the working directory, and runs go to `runs/` there, not into the repository.
-fn in_child_process(test_name: &str, body: impl FnOnce()) {
-    const CHILD: &str = "SIMSERPENT_ROBUSTNESS_CHILD";
-    if std::env::var(CHILD).is_ok_and(|name| name == test_name) {
-        body();
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(std::env::current_exe().unwrap())
-        .args(["--exact", test_name, "--nocapture", "--test-threads=1"])
-        .env(CHILD, test_name)
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
-    assert!(out.status.success() && text(&out).contains("1 passed"), "{}", text(&out));
 }
 
 // --- 1. bad configs: the corpus -------------------------------------------------------------
@@ -380,7 +361,7 @@ fn valid_overrides() -> impl Strategy<Value = Vec<String>> {
 /// MuJoCo compiles, and it steps (a diverging step is an error, never a crash).
 #[test]
 fn accepted_configs_compile_and_step() {
-    in_child_process("accepted_configs_compile_and_step", || {
+    in_child_process("robustness::accepted_configs_compile_and_step", || {
         let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
             cases: 40,
             failure_persistence: None,
@@ -556,7 +537,8 @@ impl simserpent::control::Controller for NanAfter {
 
 #[test]
 fn a_controller_that_sends_nan_fails_the_run_instead_of_being_silently_zeroed() {
-    in_child_process("a_controller_that_sends_nan_fails_the_run_instead_of_being_silently_zeroed", || {
+    in_child_process(
+        "robustness::a_controller_that_sends_nan_fails_the_run_instead_of_being_silently_zeroed", || {
         let overrides: Vec<String> = ["general.duration_secs=1", "recording.every_n_steps=1", "terrain.kind=\"none\""]
             .map(String::from)
             .to_vec();
