@@ -4,7 +4,8 @@
 //! is process-wide: every run of the other tests in this binary would see it.
 
 use crate::common::in_child_process;
-use simserpent::sweep::{self, SampleMode, SummaryTable, SweepSpec, Variation};
+use crate::sweep::spec;
+use simserpent::sweep::{self, SummaryTable};
 
 #[test]
 fn interrupted_sweep_marks_runs_incomplete_and_resumes() {
@@ -13,20 +14,7 @@ fn interrupted_sweep_marks_runs_incomplete_and_resumes() {
 
 fn interrupted_sweep() {
     let dir = tempfile::tempdir().unwrap();
-    let spec = SweepSpec {
-        config_path: None,
-        overrides: ["general.duration_secs=0.2", "recording.every_n_steps=20", "terrain.kind=none"]
-            .map(String::from)
-            .to_vec(),
-        variations: vec![Variation::parse("snake.n_links=3,4,5").unwrap()],
-        mode: SampleMode::Grid,
-        samples: 0,
-        seed: 1,
-        sweep_dir: Some(dir.path().to_path_buf()),
-        threads: 2,
-        shard: None,
-        progress: false,
-    };
+    let spec = spec(dir.path(), &["snake.n_links=3,4,5"]);
     simserpent::interrupt::request();
     let report = sweep::run_sweep(&spec).unwrap();
     simserpent::interrupt::clear();
