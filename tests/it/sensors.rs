@@ -1,8 +1,7 @@
 //! Sensor models as they show in a run's `sensors.csv` (true and measured columns side by side).
-#![allow(clippy::unwrap_used)]
 
+use crate::common::{read_csv_numbers, run_folder};
 use simserpent::config::{Config, GaitKind, SensorModel, TerrainKind};
-use simserpent::run::{self, RunOptions};
 use std::path::Path;
 
 fn white(std: f64, bias: f64) -> SensorModel {
@@ -32,15 +31,6 @@ fn config(dir: &Path, seed: u64) -> Config {
     c
 }
 
-/// Header and numeric rows of a CSV file.
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let header = lines.next().unwrap().split(',').map(str::to_string).collect();
-    let rows = lines.map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
-    (header, rows)
-}
-
 /// (measured column, true column) index pairs whose names contain `what`.
 fn pairs(header: &[String], what: &str) -> Vec<(usize, usize)> {
     header
@@ -53,8 +43,8 @@ fn pairs(header: &[String], what: &str) -> Vec<(usize, usize)> {
 
 fn run_sensors(seed: u64) -> (Vec<String>, Vec<Vec<f64>>) {
     let dir = tempfile::tempdir().unwrap();
-    let folder = run::run(&config(dir.path(), seed), &RunOptions::default()).unwrap().run_folder;
-    read_csv(&folder.join("sensors.csv"))
+    let folder = run_folder(&config(dir.path(), seed));
+    read_csv_numbers(&folder.join("sensors.csv"))
 }
 
 #[test]

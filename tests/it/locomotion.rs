@@ -1,18 +1,15 @@
 //! Locomotion physics: ground friction models against their definitions, and shorter versions of
 //! the experiment checks (the full ones: `simserpent experiment <name>`).
-#![allow(clippy::unwrap_used)]
 
+use crate::common::one_link;
 use simserpent::config::{Config, ControlMethod, GaitKind, GroundModel, TerrainKind};
 use simserpent::experiments::{Check, run_experiment};
 use simserpent::sim::{Simulation, Snapshot, World};
 
 /// One 0.3 kg link lying on the floor, yawed by 30°, no gait.
-fn one_link(model: GroundModel) -> Config {
-    let mut c = Config::default();
-    c.snake.n_links = 1;
+fn yawed_link(model: GroundModel) -> Config {
+    let mut c = one_link();
     c.snake.head_rotation_deg = [0.0, 0.0, 30.0];
-    c.terrain.kind = TerrainKind::None;
-    c.gait.kind = GaitKind::None;
     c.ground.model = model;
     c.ground.axial_friction = 0.1;
     c.ground.backward_friction = 0.3;
@@ -55,18 +52,18 @@ fn friction_ratio(config: &Config, direction_deg: f64) -> f64 {
 #[test]
 fn anisotropic_friction_differs_along_and_across_the_link() {
     // MuJoCo aligns a capsule-plane contact frame with the capsule axis (yawed 30° here).
-    let c = one_link(GroundModel::Anisotropic);
+    let c = yawed_link(GroundModel::Anisotropic);
     let along = friction_ratio(&c, 0.0);
     assert!((along - 0.1).abs() < 0.003, "axial friction coefficient {along}");
     let across = friction_ratio(&c, 90.0);
     assert!((across - 1.0).abs() < 0.03, "lateral friction coefficient {across}");
-    let iso = friction_ratio(&one_link(GroundModel::Isotropic), 0.0);
+    let iso = friction_ratio(&yawed_link(GroundModel::Isotropic), 0.0);
     assert!((iso - 0.5).abs() < 0.015, "isotropic coefficient {iso}");
 }
 
 #[test]
 fn directional_friction_depends_on_the_sliding_direction() {
-    let c = one_link(GroundModel::Directional);
+    let c = yawed_link(GroundModel::Directional);
     let forward = friction_ratio(&c, 0.0);
     let backward = friction_ratio(&c, 180.0);
     assert!((forward - 0.1).abs() < 0.003, "forward {forward}");
@@ -77,7 +74,7 @@ fn directional_friction_depends_on_the_sliding_direction() {
 fn viscous_friction_decays_velocity_exponentially() {
     // m·dv/dt = −c·v: v(t) = v0·exp(−c·t/m), with c = c_t along the link and c_n across it.
     for (direction, c_value) in [(0.0, 1.0), (90.0, 3.0)] {
-        let mut c = one_link(GroundModel::Viscous);
+        let mut c = yawed_link(GroundModel::Viscous);
         c.ground.viscous_tangential_n_s_per_m = 1.0;
         c.ground.viscous_normal_n_s_per_m = 3.0;
         c.snake.link_mass_kg = 1.0;

@@ -1,19 +1,18 @@
 //! Floor surfaces (`[[ground.surfaces]]`): a link crossing from one region into another meets the
 //! configured friction of each, with every ground model; presets resolve to their documented
 //! values; surfaces the snake never reaches change nothing.
-#![allow(clippy::unwrap_used)]
 
+use crate::common::G;
 use simserpent::config::{Config, ConfigSource, GaitKind, GroundModel, TerrainKind, load_config_str};
 use simserpent::model::SurfaceMap;
 use simserpent::sim::{Simulation, Snapshot, World};
 
-const G: f64 = 9.81;
 /// Steps the link rests before it is launched: 0.2 s, 10 contact time constants.
 const SETTLE_STEPS: usize = 200;
 
 /// One 0.3 kg link lying along x (head tip at the origin, centre at x = −0.1 m), no gait, no
 /// obstacles, with `ground` and `surfaces` as TOML (keys of `[ground]`, then surface tables).
-fn one_link(ground: &str, surfaces: &str) -> Config {
+fn link_on_surfaces(ground: &str, surfaces: &str) -> Config {
     let text = format!(
         "[snake]\nn_links = 1\nground_friction = [0.5, 0.0, 0.0]\n[terrain]\nkind = \"none\"\n[gait]\nkind = \
          \"none\"\n[ground]\n{ground}\n{surfaces}"
@@ -126,10 +125,10 @@ fn presets_resolve_to_their_documented_values() {
             "[[ground.surfaces]]\nshape = \"circle\"\ncenter_m = [1.0, 1.0]\nradius_m = 0.5\npreset = \"{name}\"\n"
         );
         // Isotropic: the preset's μ itself. Anisotropic: [ground] scaled by μ / μ0 (μ0 = 0.5).
-        let iso = SurfaceMap::from_config(&one_link("model = \"isotropic\"", &surface));
+        let iso = SurfaceMap::from_config(&link_on_surfaces("model = \"isotropic\"", &surface));
         assert_eq!(iso.friction(1).sliding, mu, "{name}");
         assert_eq!(iso.friction(0).sliding, 0.5, "the plain floor");
-        let aniso = SurfaceMap::from_config(&one_link(
+        let aniso = SurfaceMap::from_config(&link_on_surfaces(
             "model = \"directional\"\naxial_friction = 0.1\nlateral_friction = 1.0\nbackward_friction = 0.3\n\
              viscous_tangential_n_s_per_m = 2.0\nviscous_normal_n_s_per_m = 20.0",
             &surface,
@@ -147,7 +146,7 @@ fn presets_resolve_to_their_documented_values() {
         }
     }
     // Explicit values replace the scaled ones.
-    let c = one_link(
+    let c = link_on_surfaces(
         "model = \"anisotropic\"",
         "[[ground.surfaces]]\nshape = \"circle\"\ncenter_m = [1.0, 1.0]\nradius_m = 0.5\npreset = \"ice\"\n\
          lateral_friction = 0.9\n",
@@ -158,7 +157,7 @@ fn presets_resolve_to_their_documented_values() {
 
 #[test]
 fn later_surfaces_win_where_they_overlap() {
-    let c = one_link(
+    let c = link_on_surfaces(
         "model = \"isotropic\"",
         "[[ground.surfaces]]\nshape = \"rectangle\"\ncenter_m = [0.0, 0.0]\nsize_m = [2.0, 2.0]\npreset = \"wood\"\n\
          [[ground.surfaces]]\nshape = \"circle\"\ncenter_m = [0.5, 0.0]\nradius_m = 0.25\npreset = \"ice\"\n",
@@ -177,7 +176,8 @@ fn later_surfaces_win_where_they_overlap() {
 #[test]
 fn crossing_onto_ice_changes_the_deceleration_from_mu1_g_to_mu2_g() {
     let border = 0.2;
-    let c = one_link("model = \"isotropic\"", &two_regions(border, "preset = \"concrete\"", "preset = \"ice\""));
+    let c =
+        link_on_surfaces("model = \"isotropic\"", &two_regions(border, "preset = \"concrete\"", "preset = \"ice\""));
     let samples = launch(&c, [1.0, 0.0], 3.0, 350);
     let crossing = samples.iter().position(|s| s.x > border).expect("the link reaches the ice");
     // The region recorded at every step is the one its centre is in.
@@ -202,7 +202,7 @@ fn crossing_onto_ice_changes_the_deceleration_from_mu1_g_to_mu2_g() {
 fn anisotropic_crossing_changes_axial_and_lateral_friction() {
     let ground = "model = \"anisotropic\"\naxial_friction = 0.1\nlateral_friction = 1.0";
     // Along the link (x): the floor up to x = 0.1, then the surface.
-    let c = one_link(
+    let c = link_on_surfaces(
         ground,
         "[[ground.surfaces]]\nshape = \"rectangle\"\ncenter_m = [1.1, 0.0]\nsize_m = [2.0, 2.0]\nfriction = 0.1\n",
     );
@@ -215,7 +215,7 @@ fn anisotropic_crossing_changes_axial_and_lateral_friction() {
     // Across the link (y): the surface starts 5 mm beside the link's centre. A link sliding
     // sideways starts to roll (about v/(3 μ g) ≈ 70 ms at 2 m/s for μ = 1), so only the first
     // steps show sliding friction: compare the force ratio per step.
-    let c = one_link(
+    let c = link_on_surfaces(
         ground,
         "[[ground.surfaces]]\nshape = \"rectangle\"\ncenter_m = [0.0, 1.005]\nsize_m = [2.0, 2.0]\nfriction = 0.1\n",
     );
@@ -237,7 +237,7 @@ fn anisotropic_crossing_changes_axial_and_lateral_friction() {
 fn directional_crossing_changes_forward_and_backward_friction() {
     let ground = "model = \"directional\"\naxial_friction = 0.1\nlateral_friction = 1.0\nbackward_friction = 0.3";
     // Backward: from the floor onto a surface that starts at x = −0.3 (friction 0.1: ×0.2).
-    let c = one_link(
+    let c = link_on_surfaces(
         ground,
         "[[ground.surfaces]]\nshape = \"rectangle\"\ncenter_m = [-1.3, 0.0]\nsize_m = [2.0, 2.0]\nfriction = 0.1\n",
     );
@@ -247,7 +247,7 @@ fn directional_crossing_changes_forward_and_backward_friction() {
     assert_coulomb(&samples, 0.3, "floor, backward", |s| s.t < t_cross - 0.005);
     assert_coulomb(&samples, 0.06, "surface, backward", |s| s.t > t_cross + 0.005);
     // Forward onto a surface with explicit coefficients.
-    let c = one_link(
+    let c = link_on_surfaces(
         ground,
         "[[ground.surfaces]]\nshape = \"rectangle\"\ncenter_m = [1.1, 0.0]\nsize_m = [2.0, 2.0]\nfriction = 0.5\n\
          axial_friction = 0.04\nbackward_friction = 0.5\n",
@@ -263,7 +263,7 @@ fn directional_crossing_changes_forward_and_backward_friction() {
 #[test]
 fn viscous_crossing_changes_the_damping() {
     let ground = "model = \"viscous\"\nviscous_tangential_n_s_per_m = 1.0\nviscous_normal_n_s_per_m = 10.0";
-    let c = one_link(
+    let c = link_on_surfaces(
         ground,
         "[[ground.surfaces]]\nshape = \"rectangle\"\ncenter_m = [1.1, 0.0]\nsize_m = [2.0, 2.0]\nfriction = 0.05\n",
     );

@@ -1,6 +1,5 @@
 //! Proprioceptive contact-force estimation (`simserpent::estimation`) against the simulator's
 //! ground truth (`Snapshot`'s per-link floor / obstacle / total contact forces).
-#![allow(clippy::unwrap_used)]
 
 use simserpent::config::Config;
 use simserpent::control::{Command, Controller, Observation};

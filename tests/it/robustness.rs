@@ -1,79 +1,16 @@
 //! Never lose a run (issue 7): bad configs (a corpus and random configs), bad robot files,
 //! divergence (NaN, MuJoCo warnings, runaway energy), interruption by SIGINT/SIGTERM, output
 //! problems (unwritable folder, full disk), determinism, and the documented exit codes.
-#![allow(clippy::unwrap_used)]
 
+use crate::common::{
+    data, exe, in_child_process, leaf_paths, manifest, manifest_dir, read_complete_csv, run_folders, simserpent, text,
+};
 use proptest::prelude::*;
 use simserpent::config::{self, Config, ConfigSource};
 use simserpent::sim::{SimError, Simulation, World};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output, Stdio};
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn exe() -> &'static str {
-    env!("CARGO_BIN_EXE_simserpent")
-}
-
-fn simserpent(dir: &Path, args: &[&str]) -> Output {
-    Command::new(exe()).current_dir(dir).args(args).output().unwrap()
-}
-
-fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
-}
-
-fn manifest_dir() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// Run folders under `dir/runs`, sorted.
-fn run_folders(dir: &Path) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = match std::fs::read_dir(dir.join("runs")) {
-        Ok(entries) => entries.map(|e| e.unwrap().path()).collect(),
-        Err(_) => Vec::new(),
-    };
-    v.sort();
-    v
-}
-
-fn manifest(run: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(run.join("manifest.json")).unwrap()).unwrap()
-}
-
-/// Reads a CSV table; checks that the file ends with a newline and that every row is complete
-/// (as many fields as the header, every numeric field parses).
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let content = std::fs::read_to_string(path).unwrap();
-    assert!(content.ends_with('\n'), "{}: the last row is cut off", path.display());
-    let mut lines = content.lines();
-    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
-    let rows: Vec<Vec<String>> = lines.map(|l| l.split(',').map(String::from).collect()).collect();
-    for (i, r) in rows.iter().enumerate() {
-        assert_eq!(r.len(), header.len(), "{}: row {i} has {} fields", path.display(), r.len());
-        let time: f64 = r[0].parse().unwrap_or_else(|_| panic!("{}: row {i} time {:?}", path.display(), r[0]));
-        assert!(time.is_finite());
-    }
-    (header, rows)
-}
-
-/// Runs `body` in a child process of this test binary whose working directory is a temporary
-/// folder: in-process MuJoCo warnings (no log hook is installed in tests) go to
-/// `MUJOCO_LOG.TXT` in the working directory, and runs go to `runs/` there, not into the repository.
-fn in_child_process(test_name: &str, body: impl FnOnce()) {
-    const CHILD: &str = "SIMSERPENT_ROBUSTNESS_CHILD";
-    if std::env::var(CHILD).is_ok_and(|name| name == test_name) {
-        body();
-        return;
-    }
-    let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(std::env::current_exe().unwrap())
-        .args(["--exact", test_name, "--nocapture", "--test-threads=1"])
-        .env(CHILD, test_name)
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
-    assert!(out.status.success() && text(&out).contains("1 passed"), "{}", text(&out));
-}
 
 // --- 1. bad configs: the corpus -------------------------------------------------------------
 
@@ -177,18 +114,7 @@ fn bad_config_corpus_exits_2_through_the_cli_and_writes_nothing() {
 
 /// Every leaf key path of the default config (`general.duration_secs`, ...).
 fn leaf_keys() -> Vec<String> {
-    fn walk(t: &toml::Table, prefix: &str, out: &mut Vec<String>) {
-        for (k, v) in t {
-            let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
-            match v {
-                toml::Value::Table(sub) => walk(sub, &path, out),
-                _ => out.push(path),
-            }
-        }
-    }
-    let mut out = Vec::new();
-    walk(&config::DEFAULT_CONFIG_TOML.parse().unwrap(), "", &mut out);
-    out
+    leaf_paths(&config::DEFAULT_CONFIG_TOML.parse().unwrap())
 }
 
 /// Every leaf key path of the original tool's config.json (tests/data/thesis_config.json).
@@ -201,7 +127,7 @@ fn legacy_keys() -> Vec<String> {
             }
         }
     }
-    let text = std::fs::read_to_string(manifest_dir().join("tests/data/thesis_config.json")).unwrap();
+    let text = std::fs::read_to_string(data("thesis_config.json")).unwrap();
     let mut out = Vec::new();
     walk(&serde_json::from_str(&text).unwrap(), "", &mut out);
     out
@@ -380,7 +306,7 @@ fn valid_overrides() -> impl Strategy<Value = Vec<String>> {
 /// MuJoCo compiles, and it steps (a diverging step is an error, never a crash).
 #[test]
 fn accepted_configs_compile_and_step() {
-    in_child_process("accepted_configs_compile_and_step", || {
+    in_child_process("robustness::accepted_configs_compile_and_step", || {
         let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
             cases: 40,
             failure_persistence: None,
@@ -413,10 +339,6 @@ fn accepted_configs_compile_and_step() {
 
 // --- 2. bad robot files -----------------------------------------------------------------------
 
-fn data(file: &str) -> String {
-    manifest_dir().join("tests/data").join(file).to_str().unwrap().to_string()
-}
-
 #[test]
 fn bad_robot_files_exit_2_naming_the_file_and_the_problem() {
     let dir = tempfile::tempdir().unwrap();
@@ -433,7 +355,7 @@ fn bad_robot_files_exit_2_naming_the_file_and_the_problem() {
         ("robot_no_joints.xml", &["--set", "gait.kind=\"form_closure\""], &["robot_no_joints.xml", "no hinge"]),
     ];
     for (file, extra, needles) in cases {
-        let robot = data(file);
+        let robot = data(file).to_str().unwrap().to_string();
         let args = [&["run", "--robot", robot.as_str()][..], &short, extra].concat();
         let out = simserpent(dir.path(), &args);
         assert_eq!(out.status.code(), Some(2), "{file}: {}", text(&out));
@@ -444,13 +366,14 @@ fn bad_robot_files_exit_2_naming_the_file_and_the_problem() {
     assert!(run_folders(dir.path()).is_empty(), "no run folder for a bad robot");
     // Without a gait, robots without actuators (or joints) run.
     for file in ["robot_no_actuator.xml", "robot_no_joints.xml", "two_link.urdf"] {
-        let robot = data(file);
+        let robot = data(file).to_str().unwrap().to_string();
         let out =
             simserpent(dir.path(), &[&["run", "--robot", &robot, "--set", "gait.kind=\"none\""][..], &short].concat());
         assert!(out.status.success(), "{file}: {}", text(&out));
     }
     // A robot with an actuator on every joint runs with a gait.
-    let out = simserpent(dir.path(), &[&["run", "--robot", &data("two_link_arm.xml")][..], &short].concat());
+    let out =
+        simserpent(dir.path(), &[&["run", "--robot", data("two_link_arm.xml").to_str().unwrap()][..], &short].concat());
     assert!(out.status.success(), "{}", text(&out));
 }
 
@@ -491,7 +414,7 @@ fn runaway_energy_stops_the_run_with_time_step_and_cause_and_keeps_the_tables() 
     // Everything recorded up to the failure is there, complete and finite.
     let step_failed = m["steps"].as_u64().unwrap();
     assert!(step_failed > 5, "the energy grew over several steps, got {step_failed}");
-    let (_, rows) = read_csv(&run.join("links.csv"));
+    let (_, rows) = read_complete_csv(&run.join("links.csv"));
     assert_eq!(rows.len() as u64, step_failed, "one row per step before the failing one");
     assert_eq!(m["tables"][0][0], "links.csv");
     assert_eq!(m["tables"][0][1].as_u64().unwrap(), rows.len() as u64);
@@ -513,7 +436,7 @@ fn without_the_energy_guard_mujoco_warnings_or_nan_stop_the_same_run_later() {
     assert!(stderr.contains("mjWARN_BADQACC") || stderr.contains("not finite"), "{stderr}");
     let run = &run_folders(dir.path())[0];
     assert_eq!(manifest(run)["status"], "failed");
-    read_csv(&run.join("joints.csv"));
+    read_complete_csv(&run.join("joints.csv"));
 }
 
 #[test]
@@ -556,7 +479,7 @@ impl simserpent::control::Controller for NanAfter {
 
 #[test]
 fn a_controller_that_sends_nan_fails_the_run_instead_of_being_silently_zeroed() {
-    in_child_process("a_controller_that_sends_nan_fails_the_run_instead_of_being_silently_zeroed", || {
+    in_child_process("robustness::a_controller_that_sends_nan_fails_the_run_instead_of_being_silently_zeroed", || {
         let overrides: Vec<String> = ["general.duration_secs=1", "recording.every_n_steps=1", "terrain.kind=\"none\""]
             .map(String::from)
             .to_vec();
@@ -568,7 +491,7 @@ fn a_controller_that_sends_nan_fails_the_run_instead_of_being_silently_zeroed() 
         assert!(message.contains("mjWARN_BADCTRL") && message.contains("t = 0.101"), "{message}");
         let run = &run_folders(&std::env::current_dir().unwrap())[0];
         assert_eq!(manifest(run)["status"], "failed");
-        let (_, rows) = read_csv(&run.join("joints.csv"));
+        let (_, rows) = read_complete_csv(&run.join("joints.csv"));
         assert_eq!(rows.len(), 101, "steps 0..=100 were recorded before the failing step");
     });
 }
@@ -632,13 +555,13 @@ fn interrupt_with(signal: &str) {
     assert!(steps > 0 && steps < 3_600_000);
     // Every table is complete and readable, and holds the rows the manifest counts.
     for (i, table) in ["links.csv", "joints.csv", "sensors.csv", "contacts.csv"].into_iter().enumerate() {
-        let (_, rows) = read_csv(&run.join(table));
+        let (_, rows) = read_complete_csv(&run.join(table));
         assert_eq!(m["tables"][i][0], table);
         assert_eq!(m["tables"][i][1].as_u64().unwrap(), rows.len() as u64, "{table}");
     }
     // Recorded every n steps from step 0; the stop comes after the row of its step.
     let every = m["record_every_n_steps"].as_u64().unwrap();
-    let (_, rows) = read_csv(&run.join("links.csv"));
+    let (_, rows) = read_complete_csv(&run.join("links.csv"));
     assert_eq!(rows.len() as u64, steps / every + 1, "steps {steps}");
 }
 

@@ -1,40 +1,9 @@
 //! The `simserpent` binary end to end: exit codes, run folders, tables, determinism, `init`,
 //! `model`, legacy configs and user robots.
-#![allow(clippy::unwrap_used)]
 
+use crate::common::{data, manifest, read_csv, run_folders, simserpent, text};
 use mujoco_rs::prelude::*;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn simserpent(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_simserpent")).current_dir(dir).args(args).output().unwrap()
-}
-
-fn text(o: &Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
-}
-
-fn run_folders(dir: &Path) -> Vec<PathBuf> {
-    let runs = dir.join("runs");
-    let mut v: Vec<PathBuf> = match std::fs::read_dir(&runs) {
-        Ok(entries) => entries.map(|e| e.unwrap().path()).collect(),
-        Err(_) => Vec::new(),
-    };
-    v.sort();
-    v
-}
-
-/// Reads a CSV table: header and rows; checks that every row has the header's width.
-fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
-    let content = std::fs::read_to_string(path).unwrap();
-    let mut lines = content.lines();
-    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
-    let rows: Vec<Vec<String>> = lines.map(|l| l.split(',').map(String::from).collect()).collect();
-    for (i, r) in rows.iter().enumerate() {
-        assert_eq!(r.len(), header.len(), "{}: row {i} has {} fields", path.display(), r.len());
-    }
-    (header, rows)
-}
+use std::path::PathBuf;
 
 const SHORT: [&str; 4] = ["--set", "general.duration_secs=0.2", "--set", "recording.every_n_steps=20"];
 
@@ -56,8 +25,7 @@ fn run_writes_a_complete_run_folder() {
     {
         assert!(run.join(file).is_file(), "missing {file}");
     }
-    let manifest: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(run.join("manifest.json")).unwrap()).unwrap();
+    let manifest = manifest(run);
     assert_eq!(manifest["status"], "complete");
     assert_eq!(manifest["mujoco_version"], "3.17.0");
     assert_eq!(manifest["seed"], 1);
@@ -183,7 +151,7 @@ fn model_command_writes_mjcf_that_mujoco_loads() {
 #[test]
 fn thesis_config_json_runs() {
     let dir = tempfile::tempdir().unwrap();
-    let json = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/thesis_config.json");
+    let json = data("thesis_config.json");
     let out = simserpent(
         dir.path(),
         &["run", json.to_str().unwrap(), "--set", "general.duration_secs=0.2", "--set", "general.run_name=\"thesis\""],
@@ -209,7 +177,6 @@ fn thesis_config_json_runs() {
 
 #[test]
 fn user_robots_run_in_the_terrain_and_are_recorded() {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
     // MuJoCo welds a URDF's root link to the world, so only the arm is a moving link there.
     // The URDF has no actuators (MuJoCo's URDF loader makes none), so it runs without a gait.
     let cases: [(&str, &[&str], &str, &str); 2] = [
@@ -218,7 +185,7 @@ fn user_robots_run_in_the_terrain_and_are_recorded() {
     ];
     for (file, links, joint, gait) in cases {
         let dir = tempfile::tempdir().unwrap();
-        let robot = data.join(file);
+        let robot = data(file);
         let args = [
             &["run", "--robot", robot.to_str().unwrap()][..],
             &SHORT,
@@ -271,8 +238,7 @@ fn a_diverging_run_exits_1_and_leaves_readable_tables_marked_failed() {
     assert_eq!(out.status.code(), Some(1), "{}", text(&out));
     assert!(text(&out).contains("diverged at t ="), "{}", text(&out));
     let run = &run_folders(dir.path())[0];
-    let manifest: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(run.join("manifest.json")).unwrap()).unwrap();
+    let manifest = manifest(run);
     assert_eq!(manifest["status"], "failed");
     assert!(manifest["error"].as_str().unwrap().contains("diverged"));
     let (_, rows) = read_csv(&run.join("links.csv"));

@@ -1,19 +1,16 @@
 //! Parquet tables (`recording.format`): same columns and values as the CSV tables, typed
 //! columns, row groups written as the run goes, readable by the parquet crate (and by
 //! pandas/pyarrow when Python has them).
-#![allow(clippy::unwrap_used)]
 
-use simserpent::config::{Config, ConfigError, ConfigSource, load_config_str};
+use crate::common::{default_config_with, output_dir};
+use simserpent::config::{Config, ConfigError};
 use std::path::Path;
 
 fn config(dir: &Path, overrides: &[&str]) -> Result<Config, ConfigError> {
-    let mut all: Vec<String> = vec![
-        "general.duration_secs=0.5".into(),
-        "recording.every_n_steps=5".into(),
-        format!("general.output_dir=\"{}\"", dir.join("runs").display()),
-    ];
+    let mut all: Vec<String> =
+        vec!["general.duration_secs=0.5".into(), "recording.every_n_steps=5".into(), output_dir(&dir.join("runs"))];
     all.extend(overrides.iter().map(|s| s.to_string()));
-    load_config_str(simserpent::config::DEFAULT_CONFIG_TOML, ConfigSource::Toml, &all)
+    default_config_with(&all)
 }
 
 #[cfg(not(feature = "parquet"))]
@@ -31,10 +28,10 @@ fn parquet_without_the_feature_is_a_config_error() {
 #[cfg(feature = "parquet")]
 mod with_parquet {
     use super::*;
+    use crate::common::{read_csv, run_folder};
     use arrow_array::{Array, Float64Array, Int64Array, RecordBatch, StringArray};
     use arrow_schema::DataType;
     use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
-    use simserpent::run::{self, RunOptions};
 
     type Columns = Vec<(String, DataType)>;
 
@@ -68,13 +65,6 @@ mod with_parquet {
         (fields, batches, row_groups)
     }
 
-    fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
-        let text = std::fs::read_to_string(path).unwrap();
-        let mut lines = text.lines();
-        let header = lines.next().unwrap().split(',').map(String::from).collect();
-        (header, lines.map(|l| l.split(',').map(String::from).collect()).collect())
-    }
-
     /// Cell `row` of column `col` as text, in the CSV's spelling.
     fn cell(batches: &[RecordBatch], col: usize, mut row: usize) -> String {
         for b in batches {
@@ -101,8 +91,7 @@ mod with_parquet {
     fn both_formats_hold_the_same_columns_and_values() {
         let dir = tempfile::tempdir().unwrap();
         let c = config(dir.path(), &["recording.format=both", "recording.parquet_row_group_rows=16"]).unwrap();
-        let summary = run::run(&c, &RunOptions::default()).unwrap();
-        let folder = summary.run_folder;
+        let folder = run_folder(&c);
         for table in ["links", "joints", "sensors", "contacts"] {
             let (header, rows) = read_csv(&folder.join(format!("{table}.csv")));
             let (fields, batches, row_groups, _) = read_dataset(&folder.join(format!("{table}.parquet")));
@@ -135,7 +124,7 @@ mod with_parquet {
     fn parquet_only_writes_no_csv() {
         let dir = tempfile::tempdir().unwrap();
         let c = config(dir.path(), &["recording.format=parquet", "recording.contacts=false"]).unwrap();
-        let folder = run::run(&c, &RunOptions::default()).unwrap().run_folder;
+        let folder = run_folder(&c);
         for table in ["links", "joints", "sensors"] {
             assert!(folder.join(format!("{table}.parquet")).is_dir(), "{table}.parquet");
             assert!(!folder.join(format!("{table}.csv")).exists(), "{table}.csv");
@@ -162,7 +151,7 @@ mod with_parquet {
                 ],
             )
             .unwrap();
-            let folder = run::run(&c, &RunOptions::default()).unwrap().run_folder;
+            let folder = run_folder(&c);
             // 101 rows: three full parts and the rest; 30-row parts hold row groups 8+8+8+6.
             let (_, batches, row_groups, parts) = read_dataset(&folder.join("joints.parquet"));
             assert_eq!(parts, [30, 30, 30, 11], "{compression}");
@@ -178,7 +167,7 @@ mod with_parquet {
         let dir = tempfile::tempdir().unwrap();
         // No contact happens in free fall above the floor: the contacts table stays empty.
         let c = config(dir.path(), &["recording.format=\"parquet\"", "snake.head_position_m=[0.0, 0.0, 5.0]"]).unwrap();
-        let folder = run::run(&c, &RunOptions::default()).unwrap().run_folder;
+        let folder = run_folder(&c);
         let (fields, _, _, parts) = read_dataset(&folder.join("contacts.parquet"));
         assert_eq!(parts, [0]);
         assert!(fields.iter().any(|(n, _)| n == "geom1"), "{fields:?}");
@@ -197,7 +186,7 @@ mod with_parquet {
             &["recording.format=both", "recording.parquet_row_group_rows=10", "recording.parquet_rows_per_file=40"],
         )
         .unwrap();
-        let folder = run::run(&c, &RunOptions::default()).unwrap().run_folder;
+        let folder = run_folder(&c);
         let script = r#"
 import sys, pandas as pd, pyarrow.parquet as pq, numpy as np
 d = sys.argv[1]

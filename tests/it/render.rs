@@ -3,10 +3,9 @@
 //! Rendering runs headless through EGL (Mesa's software renderer in CI). MP4 tests need `ffmpeg`
 //! and `ffprobe` and say "skipped" on stderr when they are missing; everything else must pass
 //! everywhere.
-#![cfg(feature = "render")]
-#![allow(clippy::unwrap_used)]
 
-use simserpent::config::{CameraKind, Config, ConfigSource, VideoFormat, load_config_str};
+use crate::common::{default_config_with, exe, output_dir};
+use simserpent::config::{CameraKind, Config, VideoFormat};
 use simserpent::render::{self, ReplayOptions, STATE_FILE};
 use simserpent::run::{self, RunOptions};
 use std::path::{Path, PathBuf};
@@ -15,7 +14,7 @@ use std::process::Command;
 /// A short, small run: 6 links, 0.5 s, a fast wave so the snake visibly moves.
 fn config(out: &Path, extra: &[&str]) -> Config {
     let mut o: Vec<String> = vec![
-        format!("general.output_dir={:?}", out.display().to_string()),
+        output_dir(out),
         "general.duration_secs=0.5".into(),
         "snake.n_links=6".into(),
         "terrain.kind=\"none\"".into(),
@@ -31,12 +30,12 @@ fn config(out: &Path, extra: &[&str]) -> Config {
         "render.time_overlay=false".into(),
     ];
     o.extend(extra.iter().map(|s| s.to_string()));
-    load_config_str(simserpent::config::DEFAULT_CONFIG_TOML, ConfigSource::Toml, &o).unwrap()
+    default_config_with(&o).unwrap()
 }
 
 fn run_folder(config: &Config) -> PathBuf {
     let summary =
-        run::run(config, &RunOptions { config_source: "tests/render.rs".into(), ..RunOptions::default() }).unwrap();
+        run::run(config, &RunOptions { config_source: "tests/it/render.rs".into(), ..RunOptions::default() }).unwrap();
     summary.run_folder
 }
 
@@ -207,7 +206,7 @@ fn mp4_video_through_ffmpeg() {
 #[test]
 fn mp4_without_ffmpeg_falls_back_to_gif_and_says_so() {
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_simserpent"))
+    let out = Command::new(exe())
         .args(["run", "--quiet", "--video"])
         .args(["--set", &format!("general.output_dir={:?}", dir.path().display().to_string())])
         .args(["--set", "general.duration_secs=0.2", "--set", "snake.n_links=3", "--set", "terrain.kind=\"none\""])
@@ -226,7 +225,7 @@ fn mp4_without_ffmpeg_falls_back_to_gif_and_says_so() {
 fn viewer_without_a_display_is_exit_code_2() {
     let dir = tempfile::tempdir().unwrap();
     for args in [vec!["view"], vec!["run", "--viewer", "--set", "general.duration_secs=0.1"]] {
-        let out = Command::new(env!("CARGO_BIN_EXE_simserpent"))
+        let out = Command::new(exe())
             .args(&args)
             .args(["--set", &format!("general.output_dir={:?}", dir.path().display().to_string())])
             .env_remove("DISPLAY")

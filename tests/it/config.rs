@@ -1,7 +1,7 @@
 //! Config loading: defaults, `init` round trip, every field, every validation rule, unknown
 //! keys, `--set` overrides, the original tool's config.json.
-#![allow(clippy::unwrap_used)]
 
+use crate::common::{data, leaf_paths};
 use simserpent::config::*;
 use std::path::{Path, PathBuf};
 
@@ -39,7 +39,7 @@ fn invalid(result: Result<Config, ConfigError>) -> (String, String, String) {
 }
 
 fn thesis_json_path() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/thesis_config.json")
+    data("thesis_config.json")
 }
 
 // --- defaults -------------------------------------------------------------------------------
@@ -628,17 +628,6 @@ fn differing_leaves(a: &toml::Table, b: &toml::Table, prefix: &str, out: &mut Ve
     }
 }
 
-/// All leaf paths of a table.
-fn leaves(t: &toml::Table, prefix: &str, out: &mut Vec<String>) {
-    for (k, v) in t {
-        let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
-        match v {
-            toml::Value::Table(sub) => leaves(sub, &path, out),
-            _ => out.push(path),
-        }
-    }
-}
-
 #[test]
 #[cfg_attr(not(feature = "parquet"), ignore = "sets recording.format = \"both\", which needs the `parquet` feature")]
 fn every_field_can_be_set_from_toml() {
@@ -651,10 +640,8 @@ fn every_field_can_be_set_from_toml() {
     // above makes this fail.
     let defaults: toml::Table = DEFAULT_CONFIG_TOML.parse().unwrap();
     let file: toml::Table = ALL_FIELDS.parse().unwrap();
-    let mut all = Vec::new();
-    leaves(&defaults, "", &mut all);
-    let mut in_file = Vec::new();
-    leaves(&file, "", &mut in_file);
+    let mut all = leaf_paths(&defaults);
+    let mut in_file = leaf_paths(&file);
     all.sort();
     in_file.sort();
     assert_eq!(all, in_file, "ALL_FIELDS must set every key of the default config");

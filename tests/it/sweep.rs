@@ -1,14 +1,15 @@
 //! Parameter sweeps: plans (grid, random, Latin hypercube), stable run ids and folders, failed
 //! runs recorded, restarts that skip finished runs, shards and their merge, the command line.
-#![allow(clippy::unwrap_used)]
 
+use crate::common::simserpent;
 use simserpent::sweep::{self, RunOutcome, SampleMode, Shard, SummaryTable, SweepError, SweepSpec, Values, Variation};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
+/// Short runs on a bare floor.
 const BASE: [&str; 3] = ["general.duration_secs=0.2", "recording.every_n_steps=20", "terrain.kind=none"];
 
-fn spec(dir: &Path, vary: &[&str]) -> SweepSpec {
+/// A grid sweep of `BASE` runs into `dir`, varying `vary`, on 2 threads.
+pub(crate) fn spec(dir: &Path, vary: &[&str]) -> SweepSpec {
     SweepSpec {
         config_path: None,
         overrides: BASE.iter().map(|s| s.to_string()).collect(),
@@ -181,10 +182,6 @@ fn shards_merge_into_the_full_summary_and_runs_are_deterministic() {
     }
 }
 
-fn cli(dir: &Path, args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_simserpent")).current_dir(dir).args(args).output().unwrap()
-}
-
 #[test]
 fn command_line_sweep_and_merge() {
     let dir = tempfile::tempdir().unwrap();
@@ -202,14 +199,14 @@ fn command_line_sweep_and_merge() {
     };
     let run = |a: Vec<String>| {
         let refs: Vec<&str> = a.iter().map(String::as_str).collect();
-        cli(dir.path(), &refs)
+        simserpent(dir.path(), &refs)
     };
     let out = run(as_str(&["--shard", "0/2", "--threads", "1"]));
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let out = run(as_str(&["--shard", "1/2"]));
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let sweep_dir: PathBuf = dir.path().join("runs").join("sweep-default");
-    let out = cli(dir.path(), &["sweep-merge", sweep_dir.to_str().unwrap()]);
+    let out = simserpent(dir.path(), &["sweep-merge", sweep_dir.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let merged = SummaryTable::read_csv(&sweep_dir.join("summary.csv")).unwrap();
     assert_eq!(column(&merged, "run_index"), ["0", "1", "2", "3"]);
@@ -218,11 +215,11 @@ fn command_line_sweep_and_merge() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success() && stdout.contains("4 already complete"), "{stdout}");
     // Bad input: exit code 2.
-    let out = cli(dir.path(), &["sweep", "--vary", "snake.n_lnks=3,4"]);
+    let out = simserpent(dir.path(), &["sweep", "--vary", "snake.n_lnks=3,4"]);
     assert_eq!(out.status.code(), Some(2), "{}", String::from_utf8_lossy(&out.stderr));
-    let out = cli(dir.path(), &["sweep", "--vary", "snake.n_links=3", "--shard", "2/2"]);
+    let out = simserpent(dir.path(), &["sweep", "--vary", "snake.n_links=3", "--shard", "2/2"]);
     assert_eq!(out.status.code(), Some(2));
     // A failing run: exit code 1, the summary says which.
-    let out = cli(dir.path(), &["sweep", "--vary", "snake.n_links=0", "--set", "general.duration_secs=0.1"]);
+    let out = simserpent(dir.path(), &["sweep", "--vary", "snake.n_links=0", "--set", "general.duration_secs=0.1"]);
     assert_eq!(out.status.code(), Some(1));
 }

@@ -1,38 +1,22 @@
 //! Terrains (issue 8): slopes against Coulomb's law, heightfields from PNG images, peg boards,
 //! walls and channels, mesh obstacles, a third-party MJCF terrain, and the model split into
 //! scene/terrain/robot files. Physics is asserted against analytic values.
-#![allow(clippy::unwrap_used)]
 
+use crate::common::{G, data, one_link, snapshot};
 use mujoco_rs::prelude::*;
-use simserpent::config::{Config, GaitKind, GroundModel, MeshObstacle, PegLayout, TerrainKind, Wall};
+use simserpent::config::{Config, GroundModel, MeshObstacle, PegLayout, TerrainKind, Wall};
 use simserpent::model::{self, names};
 use simserpent::sim::{Simulation, Snapshot, World};
-use std::path::{Path, PathBuf};
-
-const G: f64 = 9.81;
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name)
-}
+use std::path::Path;
 
 /// One link (L = 0.2 m, r = 0.04 m) on a bare floor with isotropic friction `mu`.
-fn one_link(mu: f64) -> Config {
-    let mut c = Config::default();
-    c.snake.n_links = 1;
-    c.terrain.kind = TerrainKind::None;
-    c.gait.kind = GaitKind::None;
+fn isotropic_link(mu: f64) -> Config {
+    let mut c = one_link();
     c.gait.ramp_secs = 0.0;
     c.ground.model = GroundModel::Isotropic;
     c.snake.ground_friction = [mu, 0.0, 0.0];
     c.terrain.obstacle_friction = [mu, 0.0, 0.0];
     c
-}
-
-fn snapshot(sim: &mut Simulation) -> Snapshot {
-    let mut s = Snapshot::new(sim.world().n_links(), sim.world().n_joints());
-    sim.control();
-    sim.snapshot(&mut s);
-    s
 }
 
 fn run_for(sim: &mut Simulation, secs: f64) {
@@ -51,7 +35,7 @@ fn geom_name(world: &World, g: usize) -> &str {
 /// A single link lying on a slope of `angle_deg`, head uphill, its centre `s_m` up the surface
 /// from the foot line at x = 1; returns (config, unit vector up the slope).
 fn link_on_slope(mu: f64, angle_deg: f64, s_m: f64) -> (Config, [f64; 3]) {
-    let mut c = one_link(mu);
+    let mut c = isotropic_link(mu);
     let th = angle_deg.to_radians();
     c.terrain.slope.angle_deg = angle_deg;
     c.terrain.slope.start_m = [1.0, 0.0];
@@ -145,7 +129,7 @@ fn write_png(path: &Path) {
 /// Drops one link (axis along x, 5 cm above the white plateau's height) at (x, y); returns the
 /// link's resting height and the highest contact point with the heightfield after 1 s.
 fn drop_on_heightfield(png: &Path, x: f64, y: f64) -> (f64, Option<f64>, usize) {
-    let mut c = one_link(0.5);
+    let mut c = isotropic_link(0.5);
     c.terrain.heightfield.file = png.display().to_string();
     c.terrain.heightfield.size_x_m = 2.0;
     c.terrain.heightfield.size_y_m = 2.0;
@@ -189,7 +173,7 @@ fn heightfield_contacts_appear_where_the_image_is_bright() {
 
 #[test]
 fn a_third_party_terrain_loads_and_the_snake_touches_it() {
-    let mut c = one_link(0.5);
+    let mut c = isotropic_link(0.5);
     c.terrain.include_mjcf = data("third_party_terrain/terrain.xml").display().to_string();
     // Over the platform (top at z = 0.1), 5 cm above it.
     c.snake.head_position_m = [2.1, 0.0, 0.15];
@@ -374,7 +358,7 @@ fn peg_boards_have_the_configured_count_and_spacing_and_stay_clear_of_the_snake(
 fn a_wall_stops_a_sliding_link_and_a_channel_keeps_it_between_its_walls() {
     // Frictionless floor; the link (head tip at x = 0, heading +x) slides at 1 m/s into a wall
     // whose face is at x = 0.5.
-    let mut c = one_link(0.0);
+    let mut c = isotropic_link(0.0);
     c.terrain.walls = vec![Wall { start_m: [0.525, -1.0], end_m: [0.525, 1.0], height_m: 0.2, thickness_m: 0.05 }];
     let mut sim = Simulation::new(&c, World::from_config(&c).unwrap());
     sim.world_mut().qvel_mut()[0] = 1.0;
@@ -395,7 +379,7 @@ fn a_wall_stops_a_sliding_link_and_a_channel_keeps_it_between_its_walls() {
     assert!(sim.world().data().qpos()[0] < 0.5, "and it does not pass through");
 
     // A channel 0.2 m wide around y = 0: the link slides sideways at 1 m/s and stays inside.
-    let mut c = one_link(0.0);
+    let mut c = isotropic_link(0.0);
     c.terrain.channel.enabled = true;
     c.terrain.channel.start_m = [-3.0, 0.0];
     c.terrain.channel.end_m = [1.0, 0.0];
@@ -438,7 +422,7 @@ fn a_mesh_obstacle_is_its_convex_hull() {
         k += 8;
     }
     std::fs::write(&obj, text).unwrap();
-    let mut c = one_link(0.5);
+    let mut c = isotropic_link(0.5);
     c.terrain.mesh_obstacles = vec![MeshObstacle {
         file: obj.display().to_string(),
         position_m: [1.0, 0.0, 0.0],

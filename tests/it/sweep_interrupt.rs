@@ -1,27 +1,20 @@
 //! A sweep after SIGINT/SIGTERM (here: `interrupt::request`, which the signal handler calls):
 //! no new run starts, the summary marks the runs `incomplete`, and the next invocation does them.
-//! Its own test binary, because the stop request is process-wide.
-#![allow(clippy::unwrap_used)]
+//! In a child process of the test binary (`common::in_child_process`), because the stop request
+//! is process-wide: every run of the other tests in this binary would see it.
 
-use simserpent::sweep::{self, SampleMode, SummaryTable, SweepSpec, Variation};
+use crate::common::in_child_process;
+use crate::sweep::spec;
+use simserpent::sweep::{self, SummaryTable};
 
 #[test]
 fn interrupted_sweep_marks_runs_incomplete_and_resumes() {
+    in_child_process("sweep_interrupt::interrupted_sweep_marks_runs_incomplete_and_resumes", interrupted_sweep);
+}
+
+fn interrupted_sweep() {
     let dir = tempfile::tempdir().unwrap();
-    let spec = SweepSpec {
-        config_path: None,
-        overrides: ["general.duration_secs=0.2", "recording.every_n_steps=20", "terrain.kind=none"]
-            .map(String::from)
-            .to_vec(),
-        variations: vec![Variation::parse("snake.n_links=3,4,5").unwrap()],
-        mode: SampleMode::Grid,
-        samples: 0,
-        seed: 1,
-        sweep_dir: Some(dir.path().to_path_buf()),
-        threads: 2,
-        shard: None,
-        progress: false,
-    };
+    let spec = spec(dir.path(), &["snake.n_links=3,4,5"]);
     simserpent::interrupt::request();
     let report = sweep::run_sweep(&spec).unwrap();
     simserpent::interrupt::clear();

@@ -1,26 +1,17 @@
 //! Physics on short runs, asserted against analytic values and conservation laws.
-#![allow(clippy::unwrap_used)]
 
-use simserpent::config::{Config, ControlMethod, GaitKind, TerrainKind};
+use crate::common::{bare_floor, snapshot};
+use simserpent::config::{Config, ControlMethod, GaitKind};
 use simserpent::control::{Command, Controller, Observation};
 use simserpent::sim::{Simulation, Snapshot, World};
 
 /// A snake with no terrain and no gait, lifted `height_m` above the floor.
 fn bare(n_links: usize, height_m: f64) -> Config {
-    let mut c = Config::default();
+    let mut c = bare_floor();
     c.snake.n_links = n_links;
     c.snake.head_position_m = [0.0, 0.0, height_m];
-    c.terrain.kind = TerrainKind::None;
-    c.gait.kind = GaitKind::None;
     c.gait.ramp_secs = 0.0;
     c
-}
-
-fn snapshot(sim: &mut Simulation) -> Snapshot {
-    let mut s = Snapshot::new(sim.world().n_links(), sim.world().n_joints());
-    sim.control();
-    sim.snapshot(&mut s);
-    s
 }
 
 #[test]

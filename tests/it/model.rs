@@ -1,21 +1,13 @@
 //! The generated MJCF, checked numerically against MuJoCo 3.17 (the only place MuJoCo meets
 //! `simserpent::model`).
-#![allow(clippy::unwrap_used)]
 
+use crate::common::bare_floor;
 use mujoco_rs::prelude::*;
 use mujoco_rs::wrappers::mj_model::{MjtCone, MjtGeomBase, MjtJoint, MjtObjBase, MjtSensor};
 use simserpent::config::{Config, ConfigError, ControlMethod, FrictionCone, GaitKind, JointAxes, TerrainKind};
 use simserpent::model::{self, GeneratedModel, ModelError, link_axis_segments_m, names};
 
 const TOL: f64 = 1e-9;
-
-/// The default config with no terrain and no bent start.
-fn base() -> Config {
-    let mut cfg = Config::default();
-    cfg.terrain.kind = TerrainKind::None;
-    cfg.gait.kind = GaitKind::None;
-    cfg
-}
 
 fn load(xml: &str) -> MjModel {
     MjModel::from_xml_string(xml).unwrap_or_else(|e| panic!("MuJoCo rejected the model: {e}\n{xml}"))
@@ -92,7 +84,7 @@ fn experiment_one() -> Vec<(&'static str, Config)> {
     ];
     rows.into_iter()
         .map(|(name, n, half_len, r, pos, rot, rgba)| {
-            let mut cfg = base();
+            let mut cfg = bare_floor();
             cfg.snake.n_links = n;
             cfg.snake.link_mass_kg = 0.3;
             cfg.snake.link_length_m = 2.0 * half_len;
@@ -282,7 +274,7 @@ fn check_sensors(cfg: &Config, m: &MjModel, label: &str) {
 #[test]
 fn only_the_chosen_actuator_kind_has_gains_and_zero_gain_servos_give_zero_force() {
     for method in ControlMethod::ALL {
-        let mut cfg = base();
+        let mut cfg = bare_floor();
         cfg.control.method = method;
         cfg.control.torque_gear = 2.0;
         let (_, m) = gen_load(&cfg);
@@ -306,7 +298,7 @@ fn only_the_chosen_actuator_kind_has_gains_and_zero_gain_servos_give_zero_force(
 
 #[test]
 fn motor_limits_joint_torque_to_torque_range_for_any_gear() {
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.control.method = ControlMethod::Torque;
     cfg.control.torque_gear = 0.5;
     let (_, m) = gen_load(&cfg);
@@ -320,7 +312,7 @@ fn motor_limits_joint_torque_to_torque_range_for_any_gear() {
 
 #[test]
 fn round_trip_through_a_file_gives_the_same_model() {
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.terrain.kind = TerrainKind::CylinderPath;
     cfg.gait.kind = GaitKind::FormClosure;
     cfg.snake.head_rotation_deg = [0.0, 0.0, 33.0];
@@ -376,7 +368,7 @@ fn check_obstacles_in_model(g: &GeneratedModel, m: &MjModel) {
 }
 
 fn form_closure_cfg(order: u8) -> Config {
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.snake.n_links = 16;
     cfg.terrain.kind = TerrainKind::FormClosure;
     cfg.gait.kind = GaitKind::FormClosure;
@@ -406,7 +398,7 @@ fn every_terrain_kind_compiles() {
 
 #[test]
 fn random_cylinders_are_seeded_clear_and_inside() {
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.terrain.kind = TerrainKind::RandomCylinders;
     cfg.snake.head_position_m = [1.0, -2.0, 0.0];
     cfg.snake.head_rotation_deg = [0.0, 0.0, 40.0];
@@ -447,7 +439,7 @@ fn random_cylinders_are_seeded_clear_and_inside() {
 #[test]
 fn cylinder_path_positions_are_exact() {
     for yaw in [0.0, 90.0] {
-        let mut cfg = base();
+        let mut cfg = bare_floor();
         cfg.terrain.kind = TerrainKind::CylinderPath;
         cfg.snake.head_position_m = [0.5, 0.25, 0.0];
         cfg.snake.head_rotation_deg = [0.0, 0.0, yaw];
@@ -473,7 +465,7 @@ fn cylinder_path_positions_are_exact() {
 
 #[test]
 fn two_cylinders_gaps_are_exact() {
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.terrain.kind = TerrainKind::TwoCylinders;
     cfg.terrain.two_cylinders.distance_m = 0.5;
     // 1 link: thesis experiment II, configuration A; 9 links: the middle of the body is the middle
@@ -583,7 +575,7 @@ fn form_closure_needs_a_bent_start() {
 #[test]
 fn obstacles_inside_the_snake_are_rejected_with_the_key() {
     // A corridor starting just ahead of the head, narrower than the snake.
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.terrain.kind = TerrainKind::CylinderPath;
     cfg.terrain.cylinder_path.start_m = 0.01;
     cfg.terrain.cylinder_path.width_m = 0.05;
@@ -592,7 +584,7 @@ fn obstacles_inside_the_snake_are_rejected_with_the_key() {
     assert_eq!(key, "terrain.cylinder_path.width_m");
     assert!(msg.contains("obstacle_00") && msg.contains("link_00"), "{msg}");
     // A bent snake (form-closure start) reaching the side cylinder.
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.terrain.kind = TerrainKind::TwoCylinders;
     cfg.gait.kind = GaitKind::FormClosure;
     // Only joint 1 bent (pattern as long as the joint list): the whole body swings to the left.
@@ -605,23 +597,23 @@ fn obstacles_inside_the_snake_are_rejected_with_the_key() {
 
 #[test]
 fn snake_below_the_floor_is_rejected() {
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.snake.head_position_m = [0.0, 0.0, -0.01];
     assert_eq!(config_error(model::generate(&cfg)).0, "snake.head_position_m");
     // Pitched so that the body goes down behind the head.
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.snake.head_rotation_deg = [0.0, -30.0, 0.0];
     assert_eq!(config_error(model::generate(&cfg)).0, "snake.head_position_m");
     // Lifted high enough, the same pitch is fine.
     cfg.snake.head_position_m = [0.0, 0.0, 1.0];
     gen_load(&cfg);
     // Exactly on the floor is fine.
-    gen_load(&base());
+    gen_load(&bare_floor());
 }
 
 #[test]
 fn self_collision_cone_and_axes() {
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.physics.self_collision = false;
     cfg.physics.friction_cone = FrictionCone::Pyramidal;
     let (_, m) = gen_load(&cfg);
@@ -684,7 +676,7 @@ fn self_collision_cone_and_axes() {
     // solref of every geom from the contact settings.
     assert_close(&m.geom_solref()[floor], &[0.02, 1.0], 0.0, "solref");
 
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.snake.joint_axes = JointAxes::Alternating;
     let (_, m) = gen_load(&cfg);
     for j in 1..cfg.snake.n_links {
@@ -696,14 +688,14 @@ fn self_collision_cone_and_axes() {
 
 #[test]
 fn one_link_and_many_links() {
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.snake.n_links = 1;
     let (g, m) = gen_load(&cfg);
     assert!(g.initial_joint_angles_rad.is_empty());
     assert_eq!((m.ffi().njnt, m.ffi().nu, m.ffi().nsensor), (1, 0, 5));
     initial_data(&m);
 
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.snake.n_links = 120;
     cfg.gait.kind = GaitKind::FormClosure;
     let (g, m) = gen_load(&cfg);
@@ -719,7 +711,7 @@ fn one_link_and_many_links() {
     let tail = id(&m, MjtObjBase::mjOBJ_BODY, &names::link_body(119));
     assert_close(&d.xpos()[tail], &segs[119][0], 1e-9, "tail of a long bent snake");
 
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.snake.n_links = model::MAX_LINKS;
     gen_load(&cfg);
     cfg.snake.n_links = 0;
@@ -728,7 +720,7 @@ fn one_link_and_many_links() {
 
 #[test]
 fn sphere_links_when_length_is_twice_the_radius() {
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.snake.link_length_m = 2.0 * cfg.snake.link_radius_m;
     let (_, m) = gen_load(&cfg);
     let geom = id(&m, MjtObjBase::mjOBJ_GEOM, &names::link_geom(3));
@@ -743,7 +735,7 @@ fn sphere_links_when_length_is_twice_the_radius() {
 
 #[test]
 fn the_initial_key_holds_the_servo_set_points() {
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.gait.kind = GaitKind::FormClosure;
     cfg.control.method = ControlMethod::Position;
     let (g, m) = gen_load(&cfg);
@@ -763,7 +755,7 @@ fn a_users_robot_in_the_terrain() {
         "<mujoco><worldbody><body name='ball' pos='0 0 0.5'><freejoint/><geom size='0.1'/></body></worldbody></mujoco>",
     )
     .unwrap();
-    let mut cfg = base();
+    let mut cfg = bare_floor();
     cfg.terrain.kind = TerrainKind::TwoCylinders;
     let scene = model::scene_with_robot("robot.xml", &cfg).unwrap();
     let path = dir.path().join("model.xml");
@@ -833,7 +825,7 @@ fn strange_values_give_errors_not_panics() {
         }),
     ];
     for (key, edit) in edits {
-        let mut cfg = base();
+        let mut cfg = bare_floor();
         edit(&mut cfg);
         assert_eq!(config_error(model::generate(&cfg)).0, *key);
     }

@@ -1,9 +1,7 @@
 //! Plots of a run folder: valid PNG and SVG files with the expected panels, titles and axis
 //! labels, drawn with the embedded font (no system fonts, no display).
-#![allow(clippy::unwrap_used)]
 
-use simserpent::config::{ConfigSource, load_config_str};
-use simserpent::run::{self, RunOptions};
+use crate::common::{self, default_config_with, exe, output_dir};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -21,7 +19,7 @@ const PANELS: [(&str, &[&str]); 9] = [
 
 fn run_folder(out: &Path, extra: &[&str]) -> PathBuf {
     let mut o: Vec<String> = vec![
-        format!("general.output_dir={:?}", out.display().to_string()),
+        output_dir(out),
         "general.duration_secs=0.4".into(),
         "snake.n_links=4".into(),
         "terrain.kind=\"two_cylinders\"".into(),
@@ -30,8 +28,7 @@ fn run_folder(out: &Path, extra: &[&str]) -> PathBuf {
         "plot.height_px=400".into(),
     ];
     o.extend(extra.iter().map(|s| s.to_string()));
-    let c = load_config_str(simserpent::config::DEFAULT_CONFIG_TOML, ConfigSource::Toml, &o).unwrap();
-    run::run(&c, &RunOptions::default()).unwrap().run_folder
+    common::run_folder(&default_config_with(&o).unwrap())
 }
 
 fn check_panels(folder: &Path) {
@@ -61,7 +58,7 @@ fn plot_command_writes_every_panel_as_png_and_svg() {
     let dir = tempfile::tempdir().unwrap();
     let folder = run_folder(dir.path(), &[]);
     assert!(!folder.join("plots").exists());
-    let out = Command::new(env!("CARGO_BIN_EXE_simserpent")).arg("plot").arg(&folder).output().unwrap();
+    let out = Command::new(exe()).arg("plot").arg(&folder).output().unwrap();
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(String::from_utf8_lossy(&out.stdout).contains("wrote 20 plot files"));
     check_panels(&folder);
@@ -97,7 +94,7 @@ fn missing_tables_skip_their_panels() {
 #[test]
 fn plot_of_a_folder_that_is_not_a_run_is_exit_code_2() {
     let dir = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_simserpent")).arg("plot").arg(dir.path()).output().unwrap();
+    let out = Command::new(exe()).arg("plot").arg(dir.path()).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("is not a run folder"));
 }

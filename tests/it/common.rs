@@ -1,0 +1,174 @@
+//! Helpers shared by the test modules: one implementation each.
+
+use simserpent::config::{
+    Config, ConfigError, ConfigSource, DEFAULT_CONFIG_TOML, GaitKind, TerrainKind, load_config_str,
+};
+use simserpent::run::{self, RunOptions};
+use simserpent::sim::{Simulation, Snapshot};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// Gravity of the default config (m/s²).
+pub const G: f64 = 9.81;
+
+// --- files of the repository -------------------------------------------------------------------
+
+/// The repository's root folder.
+pub fn manifest_dir() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A file or folder under `tests/data`.
+pub fn data(name: &str) -> PathBuf {
+    manifest_dir().join("tests/data").join(name)
+}
+
+// --- the command line --------------------------------------------------------------------------
+
+/// The `simserpent` binary cargo built for these tests.
+pub fn exe() -> &'static str {
+    env!("CARGO_BIN_EXE_simserpent")
+}
+
+/// Runs `simserpent args…` in `dir` and waits for it.
+pub fn simserpent(dir: &Path, args: &[&str]) -> Output {
+    Command::new(exe()).current_dir(dir).args(args).output().unwrap()
+}
+
+/// Standard output and standard error of a finished process, as one text.
+pub fn text(o: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+}
+
+// --- configs and runs --------------------------------------------------------------------------
+
+/// The embedded default config with `--set` style overrides applied in order.
+pub fn default_config_with(overrides: &[String]) -> Result<Config, ConfigError> {
+    load_config_str(DEFAULT_CONFIG_TOML, ConfigSource::Toml, overrides)
+}
+
+/// The override that sends runs to `folder` (a temporary folder of the test).
+pub fn output_dir(folder: &Path) -> String {
+    format!("general.output_dir={:?}", folder.display().to_string())
+}
+
+/// The default config on a bare floor: no terrain, no gait.
+pub fn bare_floor() -> Config {
+    let mut c = Config::default();
+    c.terrain.kind = TerrainKind::None;
+    c.gait.kind = GaitKind::None;
+    c
+}
+
+/// One link (the default 0.3 kg link: L = 0.2 m, r = 0.04 m) lying on a bare floor, no gait.
+pub fn one_link() -> Config {
+    let mut c = bare_floor();
+    c.snake.n_links = 1;
+    c
+}
+
+/// Runs `config` in this process (default options) and returns its run folder.
+pub fn run_folder(config: &Config) -> PathBuf {
+    run::run(config, &RunOptions::default()).unwrap().run_folder
+}
+
+/// Every leaf key path of a TOML table (`general.duration_secs`, …), in the table's order.
+pub fn leaf_paths(table: &toml::Table) -> Vec<String> {
+    fn walk(t: &toml::Table, prefix: &str, out: &mut Vec<String>) {
+        for (k, v) in t {
+            let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+            match v {
+                toml::Value::Table(sub) => walk(sub, &path, out),
+                _ => out.push(path),
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(table, "", &mut out);
+    out
+}
+
+/// The state after the controller has run for the current step (the simulation does not advance).
+pub fn snapshot(sim: &mut Simulation) -> Snapshot {
+    let mut s = Snapshot::new(sim.world().n_links(), sim.world().n_joints());
+    sim.control();
+    sim.snapshot(&mut s);
+    s
+}
+
+// --- run folders and their tables --------------------------------------------------------------
+
+/// Run folders under `dir/runs`, sorted.
+pub fn run_folders(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = match std::fs::read_dir(dir.join("runs")) {
+        Ok(entries) => entries.map(|e| e.unwrap().path()).collect(),
+        Err(_) => Vec::new(),
+    };
+    v.sort();
+    v
+}
+
+/// A run folder's `manifest.json`.
+pub fn manifest(run: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(run.join("manifest.json")).unwrap()).unwrap()
+}
+
+/// Reads a CSV table: header and rows; checks that every row has the header's width.
+pub fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    split_csv(path, &std::fs::read_to_string(path).unwrap())
+}
+
+/// [`read_csv`], and checks that the table is whole: the file ends with a newline (the last row
+/// is not cut off) and every row's time (the first field) parses as a finite number.
+pub fn read_complete_csv(path: &Path) -> (Vec<String>, Vec<Vec<String>>) {
+    let content = std::fs::read_to_string(path).unwrap();
+    assert!(content.ends_with('\n'), "{}: the last row is cut off", path.display());
+    let (header, rows) = split_csv(path, &content);
+    for (i, r) in rows.iter().enumerate() {
+        let time: f64 = r[0].parse().unwrap_or_else(|_| panic!("{}: row {i} time {:?}", path.display(), r[0]));
+        assert!(time.is_finite());
+    }
+    (header, rows)
+}
+
+fn split_csv(path: &Path, content: &str) -> (Vec<String>, Vec<Vec<String>>) {
+    let mut lines = content.lines();
+    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows: Vec<Vec<String>> = lines.map(|l| l.split(',').map(String::from).collect()).collect();
+    for (i, r) in rows.iter().enumerate() {
+        assert_eq!(r.len(), header.len(), "{}: row {i} has {} fields", path.display(), r.len());
+    }
+    (header, rows)
+}
+
+/// [`read_csv`] of a table whose every field is a number.
+pub fn read_csv_numbers(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let (header, rows) = read_csv(path);
+    let rows = rows.iter().map(|r| r.iter().map(|x| x.parse().unwrap()).collect()).collect();
+    (header, rows)
+}
+
+// --- isolation ---------------------------------------------------------------------------------
+
+/// Runs `body` in a child process of this test binary that runs only the test `test_name` (its
+/// full name, module included: `"robustness::accepted_configs_compile_and_step"`), with a
+/// temporary folder as working directory; the calling test passes when the child's test passes.
+///
+/// For tests that change process-wide state other tests must not see (the interrupt flag), and
+/// for in-process runs: MuJoCo warnings (no log hook is installed in tests) go to `MUJOCO_LOG.TXT`
+/// in the working directory, and runs go to `runs/` there, not into the repository.
+pub fn in_child_process(test_name: &str, body: impl FnOnce()) {
+    const CHILD: &str = "SIMSERPENT_TEST_CHILD";
+    if std::env::var(CHILD).is_ok_and(|name| name == test_name) {
+        body();
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(std::env::current_exe().unwrap())
+        .args(["--exact", test_name, "--nocapture", "--test-threads=1"])
+        .env(CHILD, test_name)
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(out.status.success() && text(&out).contains("1 passed"), "{}", text(&out));
+}

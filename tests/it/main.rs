@@ -1,0 +1,26 @@
+//! The integration tests: one test binary (MuJoCo is linked once, and `cargo test` builds one
+//! executable instead of one per file), one module per subject. Tests that change process-wide
+//! state (the interrupt flag) or need their own working directory run in a child process of this
+//! binary (`common::in_child_process`).
+//!
+//! Run one subject with `cargo test --test it cli::`, one test with its full name, e.g.
+//! `cargo test --test it -- --exact sweep::grid_plan_is_the_full_product_in_order`.
+#![allow(clippy::unwrap_used)]
+
+mod cli;
+mod common;
+mod config;
+mod estimation;
+mod locomotion;
+mod model;
+mod parquet;
+mod physics;
+mod plot;
+#[cfg(feature = "render")]
+mod render;
+mod robustness;
+mod sensors;
+mod surfaces;
+mod sweep;
+mod sweep_interrupt;
+mod terrain;
