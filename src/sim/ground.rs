@@ -2,7 +2,7 @@
 //!
 //! - **anisotropic**: nothing to do at run time — one contact pair per link and floor with
 //!   friction `axial lateral` (MuJoCo aligns the first tangent of a capsule–plane contact with
-//!   the capsule axis, checked in `tests/locomotion.rs`).
+//!   the capsule axis, checked in `tests/it/locomotion.rs`).
 //! - **directional**: before every step, each link's sliding direction along its own axis picks
 //!   the axial coefficient of its pair: `axial_friction` when it slides forward (toward the head,
 //!   the link's +x axis), `backward_friction` when it slides backward. Limits: the switch happens

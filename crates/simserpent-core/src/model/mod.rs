@@ -113,7 +113,7 @@ pub struct GeneratedModel {
 ///
 /// Included files must have a `<mujoco>` root whose children MuJoCo merges into the including
 /// file; file references inside them are resolved from the main file's folder. `scene.xml`
-/// compiles to the same model as `model.xml` (`tests/terrain.rs` checks it).
+/// compiles to the same model as `model.xml` (`tests/it/terrain.rs` checks it).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct SceneFiles {
     /// `(file name, text)` of `scene.xml`, `terrain.xml` and (generated snake) `robot.xml`.
