@@ -233,7 +233,9 @@ impl ExitCodeOf for simserpent::render::RenderError {
 impl ExitCodeOf for simserpent::plot::PlotError {
     fn exit_code(&self) -> u8 {
         match self {
-            simserpent::plot::PlotError::Write { .. } => 1,
+            simserpent::plot::PlotError::Write { .. }
+            | simserpent::plot::PlotError::Folder { .. }
+            | simserpent::plot::PlotError::Png { .. } => 1,
             _ => 2,
         }
     }

@@ -18,8 +18,11 @@ pub struct Table {
 impl Table {
     /// Reads `path`.
     pub fn read(path: &Path) -> Result<Self, ExperimentError> {
-        let content = std::fs::read_to_string(path)
-            .map_err(|e| ExperimentError::Data(format!("cannot read {}: {e}", path.display())))?;
+        let content = std::fs::read_to_string(path).map_err(|source| ExperimentError::Io {
+            what: "read",
+            path: path.to_path_buf(),
+            source,
+        })?;
         let mut lines = content.lines();
         let header: Vec<String> = lines.next().unwrap_or_default().split(',').map(String::from).collect();
         let mut numbers = vec![Vec::new(); header.len()];

@@ -179,7 +179,7 @@ impl Observer<SimError> for Scorer<'_> {
 }
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> ExperimentError + '_ {
-    move |e| ExperimentError::Data(format!("cannot write {}: {e}", path.display()))
+    move |source| ExperimentError::Io { what: "write", path: path.to_path_buf(), source }
 }
 
 /// Writes the trace as CSV and plots estimate against truth per link (x and y components).

@@ -32,6 +32,17 @@ pub enum ExperimentError {
     /// A run's data could not be analysed.
     #[error("analysis: {0}")]
     Data(String),
+    /// A file of the experiment could not be read or written.
+    #[error("cannot {what} {}", path.display())]
+    Io {
+        /// "read" or "write".
+        what: &'static str,
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
     /// No such experiment.
     #[error("unknown experiment `{0}`; available: {list}", list = NAMES.join(", "))]
     Unknown(String),

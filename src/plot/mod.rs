@@ -60,13 +60,31 @@ pub enum PlotError {
         /// What is wrong.
         message: String,
     },
-    /// Drawing or writing a plot failed.
+    /// Drawing a plot failed.
     #[error("cannot write {path}: {message}")]
     Write {
         /// The file.
         path: PathBuf,
         /// What failed.
         message: String,
+    },
+    /// The plots folder could not be created.
+    #[error("cannot create {}", path.display())]
+    Folder {
+        /// The folder.
+        path: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A PNG could not be written.
+    #[error("cannot write {}", path.display())]
+    Png {
+        /// The file.
+        path: PathBuf,
+        /// What failed.
+        #[source]
+        source: Box<crate::render::RenderError>,
     },
 }
 
@@ -314,7 +332,7 @@ fn both(
         draw(&root).map_err(|m| failed(&png, m))?;
     }
     crate::render::write_png(&png, &buffer, size.0 as usize, size.1 as usize)
-        .map_err(|e| failed(&png, e.to_string()))?;
+        .map_err(|e| PlotError::Png { path: png.clone(), source: Box::new(e) })?;
     {
         let root = SVGBackend::new(&svg, size).into_drawing_area();
         draw(&root).map_err(|m| failed(&svg, m))?;
@@ -379,7 +397,7 @@ pub fn plot_run_folder(folder: &Path) -> Result<PlotOutput, PlotError> {
         Err(e) => return Err(e),
     };
     let dir = folder.join("plots");
-    std::fs::create_dir_all(&dir).map_err(|e| PlotError::Write { path: dir.clone(), message: e.to_string() })?;
+    std::fs::create_dir_all(&dir).map_err(|source| PlotError::Folder { path: dir.clone(), source })?;
     draw_panels(&config, &links, &joints, contacts.as_ref(), &obstacles(&folder.join("model.xml")), &dir)
 }
 
