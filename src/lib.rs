@@ -5,7 +5,8 @@
 //!   same paths): [`config`], [`model`] (MJCF generation), [`control`], [`estimation`] (contact
 //!   forces from joint force/torque sensors), [`state`] (the plain state of an instant and the
 //!   physics summaries);
-//! - the engine: [`sim`] (the only module that calls MuJoCo, and the only step loop);
+//! - the engine: [`sim`] (the only module that steps or changes MuJoCo's state, and the only
+//!   step loop; [`render`] draws with MuJoCo's renderer on its own copies of the state);
 //! - I/O: [`record`] (run folder, manifest, tables), [`run`] (one whole run), [`bench`],
 //!   [`sweep`] (parallel parameter sweeps), [`render`], [`plot`], [`experiments`];
 //! - [`env`]: the reinforcement-learning environment core (actions in, observations and
