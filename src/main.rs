@@ -369,11 +369,7 @@ fn view_command(path: Option<&Path>, overrides: &[String]) -> Result<(), Failure
             let args = ConfigArgs { config: path.map(Path::to_path_buf), overrides: overrides.to_vec() };
             let (config, _) = load(&args)?;
             let generated = simserpent::model::generate(&config).map_err(bad_input)?;
-            let file = std::env::temp_dir().join(format!("simserpent-view-{}.xml", std::process::id()));
-            std::fs::write(&file, &generated.xml).with_context(|| format!("cannot write {}", file.display()))?;
-            let result = viewer::view_model_file(&file).map_err(fail);
-            let _ = std::fs::remove_file(&file);
-            result
+            viewer::view_generated(&generated).map_err(fail)
         }
     }
 }
