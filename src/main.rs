@@ -404,6 +404,16 @@ fn init(path: &Path, force: bool) -> Result<(), Failure> {
     Ok(())
 }
 
+/// `simserpent check`: the config and the model it generates (terrain files read and checked as
+/// a run would), without MuJoCo; prints the resolved config.
+fn check(args: &ConfigArgs) -> Result<(), Failure> {
+    let (config, source) = load(args)?;
+    simserpent::model::generate(&config)
+        .map_err(|e| bad_input(anyhow::Error::new(e).context(format!("config {source}"))))?;
+    print!("{}", config.to_toml_string());
+    Ok(())
+}
+
 fn model(args: &ConfigArgs, output: Option<&Path>, scene_dir: Option<&Path>) -> Result<(), Failure> {
     let (config, source) = load(args)?;
     let generated = simserpent::model::generate(&config)
@@ -575,7 +585,7 @@ fn main() -> ExitCode {
         Some(Command::Init { path, force }) => init(&path, force),
         Some(Command::Experiment { name, config, quick }) => experiment(&name, &config, quick),
         Some(Command::Model { config, output, scene_dir }) => model(&config, output.as_deref(), scene_dir.as_deref()),
-        Some(Command::Check { config }) => load(&config).map(|(c, _)| print!("{}", c.to_toml_string())),
+        Some(Command::Check { config }) => check(&config),
         Some(Command::Bench { config, links, duration_secs, output_dir, repeats }) => {
             bench(&config, &links, duration_secs, &output_dir, repeats)
         }
