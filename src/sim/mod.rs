@@ -117,10 +117,13 @@ pub fn world_body_shapes(model_xml: &Path) -> Result<Vec<PlanarShape>, SimError>
 /// # Errors
 /// [`SimError::Write`] when the temp dir is not writable.
 pub fn scratch_dir(what: &str) -> Result<tempfile::TempDir, SimError> {
-    tempfile::Builder::new()
-        .prefix(&format!("simserpent-{what}-"))
-        .tempdir()
-        .map_err(|source| SimError::Write { path: std::env::temp_dir(), source })
+    let prefix = format!("simserpent-{what}-");
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix);
+    // Created with this mode (mkdir(2)), not chmod-ed afterwards: never readable by others.
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o700));
+    builder.tempdir().map_err(|source| SimError::Write { path: std::env::temp_dir(), source })
 }
 
 /// [`SimError::Write`] for `path`.
@@ -555,3 +558,27 @@ const WARNING_NAMES: [&str; 7] = [
     "bad qacc (mjWARN_BADQACC)",
     "bad ctrl (mjWARN_BADCTRL)",
 ];
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    #[test]
+    fn scratch_dir_is_private_random_and_removed_on_drop() {
+        let a = super::scratch_dir("model").unwrap();
+        let b = super::scratch_dir("model").unwrap();
+        assert_ne!(a.path(), b.path(), "a fresh name every time");
+        let name = a.path().file_name().unwrap().to_string_lossy().into_owned();
+        assert!(name.starts_with("simserpent-model-") && name.len() > "simserpent-model-".len() + 4, "{name}");
+        let meta = a.path().symlink_metadata().unwrap();
+        assert!(meta.is_dir() && !meta.file_type().is_symlink());
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            assert_eq!(meta.permissions().mode() & 0o777, 0o700, "only the owner can enter it");
+        }
+        std::fs::write(a.path().join("model.xml"), "<mujoco/>").unwrap();
+        let path = a.path().to_path_buf();
+        drop(a);
+        assert!(!path.exists(), "removed with its files when dropped");
+    }
+}

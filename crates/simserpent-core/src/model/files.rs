@@ -685,6 +685,55 @@ mod tests {
     use super::*;
 
     #[test]
+    fn read_regular_file_refuses_missing_files_folders_devices_and_files_over_the_cap() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let toml = dir.join("Cargo.toml");
+        let len = std::fs::metadata(&toml).unwrap().len();
+        assert_eq!(read_regular_file(&toml, len).unwrap().len() as u64, len, "exactly the cap is fine");
+        let e = read_regular_file(&toml, len - 1).unwrap_err();
+        assert!(matches!(e, ReadError::TooLarge { size_bytes, cap_bytes, .. } if size_bytes == len && cap_bytes == len - 1));
+        assert!(e.to_string().contains("Cargo.toml") && e.to_string().contains("cap of 0 MiB"), "{e}");
+        let e = read_regular_file(&dir.join("src"), MAX_CONFIG_BYTES).unwrap_err();
+        assert!(matches!(e, ReadError::NotRegular { what: "a folder", .. }), "{e}");
+        let e = read_regular_file(&dir.join("no such file"), MAX_CONFIG_BYTES).unwrap_err();
+        assert!(matches!(e, ReadError::NotFound { .. }) && e.to_string().contains("does not exist"), "{e}");
+        #[cfg(unix)]
+        for dev in ["/dev/null", "/dev/zero"] {
+            let e = read_regular_file(Path::new(dev), MAX_CONFIG_BYTES).unwrap_err();
+            assert!(matches!(e, ReadError::NotRegular { what: "a character device", .. }), "{e}");
+            let c = e.for_key("terrain.heightfield.file", dev).to_string();
+            assert!(c.contains("terrain.heightfield.file") && c.contains(dev) && c.contains("not a regular file"), "{c}");
+        }
+    }
+
+    #[test]
+    fn run_folder_names_cover_the_run_files_but_not_ordinary_asset_names() {
+        for name in [
+            "config.toml",
+            "CONFIG.TOML",
+            "model.xml",
+            "user_terrain.xml",
+            "terrain_sources",
+            "manifest.json",
+            "manifest.json.tmp",
+            "links.csv",
+            "links.parquet",
+            "contacts",
+            "state.csv",
+            "plots",
+            "images",
+            "video_follow.gif",
+            ".links.parquet.part",
+            "_SUCCESS",
+        ] {
+            assert!(is_run_folder_name(name), "{name}");
+        }
+        for name in ["rock.obj", "meshes", "textures", "ground.png", "terrain.png", "model.obj", "config"] {
+            assert!(!is_run_folder_name(name), "{name}");
+        }
+    }
+
+    #[test]
     fn obj_fans_polygons_and_rasterises_a_pyramid() {
         let obj = b"v 0 0 0\nv 2 0 0\nv 2 2 0\nv 0 2 0\nv 1 1 1\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\nf 1 2 3 4\n";
         let mesh = parse_obj(obj).unwrap();
