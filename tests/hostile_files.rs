@@ -180,13 +180,15 @@ fn big_obj(path: &Path, n: usize) {
     let mut s = String::new();
     for i in 0..n {
         for j in 0..n {
-            let (th, ph) = (std::f64::consts::PI * i as f64 / (n - 1) as f64, std::f64::consts::TAU * j as f64 / n as f64);
+            let (th, ph) =
+                (std::f64::consts::PI * i as f64 / (n - 1) as f64, std::f64::consts::TAU * j as f64 / n as f64);
             writeln!(s, "v {:.6} {:.6} {:.6}", th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()).unwrap();
         }
     }
     for i in 0..n - 1 {
         for j in 0..n {
-            let (a, b, c, d) = (i * n + j + 1, i * n + (j + 1) % n + 1, (i + 1) * n + j + 1, (i + 1) * n + (j + 1) % n + 1);
+            let (a, b, c, d) =
+                (i * n + j + 1, i * n + (j + 1) % n + 1, (i + 1) * n + j + 1, (i + 1) * n + (j + 1) % n + 1);
             writeln!(s, "f {a} {b} {d}\nf {a} {d} {c}").unwrap();
         }
     }
@@ -218,7 +220,20 @@ fn scratch_folders_are_removed_after_success_failure_and_sigterm() {
     let cases: [(&str, &[&str], bool); 4] = [
         ("third-party terrain, success", &["run", "ok.toml", "--quiet"], true),
         ("third-party terrain MuJoCo rejects", &["run", "rejected.toml", "--quiet"], false),
-        ("robot, success", &["run", "--set", "general.duration_secs=0.01", "--set", "control.method=\"torque\"", "--robot", &robot, "--quiet"], true),
+        (
+            "robot, success",
+            &[
+                "run",
+                "--set",
+                "general.duration_secs=0.01",
+                "--set",
+                "control.method=\"torque\"",
+                "--robot",
+                &robot,
+                "--quiet",
+            ],
+            true,
+        ),
         ("robot without actuators", &["run", "--robot", &no_actuator, "--quiet"], false),
     ];
     for (case, args, ok) in cases {
@@ -355,10 +370,34 @@ fn terrain_asset_symlinks_out_of_the_folder_are_rejected() {
     // (case, set-up of folder f, compiler attributes, mesh file, needles)
     type Setup = fn(&Path, &Path);
     let cases: [(&str, Setup, &str, &str, &[&str]); 6] = [
-        ("file symlink to a file outside", |f, d| symlink(d.join("outside.obj"), f.join("rock.obj")).unwrap(), "", "rock.obj", &["symbolic link", "outside the terrain's folder"]),
-        ("sub-folder symlink to a folder outside", |f, d| symlink(d, f.join("meshes")).unwrap(), "", "meshes/outside.obj", &["symbolic link", "outside the terrain's folder"]),
-        ("symlink to /etc/passwd", |f, _| symlink("/etc/passwd", f.join("tex.obj")).unwrap(), "", "tex.obj", &["outside the terrain's folder"]),
-        ("symlink to /dev/zero", |f, _| symlink("/dev/zero", f.join("zero.obj")).unwrap(), "", "zero.obj", &["outside the terrain's folder"]),
+        (
+            "file symlink to a file outside",
+            |f, d| symlink(d.join("outside.obj"), f.join("rock.obj")).unwrap(),
+            "",
+            "rock.obj",
+            &["symbolic link", "outside the terrain's folder"],
+        ),
+        (
+            "sub-folder symlink to a folder outside",
+            |f, d| symlink(d, f.join("meshes")).unwrap(),
+            "",
+            "meshes/outside.obj",
+            &["symbolic link", "outside the terrain's folder"],
+        ),
+        (
+            "symlink to /etc/passwd",
+            |f, _| symlink("/etc/passwd", f.join("tex.obj")).unwrap(),
+            "",
+            "tex.obj",
+            &["outside the terrain's folder"],
+        ),
+        (
+            "symlink to /dev/zero",
+            |f, _| symlink("/dev/zero", f.join("zero.obj")).unwrap(),
+            "",
+            "zero.obj",
+            &["outside the terrain's folder"],
+        ),
         ("`..` in file", |_, _| {}, "", "../outside.obj", &["leaves the terrain file's folder"]),
         ("`..` in meshdir", |_, _| {}, "meshdir=\"../\"", "outside.obj", &["leaves the terrain file's folder"]),
     ];
@@ -395,13 +434,43 @@ fn absolute_terrain_asset_paths_are_rejected_naming_the_attribute() {
     let folder = data("third_party_terrain/meshes").display().to_string();
     // (case, compiler attributes, asset, needles); the absolute files exist, and are still refused.
     let cases = [
-        ("texture file", String::new(), "<texture name=\"t\" type=\"2d\" file=\"/etc/hostname\"/>".to_string(), "<texture file=\"/etc/hostname\">"),
+        (
+            "texture file",
+            String::new(),
+            "<texture name=\"t\" type=\"2d\" file=\"/etc/hostname\"/>".to_string(),
+            "<texture file=\"/etc/hostname\">",
+        ),
         ("mesh file", String::new(), format!("<mesh name=\"m\" file=\"{rock}\"/>"), "<mesh file="),
-        ("hfield file", String::new(), "<hfield name=\"h\" file=\"/etc/hostname\" size=\"1 1 1 1\"/>".into(), "<hfield file="),
-        ("cube texture fileright", String::new(), "<texture name=\"t\" type=\"cube\" fileright=\"/etc/hostname\"/>".into(), "<texture fileright="),
-        ("compiler meshdir", format!("meshdir=\"{folder}\""), "<mesh name=\"m\" file=\"rock.obj\"/>".into(), "<compiler meshdir="),
-        ("compiler texturedir", format!("texturedir=\"{folder}\""), "<texture name=\"t\" type=\"2d\" file=\"x.png\"/>".into(), "<compiler texturedir="),
-        ("compiler assetdir", format!("assetdir=\"{folder}\""), "<mesh name=\"m\" file=\"rock.obj\"/>".into(), "<compiler assetdir="),
+        (
+            "hfield file",
+            String::new(),
+            "<hfield name=\"h\" file=\"/etc/hostname\" size=\"1 1 1 1\"/>".into(),
+            "<hfield file=",
+        ),
+        (
+            "cube texture fileright",
+            String::new(),
+            "<texture name=\"t\" type=\"cube\" fileright=\"/etc/hostname\"/>".into(),
+            "<texture fileright=",
+        ),
+        (
+            "compiler meshdir",
+            format!("meshdir=\"{folder}\""),
+            "<mesh name=\"m\" file=\"rock.obj\"/>".into(),
+            "<compiler meshdir=",
+        ),
+        (
+            "compiler texturedir",
+            format!("texturedir=\"{folder}\""),
+            "<texture name=\"t\" type=\"2d\" file=\"x.png\"/>".into(),
+            "<compiler texturedir=",
+        ),
+        (
+            "compiler assetdir",
+            format!("assetdir=\"{folder}\""),
+            "<mesh name=\"m\" file=\"rock.obj\"/>".into(),
+            "<compiler assetdir=",
+        ),
     ];
     let mut problems = Vec::new();
     for (k, (case, compiler, asset, needle)) in cases.iter().enumerate() {
@@ -454,16 +523,56 @@ fn devices_fifos_and_huge_files_are_refused_not_read_until_oom() {
     };
     // (case, config text or file, needles); every one through `check` and `run`: exit 2.
     let cases: Vec<(&str, String, Vec<&str>)> = vec![
-        ("heightfield /dev/zero", "[terrain.heightfield]\nfile = \"/dev/zero\"\n".into(), vec!["terrain.heightfield.file", "/dev/zero", "not a regular file"]),
-        ("include_mjcf /dev/urandom", "[terrain]\ninclude_mjcf = \"/dev/urandom\"\n".into(), vec!["terrain.include_mjcf", "/dev/urandom", "not a regular file"]),
-        ("include_mjcf a FIFO", "[terrain]\ninclude_mjcf = \"fifo.xml\"\n".into(), vec!["terrain.include_mjcf", "fifo.xml", "FIFO"]),
-        ("include_mjcf symlinked to /dev/zero", "[terrain]\ninclude_mjcf = \"zero.xml\"\n".into(), vec!["terrain.include_mjcf", "zero.xml", "character device"]),
-        ("mesh obstacle symlinked to /dev/zero", obstacle("zero.stl"), vec!["terrain.mesh_obstacles[0].file", "zero.stl", "character device"]),
-        ("mesh terrain symlinked to /dev/zero", "[terrain.mesh_terrain]\nfile = \"zero.obj\"\n".into(), vec!["terrain.mesh_terrain.file", "zero.obj", "character device"]),
-        ("include_mjcf over 64 MiB", "[terrain]\ninclude_mjcf = \"huge_terrain/t.xml\"\n".into(), vec!["terrain.include_mjcf", "t.xml", "cap of 64 MiB", "67108865 bytes"]),
-        ("heightfield over 256 MiB", "[terrain.heightfield]\nfile = \"huge.png\"\n".into(), vec!["terrain.heightfield.file", "huge.png", "cap of 256 MiB", "268435457 bytes"]),
-        ("terrain asset over 256 MiB", "[terrain]\ninclude_mjcf = \"huge_asset/t.xml\"\n".into(), vec!["terrain.include_mjcf", "big.obj", "cap of 256 MiB"]),
-        ("terrain PNG of 10^10 pixels", "[terrain]\ninclude_mjcf = \"bomb/t.xml\"\n".into(), vec!["terrain.include_mjcf", "bomb.png", "100000 x 100000 pixels"]),
+        (
+            "heightfield /dev/zero",
+            "[terrain.heightfield]\nfile = \"/dev/zero\"\n".into(),
+            vec!["terrain.heightfield.file", "/dev/zero", "not a regular file"],
+        ),
+        (
+            "include_mjcf /dev/urandom",
+            "[terrain]\ninclude_mjcf = \"/dev/urandom\"\n".into(),
+            vec!["terrain.include_mjcf", "/dev/urandom", "not a regular file"],
+        ),
+        (
+            "include_mjcf a FIFO",
+            "[terrain]\ninclude_mjcf = \"fifo.xml\"\n".into(),
+            vec!["terrain.include_mjcf", "fifo.xml", "FIFO"],
+        ),
+        (
+            "include_mjcf symlinked to /dev/zero",
+            "[terrain]\ninclude_mjcf = \"zero.xml\"\n".into(),
+            vec!["terrain.include_mjcf", "zero.xml", "character device"],
+        ),
+        (
+            "mesh obstacle symlinked to /dev/zero",
+            obstacle("zero.stl"),
+            vec!["terrain.mesh_obstacles[0].file", "zero.stl", "character device"],
+        ),
+        (
+            "mesh terrain symlinked to /dev/zero",
+            "[terrain.mesh_terrain]\nfile = \"zero.obj\"\n".into(),
+            vec!["terrain.mesh_terrain.file", "zero.obj", "character device"],
+        ),
+        (
+            "include_mjcf over 64 MiB",
+            "[terrain]\ninclude_mjcf = \"huge_terrain/t.xml\"\n".into(),
+            vec!["terrain.include_mjcf", "t.xml", "cap of 64 MiB", "67108865 bytes"],
+        ),
+        (
+            "heightfield over 256 MiB",
+            "[terrain.heightfield]\nfile = \"huge.png\"\n".into(),
+            vec!["terrain.heightfield.file", "huge.png", "cap of 256 MiB", "268435457 bytes"],
+        ),
+        (
+            "terrain asset over 256 MiB",
+            "[terrain]\ninclude_mjcf = \"huge_asset/t.xml\"\n".into(),
+            vec!["terrain.include_mjcf", "big.obj", "cap of 256 MiB"],
+        ),
+        (
+            "terrain PNG of 10^10 pixels",
+            "[terrain]\ninclude_mjcf = \"bomb/t.xml\"\n".into(),
+            vec!["terrain.include_mjcf", "bomb.png", "100000 x 100000 pixels"],
+        ),
     ];
     let mut problems = Vec::new();
     for (k, (case, toml, needles)) in cases.iter().enumerate() {
@@ -483,7 +592,11 @@ fn devices_fifos_and_huge_files_are_refused_not_read_until_oom() {
         ("config a FIFO", &["check", "fifo.toml"], &["fifo.toml", "FIFO"]),
         ("config over 16 MiB", &["check", "huge.toml"], &["huge.toml", "cap of 16 MiB", "16777217 bytes"]),
         ("config a folder", &["check", "tmp.toml"], &["tmp.toml", "a folder"]),
-        ("--robot /dev/null", &["run", "--robot", "/dev/null"], &["/dev/null", "is not a regular file", "character device"]),
+        (
+            "--robot /dev/null",
+            &["run", "--robot", "/dev/null"],
+            &["/dev/null", "is not a regular file", "character device"],
+        ),
         ("--robot /dev/zero", &["run", "--robot", "/dev/zero"], &["/dev/zero", "is not a regular file"]),
         ("--robot a FIFO", &["run", "--robot", "fifo.xml"], &["fifo.xml", "FIFO"]),
     ];
@@ -519,7 +632,10 @@ fn a_terrain_file_that_grows_past_its_cap_after_the_check_is_not_copied() {
     let e = simserpent::sim::write_model_folder(&out, &g.xml, &g.files.texts, &g.files.copies).unwrap_err();
     let message = e.to_string();
     assert!(matches!(e, simserpent::sim::SimError::Config(_)), "{message}");
-    assert!(message.contains("terrain.include_mjcf") && message.contains("grown.obj") && message.contains("cap"), "{message}");
+    assert!(
+        message.contains("terrain.include_mjcf") && message.contains("grown.obj") && message.contains("cap"),
+        "{message}"
+    );
     copy_is_gone(&out.join("meshes/rock.obj"));
     let copy = g.files.copies.iter_mut().find(|f| f.dest == "meshes/rock.obj").unwrap();
     copy.source = PathBuf::from("/dev/zero");

@@ -98,10 +98,11 @@ pub fn view_generated(generated: &crate::model::GeneratedModel) -> Result<(), Re
         message: format!("cannot create a scratch folder ({e})"),
     })?;
     let f = &generated.files;
-    let model = crate::sim::write_model_folder(scratch.path(), &generated.xml, &f.texts, &f.copies).map_err(|e| match e {
-        SimError::Write { path, source } => RenderError::Io { path, source },
-        other => RenderError::BadFile { path: scratch.path().to_path_buf(), message: other.to_string() },
-    })?;
+    let model =
+        crate::sim::write_model_folder(scratch.path(), &generated.xml, &f.texts, &f.copies).map_err(|e| match e {
+            SimError::Write { path, source } => RenderError::Io { path, source },
+            other => RenderError::BadFile { path: scratch.path().to_path_buf(), message: other.to_string() },
+        })?;
     view_model_file(&model)
 }
 

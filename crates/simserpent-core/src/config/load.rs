@@ -58,7 +58,10 @@ pub fn load_config(path: &Path, overrides: &[String]) -> Result<Config, ConfigEr
         let line = 1 + e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count();
         ConfigError::Io {
             file: file.clone(),
-            message: format!("the file is not valid UTF-8 text (byte {at}, line {line}, is 0x{:02x})", e.as_bytes()[at]),
+            message: format!(
+                "the file is not valid UTF-8 text (byte {at}, line {line}, is 0x{:02x})",
+                e.as_bytes()[at]
+            ),
         }
     })?;
     let base = path.parent().filter(|p| !p.as_os_str().is_empty());

@@ -691,7 +691,9 @@ mod tests {
         let len = std::fs::metadata(&toml).unwrap().len();
         assert_eq!(read_regular_file(&toml, len).unwrap().len() as u64, len, "exactly the cap is fine");
         let e = read_regular_file(&toml, len - 1).unwrap_err();
-        assert!(matches!(e, ReadError::TooLarge { size_bytes, cap_bytes, .. } if size_bytes == len && cap_bytes == len - 1));
+        assert!(
+            matches!(e, ReadError::TooLarge { size_bytes, cap_bytes, .. } if size_bytes == len && cap_bytes == len - 1)
+        );
         assert!(e.to_string().contains("Cargo.toml") && e.to_string().contains("cap of 0 MiB"), "{e}");
         let e = read_regular_file(&dir.join("src"), MAX_CONFIG_BYTES).unwrap_err();
         assert!(matches!(e, ReadError::NotRegular { what: "a folder", .. }), "{e}");
@@ -702,7 +704,10 @@ mod tests {
             let e = read_regular_file(Path::new(dev), MAX_CONFIG_BYTES).unwrap_err();
             assert!(matches!(e, ReadError::NotRegular { what: "a character device", .. }), "{e}");
             let c = e.for_key("terrain.heightfield.file", dev).to_string();
-            assert!(c.contains("terrain.heightfield.file") && c.contains(dev) && c.contains("not a regular file"), "{c}");
+            assert!(
+                c.contains("terrain.heightfield.file") && c.contains(dev) && c.contains("not a regular file"),
+                "{c}"
+            );
         }
     }
 
