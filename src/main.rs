@@ -371,11 +371,7 @@ fn view_command(path: Option<&Path>, overrides: &[String]) -> Result<(), Failure
             let args = ConfigArgs { config: path.map(Path::to_path_buf), overrides: overrides.to_vec() };
             let (config, _) = load(&args)?;
             let generated = simserpent::model::generate(&config).map_err(bad_input)?;
-            let file = std::env::temp_dir().join(format!("simserpent-view-{}.xml", std::process::id()));
-            std::fs::write(&file, &generated.xml).with_context(|| format!("cannot write {}", file.display()))?;
-            let result = viewer::view_model_file(&file).map_err(fail);
-            let _ = std::fs::remove_file(&file);
-            result
+            viewer::view_generated(&generated).map_err(fail)
         }
     }
 }
@@ -407,6 +403,16 @@ fn init(path: &Path, force: bool) -> Result<(), Failure> {
     }
     std::fs::write(path, config::DEFAULT_CONFIG_TOML).with_context(|| format!("cannot write {}", path.display()))?;
     println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// `simserpent check`: the config and the model it generates (terrain files read and checked as
+/// a run would), without MuJoCo; prints the resolved config.
+fn check(args: &ConfigArgs) -> Result<(), Failure> {
+    let (config, source) = load(args)?;
+    simserpent::model::generate(&config)
+        .map_err(|e| bad_input(anyhow::Error::new(e).context(format!("config {source}"))))?;
+    print!("{}", config.to_toml_string());
     Ok(())
 }
 
@@ -581,7 +587,7 @@ fn main() -> ExitCode {
         Some(Command::Init { path, force }) => init(&path, force),
         Some(Command::Experiment { name, config, quick }) => experiment(&name, &config, quick),
         Some(Command::Model { config, output, scene_dir }) => model(&config, output.as_deref(), scene_dir.as_deref()),
-        Some(Command::Check { config }) => load(&config).map(|(c, _)| print!("{}", c.to_toml_string())),
+        Some(Command::Check { config }) => check(&config),
         Some(Command::Bench { config, links, duration_secs, output_dir, repeats }) => {
             bench(&config, &links, duration_secs, &output_dir, repeats)
         }

@@ -96,14 +96,9 @@ pub fn build_world(config: &Config, options: &RunOptions) -> Result<World, SimEr
     match &options.robot {
         None => World::from_config(config),
         Some(robot) => {
-            let scratch = std::env::temp_dir().join(format!("simserpent-robot-{}", std::process::id()));
-            std::fs::create_dir_all(&scratch).map_err(|e| SimError::RobotFile {
-                file: scratch.display().to_string(),
-                message: format!("cannot create scratch folder ({e})"),
-            })?;
-            let world = World::from_robot_file(config, robot, &scratch);
-            let _ = std::fs::remove_dir_all(&scratch);
-            world
+            // Private (random name, 0700), removed when dropped: see `sim::scratch_dir`.
+            let scratch = crate::sim::scratch_dir("robot")?;
+            World::from_robot_file(config, robot, scratch.path())
         }
     }
 }
@@ -151,11 +146,7 @@ pub fn run_simulation<C: Controller>(
         write(name, text)?;
     }
     for c in &sim.world().copied_files {
-        let dest = folder.join(&c.dest);
-        if let Some(parent) = dest.parent() {
-            std::fs::create_dir_all(parent).map_err(record::io_err(parent))?;
-        }
-        std::fs::copy(&c.source, &dest).map_err(record::io_err(&dest))?;
+        crate::sim::copy_file(&folder, c)?;
     }
     let dt = config.general.timestep_secs;
     let total_steps = (config.general.duration_secs / dt).round().max(1.0) as u64;

@@ -87,6 +87,25 @@ pub fn view_model_file(path: &Path) -> Result<(), RenderError> {
     }
 }
 
+/// Opens the viewer on a generated model. Its files (`model.xml`, the scene files, a third-party
+/// terrain and its assets) are written into a private scratch folder (random name, created
+/// exclusively, mode 0700: see [`crate::sim::scratch_dir`]), removed when the viewer closes.
+pub fn view_generated(generated: &crate::model::GeneratedModel) -> Result<(), RenderError> {
+    use crate::sim::SimError;
+    check_display()?;
+    let scratch = crate::sim::scratch_dir("view").map_err(|e| RenderError::BadFile {
+        path: std::env::temp_dir(),
+        message: format!("cannot create a scratch folder ({e})"),
+    })?;
+    let f = &generated.files;
+    let model =
+        crate::sim::write_model_folder(scratch.path(), &generated.xml, &f.texts, &f.copies).map_err(|e| match e {
+            SimError::Write { path, source } => RenderError::Io { path, source },
+            other => RenderError::BadFile { path: scratch.path().to_path_buf(), message: other.to_string() },
+        })?;
+    view_model_file(&model)
+}
+
 /// Replays a run folder (`model.xml` + `state.csv`) in the viewer at real time.
 pub fn replay_run_folder(folder: &Path) -> Result<(), RenderError> {
     check_display()?;

@@ -108,13 +108,22 @@ pub fn world_body_shapes(model_xml: &Path) -> Result<Vec<PlanarShape>, SimError>
     Ok(out)
 }
 
-/// A fresh scratch folder in the system's temp dir.
-fn scratch_dir(what: &str) -> Result<std::path::PathBuf, SimError> {
-    static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-    let k = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("simserpent-{what}-{}-{k}", std::process::id()));
-    std::fs::create_dir_all(&dir).map_err(write_err(&dir))?;
-    Ok(dir)
+/// A fresh, private scratch folder in the system's temp dir (`$TMPDIR`): a random name created
+/// exclusively (never an existing folder or a planted symbolic link), mode 0700 on Unix, and
+/// removed with everything in it when the returned guard is dropped — on success, on error and
+/// on a panic that unwinds. A SIGINT/SIGTERM only sets the run's interrupt flag, so the folder
+/// is removed too; only SIGKILL (or a crash inside MuJoCo) leaves it behind.
+///
+/// # Errors
+/// [`SimError::Write`] when the temp dir is not writable.
+pub fn scratch_dir(what: &str) -> Result<tempfile::TempDir, SimError> {
+    let prefix = format!("simserpent-{what}-");
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix);
+    // Created with this mode (mkdir(2)), not chmod-ed afterwards: never readable by others.
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o700));
+    builder.tempdir().map_err(|source| SimError::Write { path: std::env::temp_dir(), source })
 }
 
 /// [`SimError::Write`] for `path`.
@@ -130,8 +139,54 @@ fn user_terrain_source(copies: &[model::features::FileCopy]) -> String {
         .map_or_else(String::new, |c| c.source.display().to_string())
 }
 
+/// Copies one terrain source into `dir` (at `copy.dest`, creating its sub-folders). The source
+/// is read again as at its check: a regular file (after following symbolic links), no more than
+/// `copy.max_bytes` — a file replaced or grown since it was checked is an error of its config
+/// key, never a copy of a device or an endless one.
+///
+/// # Errors
+/// [`SimError::Config`] (the key and the file) when the source is missing, not a regular file or
+/// too large; [`SimError::Write`] when the copy cannot be written.
+pub fn copy_file(dir: &Path, copy: &model::features::FileCopy) -> Result<(), SimError> {
+    use model::files::ReadError;
+    let source_text = copy.source.display().to_string();
+    let read_err = |e: ReadError| SimError::Config(e.for_key(&copy.key, &source_text));
+    let mut reader = model::files::open_regular_file(&copy.source, copy.max_bytes).map_err(read_err)?;
+    let dest = dir.join(&copy.dest);
+    if let Some(parent) = dest.parent() {
+        std::fs::create_dir_all(parent).map_err(write_err(parent))?;
+    }
+    let mut out = std::fs::File::create(&dest).map_err(write_err(&dest))?;
+    // io::copy does not say which side failed: read into a buffer and write it ourselves.
+    let mut buf = vec![0u8; 64 * 1024];
+    let mut total: u64 = 0;
+    loop {
+        let n = match std::io::Read::read(&mut reader, &mut buf) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(source) => return Err(read_err(ReadError::Io { path: copy.source.clone(), source })),
+        };
+        total += n as u64;
+        if total > copy.max_bytes {
+            drop(out);
+            let _ = std::fs::remove_file(&dest);
+            return Err(read_err(ReadError::TooLarge {
+                path: copy.source.clone(),
+                size_bytes: total,
+                cap_bytes: copy.max_bytes,
+            }));
+        }
+        std::io::Write::write_all(&mut out, &buf[..n]).map_err(write_err(&dest))?;
+    }
+    Ok(())
+}
+
 /// Writes `model.xml`, the texts and the copies into `dir` (as in a run folder); returns the
 /// path of `model.xml`.
+///
+/// # Errors
+/// As [`copy_file`]; [`SimError::Write`] for the texts.
 pub fn write_model_folder(
     dir: &Path,
     model_xml: &str,
@@ -139,11 +194,7 @@ pub fn write_model_folder(
     copies: &[model::features::FileCopy],
 ) -> Result<std::path::PathBuf, SimError> {
     for c in copies {
-        let dest = dir.join(&c.dest);
-        if let Some(parent) = dest.parent() {
-            std::fs::create_dir_all(parent).map_err(write_err(parent))?;
-        }
-        std::fs::copy(&c.source, &dest).map_err(write_err(&dest))?;
+        copy_file(dir, c)?;
     }
     for (name, text) in texts {
         let path = dir.join(name);
@@ -200,18 +251,16 @@ impl World {
     pub fn from_generated(config: &Config, generated: GeneratedModel) -> Result<Self, SimError> {
         let model = if generated.files.model_needs_files {
             // A third-party terrain is included: compile from a folder that holds every file.
+            // Removed when `scratch` is dropped, whichever way this block ends.
             let scratch = scratch_dir("model")?;
-            let model = write_model_folder(&scratch, &generated.xml, &generated.files.texts, &generated.files.copies)
-                .and_then(|path| {
-                    MjModel::from_xml(&path).map_err(|e| {
-                        SimError::Model(format!(
-                            "MuJoCo rejected the model with the third-party terrain {}: {e}",
-                            user_terrain_source(&generated.files.copies)
-                        ))
-                    })
-                });
-            let _ = std::fs::remove_dir_all(&scratch);
-            model?
+            let path =
+                write_model_folder(scratch.path(), &generated.xml, &generated.files.texts, &generated.files.copies)?;
+            MjModel::from_xml(&path).map_err(|e| {
+                SimError::Model(format!(
+                    "MuJoCo rejected the model with the third-party terrain {}: {e}",
+                    user_terrain_source(&generated.files.copies)
+                ))
+            })?
         } else {
             MjModel::from_xml_string(&generated.xml)
                 .map_err(|e| SimError::Model(format!("MuJoCo rejected the generated model: {e}")))?
@@ -238,9 +287,9 @@ impl World {
     pub fn from_robot_file(config: &Config, robot: &Path, scratch_dir: &Path) -> Result<Self, SimError> {
         let file = robot.display().to_string();
         let robot_err = |message: String| SimError::RobotFile { file: file.clone(), message };
-        if !robot.is_file() {
-            return Err(robot_err("robot file does not exist".into()));
-        }
+        // A regular file (after following symbolic links) of at most MAX_MJCF_BYTES: not a
+        // device or FIFO that MuJoCo's parser would read without end.
+        model::files::check_regular_file(robot, model::files::MAX_MJCF_BYTES).map_err(|e| robot_err(e.to_string()))?;
         let robot_model =
             MjModel::from_xml(robot).map_err(|e| robot_err(format!("MuJoCo cannot load the robot ({e})")))?;
         // Canonical MJCF of the robot (URDF converted), with absolute asset paths kept by MuJoCo.
@@ -509,3 +558,27 @@ const WARNING_NAMES: [&str; 7] = [
     "bad qacc (mjWARN_BADQACC)",
     "bad ctrl (mjWARN_BADCTRL)",
 ];
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    #[test]
+    fn scratch_dir_is_private_random_and_removed_on_drop() {
+        let a = super::scratch_dir("model").unwrap();
+        let b = super::scratch_dir("model").unwrap();
+        assert_ne!(a.path(), b.path(), "a fresh name every time");
+        let name = a.path().file_name().unwrap().to_string_lossy().into_owned();
+        assert!(name.starts_with("simserpent-model-") && name.len() > "simserpent-model-".len() + 4, "{name}");
+        let meta = a.path().symlink_metadata().unwrap();
+        assert!(meta.is_dir() && !meta.file_type().is_symlink());
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            assert_eq!(meta.permissions().mode() & 0o777, 0o700, "only the owner can enter it");
+        }
+        std::fs::write(a.path().join("model.xml"), "<mujoco/>").unwrap();
+        let path = a.path().to_path_buf();
+        drop(a);
+        assert!(!path.exists(), "removed with its files when dropped");
+    }
+}

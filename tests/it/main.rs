@@ -11,6 +11,7 @@ mod cli;
 mod common;
 mod config;
 mod estimation;
+mod hostile_files;
 mod locomotion;
 mod model;
 mod parquet;

@@ -50,8 +50,18 @@ pub fn load_config(path: &Path, overrides: &[String]) -> Result<Config, ConfigEr
             });
         }
     };
-    let text = std::fs::read_to_string(path)
-        .map_err(|source| ConfigError::Io { file: path.to_path_buf(), source: source.into() })?;
+    // A regular file of at most MAX_CONFIG_BYTES (not /dev/zero, a FIFO or a folder).
+    let io_err = |source: std::io::Error| ConfigError::Io { file: path.to_path_buf(), source: source.into() };
+    let bytes = crate::model::files::read_regular_file(path, crate::model::files::MAX_CONFIG_BYTES)
+        .map_err(|e| io_err(std::io::Error::other(e)))?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = 1 + e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count();
+        io_err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("the file is not valid UTF-8 text (byte {at}, line {line}, is 0x{:02x})", e.as_bytes()[at]),
+        ))
+    })?;
     let base = path.parent().filter(|p| !p.as_os_str().is_empty());
     load_named(&text, source, overrides, &file, base)
 }

@@ -77,6 +77,11 @@ pub struct FileCopy {
     pub source: std::path::PathBuf,
     /// Where it goes, relative to the run folder (`/`-separated).
     pub dest: String,
+    /// The config key that names it (directly, or through the third-party terrain), for errors
+    /// when it can no longer be copied.
+    pub key: String,
+    /// Its size cap (bytes): the copy fails when the file has grown past it since it was checked.
+    pub max_bytes: u64,
 }
 
 /// Everything the features add to the terrain.
@@ -292,6 +297,8 @@ pub(crate) fn build(
         f.copies.push(FileCopy {
             source: m.file.clone().into(),
             dest: format!("{SOURCES_DIR}/{}_{}", geom.name, base_name(&m.file)),
+            key,
+            max_bytes: files::MAX_ASSET_BYTES,
         });
         f.meshes.push(geom);
     }
@@ -337,6 +344,8 @@ pub(crate) fn build(
         f.copies.push(FileCopy {
             source: h.file.clone().into(),
             dest: format!("{SOURCES_DIR}/heightfield_{}", base_name(&h.file)),
+            key: "terrain.heightfield.file".into(),
+            max_bytes: files::MAX_ASSET_BYTES,
         });
     }
 
@@ -367,15 +376,23 @@ pub(crate) fn build(
         f.copies.push(FileCopy {
             source: mt.file.clone().into(),
             dest: format!("{SOURCES_DIR}/mesh_terrain_{}", base_name(&mt.file)),
+            key: key.into(),
+            max_bytes: files::MAX_ASSET_BYTES,
         });
     }
 
     // Third-party MJCF terrain.
     if !t.include_mjcf.is_empty() {
-        let MjcfAssets { copies } = files::check_mjcf_terrain("terrain.include_mjcf", &t.include_mjcf)?;
-        f.copies.push(FileCopy { source: t.include_mjcf.clone().into(), dest: USER_TERRAIN_FILE.into() });
+        let key = "terrain.include_mjcf";
+        let MjcfAssets { copies } = files::check_mjcf_terrain(key, &t.include_mjcf)?;
+        f.copies.push(FileCopy {
+            source: t.include_mjcf.clone().into(),
+            dest: USER_TERRAIN_FILE.into(),
+            key: key.into(),
+            max_bytes: files::MAX_MJCF_BYTES,
+        });
         for (source, dest) in copies {
-            f.copies.push(FileCopy { source, dest });
+            f.copies.push(FileCopy { source, dest, key: key.into(), max_bytes: files::MAX_ASSET_BYTES });
         }
         f.user_terrain = Some(USER_TERRAIN_FILE.into());
     }

@@ -3,8 +3,15 @@
 //!
 //! Every error names the file and, where it helps, the config key that named it, so a user
 //! never meets a panic or an anonymous "cannot load" from MuJoCo.
+//!
+//! Every file read for a config (the config itself, terrain sources, a third-party terrain and
+//! its assets, a user's robot) must be a regular file after following symbolic links (not a
+//! device, FIFO, socket or folder) and no larger than its cap: [`MAX_CONFIG_BYTES`],
+//! [`MAX_MJCF_BYTES`], [`MAX_ASSET_BYTES`]. Reads stop at the cap + 1 byte, so a file that grows
+//! while it is read is caught too.
 
-use std::path::{Path, PathBuf};
+use std::io::Read;
+use std::path::{Component, Path, PathBuf};
 
 use crate::config::ConfigError;
 
@@ -12,17 +19,158 @@ use crate::config::ConfigError;
 pub const MAX_IMAGE_SIDE_PX: u32 = 2048;
 /// The most triangles a mesh file may have.
 pub const MAX_TRIANGLES: usize = 2_000_000;
+/// The largest config file (TOML or JSON): 16 MiB.
+pub const MAX_CONFIG_BYTES: u64 = 16 << 20;
+/// The largest MJCF file (a third-party terrain, a user's robot): 64 MiB.
+pub const MAX_MJCF_BYTES: u64 = 64 << 20;
+/// The largest asset file (PNG heightfield or texture, STL/OBJ mesh, any file a third-party
+/// terrain refers to): 256 MiB.
+pub const MAX_ASSET_BYTES: u64 = 256 << 20;
+/// The largest image (width × height, pixels) a third-party terrain's PNG texture or heightfield
+/// may declare: 8192 × 8192. MuJoCo decodes it whole, so its size on disk says little.
+pub const MAX_ASSET_IMAGE_PIXELS: u64 = 8192 * 8192;
+
+/// Why a file cannot be read: the OS error kept as the source, with the path.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ReadError {
+    /// No file at the path (or a symbolic link to nothing).
+    #[error("{} does not exist", path.display())]
+    NotFound {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The path is a folder, device, FIFO or socket (after following symbolic links).
+    #[error("{} is not a regular file (it is {what})", path.display())]
+    NotRegular {
+        /// The file.
+        path: PathBuf,
+        /// What it is ("a folder", "a character device", ...).
+        what: &'static str,
+    },
+    /// The file is larger than the cap (or grew past it while being read).
+    #[error("{} is larger than the cap of {} ({cap_bytes} bytes): {}", path.display(), mib(*cap_bytes), size_text(*size_bytes, *cap_bytes))]
+    TooLarge {
+        /// The file.
+        path: PathBuf,
+        /// Its size as far as it was read or stat'ed (bytes).
+        size_bytes: u64,
+        /// The cap (bytes).
+        cap_bytes: u64,
+    },
+    /// Any other OS error (permissions, I/O).
+    #[error("cannot read {} ({source})", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        #[source]
+        source: std::io::Error,
+    },
+}
+
+fn mib(bytes: u64) -> String {
+    format!("{} MiB", bytes >> 20)
+}
+
+fn size_text(size_bytes: u64, cap_bytes: u64) -> String {
+    if size_bytes > cap_bytes { format!("it has {size_bytes} bytes") } else { "it grew past the cap while read".into() }
+}
+
+impl ReadError {
+    /// The error as a config error of `key` (the value shown is `file` as the config gave it).
+    pub fn for_key(&self, key: &str, file: &str) -> ConfigError {
+        file_err(key, file, self.to_string())
+    }
+}
+
+fn kind_of(meta: &std::fs::Metadata) -> &'static str {
+    let t = meta.file_type();
+    if t.is_dir() {
+        return "a folder";
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_fifo() {
+            return "a FIFO (named pipe)";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    "not a regular file"
+}
+
+/// Checks that `path` is a regular file (after following symbolic links) of at most
+/// `cap_bytes`; returns its size (bytes). Does not open it (a FIFO is never opened).
+///
+/// # Errors
+/// [`ReadError`]: missing, not a regular file, larger than the cap, or unreadable metadata.
+pub fn check_regular_file(path: &Path, cap_bytes: u64) -> Result<u64, ReadError> {
+    let meta = std::fs::metadata(path).map_err(|source| match source.kind() {
+        std::io::ErrorKind::NotFound => ReadError::NotFound { path: path.to_path_buf(), source },
+        _ => ReadError::Io { path: path.to_path_buf(), source },
+    })?;
+    if !meta.is_file() {
+        return Err(ReadError::NotRegular { path: path.to_path_buf(), what: kind_of(&meta) });
+    }
+    if meta.len() > cap_bytes {
+        return Err(ReadError::TooLarge { path: path.to_path_buf(), size_bytes: meta.len(), cap_bytes });
+    }
+    Ok(meta.len())
+}
+
+/// Opens `path` for reading after [`check_regular_file`], checks the opened file again (it may
+/// have been replaced in between), and returns a reader that stops after `cap_bytes + 1` bytes:
+/// a caller that gets more than `cap_bytes` bytes must fail with [`ReadError::TooLarge`].
+///
+/// # Errors
+/// As [`check_regular_file`]; the OS error of opening.
+pub fn open_regular_file(path: &Path, cap_bytes: u64) -> Result<std::io::Take<std::fs::File>, ReadError> {
+    check_regular_file(path, cap_bytes)?;
+    let io = |source: std::io::Error| ReadError::Io { path: path.to_path_buf(), source };
+    let file = std::fs::File::open(path).map_err(|source| match source.kind() {
+        std::io::ErrorKind::NotFound => ReadError::NotFound { path: path.to_path_buf(), source },
+        _ => ReadError::Io { path: path.to_path_buf(), source },
+    })?;
+    let meta = file.metadata().map_err(io)?;
+    if !meta.is_file() {
+        return Err(ReadError::NotRegular { path: path.to_path_buf(), what: kind_of(&meta) });
+    }
+    Ok(file.take(cap_bytes.saturating_add(1)))
+}
+
+/// Reads a whole regular file of at most `cap_bytes` (see [`open_regular_file`]).
+///
+/// # Errors
+/// [`ReadError`]: missing, not a regular file, larger than the cap (also when it grows past the
+/// cap while read), or an OS error.
+pub fn read_regular_file(path: &Path, cap_bytes: u64) -> Result<Vec<u8>, ReadError> {
+    let mut reader = open_regular_file(path, cap_bytes)?;
+    let mut bytes = Vec::new();
+    reader.read_to_end(&mut bytes).map_err(|source| ReadError::Io { path: path.to_path_buf(), source })?;
+    if bytes.len() as u64 > cap_bytes {
+        return Err(ReadError::TooLarge { path: path.to_path_buf(), size_bytes: bytes.len() as u64, cap_bytes });
+    }
+    Ok(bytes)
+}
 
 fn file_err(key: &str, file: &str, allowed: impl Into<String>) -> ConfigError {
     ConfigError::invalid(key, format!("{file:?}"), allowed)
 }
 
-fn read_bytes(key: &str, file: &str) -> Result<Vec<u8>, ConfigError> {
-    std::fs::read(file).map_err(|source| ConfigError::FileUnreadable {
-        key: key.to_string(),
-        file: file.into(),
-        source: source.into(),
-    })
+fn read_bytes(key: &str, file: &str, cap_bytes: u64) -> Result<Vec<u8>, ConfigError> {
+    read_regular_file(Path::new(file), cap_bytes).map_err(|e| e.for_key(key, file))
 }
 
 /// A grayscale image: `rows × cols` values in 0..=1, row 0 at the top of the image.
@@ -37,10 +185,11 @@ pub struct GrayImage {
 /// 0.299 R + 0.587 G + 0.114 B for colour images; alpha is ignored.
 ///
 /// # Errors
-/// The file does not exist or cannot be read, is not a PNG, is smaller than 2 × 2 or larger than
+/// The file does not exist, is not a regular file, is larger than [`MAX_ASSET_BYTES`] or cannot
+/// be read, is not a PNG, is smaller than 2 × 2 or larger than
 /// [`MAX_IMAGE_SIDE_PX`] on a side; the error names `key` and the file.
 pub fn read_gray_png(key: &str, file: &str) -> Result<GrayImage, ConfigError> {
-    let bytes = read_bytes(key, file)?;
+    let bytes = read_bytes(key, file, MAX_ASSET_BYTES)?;
     let bad = |why: String| file_err(key, file, format!("{file} is not a readable PNG image ({why})"));
     let mut decoder = png::Decoder::new(std::io::Cursor::new(&bytes));
     decoder.set_transformations(png::Transformations::EXPAND);
@@ -102,13 +251,13 @@ pub struct Mesh {
 /// triangles; negative indices count from the end) file, chosen by the extension.
 ///
 /// # Errors
-/// Missing or unreadable file, an extension other than `.stl`/`.obj`, a malformed file, or one
+/// Missing, unreadable, not regular or larger than [`MAX_ASSET_BYTES`], an extension other than `.stl`/`.obj`, a malformed file, or one
 /// without triangles; the error names `key` and the file (and the line for OBJ).
 pub fn read_mesh(key: &str, file: &str) -> Result<Mesh, ConfigError> {
     let ext = Path::new(file).extension().map(|e| e.to_string_lossy().to_ascii_lowercase());
     let mesh = match ext.as_deref() {
-        Some("stl") => parse_stl(&read_bytes(key, file)?),
-        Some("obj") => parse_obj(&read_bytes(key, file)?),
+        Some("stl") => parse_stl(&read_bytes(key, file, MAX_ASSET_BYTES)?),
+        Some("obj") => parse_obj(&read_bytes(key, file, MAX_ASSET_BYTES)?),
         _ => {
             return Err(file_err(key, file, format!("{file}: a mesh file must be STL (`.stl`) or OBJ (`.obj`)")));
         }
@@ -302,35 +451,108 @@ pub(crate) struct Raster {
     pub y: [f64; 2],
 }
 
-/// What a third-party MJCF terrain file needs copied beside it: every relative `file=` path,
-/// resolved against the file's folder (and its compiler's meshdir/texturedir/assetdir).
+/// What a third-party MJCF terrain file needs copied beside it: every relative `file=` path
+/// (and a cube texture's `fileright=` …), resolved against the file's folder (and its compiler's
+/// meshdir/texturedir/assetdir).
 #[derive(Debug, Clone, PartialEq)]
 pub struct MjcfAssets {
-    /// (source path, destination relative to the folder of the including scene).
+    /// (source path, symbolic links resolved; destination relative to the folder of the
+    /// including scene, `/`-separated).
     pub copies: Vec<(PathBuf, String)>,
+}
+
+/// Names the run folder uses for its own files and folders (compared without regard to ASCII
+/// case, as a case-insensitive file system would): a third-party terrain's asset may not start
+/// with one, or its copy would overwrite (or be overwritten by) a file of the run.
+pub const RUN_FOLDER_NAMES: [&str; 13] = [
+    "config.toml",
+    "model.xml",
+    "scene.xml",
+    "terrain.xml",
+    "robot.xml",
+    super::features::USER_TERRAIN_FILE,
+    super::features::SOURCES_DIR,
+    "manifest.json",
+    "state.csv",
+    "report.md",
+    "images",
+    "plots",
+    "MUJOCO_LOG.TXT",
+];
+/// Stems the run folder uses with any extension (tables as `.csv`, `.parquet` or part folders,
+/// the manifest and its temporary copies).
+pub const RUN_FOLDER_STEMS: [&str; 6] = ["links", "joints", "sensors", "contacts", "manifest", "state"];
+/// Prefixes of run-folder names: videos (`video_<camera>`), and hidden or `_`-prefixed names
+/// (temporary files; also what table readers skip).
+pub const RUN_FOLDER_PREFIXES: [&str; 3] = ["video_", ".", "_"];
+
+/// Whether `first` (the first component of a path relative to the run folder) is a name the
+/// run folder uses for its own files ([`RUN_FOLDER_NAMES`], [`RUN_FOLDER_STEMS`],
+/// [`RUN_FOLDER_PREFIXES`]).
+pub fn is_run_folder_name(first: &str) -> bool {
+    let lower = first.to_ascii_lowercase();
+    let stem = lower.split('.').next().unwrap_or("");
+    RUN_FOLDER_NAMES.iter().any(|n| n.eq_ignore_ascii_case(&lower))
+        || RUN_FOLDER_STEMS.contains(&stem)
+        || RUN_FOLDER_PREFIXES.iter().any(|p| lower.starts_with(p))
+}
+
+/// The canonical form of `path` (symbolic links resolved), or a [`ReadError`].
+fn canonical(path: &Path) -> Result<PathBuf, ReadError> {
+    std::fs::canonicalize(path).map_err(|source| match source.kind() {
+        std::io::ErrorKind::NotFound => ReadError::NotFound { path: path.to_path_buf(), source },
+        _ => ReadError::Io { path: path.to_path_buf(), source },
+    })
+}
+
+/// Width and height of a PNG, from its header (`None` when `path` is not a PNG).
+fn png_size(path: &Path) -> Option<(u32, u32)> {
+    let mut head = [0u8; 24];
+    std::fs::File::open(path).ok()?.read_exact(&mut head).ok()?;
+    if head[..8] != *b"\x89PNG\r\n\x1a\n" || head[12..16] != *b"IHDR" {
+        return None;
+    }
+    let w = u32::from_be_bytes([head[16], head[17], head[18], head[19]]);
+    let h = u32::from_be_bytes([head[20], head[21], head[22], head[23]]);
+    Some((w, h))
 }
 
 /// Checks that `file` is well-formed XML with a `<mujoco>` root, and lists the files it refers to.
 ///
+/// A third-party terrain must be one self-contained folder: the file itself (at most
+/// [`MAX_MJCF_BYTES`]) and the asset files it names, each a regular file of at most
+/// [`MAX_ASSET_BYTES`] inside the terrain file's folder after resolving symbolic links, at a
+/// relative path whose first component is not a name of the run folder
+/// ([`is_run_folder_name`]), so that every one can be copied into the run folder and the scene
+/// rebuilt from there.
+///
 /// # Errors
-/// Missing or unreadable file, malformed XML (with the position), another root element, a
-/// referenced file that does not exist, or a relative reference that leaves the file's folder
-/// (`..`), which could not be copied into the run folder.
+/// Missing, unreadable, not regular or too large file; malformed XML (with the position);
+/// another root element; an `<include>` or `<model>` element (they pull in other MJCF files, a
+/// `<model>` cycle crashes MuJoCo's compiler); an absolute `file=` or compiler
+/// `meshdir`/`texturedir`/`assetdir` (it would not be copied); a referenced file that does not
+/// exist, is not a regular file, is too large (a PNG of more than [`MAX_ASSET_IMAGE_PIXELS`]),
+/// leaves the file's folder (`..` or a symbolic link), or whose name is one the run folder uses.
+/// Each error names `key`, the file, the element and the attribute.
 pub fn check_mjcf_terrain(key: &str, file: &str) -> Result<MjcfAssets, ConfigError> {
     use quick_xml::events::Event;
-    let bytes = read_bytes(key, file)?;
-    let bad = |why: String| file_err(key, file, format!("{file} is not a usable MJCF file: {why}"));
+    let bytes = read_bytes(key, file, MAX_MJCF_BYTES)?;
+    let bad = |why: String| file_err(key, file, format!("{file} is not a usable MJCF terrain file: {why}"));
+    let line_at = |pos: u64| 1 + bytes[..(pos as usize).min(bytes.len())].iter().filter(|&&b| b == b'\n').count();
     let mut reader = quick_xml::Reader::from_reader(bytes.as_slice());
     reader.config_mut().check_end_names = true;
     let mut buf = Vec::new();
     let mut depth = 0usize;
     let mut root_seen = false;
-    let (mut meshdir, mut texturedir, mut assetdir) = (None::<String>, None::<String>, None::<String>);
-    let mut refs: Vec<(String, String)> = Vec::new(); // (element, file)
+    // (attribute, value, line) of the compiler's folders.
+    let (mut meshdir, mut texturedir, mut assetdir) =
+        (None::<(String, usize)>, None::<(String, usize)>, None::<(String, usize)>);
+    let mut refs: Vec<(String, String, String, usize)> = Vec::new(); // (element, attribute, file, line)
     loop {
         let event = reader
             .read_event_into(&mut buf)
             .map_err(|e| bad(format!("malformed XML at byte {} ({e})", reader.error_position())))?;
+        let line = line_at(reader.buffer_position());
         let (start, empty) = match &event {
             Event::Start(s) => (Some(s.clone()), false),
             Event::Empty(s) => (Some(s.clone()), true),
@@ -351,17 +573,26 @@ pub fn check_mjcf_terrain(key: &str, file: &str) -> Result<MjcfAssets, ConfigErr
                 }
                 root_seen = true;
             }
+            if name == "include" || name == "model" {
+                return Err(bad(format!(
+                    "line {line}: <{name}> is not allowed in a terrain file: it pulls in other MJCF files (and a \
+                     <model> that refers to itself crashes MuJoCo's compiler); a terrain for SimSerpent must be \
+                     one file (inline what it includes)"
+                )));
+            }
             for attr in s.attributes() {
-                let attr = attr.map_err(|e| bad(format!("malformed attribute in <{name}> ({e})")))?;
+                let attr = attr.map_err(|e| bad(format!("line {line}: malformed attribute in <{name}> ({e})")))?;
+                let attr_name = String::from_utf8_lossy(attr.key.as_ref()).into_owned();
                 let value = attr
                     .normalized_value(quick_xml::XmlVersion::Implicit1_0)
-                    .map_err(|e| bad(format!("bad attribute value in <{name}> ({e})")))?
+                    .map_err(|e| bad(format!("line {line}: bad attribute value in <{name}> ({e})")))?
                     .into_owned();
-                match (name.as_str(), attr.key.as_ref()) {
-                    ("compiler", b"meshdir") => meshdir = Some(value),
-                    ("compiler", b"texturedir") => texturedir = Some(value),
-                    ("compiler", b"assetdir") => assetdir = Some(value),
-                    (_, b"file") => refs.push((name.clone(), value)),
+                match (name.as_str(), attr_name.as_str()) {
+                    ("compiler", "meshdir") => meshdir = Some((value, line)),
+                    ("compiler", "texturedir") => texturedir = Some((value, line)),
+                    ("compiler", "assetdir") => assetdir = Some((value, line)),
+                    // `file`, and a cube or skybox texture's `fileright`, `fileleft`, `fileup`, ...
+                    (_, a) if a.starts_with("file") => refs.push((name.clone(), attr_name.clone(), value, line)),
                     _ => {}
                 }
             }
@@ -374,38 +605,76 @@ pub fn check_mjcf_terrain(key: &str, file: &str) -> Result<MjcfAssets, ConfigErr
     if !root_seen {
         return Err(bad("no <mujoco> root element".into()));
     }
-    let dir = Path::new(file).parent().unwrap_or(Path::new(""));
-    let mut copies = Vec::new();
-    for (element, reference) in refs {
-        if element == "include" {
+    for (attr, dir) in [("meshdir", &meshdir), ("texturedir", &texturedir), ("assetdir", &assetdir)] {
+        if let Some((value, line)) = dir
+            && Path::new(value).has_root()
+        {
             return Err(bad(format!(
-                "it includes {reference:?}; a terrain file for SimSerpent must be one file (inline the include)"
+                "line {line}: <compiler {attr}={value:?}> is an absolute path; files outside the terrain's folder \
+                 are not copied into the run folder, so the run could not be rebuilt from it: make it relative"
+            )));
+        }
+    }
+    let dir = match Path::new(file).parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let folder = canonical(dir).map_err(|e| e.for_key(key, file))?;
+    let mut copies: Vec<(PathBuf, String)> = Vec::new();
+    for (element, attribute, reference, line) in refs {
+        let at = format!("line {line}: <{element} {attribute}={reference:?}>");
+        if Path::new(&reference).has_root() {
+            return Err(bad(format!(
+                "{at} is an absolute path; files outside the terrain's folder are not copied into the run folder, \
+                 so the run could not be rebuilt from it: put the file in the terrain's folder and name it relative \
+                 to it"
             )));
         }
         let prefix = match element.as_str() {
-            "texture" => texturedir.clone().or_else(|| assetdir.clone()),
-            _ => meshdir.clone().or_else(|| assetdir.clone()),
+            "texture" => texturedir.as_ref().or(assetdir.as_ref()),
+            _ => meshdir.as_ref().or(assetdir.as_ref()),
         }
+        .map(|(value, _)| value.clone())
         .unwrap_or_default();
-        let rel = Path::new(&prefix).join(&reference);
-        if rel.is_absolute() {
-            let path = rel.clone();
-            if !path.is_file() {
-                return Err(bad(format!("<{element} file={reference:?}>: {} does not exist", path.display())));
-            }
-            continue; // absolute: MuJoCo finds it where it is; not copied
-        }
-        if rel.components().any(|c| matches!(c, std::path::Component::ParentDir)) {
+        let rel: PathBuf =
+            Path::new(&prefix).join(&reference).components().filter(|c| !matches!(c, Component::CurDir)).collect();
+        if rel.components().any(|c| matches!(c, Component::ParentDir)) {
             return Err(bad(format!(
-                "<{element} file={reference:?}> leaves the terrain file's folder (`..`); keep the terrain's files in \
-                 its folder or below so they can be copied into the run folder"
+                "{at} leaves the terrain file's folder (`..`); keep the terrain's files in its folder or below so \
+                 they can be copied into the run folder"
             )));
         }
-        let source = dir.join(&rel);
-        if !source.is_file() {
-            return Err(bad(format!("<{element} file={reference:?}>: {} does not exist", source.display())));
+        let first = rel.components().next().map(|c| c.as_os_str().to_string_lossy().into_owned()).unwrap_or_default();
+        if is_run_folder_name(&first) {
+            return Err(bad(format!(
+                "{at}: the name {first:?} is one the run folder uses for its own files (its copy would overwrite \
+                 them or be overwritten); rename the file or move it into a sub-folder"
+            )));
         }
-        copies.push((source, rel.to_string_lossy().replace('\\', "/")));
+        let lexical = dir.join(&rel);
+        let source = canonical(&lexical).map_err(|e| bad(format!("{at}: {e}")))?;
+        if !source.starts_with(&folder) {
+            return Err(bad(format!(
+                "{at}: {} resolves (through a symbolic link) to {}, outside the terrain's folder {}; keep the \
+                 terrain's files in its folder or below",
+                lexical.display(),
+                source.display(),
+                folder.display()
+            )));
+        }
+        check_regular_file(&source, MAX_ASSET_BYTES).map_err(|e| bad(format!("{at}: {e}")))?;
+        if let Some((w, h)) = png_size(&source)
+            && u64::from(w) * u64::from(h) > MAX_ASSET_IMAGE_PIXELS
+        {
+            return Err(bad(format!(
+                "{at}: the PNG image {} is {w} x {h} pixels, more than the cap of {MAX_ASSET_IMAGE_PIXELS} pixels",
+                source.display()
+            )));
+        }
+        let dest = rel.to_string_lossy().replace('\\', "/");
+        if !copies.iter().any(|(_, d)| *d == dest) {
+            copies.push((source, dest));
+        }
     }
     Ok(MjcfAssets { copies })
 }
@@ -414,6 +683,60 @@ pub fn check_mjcf_terrain(key: &str, file: &str) -> Result<MjcfAssets, ConfigErr
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn read_regular_file_refuses_missing_files_folders_devices_and_files_over_the_cap() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let toml = dir.join("Cargo.toml");
+        let len = std::fs::metadata(&toml).unwrap().len();
+        assert_eq!(read_regular_file(&toml, len).unwrap().len() as u64, len, "exactly the cap is fine");
+        let e = read_regular_file(&toml, len - 1).unwrap_err();
+        assert!(
+            matches!(e, ReadError::TooLarge { size_bytes, cap_bytes, .. } if size_bytes == len && cap_bytes == len - 1)
+        );
+        assert!(e.to_string().contains("Cargo.toml") && e.to_string().contains("cap of 0 MiB"), "{e}");
+        let e = read_regular_file(&dir.join("src"), MAX_CONFIG_BYTES).unwrap_err();
+        assert!(matches!(e, ReadError::NotRegular { what: "a folder", .. }), "{e}");
+        let e = read_regular_file(&dir.join("no such file"), MAX_CONFIG_BYTES).unwrap_err();
+        assert!(matches!(e, ReadError::NotFound { .. }) && e.to_string().contains("does not exist"), "{e}");
+        #[cfg(unix)]
+        for dev in ["/dev/null", "/dev/zero"] {
+            let e = read_regular_file(Path::new(dev), MAX_CONFIG_BYTES).unwrap_err();
+            assert!(matches!(e, ReadError::NotRegular { what: "a character device", .. }), "{e}");
+            let c = e.for_key("terrain.heightfield.file", dev).to_string();
+            assert!(
+                c.contains("terrain.heightfield.file") && c.contains(dev) && c.contains("not a regular file"),
+                "{c}"
+            );
+        }
+    }
+
+    #[test]
+    fn run_folder_names_cover_the_run_files_but_not_ordinary_asset_names() {
+        for name in [
+            "config.toml",
+            "CONFIG.TOML",
+            "model.xml",
+            "user_terrain.xml",
+            "terrain_sources",
+            "manifest.json",
+            "manifest.json.tmp",
+            "links.csv",
+            "links.parquet",
+            "contacts",
+            "state.csv",
+            "plots",
+            "images",
+            "video_follow.gif",
+            ".links.parquet.part",
+            "_SUCCESS",
+        ] {
+            assert!(is_run_folder_name(name), "{name}");
+        }
+        for name in ["rock.obj", "meshes", "textures", "ground.png", "terrain.png", "model.obj", "config"] {
+            assert!(!is_run_folder_name(name), "{name}");
+        }
+    }
 
     #[test]
     fn obj_fans_polygons_and_rasterises_a_pyramid() {
