@@ -169,3 +169,243 @@ fn a_closed_pipe_ends_printing_quietly_with_the_commands_own_exit_code() {
     eprintln!("closed pipes: {handled} of {} commands handled cleanly", cases.len() + 3);
     assert!(problems.is_empty(), "{}", problems.join("\n"));
 }
+
+// --- shared checks of a run folder ----------------------------------------------------------
+
+/// The table files present in a run folder (`*.csv` but `state.csv`, `*.parquet` folders).
+fn table_files(run: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(run)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| (n.ends_with(".csv") && n != "state.csv") || n.ends_with(".parquet"))
+        .collect();
+    names.sort();
+    names
+}
+
+/// Whole rows of a CSV table: checks that every line but possibly a cut last one (`cut_ok`:
+/// after SIGKILL) has the header's number of fields. Returns the number of whole rows.
+fn csv_whole_rows(path: &Path, cut_ok: bool) -> Result<u64, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let text = String::from_utf8_lossy(&bytes);
+    let complete = match text.rfind('\n') {
+        Some(i) => &text[..=i],
+        None => return Err(format!("{}: no header line", path.display())),
+    };
+    if complete.len() != text.len() && !cut_ok {
+        return Err(format!("{}: ends in a partial row", path.display()));
+    }
+    let mut lines = complete.lines();
+    let width = lines.next().unwrap().split(',').count();
+    let mut rows = 0;
+    for (i, line) in lines.enumerate() {
+        let fields = line.split(',').count();
+        if fields != width {
+            return Err(format!("{}: row {i} has {fields} of {width} fields", path.display()));
+        }
+        rows += 1;
+    }
+    Ok(rows)
+}
+
+/// The rows of a Parquet table folder as the parquet crate reads its visible parts (names not
+/// starting with `.` or `_`, as pyarrow's discovery does).
+#[cfg(feature = "parquet")]
+fn parquet_rows(dir: &Path) -> Result<u64, String> {
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+    let mut rows = 0;
+    let mut parts = 0;
+    for entry in std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))? {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        if name.starts_with('.') || name.starts_with('_') {
+            continue;
+        }
+        let file = std::fs::File::open(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let reader = SerializedFileReader::new(file).map_err(|e| format!("{}: {e}", path.display()))?;
+        rows += reader.metadata().file_metadata().num_rows() as u64;
+        // Read every row too, not just the footer.
+        let read = reader.get_row_iter(None).map_err(|e| format!("{}: {e}", path.display()))?.count() as u64;
+        if read != reader.metadata().file_metadata().num_rows() as u64 {
+            return Err(format!("{}: footer and rows disagree", path.display()));
+        }
+        parts += 1;
+    }
+    // A table that failed before its first part closed is an empty folder (0 rows).
+    let _ = parts;
+    Ok(rows)
+}
+
+#[cfg(not(feature = "parquet"))]
+fn parquet_rows(dir: &Path) -> Result<u64, String> {
+    Err(format!("{}: built without the parquet feature", dir.display()))
+}
+
+/// A Python with pandas and pyarrow: `SIMSERPENT_TEST_PYTHON`, else the repository's `.venv`,
+/// else `python3`; `None` when none has them.
+fn python_with_pandas() -> Option<PathBuf> {
+    let venv = Path::new(env!("CARGO_MANIFEST_DIR")).join(".venv/bin/python3");
+    let candidates =
+        [std::env::var_os("SIMSERPENT_TEST_PYTHON").map(PathBuf::from), Some(venv), Some("python3".into())];
+    candidates
+        .into_iter()
+        .flatten()
+        .find(|p| Command::new(p).args(["-c", "import pandas, pyarrow"]).output().is_ok_and(|o| o.status.success()))
+}
+
+/// Checks what a run folder promises whatever ended the run: a valid manifest whose status
+/// is `expected` (one of), no temporary manifest, the reserve file gone (unless killed), every
+/// table present listed with exactly the rows it holds. Returns the manifest.
+fn check_run_folder(run: &Path, expected: &[&str], killed: bool) -> Result<serde_json::Value, String> {
+    let text = std::fs::read_to_string(run.join("manifest.json")).map_err(|e| format!("{}: {e}", run.display()))?;
+    let m: serde_json::Value = serde_json::from_str(&text).map_err(|e| format!("invalid manifest ({e}): {text}"))?;
+    let status = m["status"].as_str().unwrap_or("?");
+    if !expected.contains(&status) {
+        return Err(format!("status {status}, expected {expected:?}: {m}"));
+    }
+    if run.join(".manifest.json.tmp").exists() {
+        return Err("temporary manifest left".into());
+    }
+    if !killed && run.join(".simserpent-reserve").exists() {
+        return Err("reserve file left".into());
+    }
+    let listed: Vec<(String, u64)> = m["tables"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|t| (t[0].as_str().unwrap().to_string(), t[1].as_u64().unwrap()))
+        .collect();
+    let present = table_files(run);
+    if !killed {
+        let mut names: Vec<String> = listed.iter().map(|(n, _)| n.clone()).collect();
+        names.sort();
+        if names != present {
+            return Err(format!("tables present {present:?}, listed {names:?}"));
+        }
+    }
+    for name in &present {
+        let path = run.join(name);
+        let rows = if name.ends_with(".csv") { csv_whole_rows(&path, killed)? } else { parquet_rows(&path)? };
+        if let Some((_, n)) = listed.iter().find(|(l, _)| l == name)
+            && *n != rows
+        {
+            return Err(format!("{name}: {rows} whole rows, the manifest says {n}"));
+        }
+    }
+    Ok(m)
+}
+
+// --- 8. a full disk -------------------------------------------------------------------------
+
+/// Unmounts a test's tmpfs when the test ends (also when it fails).
+struct Unmount(PathBuf);
+
+impl Drop for Unmount {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg(&self.0).status();
+    }
+}
+
+fn mount_tmpfs(at: &Path, size: &str) -> Option<Unmount> {
+    std::fs::create_dir_all(at).unwrap();
+    let mounted = Command::new("mount")
+        .args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs", at.to_str().unwrap()])
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    mounted.then(|| Unmount(at.to_path_buf()))
+}
+
+/// Runs on disks of 4 KiB to 3 MiB (tmpfs; skipped where this process may not mount one): the
+/// disk fills during set-up, during the run or at its end. Whatever the stage, the run exits 1
+/// naming "No space left", and either leaves no run folder or one whose manifest is valid
+/// JSON, says `failed` and why, and lists every table file with exactly the whole rows it
+/// holds (no partial last row); or the run fits and is `complete`.
+#[test]
+fn a_full_disk_at_any_stage_leaves_a_valid_manifest_listing_whole_rows() {
+    let dir = tempfile::tempdir().unwrap();
+    if mount_tmpfs(&dir.path().join("probe"), "4k").is_none() {
+        eprintln!("skipped: cannot mount a tmpfs here (needs root)");
+        return;
+    }
+    // Coarse steps through set-up and the run, then 8 KiB steps where the run's last buffers,
+    // footers and manifest meet the end of the disk.
+    let mut sizes_kib =
+        vec![4, 8, 12, 16, 24, 32, 40, 48, 56, 64, 80, 96, 128, 192, 256, 384, 512, 768, 1024, 1536, 2048];
+    sizes_kib.extend((2056..=2400).step_by(8));
+    sizes_kib.extend([3072, 4096, 5120]);
+    let mut stages = std::collections::BTreeMap::<&str, (u32, u32)>::new();
+    let mut problems = Vec::new();
+    for (i, size) in sizes_kib.iter().enumerate() {
+        for format in ["csv", "both"] {
+            if format == "both" && (i % 2 == 1 || (2056..=2400).contains(size)) {
+                continue;
+            }
+            let disk = dir.path().join(format!("disk-{size}-{format}"));
+            let Some(_unmount) = mount_tmpfs(&disk, &format!("{size}k")) else {
+                problems.push(format!("{size} KiB: cannot mount"));
+                continue;
+            };
+            let out = Command::new(exe())
+                .current_dir(&disk)
+                .args(["run", "--quiet", "--set", "general.duration_secs=0.1", "--set", "recording.every_n_steps=1"])
+                .args([
+                    "--set",
+                    &format!("recording.format=\"{format}\""),
+                    "--set",
+                    "recording.parquet_rows_per_file=40",
+                ])
+                .stdout(Stdio::null())
+                .stderr(Stdio::piped())
+                .output()
+                .unwrap();
+            let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+            let runs = run_folders(&disk.join("runs"));
+            let case = format!("{size} KiB, {format}");
+            let (stage, verdict) = match (out.status.code(), runs.as_slice()) {
+                (Some(1), []) => (
+                    "set-up, before the run folder",
+                    if stderr.contains("No space left") { Ok(()) } else { Err(stderr) },
+                ),
+                (Some(code @ (0 | 1)), [run]) => {
+                    let expected: &[&str] = if code == 0 { &["complete"] } else { &["failed"] };
+                    match check_run_folder(run, expected, false) {
+                        Ok(_) if code == 0 => ("fits", Ok(())),
+                        Ok(m) => {
+                            let error = m["error"].as_str().unwrap_or("");
+                            let stage = if m["steps"].as_u64() == Some(0) && m["tables"].as_array().unwrap().is_empty()
+                            {
+                                "set-up, in the run folder"
+                            } else if m["simulated_secs"].as_f64() >= m["duration_secs"].as_f64().map(|d| d * 0.999) {
+                                "at the end"
+                            } else {
+                                "during the run"
+                            };
+                            if error.contains("No space left") && stderr.contains("No space left") {
+                                (stage, Ok(()))
+                            } else {
+                                (stage, Err(format!("error {error:?}, stderr {stderr}")))
+                            }
+                        }
+                        Err(e) => ("unknown", Err(e)),
+                    }
+                }
+                _ => ("unknown", Err(format!("exit {:?}, {} run folders: {stderr}", out.status, runs.len()))),
+            };
+            let entry = stages.entry(stage).or_default();
+            entry.0 += 1;
+            match verdict {
+                Ok(()) => entry.1 += 1,
+                Err(e) => problems.push(format!("{case} ({stage}): {e}")),
+            }
+        }
+    }
+    for (stage, (cases, clean)) in &stages {
+        eprintln!("full disk, {stage}: {cases} cases, {clean} handled cleanly");
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+    for stage in ["set-up, before the run folder", "set-up, in the run folder", "during the run", "at the end", "fits"]
+    {
+        assert!(stages.contains_key(stage), "no case filled the disk {stage}: {stages:?}");
+    }
+}
