@@ -1,6 +1,7 @@
 //! The `simserpent` command line. Exit codes: 0 success, 1 simulation failure (divergence,
 //! output folder or disk), 2 bad input (config, model or robot file, command-line usage),
-//! 130 interrupted by SIGINT/SIGTERM (run folder kept, manifest `incomplete`).
+//! 130 interrupted by SIGINT/SIGTERM (during set-up: no run folder; during the run: run folder
+//! kept, manifest `incomplete`; during plotting: manifest `complete`, `plots` `interrupted`).
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
@@ -64,8 +65,9 @@ macro_rules! errln {
     about = "Physics-based snake-robot simulator on MuJoCo 3.17",
     after_help = "Exit codes: 0 success; 1 the simulation failed (diverged, or the run folder could not be \
                   written; the manifest says why); 2 bad input (config, model or robot file, command line; no run \
-                  folder is created); 130 interrupted by Ctrl-C (SIGINT) or SIGTERM (tables flushed, manifest \
-                  `incomplete`)."
+                  folder is created); 130 interrupted by Ctrl-C (SIGINT) or SIGTERM (during set-up: no run folder; during \
+                  the run: tables flushed, manifest `incomplete`; during plotting: the run is complete, manifest \
+                  `plots` says `interrupted`). A second signal quits at once."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -259,7 +261,9 @@ impl ExitCodeOf for RunError {
         match self {
             RunError::Sim(SimError::Config(_) | SimError::RobotFile { .. }) => 2,
             RunError::Render(e) => e.exit_code(),
-            RunError::Interrupted { .. } => 130,
+            RunError::Interrupted { .. }
+            | RunError::InterruptedSetUp
+            | RunError::Plot(simserpent::plot::PlotError::Interrupted { .. }) => 130,
             _ => 1,
         }
     }
@@ -282,6 +286,7 @@ impl ExitCodeOf for simserpent::plot::PlotError {
     fn exit_code(&self) -> u8 {
         match self {
             simserpent::plot::PlotError::Write { .. } => 1,
+            simserpent::plot::PlotError::Interrupted { .. } => 130,
             _ => 2,
         }
     }

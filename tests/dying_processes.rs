@@ -8,8 +8,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-fn exe() -> &'static str {
-    env!("CARGO_BIN_EXE_simserpent")
+/// The binary under test: `SIMSERPENT_TEST_EXE` if set (a copy, where several worktrees share one
+/// target folder), else the one cargo built.
+fn exe() -> PathBuf {
+    std::env::var_os("SIMSERPENT_TEST_EXE")
+        .map_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_simserpent")), PathBuf::from)
 }
 
 fn text(o: &Output) -> String {
@@ -407,5 +410,222 @@ fn a_full_disk_at_any_stage_leaves_a_valid_manifest_listing_whole_rows() {
     for stage in ["set-up, before the run folder", "set-up, in the run folder", "during the run", "at the end", "fits"]
     {
         assert!(stages.contains_key(stage), "no case filled the disk {stage}: {stages:?}");
+    }
+}
+
+// --- 9. SIGKILL mid-run ---------------------------------------------------------------------
+
+/// Waits (up to two minutes) until `ready` says so or the child ends; false if it ended.
+fn wait_until(child: &mut Child, mut ready: impl FnMut() -> bool) -> bool {
+    let started = Instant::now();
+    while !ready() {
+        assert!(started.elapsed() < Duration::from_secs(120), "not ready after 120 s");
+        if child.try_wait().unwrap().is_some() {
+            return false;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    true
+}
+
+/// Visible part files of a Parquet table folder.
+fn visible_parts(dir: &Path) -> usize {
+    std::fs::read_dir(dir).map_or(0, |entries| {
+        entries.filter(|e| e.as_ref().is_ok_and(|e| !e.file_name().to_string_lossy().starts_with('.'))).count()
+    })
+}
+
+/// A run killed with SIGKILL (as the OOM killer does) in the middle, in every recording format
+/// and at several moments: the manifest is valid JSON and says `incomplete`; every CSV line but
+/// a cut last one is a whole row; every Parquet table reads back, with the parquet crate and —
+/// when a Python with pandas and pyarrow is there — with `pd.read_parquet("<run>/<table>.parquet")`.
+#[test]
+fn a_killed_run_leaves_every_table_readable_in_every_format() {
+    let python = python_with_pandas();
+    if python.is_none() {
+        eprintln!("pandas check skipped: no python3 with pandas and pyarrow (set SIMSERPENT_TEST_PYTHON)");
+    }
+    let (mut cases, mut clean) = (0, 0);
+    let mut problems = Vec::new();
+    for format in ["csv", "parquet", "both"] {
+        for extra_ms in [0, 150, 500] {
+            cases += 1;
+            let dir = tempfile::tempdir().unwrap();
+            let mut guard = KillOnDrop(Some(
+                Command::new(exe())
+                    .current_dir(dir.path())
+                    .args([
+                        "run",
+                        "--quiet",
+                        "--set",
+                        "general.duration_secs=3600",
+                        "--set",
+                        "recording.every_n_steps=1",
+                    ])
+                    .args([
+                        "--set",
+                        &format!("recording.format=\"{format}\""),
+                        "--set",
+                        "recording.parquet_rows_per_file=50",
+                    ])
+                    .stdout(Stdio::null())
+                    .stderr(Stdio::null())
+                    .spawn()
+                    .unwrap(),
+            ));
+            let child = guard.0.as_mut().unwrap();
+            let runs = dir.path().join("runs");
+            let started = wait_until(child, || {
+                run_folders(&runs).first().is_some_and(|run| match format {
+                    "csv" => std::fs::metadata(run.join("links.csv")).is_ok_and(|m| m.len() > 200_000),
+                    _ => visible_parts(&run.join("links.parquet")) >= 1,
+                })
+            });
+            assert!(started, "{format}: the run ended by itself");
+            std::thread::sleep(Duration::from_millis(extra_ms));
+            child.kill().unwrap();
+            child.wait().unwrap();
+            guard.0 = None;
+            let run = &run_folders(&runs)[0];
+            let case = format!("{format}, killed {extra_ms} ms after the first rows");
+            let mut ok = match check_run_folder(run, &["incomplete"], true) {
+                Ok(_) => true,
+                Err(e) => {
+                    problems.push(format!("{case}: {e}"));
+                    false
+                }
+            };
+            if let (Some(python), true) = (&python, format != "csv") {
+                // A table whose first part had not closed yet is an empty folder: an empty frame.
+                let script = "import sys, pandas as pd\nfor t in sys.argv[1:]:\n    print(t, pd.read_parquet(t).shape)";
+                let tables: Vec<String> = ["links", "joints", "sensors", "contacts"]
+                    .iter()
+                    .map(|t| run.join(format!("{t}.parquet")).display().to_string())
+                    .collect();
+                let out = Command::new(python).arg("-c").arg(script).args(&tables).output().unwrap();
+                if !out.status.success() {
+                    problems.push(format!("{case}: pandas: {}", text(&out)));
+                    ok = false;
+                }
+            }
+            if ok {
+                clean += 1;
+            }
+        }
+    }
+    eprintln!("SIGKILL mid-run: {cases} cases, {clean} handled cleanly");
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+// --- 10. signals during set-up, the run and plotting ----------------------------------------
+
+fn send(child: &Child, signal: &str) {
+    let status = Command::new("kill").args([&format!("-{signal}"), &child.id().to_string()]).status().unwrap();
+    assert!(status.success());
+}
+
+/// Waits for the child's end (at most `limit`) and returns its output.
+fn finish(mut guard: KillOnDrop, limit: Duration) -> Output {
+    let child = guard.0.as_mut().unwrap();
+    let started = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        assert!(started.elapsed() < limit, "still running {limit:?} after the signal");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    guard.0.take().unwrap().wait_with_output().unwrap()
+}
+
+fn spawn_run(dir: &Path, sets: &[&str]) -> KillOnDrop {
+    let mut command = Command::new(exe());
+    command.current_dir(dir).args(["run", "--quiet"]);
+    for s in sets {
+        command.args(["--set", s]);
+    }
+    KillOnDrop(Some(command.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap()))
+}
+
+/// SIGINT or SIGTERM while the model is still being built and compiled (a terrain of many
+/// thousand cylinders makes set-up take seconds): exit 130, no run folder.
+#[test]
+fn a_signal_during_set_up_stops_before_the_run_folder_is_created() {
+    for signal in ["TERM", "INT"] {
+        let mut done = false;
+        // A faster set-up (placement made quicker) needs more cylinders to still be in set-up.
+        for count in [12_000, 40_000, 120_000] {
+            let dir = tempfile::tempdir().unwrap();
+            let guard = spawn_run(
+                dir.path(),
+                &[
+                    "general.duration_secs=1",
+                    "terrain.kind=\"random_cylinders\"",
+                    &format!("terrain.random_cylinders.count={count}"),
+                    "terrain.random_cylinders.half_size_m=200",
+                    "terrain.random_cylinders.radius_range_m=[0.05, 0.1]",
+                ],
+            );
+            // Give the process time to read its config and install its handler.
+            std::thread::sleep(Duration::from_millis(700));
+            if !run_folders(&dir.path().join("runs")).is_empty() {
+                continue; // set-up was over already: try a longer one
+            }
+            send(guard.0.as_ref().unwrap(), signal);
+            let out = finish(guard, Duration::from_secs(600));
+            assert_eq!(out.status.code(), Some(130), "{signal}: {}", text(&out));
+            assert!(text(&out).contains("during set-up"), "{}", text(&out));
+            assert!(run_folders(&dir.path().join("runs")).is_empty(), "{signal}: a run folder was left");
+            done = true;
+            break;
+        }
+        assert!(done, "{signal}: set-up never lasted 0.7 s");
+    }
+}
+
+/// SIGINT or SIGTERM during the run: exit 130, manifest `incomplete`, every table listed with
+/// exactly its whole rows.
+#[test]
+fn a_signal_during_the_run_leaves_whole_listed_rows() {
+    for signal in ["TERM", "INT"] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut guard = spawn_run(dir.path(), &["general.duration_secs=3600", "recording.every_n_steps=1"]);
+        let runs = dir.path().join("runs");
+        let child = guard.0.as_mut().unwrap();
+        let started = wait_until(child, || {
+            run_folders(&runs)
+                .first()
+                .is_some_and(|r| std::fs::metadata(r.join("links.csv")).is_ok_and(|m| m.len() > 100_000))
+        });
+        assert!(started);
+        send(guard.0.as_ref().unwrap(), signal);
+        let out = finish(guard, Duration::from_secs(60));
+        assert_eq!(out.status.code(), Some(130), "{signal}: {}", text(&out));
+        let m = check_run_folder(&run_folders(&runs)[0], &["incomplete"], false).unwrap();
+        assert_eq!(m["tables"].as_array().unwrap().len(), 4, "{m}");
+    }
+}
+
+/// SIGINT or SIGTERM while `general.plot = true` draws the plots: exit 130; the manifest says
+/// the run is `complete` and its `plots` says `interrupted`.
+#[test]
+fn a_signal_during_plotting_exits_130_and_the_manifest_says_plots_interrupted() {
+    for signal in ["INT", "TERM"] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut guard =
+            spawn_run(dir.path(), &["general.duration_secs=3", "recording.every_n_steps=1", "general.plot=true"]);
+        let runs = dir.path().join("runs");
+        let child = guard.0.as_mut().unwrap();
+        // The manifest says `complete` before plotting starts.
+        let plotting = wait_until(child, || {
+            run_folders(&runs).first().is_some_and(|r| {
+                std::fs::read_to_string(r.join("manifest.json")).is_ok_and(|t| t.contains("\"complete\""))
+            })
+        });
+        assert!(plotting, "{signal}: ended before plotting");
+        send(guard.0.as_ref().unwrap(), signal);
+        let out = finish(guard, Duration::from_secs(120));
+        let run = &run_folders(&runs)[0];
+        let m = check_run_folder(run, &["complete"], false).unwrap();
+        assert_eq!(out.status.code(), Some(130), "{signal}: {} {m}", text(&out));
+        assert_eq!(m["plots"], "interrupted", "{m}");
+        assert!(text(&out).contains("plotting interrupted"), "{}", text(&out));
     }
 }
