@@ -156,8 +156,6 @@ impl Drop for SpaceReserve {
 
 #[cfg(test)]
 mod tests {
-    use super::*;
-
     /// A resumed sweep reads its finished runs' metrics back from their manifests: the values
     /// must be the very floats written (serde_json's `float_roundtrip`), or its summary differs
     /// from a fresh sweep's in the last digits.

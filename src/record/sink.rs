@@ -102,6 +102,9 @@ impl ParquetSink {
     }
 }
 
+/// A file that failed: its path and the OS error.
+pub type FileError = (PathBuf, std::io::Error);
+
 /// One logical table (`links`, `joints`, …) written as `<name>.csv`, `<name>.parquet` or both.
 pub struct Table {
     csv: Option<CsvTable>,
@@ -233,7 +236,7 @@ impl Table {
     /// Closes every file (Parquet: writes the footer), each even when another fails. Returns
     /// (file name, rows) per file — the whole rows each file holds, exact also after a failure
     /// (see [`CsvTable::close`], [`super::ParquetTable`]) — and the first error.
-    pub fn finish(self) -> (Vec<(String, u64)>, Option<(PathBuf, std::io::Error)>) {
+    pub fn finish(self) -> (Vec<(String, u64)>, Option<FileError>) {
         fn file_name(path: &Path) -> String {
             path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
         }
