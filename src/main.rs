@@ -1,13 +1,62 @@
 //! The `simserpent` command line. Exit codes: 0 success, 1 simulation failure (divergence,
 //! output folder or disk), 2 bad input (config, model or robot file, command-line usage),
-//! 130 interrupted by SIGINT/SIGTERM (run folder kept, manifest `incomplete`).
+//! 130 interrupted by SIGINT/SIGTERM (during set-up: no run folder; during the run: run folder
+//! kept, manifest `incomplete`; during plotting: manifest `complete`, `plots` `interrupted`).
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use simserpent::config::{self, Config, ConfigError};
 use simserpent::run::{self, RunError, RunOptions};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Set once standard output turned out to be a closed pipe; nothing more is printed to it.
+static STDOUT_CLOSED: AtomicBool = AtomicBool::new(false);
+
+/// Prints a command's report to standard output.
+///
+/// A closed pipe (`simserpent check | head -1`, `simserpent run | true`) ends the printing
+/// quietly, as Unix tools do, and the exit code stays the command's own: every command prints
+/// only after its work is done (a run's tables and manifest are closed before its summary is
+/// printed), so a reader that stops reading loses nothing but the text. SIGPIPE keeps Rust's
+/// default action (ignored, so a write returns `EPIPE`) instead of being reset to "terminate":
+/// the process then never dies in the middle of writing a run folder, nor when a pipe to a
+/// child (the video encoder) closes. Any other error of standard output (a full disk behind
+/// `> file`) fails the command with exit code 1.
+fn say(args: std::fmt::Arguments<'_>) -> Result<(), Failure> {
+    if STDOUT_CLOSED.load(Ordering::Relaxed) {
+        return Ok(());
+    }
+    let mut out = std::io::stdout().lock();
+    match out.write_fmt(args).and_then(|()| out.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+            STDOUT_CLOSED.store(true, Ordering::Relaxed);
+            Ok(())
+        }
+        Err(e) => Err(anyhow::Error::new(e).context("cannot write to standard output").into()),
+    }
+}
+
+/// `print!` through [`say`] (returns from the function on a real output error).
+macro_rules! out {
+    ($($arg:tt)*) => { say(format_args!($($arg)*))? };
+}
+
+/// `println!` through [`say`].
+macro_rules! outln {
+    ($($arg:tt)*) => { say(format_args!("{}\n", format_args!($($arg)*)))? };
+}
+
+/// `eprintln!` that ignores a closed standard error instead of panicking: the exit code still
+/// tells what happened.
+macro_rules! errln {
+    ($($arg:tt)*) => {{
+        let _ = writeln!(std::io::stderr().lock(), $($arg)*);
+    }};
+}
 
 #[derive(Parser, Debug)]
 #[command(
@@ -16,8 +65,9 @@ use std::process::ExitCode;
     about = "Physics-based snake-robot simulator on MuJoCo 3.17",
     after_help = "Exit codes: 0 success; 1 the simulation failed (diverged, or the run folder could not be \
                   written; the manifest says why); 2 bad input (config, model or robot file, command line; no run \
-                  folder is created); 130 interrupted by Ctrl-C (SIGINT) or SIGTERM (tables flushed, manifest \
-                  `incomplete`)."
+                  folder is created); 130 interrupted by Ctrl-C (SIGINT) or SIGTERM (during set-up: no run folder; during \
+                  the run: tables flushed, manifest `incomplete`; during plotting: the run is complete, manifest \
+                  `plots` says `interrupted`). A second signal quits at once."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -211,7 +261,9 @@ impl ExitCodeOf for RunError {
         match self {
             RunError::Sim(SimError::Config(_) | SimError::RobotFile { .. }) => 2,
             RunError::Render(e) => e.exit_code(),
-            RunError::Interrupted { .. } => 130,
+            RunError::Interrupted { .. }
+            | RunError::InterruptedSetUp
+            | RunError::Plot(simserpent::plot::PlotError::Interrupted { .. }) => 130,
             _ => 1,
         }
     }
@@ -236,6 +288,7 @@ impl ExitCodeOf for simserpent::plot::PlotError {
             simserpent::plot::PlotError::Write { .. }
             | simserpent::plot::PlotError::Folder { .. }
             | simserpent::plot::PlotError::Png { .. } => 1,
+            simserpent::plot::PlotError::Interrupted { .. } => 130,
             _ => 2,
         }
     }
@@ -306,27 +359,26 @@ fn run_command(args: &ConfigArgs, robot: Option<PathBuf>, quiet: bool, viewer: b
             error: if config_error { error.context(format!("config {}", options.config_source)) } else { error },
         }
     })?;
-    println!("run folder:        {}", summary.run_folder.display());
-    println!(
+    outln!("run folder:        {}", summary.run_folder.display());
+    outln!(
         "simulated:         {:.3} s in {} steps",
         summary.simulated_secs,
         (summary.simulated_secs / config.general.timestep_secs).round()
     );
-    println!(
+    outln!(
         "distance (CoM):    {:.4} m toward {:.1} deg, mean speed {:.4} m/s",
-        summary.distance_m, summary.heading_deg, summary.mean_speed_m_per_s
+        summary.distance_m,
+        summary.heading_deg,
+        summary.mean_speed_m_per_s
     );
-    println!("forward speed:     {:.4} m/s (along the way the head faced at the start)", summary.forward_speed_m_per_s);
-    println!(
+    outln!("forward speed:     {:.4} m/s (along the way the head faced at the start)", summary.forward_speed_m_per_s);
+    outln!(
         "peak contact force {:.3} N, max penetration {:.3} mm (at recorded steps)",
         summary.peak_contact_force_n,
         summary.max_penetration_m * 1e3
     );
-    println!("actuator energy:   {:.3} J", summary.actuator_energy_j);
-    println!(
-        "speed:             {:.0} steps/s, {:.1}x real time",
-        summary.steps_per_wall_sec, summary.real_time_factor
-    );
+    outln!("actuator energy:   {:.3} J", summary.actuator_energy_j);
+    outln!("speed:             {:.0} steps/s, {:.1}x real time", summary.steps_per_wall_sec, summary.real_time_factor);
     if viewer && !cfg!(feature = "viewer") {
         // Without the in-process viewer, show the finished run in Python's viewer.
         simserpent::render::viewer::replay_run_folder(&summary.run_folder).map_err(failure)?;
@@ -338,9 +390,9 @@ fn run_command(args: &ConfigArgs, robot: Option<PathBuf>, quiet: bool, viewer: b
 fn plot_command(folder: &Path) -> Result<(), Failure> {
     let out = simserpent::plot::plot_run_folder(folder).map_err(failure)?;
     for (panel, why) in &out.skipped {
-        eprintln!("skipped {panel}: {why}");
+        errln!("skipped {panel}: {why}");
     }
-    println!("wrote {} plot files into {}", out.files.len(), folder.join("plots").display());
+    outln!("wrote {} plot files into {}", out.files.len(), folder.join("plots").display());
     Ok(())
 }
 
@@ -352,7 +404,7 @@ fn render_command(folder: &Path, video: bool, images: bool, overrides: &[String]
     let options = simserpent::render::ReplayOptions { video, images, overrides: overrides.to_vec(), progress: !quiet };
     let files = simserpent::render::render_run_folder(folder, &options).map_err(failure)?;
     for f in files {
-        println!("wrote {}", f.display());
+        outln!("wrote {}", f.display());
     }
     Ok(())
 }
@@ -382,10 +434,10 @@ fn experiment(name: &str, args: &ConfigArgs, quick: bool) -> Result<(), Failure>
         .map_err(failure)?;
     let report = &outcome.report;
     for c in report.checks() {
-        println!("{} {}", if c.passed { "pass" } else { "FAIL" }, c.name);
+        outln!("{} {}", if c.passed { "pass" } else { "FAIL" }, c.name);
     }
     let passed = report.checks().filter(|c| c.passed).count();
-    println!(
+    outln!(
         "{passed} of {} checks passed; report: {}",
         report.checks().count(),
         outcome.folder.join("report.md").display()
@@ -402,7 +454,7 @@ fn init(path: &Path, force: bool) -> Result<(), Failure> {
         return Err(bad_input(anyhow::anyhow!("{} exists already; use --force to overwrite it", path.display())));
     }
     std::fs::write(path, config::DEFAULT_CONFIG_TOML).with_context(|| format!("cannot write {}", path.display()))?;
-    println!("wrote {}", path.display());
+    outln!("wrote {}", path.display());
     Ok(())
 }
 
@@ -412,8 +464,7 @@ fn check(args: &ConfigArgs) -> Result<(), Failure> {
     let (config, source) = load(args)?;
     simserpent::model::generate(&config)
         .map_err(|e| bad_input(anyhow::Error::new(e).context(format!("config {source}"))))?;
-    print!("{}", config.to_toml_string());
-    Ok(())
+    say(format_args!("{}", config.to_toml_string()))
 }
 
 fn model(args: &ConfigArgs, output: Option<&Path>, scene_dir: Option<&Path>) -> Result<(), Failure> {
@@ -424,14 +475,14 @@ fn model(args: &ConfigArgs, output: Option<&Path>, scene_dir: Option<&Path>) -> 
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
         let f = &generated.files;
         simserpent::sim::write_model_folder(dir, &generated.xml, &f.texts, &f.copies)?;
-        eprintln!("wrote {} (scene.xml, terrain.xml, robot.xml, model.xml)", dir.display());
+        errln!("wrote {} (scene.xml, terrain.xml, robot.xml, model.xml)", dir.display());
     }
     match output {
         Some(path) => {
             std::fs::write(path, &generated.xml).with_context(|| format!("cannot write {}", path.display()))?;
-            eprintln!("wrote {}", path.display());
+            errln!("wrote {}", path.display());
         }
-        None => print!("{}", generated.xml),
+        None => out!("{}", generated.xml),
     }
     Ok(())
 }
@@ -445,16 +496,18 @@ fn bench(
 ) -> Result<(), Failure> {
     let (config, source) = load(args)?;
     let rows = simserpent::bench::run_bench(&config, links, duration_secs, output_dir, repeats).map_err(failure)?;
-    println!(
+    outln!(
         "config: {source}; timestep {} s, integrator {:?}, {} s simulated per row",
-        config.general.timestep_secs, config.general.integrator, duration_secs
+        config.general.timestep_secs,
+        config.general.integrator,
+        duration_secs
     );
-    println!("| links | mode | steps/s | real-time factor | vs bare still | vs bare gait |");
-    println!("|---|---|---|---|---|---|");
+    outln!("| links | mode | steps/s | real-time factor | vs bare still | vs bare gait |");
+    outln!("|---|---|---|---|---|---|");
     for chunk in rows.chunks(simserpent::bench::modes().len()) {
         let (still, gait) = (chunk[0].steps_per_sec, chunk[1].steps_per_sec);
         for r in chunk {
-            println!(
+            outln!(
                 "| {} | {} | {:.0} | {:.1} | {:.0}% | {:.0}% |",
                 r.n_links,
                 r.mode,
@@ -500,14 +553,14 @@ fn sweep(
     }
     let report = sweep::run_sweep(&spec).map_err(failure)?;
     let (done, skipped, failed) = report.counts();
-    println!("sweep folder: {}", report.sweep_dir.display());
-    println!(
+    outln!("sweep folder: {}", report.sweep_dir.display());
+    outln!(
         "runs:         {} ({done} completed now, {skipped} already complete, {failed} failed) in {:.1} s on {} threads",
         report.rows.len(),
         report.wall_secs,
         report.threads
     );
-    println!("summary:      {}", report.summary_csv.display());
+    outln!("summary:      {}", report.summary_csv.display());
     if report.interrupted() > 0 {
         return Err(Failure {
             code: 130,
@@ -520,7 +573,7 @@ fn sweep(
     if failed > 0 {
         for row in &report.rows {
             if let sweep::RunOutcome::Failed(message) = &row.outcome {
-                eprintln!("failed: {}: {message}", row.run.id);
+                errln!("failed: {}: {message}", row.run.id);
             }
         }
         return Err(Failure {
@@ -536,7 +589,7 @@ fn sweep(
 
 fn sweep_merge(dir: &Path) -> Result<(), Failure> {
     let (table, files) = simserpent::sweep::merge_shards(dir).map_err(failure)?;
-    println!(
+    outln!(
         "merged {} shard summaries, {} runs, into {}",
         files.len(),
         table.rows.len(),
@@ -599,7 +652,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
-            eprintln!("error: {}", error_text(&failure.error));
+            errln!("error: {}", error_text(&failure.error));
             ExitCode::from(failure.code)
         }
     }

@@ -2,7 +2,7 @@
 
 use crate::config::Config;
 use crate::control::Controller;
-use crate::record::{self, Manifest, RecordError, Recorder, RunStatus};
+use crate::record::{self, Manifest, RecordError, Recorder, RunStatus, SpaceReserve};
 use crate::sim::{Every, LoopPlan, Observer, SimError, Simulation, StepView, World};
 use crate::state::{RunTotals, Snapshot};
 use serde::Serialize;
@@ -57,6 +57,12 @@ pub enum RunError {
         /// Steps taken.
         step: u64,
     },
+    /// SIGINT/SIGTERM arrived during set-up (reading the config, generating and compiling the
+    /// model): the run stopped before its run folder was created (exit code 130).
+    #[error(
+        "interrupted by a signal (SIGINT or SIGTERM) during set-up, before the run started; no run folder was created"
+    )]
+    InterruptedSetUp,
 }
 
 /// The short summary printed at the end and stored in the manifest.
@@ -122,32 +128,32 @@ pub fn run_with_controller(
 }
 
 /// Runs a prepared simulation for the configured duration, recording into a new run folder.
+///
+/// A stop requested during set-up ([`crate::interrupt`]; a model compile can take many seconds)
+/// is acted on here, before the run folder is created. From the moment the folder exists it
+/// holds a `manifest.json` (see [`open_run_folder`]), and whatever ends the run — the end of
+/// the duration, divergence, a full disk, a signal — leaves one that says how.
 pub fn run_simulation<C: Controller>(
     config: &Config,
     options: &RunOptions,
     mut sim: Simulation<C>,
 ) -> Result<RunSummary, RunError> {
+    if crate::interrupt::requested() {
+        return Err(RunError::InterruptedSetUp);
+    }
     let unix_secs = SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
     let stamp = record::utc_stamp(unix_secs);
-    let folder = match &options.run_folder {
+    let (folder, created) = match &options.run_folder {
         Some(folder) => {
+            let existed = folder.exists();
             std::fs::create_dir_all(folder).map_err(record::io_err(folder))?;
-            folder.clone()
+            (folder.clone(), !existed)
         }
-        None => record::create_run_folder(Path::new(&config.general.output_dir), &config.general.run_name, &stamp)?,
+        None => {
+            let output_dir = Path::new(&config.general.output_dir);
+            (record::create_run_folder(output_dir, &config.general.run_name, &stamp)?, true)
+        }
     };
-    let write = |name: &str, text: &str| -> Result<(), RecordError> {
-        let path = folder.join(name);
-        std::fs::write(&path, text).map_err(record::io_err(&path))
-    };
-    write("config.toml", &run_folder_config(config, &sim.world().copied_files).to_toml_string())?;
-    write("model.xml", &sim.world().mjcf)?;
-    for (name, text) in &sim.world().included_files {
-        write(name, text)?;
-    }
-    for c in &sim.world().copied_files {
-        crate::sim::copy_file(&folder, c)?;
-    }
     let dt = config.general.timestep_secs;
     let total_steps = (config.general.duration_secs / dt).round().max(1.0) as u64;
     let mut manifest = Manifest {
@@ -169,15 +175,23 @@ pub fn run_simulation<C: Controller>(
         tables: Vec::new(),
         mujoco_warnings: Vec::new(),
         summary: None,
+        plots: None,
     };
-    manifest.write(&folder)?;
-    let mut recorder = if config.recording.enabled {
-        Some(Recorder::create(&folder, &config.recording, &sim.world().index, !sim.ground().surfaces().is_empty())?)
-    } else {
-        None
+    let mut reserve = open_run_folder(&folder, created, &mut manifest)?;
+    let set_up = write_run_files(config, &folder, sim.world()).and_then(|()| {
+        let recorder = if config.recording.enabled {
+            let surfaces = !sim.ground().surfaces().is_empty();
+            Some(Recorder::create(&folder, &config.recording, &sim.world().index, surfaces)?)
+        } else {
+            None
+        };
+        let visuals = crate::render::RunVisuals::create(config, &folder, sim.world().data(), options.viewer)?;
+        Ok((recorder, visuals))
+    });
+    let (mut recorder, mut visuals) = match set_up {
+        Ok(parts) => parts,
+        Err(e) => return Err(end_unfinished(&folder, &mut manifest, &mut reserve, e)),
     };
-
-    let mut visuals = crate::render::RunVisuals::create(config, &folder, sim.world().data(), options.viewer)?;
 
     let started = Instant::now();
     let plan = LoopPlan { steps: total_steps, record_every_n_steps: config.recording.every_n_steps.max(1) };
@@ -220,14 +234,15 @@ pub fn run_simulation<C: Controller>(
     manifest.steps = sim.steps();
     manifest.simulated_secs = sim.world().time_secs();
     manifest.mujoco_warnings = sim.world().warning_counts();
-    let tables = match recorder {
+    // Every table is closed and listed with the whole rows it holds, also after a failure.
+    let (tables, tables_done) = match recorder {
         Some(r) => r.finish(),
-        None => Ok(Vec::new()),
+        None => (Vec::new(), Ok(())),
     };
-    manifest.tables = tables.as_ref().map(Clone::clone).unwrap_or_default();
-    let result = match (outcome, tables) {
-        (Ok(summary), Ok(_)) => Ok(summary),
-        (Err(e), Ok(_)) => Err(e),
+    manifest.tables = tables;
+    let result = match (outcome, tables_done) {
+        (Ok(summary), Ok(())) => Ok(summary),
+        (Err(e), Ok(())) => Err(e),
         (Err(e), Err(t)) => {
             // Both failed (say, diverged on a full disk): the run's error leads, the table's is logged.
             log::error!("{t}");
@@ -235,30 +250,86 @@ pub fn run_simulation<C: Controller>(
         }
         (Ok(_), Err(e)) => Err(RunError::from(e)),
     };
-    match result {
-        Ok(mut summary) => {
-            summary.steps_per_wall_sec = sim.steps() as f64 / wall.max(1e-9);
-            summary.real_time_factor = sim.world().time_secs() / wall.max(1e-9);
-            manifest.status = RunStatus::Complete;
-            manifest.summary = Some(summary.clone());
-            manifest.write(&folder)?;
-            if config.general.plot {
-                crate::plot::plot_run_folder(&folder)?;
-            }
-            Ok(summary)
+    let mut summary = match result {
+        Ok(summary) => summary,
+        Err(e) => return Err(end_unfinished(&folder, &mut manifest, &mut reserve, e)),
+    };
+    summary.steps_per_wall_sec = sim.steps() as f64 / wall.max(1e-9);
+    summary.real_time_factor = sim.world().time_secs() / wall.max(1e-9);
+    manifest.status = RunStatus::Complete;
+    manifest.summary = Some(summary.clone());
+    reserve.release();
+    manifest.write(&folder)?;
+    if config.general.plot {
+        // The run is complete (and its manifest says so) whatever happens to the plots; the
+        // manifest's `plots` says how plotting ended.
+        let plotted = crate::plot::plot_run_folder(&folder);
+        manifest.plots = Some(match &plotted {
+            Ok(_) => "written".to_string(),
+            Err(crate::plot::PlotError::Interrupted { .. }) => "interrupted".to_string(),
+            Err(e) => format!("failed: {e}"),
+        });
+        if let Err(m) = manifest.write(&folder) {
+            log::error!("{m}");
         }
-        Err(e) => {
-            manifest.status =
-                if matches!(e, RunError::Interrupted { .. }) { RunStatus::Incomplete } else { RunStatus::Failed };
-            manifest.error = Some(e.to_string());
-            // The run's own error matters more than a manifest that cannot be written (e.g. the
-            // same full disk): report that one, and the manifest problem beside it.
-            if let Err(m) = manifest.write(&folder) {
-                log::error!("{m}");
-            }
-            Err(e)
-        }
+        plotted?;
     }
+    Ok(summary)
+}
+
+/// Makes a new run folder a run folder: first the space kept for its last manifest
+/// ([`SpaceReserve`]), then the start manifest (`incomplete`). A run folder that this function
+/// returns holds a manifest; if it cannot (a full disk), a folder the run `created` is removed
+/// again, and the error returned.
+fn open_run_folder(folder: &Path, created: bool, manifest: &mut Manifest) -> Result<SpaceReserve, RecordError> {
+    let remove = || {
+        if created {
+            let _ = std::fs::remove_dir_all(folder);
+        }
+    };
+    let mut reserve = SpaceReserve::create(folder, manifest.to_text().len()).inspect_err(|_| remove())?;
+    if let Err(e) = manifest.write(folder) {
+        // Try once more with the reserved space, to leave a manifest that says why.
+        reserve.release();
+        manifest.status = RunStatus::Failed;
+        manifest.error = Some(e.to_string());
+        if manifest.write(folder).is_err() {
+            remove();
+        }
+        return Err(e);
+    }
+    Ok(reserve)
+}
+
+/// The files of the run folder besides the tables: `config.toml`, `model.xml`, included and
+/// copied terrain files.
+fn write_run_files(config: &Config, folder: &Path, world: &World) -> Result<(), RunError> {
+    let write = |name: &str, text: &str| -> Result<(), RecordError> {
+        let path = folder.join(name);
+        std::fs::write(&path, text).map_err(record::io_err(&path))
+    };
+    write("config.toml", &run_folder_config(config, &world.copied_files).to_toml_string())?;
+    write("model.xml", &world.mjcf)?;
+    for (name, text) in &world.included_files {
+        write(name, text)?;
+    }
+    for c in &world.copied_files {
+        crate::sim::copy_file(folder, c)?;
+    }
+    Ok(())
+}
+
+/// Ends a run that did not complete: frees the reserved space and writes the manifest that says
+/// so (`incomplete` after a signal, else `failed`, with the error). The run's error matters more
+/// than a manifest that cannot be written (say, on the same full disk): that one is logged.
+fn end_unfinished(folder: &Path, manifest: &mut Manifest, reserve: &mut SpaceReserve, e: RunError) -> RunError {
+    reserve.release();
+    manifest.status = if matches!(e, RunError::Interrupted { .. }) { RunStatus::Incomplete } else { RunStatus::Failed };
+    manifest.error = Some(e.to_string());
+    if let Err(m) = manifest.write(folder) {
+        log::error!("{m}");
+    }
+    e
 }
 
 /// The config as recorded in the run folder: its terrain file keys point at the copies in the

@@ -86,6 +86,18 @@ pub enum PlotError {
         #[source]
         source: Box<crate::render::RenderError>,
     },
+    /// SIGINT/SIGTERM (with [`crate::interrupt`]'s handler installed, or
+    /// [`crate::interrupt::request`]) stopped the plotting between two files.
+    #[error("plotting interrupted by a signal (SIGINT or SIGTERM); the plots written so far are in {dir}")]
+    Interrupted {
+        /// The plot folder.
+        dir: PathBuf,
+    },
+}
+
+/// Stops plotting between files when a stop was requested ([`crate::interrupt`]).
+fn check_interrupt(dir: &Path) -> Result<(), PlotError> {
+    if crate::interrupt::requested() { Err(PlotError::Interrupted { dir: dir.to_path_buf() }) } else { Ok(()) }
 }
 
 /// A CSV table read whole: column name → values (text columns are left out).
@@ -323,6 +335,7 @@ fn both(
     size: (u32, u32),
     draw: impl Fn(&dyn AnyArea) -> DrawResult,
 ) -> Result<Vec<PathBuf>, PlotError> {
+    check_interrupt(dir)?;
     let png = dir.join(format!("{stem}.png"));
     let svg = dir.join(format!("{stem}.svg"));
     let failed = |path: &Path, message: String| PlotError::Write { path: path.to_path_buf(), message };
@@ -369,6 +382,7 @@ pub fn plot_time_series(
 /// Writes the standard panels of a run folder into `<folder>/plots/`.
 pub fn plot_run_folder(folder: &Path) -> Result<PlotOutput, PlotError> {
     register_font();
+    check_interrupt(&folder.join("plots"))?;
     let config_path = folder.join("config.toml");
     if !config_path.is_file() {
         return Err(PlotError::BadFile {
@@ -397,6 +411,7 @@ pub fn plot_run_folder(folder: &Path) -> Result<PlotOutput, PlotError> {
         Err(e) => return Err(e),
     };
     let dir = folder.join("plots");
+    check_interrupt(&dir)?;
     std::fs::create_dir_all(&dir).map_err(|source| PlotError::Folder { path: dir.clone(), source })?;
     draw_panels(&config, &links, &joints, contacts.as_ref(), &obstacles(&folder.join("model.xml")), &dir)
 }

@@ -483,7 +483,8 @@ mod tests {
             let mut table =
                 Table::typed(dir.path(), spec.name, &header.names, &header.kinds, &flags).expect("table created");
             layout.write(&mut table, &s, 7, &names).expect("row written");
-            table.finish().expect("table closed");
+            let (_, error) = table.finish();
+            assert!(error.is_none(), "table closed: {error:?}");
             let text = std::fs::read_to_string(dir.path().join(format!("{}.csv", spec.name))).expect("table read");
             let lines: Vec<&str> = text.lines().collect();
             assert_eq!(lines[0], header.names.join(","));

@@ -22,7 +22,7 @@ mod parquet;
 mod sink;
 mod table;
 
-pub use manifest::{Manifest, RunStatus};
+pub use manifest::{Manifest, RunStatus, SpaceReserve};
 #[cfg(feature = "parquet")]
 pub use parquet::ParquetTable;
 pub use sink::{ColumnKind, Table, TableSink};
@@ -98,7 +98,7 @@ impl Recorder {
     ///
     /// With `surfaces` (the config has floor surfaces) `links` gets one more column per link,
     /// `link_ii_surface`: the index of the surface under the link's centre in `ground.surfaces`,
-    /// or −1 on the plain floor.
+    /// or −1 on the plain floor. When a table cannot be created, none is left in `folder`.
     pub fn create(folder: &Path, flags: &Recording, index: &Index, surfaces: bool) -> Result<Self, RecordError> {
         let want = Wanted { flags, surfaces };
         let links: Vec<&str> = index.links.iter().map(|l| l.name.as_str()).collect();
@@ -109,9 +109,19 @@ impl Recorder {
                 continue;
             }
             let (layout, header) = Layout::new(spec, want, &links, &joints);
-            let table = Table::typed(folder, spec.name, &header.names, &header.kinds, flags)
-                .map_err(io_err(&folder.join(spec.name)))?;
-            tables.push((layout, table));
+            match Table::typed(folder, spec.name, &header.names, &header.kinds, flags) {
+                Ok(table) => tables.push((layout, table)),
+                Err(e) => {
+                    // A full disk while creating the tables: leave none (they hold no rows yet),
+                    // so the manifest's empty table list is the truth.
+                    drop(tables);
+                    for name in TABLES.iter().map(|s| s.name) {
+                        let _ = std::fs::remove_file(folder.join(format!("{name}.csv")));
+                        let _ = std::fs::remove_dir_all(folder.join(format!("{name}.parquet")));
+                    }
+                    return Err(io_err(&folder.join(spec.name))(e));
+                }
+            }
         }
         let names = ContactNames { geoms: index.geom_names.clone(), bodies: index.body_names.clone() };
         Ok(Self { tables, names })
@@ -136,13 +146,21 @@ impl Recorder {
         Ok(())
     }
 
-    /// Flushes and closes all tables; returns (file name, rows) per table.
-    pub fn finish(self) -> Result<Vec<(String, u64)>, RecordError> {
+    /// Flushes and closes all tables, each even when another fails. Returns (file name, rows)
+    /// per table file, for the manifest, and the first error. The rows are the whole rows each
+    /// file holds, also after a failure: a CSV file is cut back to its last whole row, and a
+    /// Parquet part that cannot be closed is deleted (see [`CsvTable::close`]).
+    pub fn finish(self) -> (Vec<(String, u64)>, Result<(), RecordError>) {
         let mut out = Vec::new();
+        let mut first_error = Ok(());
         for (_, table) in self.tables {
-            out.extend(table.finish().map_err(|(path, source)| RecordError::Io { path, source })?);
+            let (files, error) = table.finish();
+            out.extend(files);
+            if let (Some((path, source)), Ok(())) = (error, &first_error) {
+                first_error = Err(RecordError::Io { path, source });
+            }
         }
-        Ok(out)
+        (out, first_error)
     }
 }
 

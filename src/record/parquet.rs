@@ -15,6 +15,13 @@
 //!   file per table grows with the run; closing a part every `rows_per_file` rows bounds it;
 //! - nothing lost: a killed process leaves every closed part readable.
 //!
+//! A part is written as `.part-00000.parquet.inprogress` and renamed to `part-00000.parquet` once
+//! its footer is written and synced. Readers skip the unfinished one: pyarrow's (and so
+//! pandas') dataset discovery ignores names starting with `.` or `_`, and a `*.parquet` glob
+//! (polars, DuckDB) does not match it. So after SIGKILL, the OOM killer or a full disk,
+//! `pd.read_parquet("<run>/links.parquet")` reads every closed part; a part that fails to close
+//! is deleted.
+//!
 //! Compression is LZ4 (raw) by default: ZSTD is 8 % smaller, but arrow-rs creates a ZSTD
 //! compression *and* decompression context for every column of every row group (about 0.1 MB
 //! each, 75 MB at once for a 10-link snake's 656 columns), which dominates the memory of a run.
@@ -183,7 +190,13 @@ impl ParquetTable {
     }
 
     /// Writes the last row group and the footer, and syncs the file to disk.
-    pub fn finish(mut self) -> std::io::Result<()> {
+    pub fn finish(self) -> std::io::Result<()> {
+        self.finish_counted().map(|_| ())
+    }
+
+    /// [`ParquetTable::finish`], returning the rows the file holds (fewer than [`TableSink::rows`]
+    /// when a row was left half-written by an error and its unfinished batch had to be dropped).
+    fn finish_counted(mut self) -> std::io::Result<u64> {
         if self.in_row != 0 {
             // A half-written row (an error mid-row): drop it rather than write a ragged table.
             for c in &mut self.columns {
@@ -197,6 +210,7 @@ impl ParquetTable {
             if self.columns.iter().any(|c| matches!(c, Column::Text(b) if b.len() > self.buffered)) {
                 // Text builders cannot be truncated; drop the whole unfinished row group instead
                 // of writing a ragged one.
+                self.rows -= self.buffered as u64;
                 self.buffered = 0;
                 let capacity = self.batch_rows;
                 for c in &mut self.columns {
@@ -205,9 +219,11 @@ impl ParquetTable {
             }
         }
         self.write_batch()?;
+        let rows = self.rows;
         let file = self.writer.into_inner().map_err(to_io)?;
         let file = file.into_inner().map_err(|e| e.into_error())?;
-        file.sync_all()
+        file.sync_all()?;
+        Ok(rows)
     }
 }
 
@@ -300,6 +316,8 @@ pub struct ParquetDataset {
     part: Option<ParquetTable>,
     parts_closed: usize,
     rows: u64,
+    /// Rows in the closed (renamed) parts.
+    rows_closed: u64,
 }
 
 impl ParquetDataset {
@@ -323,6 +341,7 @@ impl ParquetDataset {
             part: None,
             parts_closed: 0,
             rows: 0,
+            rows_closed: 0,
         })
     }
 
@@ -331,11 +350,16 @@ impl ParquetDataset {
         dir.join(format!("part-{index:05}.parquet"))
     }
 
+    /// Part number `index` while it is written (a name readers skip).
+    pub fn part_in_progress_path(dir: &Path, index: usize) -> PathBuf {
+        dir.join(format!(".part-{index:05}.parquet.inprogress"))
+    }
+
     /// The part being written, opened if needed (once per `rows_per_file` rows, not per value).
     #[inline]
     fn part(&mut self) -> std::io::Result<&mut ParquetTable> {
         if self.part.is_none() {
-            let path = Self::part_path(&self.dir, self.parts_closed);
+            let path = Self::part_in_progress_path(&self.dir, self.parts_closed);
             self.part =
                 Some(ParquetTable::create(&path, &self.header, &self.kinds, self.row_group_rows, self.compression)?);
         }
@@ -343,21 +367,46 @@ impl ParquetDataset {
         self.part.as_mut().ok_or_else(|| Error::other("no part file"))
     }
 
+    /// Writes the footer of the part in progress, syncs it and gives it its final name; a part
+    /// that fails to close is deleted (the closed parts stay readable).
     fn close_part(&mut self) -> std::io::Result<()> {
         if let Some(part) = self.part.take() {
-            part.finish()?;
-            self.parts_closed += 1;
+            let unfinished = part.path.clone();
+            let done = Self::part_path(&self.dir, self.parts_closed);
+            let result = part.finish_counted().and_then(|rows| std::fs::rename(&unfinished, &done).map(|()| rows));
+            match result {
+                Ok(rows) => {
+                    self.parts_closed += 1;
+                    self.rows_closed += rows;
+                }
+                Err(e) => {
+                    let _ = std::fs::remove_file(&unfinished);
+                    return Err(e);
+                }
+            }
         }
         Ok(())
     }
 
-    /// Closes the last part. A table without rows still gets one (empty) part, so that readers
-    /// find its columns.
-    pub fn finish(mut self) -> std::io::Result<()> {
+    /// Closes the last part (a table without rows still gets one, empty, so that readers find
+    /// its columns); returns the rows of the closed parts (all rows, unless it failed) and the
+    /// result. A part in progress that cannot be
+    /// closed is deleted, and the folder is synced, so the parts it lists are the rows counted.
+    pub fn close(mut self) -> (u64, std::io::Result<()>) {
+        let mut result = Ok(());
         if self.part.is_none() && self.parts_closed == 0 {
-            self.part()?;
+            result = self.part().map(|_| ());
         }
-        self.close_part()
+        if result.is_ok() {
+            result = self.close_part();
+        } else if let Some(part) = self.part.take() {
+            let _ = std::fs::remove_file(&part.path);
+        }
+        // The renames reach the disk with the folder's own sync.
+        if let Ok(dir) = File::open(&self.dir) {
+            let _ = dir.sync_all();
+        }
+        (self.rows_closed, result)
     }
 }
 

@@ -91,7 +91,7 @@ impl ParquetSink {
     fn flush(&mut self) -> std::io::Result<()> {
         match *self {}
     }
-    fn finish(self) -> std::io::Result<()> {
+    fn close(self) -> (u64, std::io::Result<()>) {
         match self {}
     }
     fn path(&self) -> &Path {
@@ -101,6 +101,9 @@ impl ParquetSink {
         match *self {}
     }
 }
+
+/// A file that failed: its path and the OS error.
+pub type FileError = (PathBuf, std::io::Error);
 
 /// One logical table (`links`, `joints`, …) written as `<name>.csv`, `<name>.parquet` or both.
 pub struct Table {
@@ -208,15 +211,15 @@ impl Table {
         Ok(())
     }
 
-    /// Ends the row.
+    /// Ends the row, in every format even when one fails (a CSV write that fails on a full
+    /// disk must not leave the Parquet row open, or closing it would drop its buffered rows).
     pub fn end_row(&mut self) -> std::io::Result<()> {
-        if let Some(t) = self.csv.as_mut() {
-            t.end_row()?;
-        }
-        if let Some(t) = self.parquet.as_mut() {
-            t.end_row().inspect_err(|_| self.parquet_failed = true)?;
-        }
-        Ok(())
+        let csv = self.csv.as_mut().map_or(Ok(()), CsvTable::end_row);
+        let parquet = match self.parquet.as_mut() {
+            Some(t) => t.end_row().inspect_err(|_| self.parquet_failed = true),
+            None => Ok(()),
+        };
+        csv.and(parquet)
     }
 
     /// Pushes buffered rows to the files (CSV: whole rows; Parquet: the current row group).
@@ -230,22 +233,31 @@ impl Table {
         Ok(())
     }
 
-    /// Closes every file (Parquet: writes the footer); returns (file name, rows) per file.
-    pub fn finish(self) -> Result<Vec<(String, u64)>, (PathBuf, std::io::Error)> {
+    /// Closes every file (Parquet: writes the footer), each even when another fails. Returns
+    /// (file name, rows) per file — the whole rows each file holds, exact also after a failure
+    /// (see [`CsvTable::close`], [`super::ParquetTable`]) — and the first error.
+    pub fn finish(self) -> (Vec<(String, u64)>, Option<FileError>) {
         fn file_name(path: &Path) -> String {
             path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
         }
         let mut out = Vec::new();
+        let mut error = None;
         if let Some(t) = self.csv {
-            let (path, rows) = (t.path().to_path_buf(), t.rows());
-            t.finish().map_err(|e| (path.clone(), e))?;
+            let path = t.path().to_path_buf();
+            let (rows, result) = t.close();
             out.push((file_name(&path), rows));
+            if let Err(e) = result {
+                error = Some((path, e));
+            }
         }
         if let Some(t) = self.parquet {
-            let (path, rows) = (t.path().to_path_buf(), t.rows());
-            t.finish().map_err(|e| (path.clone(), e))?;
+            let path = t.path().to_path_buf();
+            let (rows, result) = t.close();
             out.push((file_name(&path), rows));
+            if let Err(e) = result {
+                error = error.or(Some((path, e)));
+            }
         }
-        Ok(out)
+        (out, error)
     }
 }

@@ -57,9 +57,11 @@ impl StateWriter {
     pub fn write<M: ModelType>(&mut self, data: &MjData<M>) -> Result<(), RenderError> {
         let n =
             data.try_read_state_into(STATE_SPEC, &mut self.buffer).map_err(|e| RenderError::Engine(e.to_string()))?;
-        let path = self.table.path().to_path_buf();
-        let io = RenderError::io(&path);
-        self.table.nums(&self.buffer[..n]).and_then(|()| self.table.end_row()).map_err(io)
+        // The path is only copied on error: a recorded step allocates nothing.
+        match self.table.nums(&self.buffer[..n]).and_then(|()| self.table.end_row()) {
+            Ok(()) => Ok(()),
+            Err(e) => Err(RenderError::io(self.table.path())(e)),
+        }
     }
 
     /// Flushes and closes the file; returns its path and the number of rows.

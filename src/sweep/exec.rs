@@ -129,7 +129,11 @@ fn run_one(spec: &SweepSpec, run: &PlannedRun, folder: &Path, command_line: &[St
     };
     match run::run(&config, &options) {
         Ok(summary) => RunOutcome::Complete(summary),
-        Err(e @ run::RunError::Interrupted { .. }) => RunOutcome::Interrupted(e.to_string()),
+        Err(
+            e @ (run::RunError::Interrupted { .. }
+            | run::RunError::InterruptedSetUp
+            | run::RunError::Plot(crate::plot::PlotError::Interrupted { .. })),
+        ) => RunOutcome::Interrupted(e.to_string()),
         Err(e) => RunOutcome::Failed(e.to_string()),
     }
 }

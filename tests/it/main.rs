@@ -10,6 +10,7 @@
 mod cli;
 mod common;
 mod config;
+mod dying_processes;
 mod estimation;
 mod hostile_files;
 mod locomotion;

@@ -626,8 +626,8 @@ impl Drop for Unmount {
 }
 
 /// A really full disk (a 256 KiB tmpfs, when this process may mount one; skipped otherwise): the
-/// run fails with exit 1 naming the table and "No space left", and the manifest, which has no
-/// room for its temporary file any more, is overwritten in place and says "failed" and why.
+/// run fails with exit 1 naming the table and "No space left", and the manifest — replaced
+/// atomically, in the space the run folder reserved at its start — says "failed" and why.
 #[test]
 fn a_really_full_disk_fails_the_run_and_the_manifest_still_says_why() {
     let dir = tempfile::tempdir().unwrap();
