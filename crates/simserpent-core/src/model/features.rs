@@ -423,8 +423,9 @@ fn peg_centres(cfg: &Config) -> Result<Vec<[f64; 2]>, ConfigError> {
         _ => return Ok(Vec::new()),
     };
     let eps = 1e-9;
-    let nx = ((hi[0] - lo[0]) / p.spacing_m + eps).floor() as usize + 1;
-    let ny = ((hi[1] - lo[1]) / row_step + eps).floor() as usize + 1;
+    // `as usize` saturates (a huge region gives usize::MAX), so the + 1 must too.
+    let nx = (((hi[0] - lo[0]) / p.spacing_m + eps).floor() as usize).saturating_add(1);
+    let ny = (((hi[1] - lo[1]) / row_step + eps).floor() as usize).saturating_add(1);
     if nx.saturating_mul(ny) > super::terrain::MAX_OBSTACLES {
         return Err(ConfigError::invalid(
             "terrain.pegboard.spacing_m",
