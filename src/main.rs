@@ -209,7 +209,7 @@ impl ExitCodeOf for RunError {
     fn exit_code(&self) -> u8 {
         use simserpent::sim::SimError;
         match self {
-            RunError::Sim(SimError::Config(_) | SimError::RobotFile { .. }) => 2,
+            RunError::Sim(SimError::Config(_) | SimError::RobotFile { .. } | SimError::ModelRejected { .. }) => 2,
             RunError::Render(e) => e.exit_code(),
             RunError::Interrupted { .. } => 130,
             _ => 1,
