@@ -163,16 +163,19 @@ pub(crate) fn build(
                 ));
             };
             let attempts = p.count.saturating_mul(1000).min(10_000_000);
+            // Only pegs less than spacing_m apart conflict: the grid tests exactly those.
+            let mut grid = super::grid::PointGrid::new(p.spacing_m);
             for _ in 0..attempts {
                 if accepted.len() == p.count {
                     break;
                 }
                 let c = [ux.sample(&mut rng), uy.sample(&mut rng)];
-                if accepted.iter().any(|o| (c[0] - o[0]).hypot(c[1] - o[1]) < p.spacing_m) {
+                if grid.any_near(c, |o, _: &()| (c[0] - o[0]).hypot(c[1] - o[1]) < p.spacing_m) {
                     continue;
                 }
                 if check(c)? {
                     accepted.push(c);
+                    grid.insert(c, ());
                 }
             }
             if accepted.len() < p.count {

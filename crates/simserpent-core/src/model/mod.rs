@@ -59,6 +59,7 @@
 pub mod features;
 pub mod files;
 mod geometry;
+mod grid;
 pub mod names;
 mod snake;
 pub mod surfaces;
