@@ -22,5 +22,6 @@ pub mod plot;
 pub mod record;
 pub mod render;
 pub mod run;
+pub mod setup_progress;
 pub mod sim;
 pub mod sweep;
