@@ -173,7 +173,10 @@ fn every_numeric_key_at_its_extremes_is_rejected_naming_it_or_compiles() {
                 }
             }
         }
-        println!("figures: extremes per key: {cases} cases, {rejected} rejected naming the key, {compiled} compile, {} failures", failures.len());
+        println!(
+            "figures: extremes per key: {cases} cases, {rejected} rejected naming the key, {compiled} compile, {} failures",
+            failures.len()
+        );
         assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
     });
 }
@@ -307,7 +310,10 @@ fn an_out_of_range_json_number_names_its_key() {
 fn seeds() -> Vec<(String, ConfigSource)> {
     let mut out = vec![
         (config::DEFAULT_CONFIG_TOML.to_string(), ConfigSource::Toml),
-        (std::fs::read_to_string(manifest_dir().join("tests/data/thesis_config.json")).unwrap(), ConfigSource::LegacyJson),
+        (
+            std::fs::read_to_string(manifest_dir().join("tests/data/thesis_config.json")).unwrap(),
+            ConfigSource::LegacyJson,
+        ),
     ];
     let corpus = manifest_dir().join("tests/bad_configs");
     let mut files: Vec<PathBuf> = std::fs::read_dir(&corpus).unwrap().map(|e| e.unwrap().path()).collect();
@@ -317,7 +323,8 @@ fn seeds() -> Vec<(String, ConfigSource)> {
             continue;
         }
         let text = String::from_utf8_lossy(&std::fs::read(&f).unwrap()).into_owned();
-        let source = if f.extension().is_some_and(|e| e == "json") { ConfigSource::LegacyJson } else { ConfigSource::Toml };
+        let source =
+            if f.extension().is_some_and(|e| e == "json") { ConfigSource::LegacyJson } else { ConfigSource::Toml };
         out.push((text, source));
     }
     out
@@ -340,7 +347,15 @@ fn leaves() -> Vec<(String, toml::Value)> {
 }
 
 fn extreme_int() -> impl Strategy<Value = i64> {
-    prop_oneof![Just(0i64), Just(-1), Just(i64::from(i32::MAX) + 1), Just(i64::MAX), Just(100_000), Just(200), 0..300i64]
+    prop_oneof![
+        Just(0i64),
+        Just(-1),
+        Just(i64::from(i32::MAX) + 1),
+        Just(i64::MAX),
+        Just(100_000),
+        Just(200),
+        0..300i64
+    ]
 }
 
 fn extreme_float() -> impl Strategy<Value = f64> {
@@ -535,7 +550,9 @@ fn fuzz_config_text_to_mujoco_compile() {
         });
         println!(
             "figures: fuzz: {} inputs, {} rejected naming a key or file, {} compile, {} generated but not compiled (over {COMPILE_AT_MOST_OBSTACLES} obstacles)",
-            FUZZ_REJECTED.load(Ordering::Relaxed) + FUZZ_COMPILED.load(Ordering::Relaxed) + FUZZ_SKIPPED.load(Ordering::Relaxed),
+            FUZZ_REJECTED.load(Ordering::Relaxed)
+                + FUZZ_COMPILED.load(Ordering::Relaxed)
+                + FUZZ_SKIPPED.load(Ordering::Relaxed),
             FUZZ_REJECTED.load(Ordering::Relaxed),
             FUZZ_COMPILED.load(Ordering::Relaxed),
             FUZZ_SKIPPED.load(Ordering::Relaxed),

@@ -86,7 +86,9 @@ fn positive(key: &str, v: f64) -> Check {
         v >= MIN_POSITIVE,
         key,
         fmt_f(v),
-        format!("must be greater than 0 and at least {MIN_POSITIVE:e} (smaller values are no physical size and MuJoCo cannot compute with them)"),
+        format!(
+            "must be greater than 0 and at least {MIN_POSITIVE:e} (smaller values are no physical size and MuJoCo cannot compute with them)"
+        ),
     )
 }
 
@@ -96,9 +98,13 @@ fn number_problem(v: f64) -> Option<&'static str> {
     if !v.is_finite() {
         None
     } else if v != 0.0 && v.abs() < f64::MIN_POSITIVE {
-        Some("a subnormal number (0 < |x| < 2.2250738585072014e-308), which MuJoCo's parser refuses; use 0 or a larger value")
+        Some(
+            "a subnormal number (0 < |x| < 2.2250738585072014e-308), which MuJoCo's parser refuses; use 0 or a larger value",
+        )
     } else if v.abs() > MAX_MAGNITUDE {
-        Some("larger in magnitude than 1e12, beyond any simulation (MuJoCo's computations overflow); use a smaller value")
+        Some(
+            "larger in magnitude than 1e12, beyond any simulation (MuJoCo's computations overflow); use a smaller value",
+        )
     } else {
         None
     }

@@ -12,11 +12,14 @@ use std::collections::HashMap;
 /// monotone, so neighbouring cells stay neighbours or merge, and no near point is missed.
 const MAX_CELL: f64 = (1u64 << 40) as f64;
 
+/// The points of one cell, with their data.
+type Cell<T> = Vec<([f64; 2], T)>;
+
 /// Points in square cells of side a little more than `reach`.
 #[derive(Debug)]
 pub(crate) struct PointGrid<T> {
     cell_m: f64,
-    cells: HashMap<(i64, i64), Vec<([f64; 2], T)>>,
+    cells: HashMap<(i64, i64), Cell<T>>,
 }
 
 impl<T> PointGrid<T> {

@@ -220,8 +220,7 @@ fn random_cylinders(cfg: &Config, segments: &[[V3; 2]]) -> Result<Vec<([f64; 2],
         let rad = radius.sample(&mut rng);
         let c = [t[0] + coord.sample(&mut rng), t[1] + coord.sample(&mut rng)];
         let clear_of_body = dist_to_body(c, segments) - r_link - rad >= gap;
-        let clear_of_others =
-            !grid.any_near(c, |o, ro: &f64| norm2([c[0] - o[0], c[1] - o[1]]) - ro - rad < gap);
+        let clear_of_others = !grid.any_near(c, |o, ro: &f64| norm2([c[0] - o[0], c[1] - o[1]]) - ro - rad < gap);
         if clear_of_body && clear_of_others {
             placed.push((c, rad));
             grid.insert(c, rad);
@@ -397,6 +396,7 @@ pub(crate) fn bends(angles: &[f64]) -> Vec<(usize, usize)> {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::bends;
     use crate::config::{ConfigSource, load_config_str};
@@ -406,7 +406,9 @@ mod tests {
     #[test]
     fn random_cylinder_placement_is_the_same_as_testing_every_cylinder() {
         use super::*;
-        for (seed, count, gap, half) in [(1, 20, 0.1, 3.0), (2, 200, 0.0, 3.0), (3, 400, 0.05, 6.0), (99, 50, 1.0, 20.0)] {
+        for (seed, count, gap, half) in
+            [(1, 20, 0.1, 3.0), (2, 200, 0.0, 3.0), (3, 400, 0.05, 6.0), (99, 50, 1.0, 20.0)]
+        {
             let overrides = [
                 "terrain.kind=\"random_cylinders\"".to_string(),
                 format!("general.seed={seed}"),
