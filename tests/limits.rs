@@ -303,6 +303,20 @@ fn an_out_of_range_json_number_names_its_key() {
     assert!(message.contains("-1e999") && message.contains("line 3"), "{message}");
 }
 
+#[test]
+fn a_robot_that_is_a_device_is_not_said_to_be_missing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = simserpent(dir.path(), &["run", "--robot", "/dev/null", "--set", "general.duration_secs=0.01"]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("/dev/null") && err.contains("not a regular file") && !err.contains("does not exist"),
+        "{err}"
+    );
+    let out = simserpent(dir.path(), &["run", "--robot", "missing.xml", "--set", "general.duration_secs=0.01"]);
+    assert!(stderr(&out).contains("does not exist"), "{}", stderr(&out));
+}
+
 // --- the fuzz target ----------------------------------------------------------------------------
 
 /// Seeds: the default config, the original tool's config.json and every file of the bad-config

@@ -254,7 +254,14 @@ impl World {
         let file = robot.display().to_string();
         let robot_err = |message: String| SimError::RobotFile { file: file.clone(), message };
         if !robot.is_file() {
-            return Err(robot_err("robot file does not exist".into()));
+            let why = match std::fs::metadata(robot) {
+                Err(e) if e.kind() == std::io::ErrorKind::NotFound => "robot file does not exist".to_string(),
+                Err(e) => format!("robot file cannot be read ({e})"),
+                Ok(m) if m.is_dir() => "robot file is a folder, not an MJCF or URDF file".to_string(),
+                Ok(_) => "robot file is not a regular file (a device, a pipe or a socket); give an MJCF or URDF file"
+                    .to_string(),
+            };
+            return Err(robot_err(why));
         }
         let robot_model = MjModel::from_xml(robot).map_err(|e| {
             let message = compile::full_load_error(compile::Mjcf::File(robot)).unwrap_or_else(|| e.to_string());
