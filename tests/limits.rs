@@ -203,6 +203,17 @@ fn values_mujoco_rejected_exit_2_naming_the_key() {
     assert!(!dir.path().join("runs").exists(), "no run folder for bad input");
 }
 
+/// A config built in code (the Python package) may hold counts above i64::MAX, which TOML
+/// cannot: the check of every number must still see the subnormal.
+#[test]
+fn a_seed_above_i64_max_does_not_hide_a_subnormal_value() {
+    let mut cfg = config::load_config_str("", ConfigSource::Toml, &[]).unwrap();
+    cfg.general.seed = u64::MAX;
+    cfg.snake.joint_armature_kg_m2 = 1e-310;
+    let e = cfg.validate().unwrap_err();
+    assert!(e.to_string().contains("snake.joint_armature_kg_m2") && e.to_string().contains("subnormal"), "{e}");
+}
+
 /// A third-party terrain that passes SimSerpent's checks but that MuJoCo rejects: exit 2,
 /// MuJoCo's whole message (not cut at 100 characters), the user's own file named, not the
 /// scratch copy.

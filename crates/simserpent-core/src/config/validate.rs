@@ -110,20 +110,28 @@ fn number_problem(v: f64) -> Option<&'static str> {
     }
 }
 
+/// The float of a JSON value that holds one (not an integer: counts have their own bounds).
+fn json_float(v: &serde_json::Value) -> Option<f64> {
+    match v {
+        serde_json::Value::Number(n) if n.is_f64() => n.as_f64(),
+        _ => None,
+    }
+}
+
 /// The rule of [`number_problem`] for every float of `value`, reported with its key path (`prefix`).
-fn check_numbers(prefix: &str, value: &toml::Value) -> Check {
+fn check_numbers(prefix: &str, value: &serde_json::Value) -> Check {
     match value {
-        toml::Value::Float(v) => match number_problem(*v) {
-            Some(why) => fail(prefix, fmt_f(*v), format!("is {why}")),
+        serde_json::Value::Number(_) => match json_float(value).and_then(|v| number_problem(v).map(|why| (v, why))) {
+            Some((v, why)) => fail(prefix, fmt_f(v), format!("is {why}")),
             None => Ok(()),
         },
-        toml::Value::Array(items) => {
-            let floats: Option<Vec<f64>> = items.iter().map(toml::Value::as_float).collect();
+        serde_json::Value::Array(items) => {
+            let floats: Option<Vec<f64>> = items.iter().map(json_float).collect();
             for (k, item) in items.iter().enumerate() {
-                match (item, &floats) {
-                    (toml::Value::Float(v), Some(all)) => {
-                        if let Some(why) = number_problem(*v) {
-                            return fail(prefix, fmt_a(all), format!("element {} is {}: {why}", k + 1, fmt_f(*v)));
+                match (json_float(item), &floats) {
+                    (Some(v), Some(all)) => {
+                        if let Some(why) = number_problem(v) {
+                            return fail(prefix, fmt_a(all), format!("element {} is {}: {why}", k + 1, fmt_f(v)));
                         }
                     }
                     _ => check_numbers(&format!("{prefix}[{k}]"), item)?,
@@ -131,7 +139,7 @@ fn check_numbers(prefix: &str, value: &toml::Value) -> Check {
             }
             Ok(())
         }
-        toml::Value::Table(t) => {
+        serde_json::Value::Object(t) => {
             for (k, v) in t {
                 let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
                 check_numbers(&key, v)?;
@@ -209,8 +217,9 @@ impl Config {
 
     /// The rule of [`number_problem`] on every number of the config.
     fn validate_numbers(&self) -> Check {
-        // A config always serializes (it came from TOML); if it did not, the key checks still run.
-        match toml::Value::try_from(self) {
+        // JSON keeps u64 counts above i64::MAX (TOML cannot); NaN and infinities become null and
+        // are left to the checks of their keys. If it did not serialize, those checks still run.
+        match serde_json::to_value(self) {
             Ok(value) => check_numbers("", &value),
             Err(_) => Ok(()),
         }
