@@ -23,5 +23,6 @@ pub mod plot;
 pub mod record;
 pub mod render;
 pub mod run;
+pub mod setup_progress;
 pub mod sim;
 pub mod sweep;

@@ -259,7 +259,7 @@ impl ExitCodeOf for RunError {
     fn exit_code(&self) -> u8 {
         use simserpent::sim::SimError;
         match self {
-            RunError::Sim(SimError::Config(_) | SimError::RobotFile { .. }) => 2,
+            RunError::Sim(SimError::Config(_) | SimError::RobotFile { .. } | SimError::ModelRejected { .. }) => 2,
             RunError::Render(e) => e.exit_code(),
             RunError::Interrupted { .. }
             | RunError::InterruptedSetUp
@@ -453,6 +453,15 @@ fn init(path: &Path, force: bool) -> Result<(), Failure> {
     if path.exists() && !force {
         return Err(bad_input(anyhow::anyhow!("{} exists already; use --force to overwrite it", path.display())));
     }
+    // A folder that does not exist is a bad argument (exit code 2), not a failure while writing.
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    if !parent.is_dir() {
+        return Err(bad_input(anyhow::anyhow!(
+            "cannot write {}: the folder {} does not exist",
+            path.display(),
+            parent.display()
+        )));
+    }
     std::fs::write(path, config::DEFAULT_CONFIG_TOML).with_context(|| format!("cannot write {}", path.display()))?;
     outln!("wrote {}", path.display());
     Ok(())
@@ -588,6 +597,9 @@ fn sweep(
 }
 
 fn sweep_merge(dir: &Path) -> Result<(), Failure> {
+    if !dir.is_dir() {
+        return Err(bad_input(anyhow::anyhow!("sweep folder {} does not exist (or is not a folder)", dir.display())));
+    }
     let (table, files) = simserpent::sweep::merge_shards(dir).map_err(failure)?;
     outln!(
         "merged {} shard summaries, {} runs, into {}",

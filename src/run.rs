@@ -99,9 +99,15 @@ pub struct RunSummary {
 /// Builds the world described by `config` (and `options.robot`). Fails before anything is
 /// written, so a bad config or robot never leaves a run folder behind.
 pub fn build_world(config: &Config, options: &RunOptions) -> Result<World, SimError> {
+    let progress = crate::setup_progress::SetupProgress::start(options.progress, "generating the model");
     match &options.robot {
-        None => World::from_config(config),
+        None => {
+            let generated = crate::model::generate(config)?;
+            progress.phase("compiling the model (MuJoCo)");
+            World::from_generated(config, generated)
+        }
         Some(robot) => {
+            progress.phase("loading the robot and compiling the model (MuJoCo)");
             // Private (random name, 0700), removed when dropped: see `sim::scratch_dir`.
             let scratch = crate::sim::scratch_dir("robot")?;
             World::from_robot_file(config, robot, scratch.path())

@@ -6,6 +6,7 @@
 //! ground → (record) → observers → `mj_step` → checks, with [`Observer`]s hooked in at the start,
 //! every step, every recorded step and the end (see ARCHITECTURE.md, "Order of work in a step").
 
+mod compile;
 mod ground;
 mod index;
 mod noise;
@@ -37,6 +38,15 @@ pub enum SimError {
     /// MuJoCo rejected a model, or a model lacks what the run needs.
     #[error("model: {0}")]
     Model(String),
+    /// MuJoCo rejected the model generated from a validated config (a range that validation
+    /// does not know, or a third-party terrain): bad input, like [`SimError::Config`].
+    #[error("MuJoCo rejected {what}: {message}")]
+    ModelRejected {
+        /// Which model: "the generated model", "the model with the third-party terrain FILE".
+        what: String,
+        /// MuJoCo's whole message, naming the user's files (not scratch copies).
+        message: String,
+    },
     /// A scratch file or folder for compiling a model could not be written.
     #[error("cannot write {}", path.display())]
     Write {
@@ -255,15 +265,18 @@ impl World {
             let scratch = scratch_dir("model")?;
             let path =
                 write_model_folder(scratch.path(), &generated.xml, &generated.files.texts, &generated.files.copies)?;
-            MjModel::from_xml(&path).map_err(|e| {
-                SimError::Model(format!(
-                    "MuJoCo rejected the model with the third-party terrain {}: {e}",
-                    user_terrain_source(&generated.files.copies)
-                ))
-            })?
+            // MuJoCo's message names the copies in the scratch folder: name the user's files.
+            let renames: Vec<(String, String)> = generated
+                .files
+                .copies
+                .iter()
+                .map(|c| (scratch.path().join(&c.dest).display().to_string(), c.source.display().to_string()))
+                .collect();
+            let what =
+                format!("the model with the third-party terrain {}", user_terrain_source(&generated.files.copies));
+            compile::compile(compile::Mjcf::File(&path), &what, &renames)?
         } else {
-            MjModel::from_xml_string(&generated.xml)
-                .map_err(|e| SimError::Model(format!("MuJoCo rejected the generated model: {e}")))?
+            compile::compile(compile::Mjcf::Text(&generated.xml), "the generated model", &[])?
         };
         let index = Index::for_snake(&model, config.snake.n_links)?;
         let initial_pair_friction = model.pair_friction().to_vec();
@@ -290,8 +303,10 @@ impl World {
         // A regular file (after following symbolic links) of at most MAX_MJCF_BYTES: not a
         // device or FIFO that MuJoCo's parser would read without end.
         model::files::check_regular_file(robot, model::files::MAX_MJCF_BYTES).map_err(|e| robot_err(e.to_string()))?;
-        let robot_model =
-            MjModel::from_xml(robot).map_err(|e| robot_err(format!("MuJoCo cannot load the robot ({e})")))?;
+        let robot_model = MjModel::from_xml(robot).map_err(|e| {
+            let message = compile::full_load_error(compile::Mjcf::File(robot)).unwrap_or_else(|| e.to_string());
+            robot_err(format!("MuJoCo cannot load the robot ({message})"))
+        })?;
         // Canonical MJCF of the robot (URDF converted), with absolute asset paths kept by MuJoCo.
         let robot_mjcf = scratch_dir.join("robot.xml");
         robot_model

@@ -171,4 +171,8 @@ pub fn in_child_process(test_name: &str, body: impl FnOnce()) {
         .output()
         .unwrap();
     assert!(out.status.success() && text(&out).contains("1 passed"), "{}", text(&out));
+    // A child's figures (lines with "figures:", for RELIABILITY.md) on the parent's output.
+    for line in text(&out).lines().filter_map(|l| l.find("figures:").map(|at| &l[at..])) {
+        println!("{line}");
+    }
 }

@@ -217,6 +217,67 @@ pub(super) fn convert(json: &Json, defaults: &Table) -> Result<Table, ConfigErro
 }
 
 /// Rejects unknown legacy keys and sections that are not objects.
+/// A `config.json` parse error as a [`ConfigError`]: a number out of range (`1e999`) names its
+/// key path besides the line and column; other errors are [`ConfigError::Syntax`].
+pub(super) fn json_error(file: &str, text: &str, e: &serde_json::Error) -> ConfigError {
+    let message = e.to_string();
+    let syntax = || ConfigError::Syntax { file: file.to_string(), message: message.trim_end().to_string() };
+    if !message.starts_with("number out of range") {
+        return syntax();
+    }
+    let Some(at) = byte_offset(text, e.line(), e.column()) else { return syntax() };
+    // The number token around the reported position.
+    let is_num = |b: u8| b.is_ascii_digit() || matches!(b, b'e' | b'E' | b'+' | b'-' | b'.');
+    let bytes = text.as_bytes();
+    let mut start = at.min(bytes.len());
+    while start > 0 && is_num(bytes[start - 1]) {
+        start -= 1;
+    }
+    let mut end = at.min(bytes.len());
+    while end < bytes.len() && is_num(bytes[end]) {
+        end += 1;
+    }
+    if start == end {
+        return syntax();
+    }
+    const MARK: &str = "\u{1}simserpent-out-of-range\u{1}";
+    let patched = format!("{}{}{}", &text[..start], serde_json::to_string(MARK).unwrap_or_default(), &text[end..]);
+    let Ok(value) = serde_json::from_str::<Json>(&patched) else { return syntax() };
+    fn find(v: &Json, prefix: &str) -> Option<String> {
+        match v {
+            Json::String(s) if s == MARK => Some(prefix.to_string()),
+            Json::Object(map) => map.iter().find_map(|(k, v)| find(v, &join(prefix, k))),
+            Json::Array(items) => items.iter().enumerate().find_map(|(i, v)| find(v, &format!("{prefix}[{i}]"))),
+            _ => None,
+        }
+    }
+    match find(&value, "") {
+        Some(key) => ConfigError::invalid(
+            &key,
+            &text[start..end],
+            format!(
+                "the number is out of range at line {}, column {} (a number must be finite: at most about 1.8e308 in \
+                 magnitude)",
+                e.line(),
+                e.column()
+            ),
+        ),
+        None => syntax(),
+    }
+}
+
+/// The byte offset of 1-based `line` and `column` (serde_json counts columns in bytes).
+fn byte_offset(text: &str, line: usize, column: usize) -> Option<usize> {
+    let mut offset = 0;
+    for (i, l) in text.split_inclusive('\n').enumerate() {
+        if i + 1 == line {
+            return Some(offset + column.saturating_sub(1).min(l.len()));
+        }
+        offset += l.len();
+    }
+    None
+}
+
 fn check_keys(root: &Map<String, Json>) -> Result<(), ConfigError> {
     let top: Vec<&str> = TOP_VALUES.iter().copied().chain(SECTIONS.iter().map(|(name, _)| *name)).collect();
     for (key, value) in root {

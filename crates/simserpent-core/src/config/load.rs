@@ -51,19 +51,32 @@ pub fn load_config(path: &Path, overrides: &[String]) -> Result<Config, ConfigEr
         }
     };
     // A regular file of at most MAX_CONFIG_BYTES (not /dev/zero, a FIFO or a folder).
-    let io_err = |source: std::io::Error| ConfigError::Io { file: path.to_path_buf(), source: source.into() };
     let bytes = crate::model::files::read_regular_file(path, crate::model::files::MAX_CONFIG_BYTES)
-        .map_err(|e| io_err(std::io::Error::other(e)))?;
-    let text = String::from_utf8(bytes).map_err(|e| {
-        let at = e.utf8_error().valid_up_to();
-        let line = 1 + e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count();
-        io_err(std::io::Error::new(
-            std::io::ErrorKind::InvalidData,
-            format!("the file is not valid UTF-8 text (byte {at}, line {line}, is 0x{:02x})", e.as_bytes()[at]),
-        ))
-    })?;
+        .map_err(|e| ConfigError::Io { file: path.to_path_buf(), source: std::io::Error::other(e).into() })?;
+    let text = utf8_text(&file, bytes)?;
     let base = path.parent().filter(|p| !p.as_os_str().is_empty());
     load_named(&text, source, overrides, &file, base)
+}
+
+/// The text of a config file, or [`ConfigError::Syntax`] naming the first byte that is not
+/// UTF-8: its offset, line and column.
+pub(crate) fn utf8_text(file: &str, bytes: Vec<u8>) -> Result<String, ConfigError> {
+    String::from_utf8(bytes).map_err(|e| {
+        let bytes = e.as_bytes();
+        let at = e.utf8_error().valid_up_to();
+        let before = &bytes[..at];
+        let line = before.iter().filter(|b| **b == b'\n').count() + 1;
+        let line_start = before.iter().rposition(|b| *b == b'\n').map_or(0, |i| i + 1);
+        let column = String::from_utf8_lossy(&before[line_start..]).chars().count() + 1;
+        let byte = bytes.get(at).map_or_else(String::new, |b| format!(" 0x{b:02X}"));
+        ConfigError::Syntax {
+            file: file.to_string(),
+            message: format!(
+                "the file is not valid UTF-8 text: byte{byte} at byte offset {at} (line {line}, column {column}) \
+                 is not part of a UTF-8 character; save the file as UTF-8"
+            ),
+        }
+    })
 }
 
 /// The config keys that name files (`terrain.…`), with `[]` for every element of an array.
@@ -180,7 +193,7 @@ fn load_named(
             user
         }
         ConfigSource::LegacyJson => {
-            let json: serde_json::Value = serde_json::from_str(text).map_err(|e| syntax(e.to_string()))?;
+            let json: serde_json::Value = serde_json::from_str(text).map_err(|e| legacy::json_error(file, text, &e))?;
             let converted = legacy::convert(&json, &defaults)?;
             // Errors on converted values also name the config.json key they came from.
             return resolve(converted.clone(), &defaults, overrides)

@@ -28,7 +28,7 @@ pub const DEFAULT_CONFIG_TOML: &str = include_str!("default.toml");
 #[non_exhaustive]
 pub enum ConfigError {
     /// A key that the configuration does not have.
-    #[error("unknown key `{key}`{}; allowed keys here: {allowed}", suggestion.as_ref().map(|s| format!(" (did you mean `{s}`?)")).unwrap_or_default())]
+    #[error("unknown key `{}`{}; allowed keys here: {allowed}", shorten(key), suggestion.as_ref().map(|s| format!(" (did you mean `{s}`?)")).unwrap_or_default())]
     UnknownKey {
         /// Full key path.
         key: String,
@@ -38,7 +38,7 @@ pub enum ConfigError {
         allowed: String,
     },
     /// A value of the wrong type or out of range.
-    #[error("`{key}` = {value}: {allowed}")]
+    #[error("`{}` = {}: {allowed}", shorten(key), shorten(value))]
     InvalidValue {
         /// Full key path.
         key: String,
@@ -48,7 +48,7 @@ pub enum ConfigError {
         allowed: String,
     },
     /// The file could not be parsed at all.
-    #[error("{file}: {message}")]
+    #[error("{}: {}", shorten(file), shorten_lines(message))]
     Syntax {
         /// The file (or `--set` argument).
         file: String,
@@ -111,6 +111,26 @@ impl std::error::Error for IoSource {
     fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
         self.0.source()
     }
+}
+
+/// The longest text of a value, key or file name that an error message echoes (characters).
+pub const ECHO_LIMIT: usize = 200;
+
+/// `text` cut to [`ECHO_LIMIT`] characters followed by `… (N bytes)` when it is longer, so
+/// that an error never echoes a huge value whole (a 50 MB `run_name`).
+pub fn shorten(text: &str) -> std::borrow::Cow<'_, str> {
+    match text.char_indices().nth(ECHO_LIMIT) {
+        None => std::borrow::Cow::Borrowed(text),
+        Some((cut, _)) => std::borrow::Cow::Owned(format!("{}… ({} bytes)", &text[..cut], text.len())),
+    }
+}
+
+/// [`shorten`] applied to every line of a message (parser messages quote the offending line).
+fn shorten_lines(text: &str) -> std::borrow::Cow<'_, str> {
+    if text.lines().all(|l| l.chars().nth(ECHO_LIMIT).is_none()) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    std::borrow::Cow::Owned(text.split('\n').map(|l| shorten(l).into_owned()).collect::<Vec<_>>().join("\n"))
 }
 
 /// Why a file cannot be read, in words (the OS message is the error's source).

@@ -23,6 +23,29 @@ use super::{Config, ConfigError, GaitKind, GroundModel, JointAxes, TerrainKind};
 /// The most surfaces a config may have (`ground.surfaces`).
 pub const MAX_SURFACES: usize = 100;
 
+/// The largest magnitude of any number in a config: beyond it MuJoCo's computations overflow
+/// (a squared length of 1e154 is infinite) and no simulation means it.
+pub const MAX_MAGNITUDE: f64 = 1e12;
+
+/// The smallest value of a key that must be greater than 0 (a size, a duration, a scale, ...).
+pub const MIN_POSITIVE: f64 = 1e-12;
+
+/// The most steps one run may take (`general.duration_secs / general.timestep_secs`).
+pub const MAX_STEPS_PER_RUN: f64 = 1e9;
+
+/// The shortest timestep (`general.timestep_secs`), s.
+pub const MIN_TIMESTEP_SECS: f64 = 1e-7;
+
+/// The most constraint-solver iterations per step (`physics.solver_iterations`).
+pub const MAX_SOLVER_ITERATIONS: u32 = 100_000;
+
+/// The thinnest link (`snake.link_radius_m`), m: MuJoCo rejects thinner capsules as massless.
+pub const MIN_LINK_RADIUS_M: f64 = 1e-4;
+
+/// The smallest moment of inertia of a link about its own axis, kg·m² (MuJoCo rejects a moving
+/// body whose inertia is below 1e-15 kg·m²; this keeps a factor of 10).
+pub const MIN_LINK_INERTIA_KG_M2: f64 = 1e-14;
+
 /// The observation layouts this build knows (`env.observation_version`).
 pub const OBSERVATION_VERSIONS: [u32; 1] = [1];
 
@@ -58,7 +81,73 @@ fn finite(key: &str, v: f64) -> Check {
 
 fn positive(key: &str, v: f64) -> Check {
     finite(key, v)?;
-    ensure(v > 0.0, key, fmt_f(v), "must be greater than 0")
+    ensure(v > 0.0, key, fmt_f(v), "must be greater than 0")?;
+    ensure(
+        v >= MIN_POSITIVE,
+        key,
+        fmt_f(v),
+        format!(
+            "must be greater than 0 and at least {MIN_POSITIVE:e} (smaller values are no physical size and MuJoCo cannot compute with them)"
+        ),
+    )
+}
+
+/// Why `v` breaks the rule for every number (0 or a normal double — MuJoCo's parser refuses
+/// subnormal ones, 0 < |x| < 2.2e-308 — of magnitude at most [`MAX_MAGNITUDE`]), if it does (NaN and infinities are left to the key's own check).
+fn number_problem(v: f64) -> Option<&'static str> {
+    if !v.is_finite() {
+        None
+    } else if v != 0.0 && v.abs() < f64::MIN_POSITIVE {
+        Some(
+            "a subnormal number (0 < |x| < 2.2250738585072014e-308), which MuJoCo's parser refuses; use 0 or a larger value",
+        )
+    } else if v.abs() > MAX_MAGNITUDE {
+        Some(
+            "larger in magnitude than 1e12, beyond any simulation (MuJoCo's computations overflow); use a smaller value",
+        )
+    } else {
+        None
+    }
+}
+
+/// The float of a JSON value that holds one (not an integer: counts have their own bounds).
+fn json_float(v: &serde_json::Value) -> Option<f64> {
+    match v {
+        serde_json::Value::Number(n) if n.is_f64() => n.as_f64(),
+        _ => None,
+    }
+}
+
+/// The rule of [`number_problem`] for every float of `value`, reported with its key path (`prefix`).
+fn check_numbers(prefix: &str, value: &serde_json::Value) -> Check {
+    match value {
+        serde_json::Value::Number(_) => match json_float(value).and_then(|v| number_problem(v).map(|why| (v, why))) {
+            Some((v, why)) => fail(prefix, fmt_f(v), format!("is {why}")),
+            None => Ok(()),
+        },
+        serde_json::Value::Array(items) => {
+            let floats: Option<Vec<f64>> = items.iter().map(json_float).collect();
+            for (k, item) in items.iter().enumerate() {
+                match (json_float(item), &floats) {
+                    (Some(v), Some(all)) => {
+                        if let Some(why) = number_problem(v) {
+                            return fail(prefix, fmt_a(all), format!("element {} is {}: {why}", k + 1, fmt_f(v)));
+                        }
+                    }
+                    _ => check_numbers(&format!("{prefix}[{k}]"), item)?,
+                }
+            }
+            Ok(())
+        }
+        serde_json::Value::Object(t) => {
+            for (k, v) in t {
+                let key = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                check_numbers(&key, v)?;
+            }
+            Ok(())
+        }
+        _ => Ok(()),
+    }
 }
 
 fn non_negative(key: &str, v: f64) -> Check {
@@ -92,6 +181,18 @@ fn friction(key: &str, values: &[f64; 3]) -> Check {
     Ok(())
 }
 
+/// Moment of inertia of a capsule link about its axis (kg·m²), as MuJoCo computes it from the
+/// geom: a cylinder of length `length − 2 radius` and two half-spheres, of uniform density.
+pub fn link_axial_inertia_kg_m2(mass_kg: f64, radius_m: f64, length_m: f64) -> f64 {
+    let cylinder = std::f64::consts::PI * radius_m * radius_m * (length_m - 2.0 * radius_m).max(0.0);
+    let sphere = 4.0 / 3.0 * std::f64::consts::PI * radius_m.powi(3);
+    let total = cylinder + sphere;
+    if total <= 0.0 || !total.is_finite() {
+        return 0.0;
+    }
+    mass_kg * radius_m * radius_m * (cylinder / total * 0.5 + sphere / total * 0.4)
+}
+
 impl Config {
     /// Checks ranges and consistency; returns the first problem found.
     ///
@@ -99,6 +200,7 @@ impl Config {
     /// [`ConfigError::InvalidValue`] naming the key path, its value and what is allowed, e.g.
     /// `snake.n_links = 0: must be at least 1`.
     pub fn validate(&self) -> Result<(), ConfigError> {
+        self.validate_numbers()?;
         self.validate_general()?;
         self.validate_physics()?;
         self.validate_safety()?;
@@ -111,6 +213,16 @@ impl Config {
         self.validate_recording()?;
         self.validate_pictures()?;
         self.validate_env()
+    }
+
+    /// The rule of [`number_problem`] on every number of the config.
+    fn validate_numbers(&self) -> Check {
+        // JSON keeps u64 counts above i64::MAX (TOML cannot); NaN and infinities become null and
+        // are left to the checks of their keys. If it did not serialize, those checks still run.
+        match serde_json::to_value(self) {
+            Ok(value) => check_numbers("", &value),
+            Err(_) => Ok(()),
+        }
     }
 
     fn validate_general(&self) -> Check {
@@ -129,7 +241,24 @@ impl Config {
             "must not be empty",
         )?;
         positive("general.duration_secs", g.duration_secs)?;
-        positive("general.timestep_secs", g.timestep_secs)?;
+        finite("general.timestep_secs", g.timestep_secs)?;
+        ensure(
+            g.timestep_secs >= MIN_TIMESTEP_SECS,
+            "general.timestep_secs",
+            fmt_f(g.timestep_secs),
+            format!("must be greater than 0 and at least {MIN_TIMESTEP_SECS:e} s (0.1 microseconds)"),
+        )?;
+        let steps = g.duration_secs / g.timestep_secs;
+        ensure(
+            steps <= MAX_STEPS_PER_RUN,
+            "general.duration_secs",
+            fmt_f(g.duration_secs),
+            format!(
+                "gives general.duration_secs / general.timestep_secs = {steps:.3e} steps; a run may take at most \
+                 {MAX_STEPS_PER_RUN:e} steps (shorten the run or lengthen general.timestep_secs = {})",
+                fmt_f(g.timestep_secs)
+            ),
+        )?;
         ensure(
             g.timestep_secs <= g.duration_secs,
             "general.timestep_secs",
@@ -275,7 +404,13 @@ impl Config {
             ),
         )?;
         positive("physics.contact_damping_ratio", p.contact_damping_ratio)?;
-        ensure(p.solver_iterations >= 1, "physics.solver_iterations", p.solver_iterations, "must be at least 1")
+        ensure(p.solver_iterations >= 1, "physics.solver_iterations", p.solver_iterations, "must be at least 1")?;
+        ensure(
+            p.solver_iterations <= MAX_SOLVER_ITERATIONS,
+            "physics.solver_iterations",
+            p.solver_iterations,
+            format!("must be at most {MAX_SOLVER_ITERATIONS} (MuJoCo's default is 100)"),
+        )
     }
 
     fn validate_snake(&self) -> Check {
@@ -295,7 +430,26 @@ impl Config {
                 fmt_f(2.0 * s.link_radius_m)
             ),
         )?;
+        ensure(
+            s.link_radius_m >= MIN_LINK_RADIUS_M,
+            "snake.link_radius_m",
+            fmt_f(s.link_radius_m),
+            format!("must be at least {MIN_LINK_RADIUS_M} m (MuJoCo rejects thinner links as massless)"),
+        )?;
         positive("snake.link_mass_kg", s.link_mass_kg)?;
+        let inertia = link_axial_inertia_kg_m2(s.link_mass_kg, s.link_radius_m, s.link_length_m);
+        ensure(
+            inertia >= MIN_LINK_INERTIA_KG_M2,
+            "snake.link_mass_kg",
+            fmt_f(s.link_mass_kg),
+            format!(
+                "gives a link (radius {} m, length {} m) a moment of inertia about its axis of {inertia:.3e} kg m^2; \
+                 it must be at least {MIN_LINK_INERTIA_KG_M2:e} kg m^2 (MuJoCo rejects moving bodies below 1e-15): \
+                 raise the mass or the radius",
+                fmt_f(s.link_radius_m),
+                fmt_f(s.link_length_m)
+            ),
+        )?;
         positive("snake.joint_range_deg", s.joint_range_deg)?;
         ensure(s.joint_range_deg <= 180.0, "snake.joint_range_deg", fmt_f(s.joint_range_deg), "must be at most 180")?;
         non_negative("snake.joint_damping_nm_s_per_rad", s.joint_damping_nm_s_per_rad)?;
@@ -312,6 +466,25 @@ impl Config {
             "must include 0 (min <= 0 <= max), so that the actuators can be idle",
         )?;
 
+        // MuJoCo's control range of a torque motor is torque_range_nm / torque_gear.
+        let gear = self.control.torque_gear;
+        if gear > 0.0 {
+            for end in s.torque_range_nm {
+                let ctrl = end / gear;
+                ensure(
+                    end == 0.0 || (ctrl.is_finite() && ctrl.abs() >= f64::MIN_POSITIVE),
+                    key,
+                    fmt_a(&s.torque_range_nm),
+                    format!(
+                        "divided by control.torque_gear = {} gives the motors' control range, whose end {} is not a \
+                         normal number MuJoCo can read; use a larger torque or a smaller gear",
+                        fmt_f(gear),
+                        fmt_f(ctrl)
+                    ),
+                )?;
+            }
+        }
+
         friction("snake.ground_friction", &s.ground_friction)?;
         friction("snake.link_friction", &s.link_friction)?;
 
@@ -323,6 +496,17 @@ impl Config {
                 key,
                 fmt_a(&s.color_rgba),
                 format!("every component must be in 0..1; {name} is {}", fmt_f(*c)),
+            )?;
+            // MuJoCo stores colours in single precision.
+            ensure(
+                *c == 0.0 || *c >= f64::from(f32::MIN_POSITIVE),
+                key,
+                fmt_a(&s.color_rgba),
+                format!(
+                    "every component must be 0 or at least 1.1754944e-38 (MuJoCo stores colours in single precision); \
+                     {name} is {}",
+                    fmt_f(*c)
+                ),
             )?;
         }
         all_finite("snake.head_position_m", &s.head_position_m)?;

@@ -168,16 +168,19 @@ pub(crate) fn build(
                 ));
             };
             let attempts = p.count.saturating_mul(1000).min(10_000_000);
+            // Only pegs less than spacing_m apart conflict: the grid tests exactly those.
+            let mut grid = super::grid::PointGrid::new(p.spacing_m);
             for _ in 0..attempts {
                 if accepted.len() == p.count {
                     break;
                 }
                 let c = [ux.sample(&mut rng), uy.sample(&mut rng)];
-                if accepted.iter().any(|o| (c[0] - o[0]).hypot(c[1] - o[1]) < p.spacing_m) {
+                if grid.any_near(c, |o, _: &()| (c[0] - o[0]).hypot(c[1] - o[1]) < p.spacing_m) {
                     continue;
                 }
                 if check(c)? {
                     accepted.push(c);
+                    grid.insert(c, ());
                 }
             }
             if accepted.len() < p.count {
@@ -440,8 +443,9 @@ fn peg_centres(cfg: &Config) -> Result<Vec<[f64; 2]>, ConfigError> {
         _ => return Ok(Vec::new()),
     };
     let eps = 1e-9;
-    let nx = ((hi[0] - lo[0]) / p.spacing_m + eps).floor() as usize + 1;
-    let ny = ((hi[1] - lo[1]) / row_step + eps).floor() as usize + 1;
+    // `as usize` saturates (a huge region gives usize::MAX), so the + 1 must too.
+    let nx = (((hi[0] - lo[0]) / p.spacing_m + eps).floor() as usize).saturating_add(1);
+    let ny = (((hi[1] - lo[1]) / row_step + eps).floor() as usize).saturating_add(1);
     if nx.saturating_mul(ny) > super::terrain::MAX_OBSTACLES {
         return Err(ConfigError::invalid(
             "terrain.pegboard.spacing_m",

@@ -393,8 +393,8 @@ pub(crate) fn rasterise(mesh: &Mesh, resolution: f64) -> Result<Raster, String> 
             hi[k] = hi[k].max(v[k]);
         }
     }
-    let cols = ((hi[0] - lo[0]) / resolution).ceil() as usize + 1;
-    let rows = ((hi[1] - lo[1]) / resolution).ceil() as usize + 1;
+    let cols = (((hi[0] - lo[0]) / resolution).ceil() as usize).saturating_add(1);
+    let rows = (((hi[1] - lo[1]) / resolution).ceil() as usize).saturating_add(1);
     if !(2..=4096).contains(&cols) || !(2..=4096).contains(&rows) {
         return Err(format!(
             "the grid would be {cols} x {rows} points (mesh {} x {} m at {resolution} m); it must be 2..=4096 on each side",

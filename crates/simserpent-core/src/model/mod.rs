@@ -59,6 +59,7 @@
 pub mod features;
 pub mod files;
 mod geometry;
+mod grid;
 pub mod names;
 mod snake;
 pub mod surfaces;
@@ -381,9 +382,17 @@ fn check_obstacles_clear(cfg: &Config, segments: &[[V3; 2]], placed: &[terrain::
     Ok(())
 }
 
-/// Shortest round-trip decimal text of a number (Rust's `Display` for `f64`).
+/// Shortest round-trip decimal text of a number (Rust's `Display` for `f64`), with subnormal
+/// numbers (0 < |x| < 2.2e-308, which MuJoCo's parser refuses) written as 0. `Config::validate`
+/// rejects subnormal config values; this catches values computed from normal ones (an angle in
+/// degrees turned into radians, a range divided by a gear).
 pub(crate) fn fmt_num(x: f64) -> String {
-    format!("{x}")
+    format!("{}", flush_subnormal(x))
+}
+
+/// `x`, or 0 when it is subnormal.
+pub(crate) fn flush_subnormal(x: f64) -> f64 {
+    if x.is_subnormal() { 0.0 } else { x }
 }
 
 /// Space-separated numbers.
@@ -395,7 +404,7 @@ impl fmt::Display for Nums<'_> {
             if k > 0 {
                 f.write_str(" ")?;
             }
-            write!(f, "{x}")?;
+            write!(f, "{}", flush_subnormal(*x))?;
         }
         Ok(())
     }

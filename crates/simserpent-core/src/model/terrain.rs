@@ -210,6 +210,9 @@ fn random_cylinders(cfg: &Config, segments: &[[V3; 2]]) -> Result<Vec<([f64; 2],
     let gap = rc.min_gap_m;
     let attempts = rc.count.saturating_mul(ATTEMPTS_PER_CYLINDER).min(MAX_ATTEMPTS);
     let mut placed: Vec<([f64; 2], f64)> = Vec::new();
+    // Two cylinders can only be too close when their centres are less than 2 hi + gap apart:
+    // the grid tests exactly those (same result as testing all, O(1) instead of O(n)).
+    let mut grid = super::grid::PointGrid::new(2.0 * hi + gap);
     for _ in 0..attempts {
         if placed.len() == rc.count {
             break;
@@ -217,9 +220,10 @@ fn random_cylinders(cfg: &Config, segments: &[[V3; 2]]) -> Result<Vec<([f64; 2],
         let rad = radius.sample(&mut rng);
         let c = [t[0] + coord.sample(&mut rng), t[1] + coord.sample(&mut rng)];
         let clear_of_body = dist_to_body(c, segments) - r_link - rad >= gap;
-        let clear_of_others = placed.iter().all(|(o, ro)| norm2([c[0] - o[0], c[1] - o[1]]) - ro - rad >= gap);
+        let clear_of_others = !grid.any_near(c, |o, ro: &f64| norm2([c[0] - o[0], c[1] - o[1]]) - ro - rad < gap);
         if clear_of_body && clear_of_others {
             placed.push((c, rad));
+            grid.insert(c, rad);
         }
     }
     if placed.len() < rc.count {
@@ -392,8 +396,65 @@ pub(crate) fn bends(angles: &[f64]) -> Vec<(usize, usize)> {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::bends;
+    use crate::config::{ConfigSource, load_config_str};
+
+    /// The grid placement gives the cylinders that testing every earlier cylinder gave (the
+    /// O(n^2) placement before issue 17), for several seeds, counts and gaps.
+    #[test]
+    fn random_cylinder_placement_is_the_same_as_testing_every_cylinder() {
+        use super::*;
+        for (seed, count, gap, half) in
+            [(1, 20, 0.1, 3.0), (2, 200, 0.0, 3.0), (3, 400, 0.05, 6.0), (99, 50, 1.0, 20.0)]
+        {
+            let overrides = [
+                "terrain.kind=\"random_cylinders\"".to_string(),
+                format!("general.seed={seed}"),
+                format!("terrain.random_cylinders.count={count}"),
+                format!("terrain.random_cylinders.min_gap_m={gap}"),
+                format!("terrain.random_cylinders.half_size_m={half}"),
+            ];
+            let cfg = load_config_str("", ConfigSource::Toml, &overrides).unwrap();
+            let segments = crate::model::link_axis_segments_m(&cfg, &vec![0.0; cfg.snake.n_joints()]);
+            let placed = random_cylinders(&cfg, &segments).unwrap();
+            // The placement of every earlier version: test against all placed cylinders.
+            let rc = &cfg.terrain.random_cylinders;
+            let radius = Uniform::new_inclusive(rc.radius_range_m[0], rc.radius_range_m[1]).unwrap();
+            let coord = Uniform::new_inclusive(-half, half).unwrap();
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            rng.set_stream(TERRAIN_RNG_STREAM);
+            let t = xy(head_tip(&cfg));
+            let mut naive: Vec<([f64; 2], f64)> = Vec::new();
+            while naive.len() < count {
+                let rad = radius.sample(&mut rng);
+                let c = [t[0] + coord.sample(&mut rng), t[1] + coord.sample(&mut rng)];
+                let body = dist_to_body(c, &segments) - cfg.snake.link_radius_m - rad >= gap;
+                let others = naive.iter().all(|(o, ro)| norm2([c[0] - o[0], c[1] - o[1]]) - ro - rad >= gap);
+                if body && others {
+                    naive.push((c, rad));
+                }
+            }
+            assert_eq!(placed, naive, "seed {seed}, count {count}");
+        }
+    }
+
+    /// 100,000 cylinders in a large square: seconds, not the minutes of the O(n^2) placement.
+    #[test]
+    fn placing_100000_random_cylinders_is_fast() {
+        let overrides = [
+            "terrain.kind=\"random_cylinders\"".to_string(),
+            "terrain.random_cylinders.count=100000".to_string(),
+            "terrain.random_cylinders.half_size_m=200.0".to_string(),
+        ];
+        let cfg = load_config_str("", ConfigSource::Toml, &overrides).unwrap();
+        let segments = crate::model::link_axis_segments_m(&cfg, &vec![0.0; cfg.snake.n_joints()]);
+        let start = std::time::Instant::now();
+        let placed = super::random_cylinders(&cfg, &segments).unwrap();
+        assert_eq!(placed.len(), 100_000);
+        assert!(start.elapsed().as_secs_f64() < 20.0, "{:?}", start.elapsed());
+    }
 
     #[test]
     fn bend_runs() {
