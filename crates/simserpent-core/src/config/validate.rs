@@ -101,6 +101,7 @@ impl Config {
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.validate_general()?;
         self.validate_physics()?;
+        self.validate_floor_friction()?;
         self.validate_safety()?;
         self.validate_snake()?;
         self.validate_ground()?;

@@ -1,0 +1,42 @@
+//! Checks of the floor-friction keys (`physics.floor_friction`,
+//! `physics.floor_stick_time_constant_secs`), kept apart from `validate.rs`.
+
+use super::{Config, ConfigError, FloorFriction, GroundModel};
+use super::validate::fmt_f;
+
+impl Config {
+    /// `physics.floor_stick_time_constant_secs` finite and at least 3 timesteps (the stick
+    /// spring–damper is applied as a force held over each step: shorter time constants make it
+    /// oscillate); with `"stick_slip"`, no torsional or rolling ground friction (SimSerpent's law
+    /// has none; a link's two contact points resist turning in place).
+    pub(super) fn validate_floor_friction(&self) -> Result<(), ConfigError> {
+        let p = &self.physics;
+        let key = "physics.floor_stick_time_constant_secs";
+        let tau = p.floor_stick_time_constant_secs;
+        let min = 3.0 * self.general.timestep_secs;
+        if !tau.is_finite() || tau < min {
+            return Err(ConfigError::invalid(
+                key,
+                fmt_f(tau),
+                format!(
+                    "must be a finite number of at least 3 x general.timestep_secs = {} (the stick spring-damper \
+                     is applied once per step and oscillates with shorter time constants)",
+                    fmt_f(min)
+                ),
+            ));
+        }
+        let g = &self.snake.ground_friction;
+        if p.floor_friction == FloorFriction::StickSlip
+            && self.ground.model != GroundModel::Viscous
+            && (g[1] != 0.0 || g[2] != 0.0)
+        {
+            return Err(ConfigError::invalid(
+                "snake.ground_friction",
+                super::validate::fmt_a(g),
+                "torsional and rolling coefficients must be 0 with physics.floor_friction = \"stick_slip\" \
+                 (SimSerpent's floor friction has only sliding friction)",
+            ));
+        }
+        Ok(())
+    }
+}
