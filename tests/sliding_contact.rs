@@ -146,3 +146,133 @@ fn the_default_job_keeps_its_floor_contacts() {
     assert!(h.peak_over_weight <= 2.0, "peak normal force / weight {}", h.peak_over_weight);
     assert!((h.impulse_over_weight - 1.0).abs() <= 0.01, "floor impulse / weight impulse {}", h.impulse_over_weight);
 }
+
+// --- anisotropic and directional coefficients ------------------------------------------------
+
+/// One 0.3 kg link lying on the floor, yawed by 30°, no gait, with SimSerpent's floor friction.
+fn yawed_link(model: GroundModel) -> Config {
+    let mut c = pushed_link(FloorFriction::StickSlip);
+    c.general.gravity_m_per_s2 = [0.0, 0.0, -G];
+    c.snake.head_rotation_deg = [0.0, 0.0, 30.0];
+    c.ground.model = model;
+    c.ground.axial_friction = 0.1;
+    c.ground.backward_friction = 0.3;
+    c.ground.lateral_friction = 1.0;
+    c
+}
+
+/// The friction coefficient a link launched at 0.5 m/s along its axis (0°), across it (90°) or
+/// backward (180°) meets: the largest ratio of horizontal to vertical recorded floor force over
+/// its first 15 steps (a link sliding sideways soon rolls without slipping).
+/// The link first settles for 0.3 s (it starts just touching the floor: its normal force
+/// rises to the weight over the first steps, and the friction of a step follows the previous
+/// step's normal force).
+fn friction_ratio(config: &Config, direction_deg: f64) -> f64 {
+    let mut sim = simulation(config);
+    run_for(&mut sim, 0.3);
+    let heading = (30.0 + direction_deg).to_radians();
+    let qvel = sim.world_mut().qvel_mut();
+    qvel[0] = 0.5 * heading.cos();
+    qvel[1] = 0.5 * heading.sin();
+    sim.world_mut().forward();
+    let mut s = Snapshot::new(1, 0);
+    let mut largest: f64 = 0.0;
+    for _ in 0..15 {
+        sim.control();
+        sim.snapshot(&mut s);
+        let f = s.link_floor_force_n[0];
+        if f[2] > 1e-6 {
+            largest = largest.max(f[0].hypot(f[1]) / f[2]);
+        }
+        sim.advance().unwrap();
+    }
+    largest
+}
+
+#[test]
+fn anisotropic_and_directional_coefficients_measure_as_configured() {
+    let c = yawed_link(GroundModel::Anisotropic);
+    let (along, across) = (friction_ratio(&c, 0.0), friction_ratio(&c, 90.0));
+    let iso = friction_ratio(&yawed_link(GroundModel::Isotropic), 0.0);
+    let d = yawed_link(GroundModel::Directional);
+    let (forward, backward) = (friction_ratio(&d, 0.0), friction_ratio(&d, 180.0));
+    eprintln!("axial {along}, lateral {across}, isotropic {iso}, forward {forward}, backward {backward}");
+    assert!((along - 0.1).abs() < 0.003, "axial {along}");
+    assert!((across - 1.0).abs() < 0.03, "lateral {across}");
+    assert!((iso - 0.5).abs() < 0.015, "isotropic {iso}");
+    assert!((forward - 0.1).abs() < 0.003, "forward {forward}");
+    assert!((backward - 0.3).abs() < 0.009, "backward {backward}");
+}
+
+// --- slope -------------------------------------------------------------------------------------
+
+/// A single link lying on a 20° slope, head uphill, its centre `s_m` up the surface from the
+/// foot line at x = 1; returns (config, unit vector up the slope).
+fn link_on_slope(mu: f64, angle_deg: f64, s_m: f64) -> (Config, [f64; 3]) {
+    let mut c = pushed_link(FloorFriction::StickSlip);
+    c.general.gravity_m_per_s2 = [0.0, 0.0, -G];
+    c.snake.ground_friction = [mu, 0.0, 0.0];
+    let th = angle_deg.to_radians();
+    c.terrain.slope.angle_deg = angle_deg;
+    c.terrain.slope.start_m = [1.0, 0.0];
+    c.terrain.slope.direction_deg = 0.0;
+    c.terrain.slope.length_m = 3.0;
+    c.terrain.slope.width_m = 1.0;
+    let (l, r) = (c.snake.link_length_m, c.snake.link_radius_m);
+    let dir = [th.cos(), 0.0, th.sin()];
+    let normal = [-th.sin(), 0.0, th.cos()];
+    let centre: Vec<f64> = (0..3).map(|k| [1.0, 0.0, 0.0][k] + s_m * dir[k] + r * normal[k]).collect();
+    let tip: Vec<f64> = (0..3).map(|k| centre[k] + l / 2.0 * dir[k]).collect();
+    c.snake.head_position_m = [tip[0], tip[1], tip[2] - r];
+    c.snake.head_rotation_deg = [0.0, -angle_deg, 0.0];
+    (c, dir)
+}
+
+/// Velocity of the link's centre along the slope (m/s) after `secs`.
+fn slope_velocity(sim: &mut Simulation, dir: [f64; 3]) -> f64 {
+    let mut s = Snapshot::new(1, 0);
+    sim.snapshot(&mut s);
+    let v = s.link_velocity_m_per_s[0];
+    v[0] * dir[0] + v[2] * dir[2]
+}
+
+fn run_for(sim: &mut Simulation, secs: f64) {
+    for _ in 0..(secs / 0.001f64).round() as usize {
+        sim.step().unwrap();
+    }
+}
+
+#[test]
+fn on_a_20_degree_slope_mu_0_5_holds_without_creep() {
+    let (c, dir) = link_on_slope(0.5, 20.0, 1.0);
+    let mut sim = simulation(&c);
+    run_for(&mut sim, 0.3);
+    let mut s = Snapshot::new(1, 0);
+    sim.snapshot(&mut s);
+    let p0 = s.link_position_m[0];
+    run_for(&mut sim, 1.0);
+    sim.snapshot(&mut s);
+    let p1 = s.link_position_m[0];
+    let moved = (p1[0] - p0[0]) * dir[0] + (p1[2] - p0[2]) * dir[2];
+    let v = slope_velocity(&mut sim, dir);
+    eprintln!("hold: moved {moved} m in 1 s, v {v} m/s");
+    assert!(moved.abs() <= 0.001, "creep {} mm/s", moved * 1e3);
+    assert!(v.abs() <= 0.001, "creep velocity {} mm/s", v * 1e3);
+}
+
+#[test]
+fn on_a_20_degree_slope_mu_0_2_slides_with_g_sin_minus_mu_cos() {
+    let mu = 0.2;
+    let (c, dir) = link_on_slope(mu, 20.0, 2.5);
+    let mut sim = simulation(&c);
+    run_for(&mut sim, 0.2);
+    let va = slope_velocity(&mut sim, dir);
+    run_for(&mut sim, 0.5);
+    let vb = slope_velocity(&mut sim, dir);
+    let a = -(vb - va) / 0.5;
+    let th = 20f64.to_radians();
+    let expected = G * (th.sin() - mu * th.cos());
+    eprintln!("slide: a = {a} m/s², expected {expected} m/s²");
+    assert!((a - expected).abs() <= 0.02 * expected, "sliding acceleration {a} m/s², expected {expected}");
+}
+

@@ -35,7 +35,7 @@
 use super::World;
 use crate::config::{Config, FloorFriction, GroundModel};
 use crate::model::{SurfaceMap, names};
-use crate::state::GeomClass;
+use crate::state::{GeomClass, Snapshot};
 use mujoco_rs::prelude::MjtObjBase;
 
 /// Below this axial speed (m/s) a link counts as not sliding (directional model).
@@ -207,7 +207,7 @@ const SLOTS: usize = 2;
 /// Per-step state of SimSerpent's elasto-plastic floor friction (see the module docs).
 #[derive(Debug, Clone)]
 struct StickSlip {
-    /// Geom id per link (the links' capsules).
+    /// For each geom: the link it belongs to, if any.
     link_of_geom: Vec<Option<usize>>,
     /// Whether each geom carries the snake like the floor (floor, slope, heightfield, mesh terrain).
     ground_geom: Vec<bool>,
@@ -259,6 +259,24 @@ impl Ground {
     /// `physics.floor_friction = "mujoco"`).
     pub fn applied_friction(&self) -> Option<(&[[f64; 3]], &[[f64; 3]])> {
         self.stick_slip.as_ref().map(|s| (s.force_n.as_slice(), s.torque_nm.as_slice()))
+    }
+
+    /// Fills what the ground model adds to a snapshot read after [`Ground::before_step`]: the
+    /// region under each link, and with `physics.floor_friction = "stick_slip"` the friction
+    /// force it applies, added to each link's floor and total contact force and torque (MuJoCo's
+    /// contacts carry only the normal force then; the per-contact rows keep friction 0).
+    pub fn fill_snapshot(&self, s: &mut Snapshot) {
+        s.link_region.copy_from_slice(&self.region_now);
+        if let Some(st) = &self.stick_slip {
+            for (i, (f, t)) in st.force_n.iter().zip(&st.torque_nm).enumerate() {
+                for k in 0..3 {
+                    s.link_floor_force_n[i][k] += f[k];
+                    s.link_contact_force_n[i][k] += f[k];
+                    s.link_floor_torque_nm[i][k] += t[k];
+                    s.link_contact_torque_nm[i][k] += t[k];
+                }
+            }
+        }
     }
 
     /// `physics.floor_friction = "stick_slip"`: the friction of every link's ground contacts
