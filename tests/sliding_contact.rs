@@ -102,6 +102,7 @@ fn default_job(friction: FloorFriction) -> Config {
 }
 
 #[test]
+#[ignore = "probe: prints the hop figures of BENCHMARKS.md (run with --ignored --nocapture)"]
 fn measure_hops_with_mujoco_friction() {
     let c = pushed_link(FloorFriction::Mujoco);
     let h = measure(&c, 0.2, 1.0);
@@ -111,6 +112,7 @@ fn measure_hops_with_mujoco_friction() {
 }
 
 #[test]
+#[ignore = "probe: prints the hop figures of BENCHMARKS.md (run with --ignored --nocapture)"]
 fn measure_hops_with_stick_slip_friction() {
     let c = pushed_link(FloorFriction::StickSlip);
     let h = measure(&c, 0.2, 1.0);
@@ -276,3 +278,38 @@ fn on_a_20_degree_slope_mu_0_2_slides_with_g_sin_minus_mu_cos() {
     assert!((a - expected).abs() <= 0.02 * expected, "sliding acceleration {a} m/s², expected {expected}");
 }
 
+
+// --- isotropic drift ---------------------------------------------------------------------------
+
+/// Net displacement of the centre of mass per gait cycle over 4 cycles after the ramp-in, in %
+/// of the body length: the default snake (10 links) at the default gait on a bare floor with
+/// isotropic friction 0.5.
+fn isotropic_drift_percent(friction: FloorFriction, contact_time_constant_secs: f64) -> f64 {
+    let mut c = default_job(friction);
+    c.terrain.kind = TerrainKind::None;
+    c.ground.model = GroundModel::Isotropic;
+    c.snake.ground_friction = [0.5, 0.0, 0.0];
+    c.physics.contact_time_constant_secs = contact_time_constant_secs;
+    let period = 1.0 / c.gait.sine_wave.frequency_hz;
+    let body_m = c.snake.n_links as f64 * c.snake.link_length_m;
+    let mut sim = simulation(&c);
+    let mut s = Snapshot::new(c.snake.n_links, c.snake.n_joints());
+    run_for(&mut sim, 2.0);
+    sim.snapshot(&mut s);
+    let a = s.centre_of_mass_m();
+    let cycles = 4.0;
+    run_for(&mut sim, cycles * period);
+    sim.snapshot(&mut s);
+    let b = s.centre_of_mass_m();
+    (b[0] - a[0]).hypot(b[1] - a[1]) / cycles / body_m * 100.0
+}
+
+#[test]
+fn isotropic_drift_is_small_and_does_not_depend_on_contact_softness() {
+    let mujoco = isotropic_drift_percent(FloorFriction::Mujoco, 0.02);
+    let d: Vec<f64> = [0.02, 0.01, 0.005].iter().map(|&t| isotropic_drift_percent(FloorFriction::StickSlip, t)).collect();
+    eprintln!("drift %/cycle: mujoco (20 ms) {mujoco}; stick_slip 20 / 10 / 5 ms: {d:?}");
+    assert!(d[0] < 2.0, "drift {} % of the body length per cycle", d[0]);
+    let (lo, hi) = d.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| (l.min(x), h.max(x)));
+    assert!(hi - lo <= 1.0, "drift at 20 / 10 / 5 ms within ±0.5 %: {d:?}");
+}
