@@ -313,3 +313,31 @@ fn isotropic_drift_is_small_and_does_not_depend_on_contact_softness() {
     let (lo, hi) = d.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| (l.min(x), h.max(x)));
     assert!(hi - lo <= 1.0, "drift at 20 / 10 / 5 ms within ±0.5 %: {d:?}");
 }
+
+// --- configuration -----------------------------------------------------------------------------
+
+#[test]
+fn floor_friction_keys_are_checked_with_their_key_paths() {
+    use simserpent::config::{ConfigError, ConfigSource, DEFAULT_CONFIG_TOML, load_config_str};
+    let load = |sets: &[&str]| {
+        load_config_str(DEFAULT_CONFIG_TOML, ConfigSource::Toml, &sets.iter().map(|s| s.to_string()).collect::<Vec<_>>())
+    };
+    let key_of = |e: ConfigError| match e {
+        ConfigError::InvalidValue { key, .. } => key,
+        other => panic!("{other}"),
+    };
+    assert_eq!(load(&[]).unwrap().physics.floor_friction, FloorFriction::Mujoco);
+    let c = load(&["physics.floor_friction=\"stick_slip\""]).unwrap();
+    assert_eq!(c.physics.floor_friction, FloorFriction::StickSlip);
+    let short = ["physics.floor_friction=\"stick_slip\"", "physics.floor_stick_time_constant_secs=0.002"];
+    assert_eq!(key_of(load(&short).unwrap_err()), "physics.floor_stick_time_constant_secs");
+    // The 3-timestep rule applies only where the law is in use.
+    assert!(load(&["physics.floor_stick_time_constant_secs=0.002"]).is_ok());
+    assert_eq!(
+        key_of(load(&["physics.floor_stick_time_constant_secs=-1"]).unwrap_err()),
+        "physics.floor_stick_time_constant_secs"
+    );
+    let torsional = ["physics.floor_friction=\"stick_slip\"", "snake.ground_friction=[0.5, 0.01, 0.0]"];
+    assert_eq!(key_of(load(&torsional).unwrap_err()), "snake.ground_friction");
+    assert!(load(&["physics.floor_friction=\"sticky\""]).unwrap_err().to_string().contains("floor_friction"));
+}

@@ -5,31 +5,36 @@ use super::{Config, ConfigError, FloorFriction, GroundModel};
 use super::validate::fmt_f;
 
 impl Config {
-    /// `physics.floor_stick_time_constant_secs` finite and at least 3 timesteps (the stick
-    /// spring–damper is applied as a force held over each step: shorter time constants make it
-    /// oscillate); with `"stick_slip"`, no torsional or rolling ground friction (SimSerpent's law
-    /// has none; a link's two contact points resist turning in place).
+    /// `physics.floor_stick_time_constant_secs` finite and > 0; with `"stick_slip"` in use (any
+    /// ground model but `"viscous"`), at least 3 timesteps (the stick spring–damper is applied as
+    /// a force held over each step: shorter time constants make it oscillate), and no torsional or
+    /// rolling ground friction (SimSerpent's law has none; a link's two contact points resist
+    /// turning in place).
     pub(super) fn validate_floor_friction(&self) -> Result<(), ConfigError> {
         let p = &self.physics;
         let key = "physics.floor_stick_time_constant_secs";
         let tau = p.floor_stick_time_constant_secs;
+        if !tau.is_finite() || tau <= 0.0 {
+            return Err(ConfigError::invalid(key, fmt_f(tau), "must be a finite number greater than 0"));
+        }
+        let own = p.floor_friction == FloorFriction::StickSlip && self.ground.model != GroundModel::Viscous;
+        if !own {
+            return Ok(());
+        }
         let min = 3.0 * self.general.timestep_secs;
-        if !tau.is_finite() || tau < min {
+        if tau < min {
             return Err(ConfigError::invalid(
                 key,
                 fmt_f(tau),
                 format!(
-                    "must be a finite number of at least 3 x general.timestep_secs = {} (the stick spring-damper \
-                     is applied once per step and oscillates with shorter time constants)",
+                    "must be at least 3 x general.timestep_secs = {} with physics.floor_friction = \"stick_slip\" (the \
+                     stick spring-damper is applied once per step and oscillates with shorter time constants)",
                     fmt_f(min)
                 ),
             ));
         }
         let g = &self.snake.ground_friction;
-        if p.floor_friction == FloorFriction::StickSlip
-            && self.ground.model != GroundModel::Viscous
-            && (g[1] != 0.0 || g[2] != 0.0)
-        {
+        if g[1] != 0.0 || g[2] != 0.0 {
             return Err(ConfigError::invalid(
                 "snake.ground_friction",
                 super::validate::fmt_a(g),
