@@ -25,6 +25,8 @@ struct Hop {
     impulse_over_weight: f64,
     /// Head link's mean x acceleration (from its x velocity at the ends of the segment), m/s².
     mean_accel_x_m_per_s2: f64,
+    /// 1st and 99th percentile of the links' accelerometer z readings (m/s², link frame).
+    accelerometer_z_p1_p99: [f64; 2],
 }
 
 fn simulation(c: &Config) -> Simulation {
@@ -44,9 +46,13 @@ fn measure(c: &Config, settle_secs: f64, secs: f64) -> Hop {
     let (mut without, mut peak, mut min, mut impulse, mut weight_impulse) = (0usize, 0.0f64, f64::INFINITY, 0.0, 0.0);
     let mut v_first = None;
     let mut v_last = 0.0;
+    let mut acc_z = Vec::with_capacity(steps * n);
+    let mut obs = s.observation_true.clone();
     for _ in 0..steps {
         sim.control();
         sim.snapshot(&mut s);
+        // The accelerometers of this instant (the snapshot's forward pass evaluated them).
+        sim.world().observe_true(&mut obs);
         for i in 0..n {
             let w = s.link_mass_kg[i] * G;
             let fz = s.link_floor_force_n[i][2];
@@ -57,13 +63,17 @@ fn measure(c: &Config, settle_secs: f64, secs: f64) -> Hop {
             min = min.min(fz / w);
             impulse += fz * dt;
             weight_impulse += w * dt;
+            acc_z.push(obs.imu_accel_m_per_s2[i][2]);
         }
         v_first.get_or_insert(s.link_velocity_m_per_s[0][0]);
         v_last = s.link_velocity_m_per_s[0][0];
         sim.advance().unwrap();
     }
     let v0 = v_first.unwrap();
+    acc_z.sort_by(f64::total_cmp);
+    let pct = |q: f64| acc_z[((acc_z.len() - 1) as f64 * q).round() as usize];
     Hop {
+        accelerometer_z_p1_p99: [pct(0.01), pct(0.99)],
         no_contact_fraction: without as f64 / (steps * n) as f64,
         peak_over_weight: peak,
         min_over_weight: min,

@@ -28,6 +28,32 @@
 //! friction); and the switch happens at step boundaries, so a link sliding at v crosses up to
 //! v·dt into a region with the old friction (0.5 mm at 0.5 m/s and 1 ms).
 //!
+//! **SimSerpent's floor friction** (`physics.floor_friction = "stick_slip"`, every ground model
+//! but viscous): the link–ground contacts are frictionless (condim 1, see `model`), and before
+//! every step each link gets, at each end of its ground contact (slot 0: contact points ahead of
+//! its centre of mass along its axis, slot 1: behind; a capsule lying on a plane touches it at
+//! both caps), an elasto-plastic Coulomb force:
+//! - N, the contact point and the normal are those of the latest evaluation of the contacts (the
+//!   previous step's last stage — with RK4 an evaluation near the end of that step — or the
+//!   recording's forward pass): MuJoCo's normal force of the link–ground contacts, read before
+//!   anything else this step, summed per slot, point and normal weighted by N. Why the previous
+//!   step's N: the contacts of x_k are only known after a forward pass, which would cost a
+//!   quarter of an RK4 step; N of a resting or sliding link changes little within a step, and
+//!   what lags by one step is only the friction's bound after an abrupt load change.
+//! - v, the velocity of the contact point at x_k (centre-of-mass velocity + ω × r), tangential.
+//! - An anchor on the ground per slot, with the deflection z of the contact point from it. The
+//!   trial force −k·(z + v·dt) − c·v (k = m·ω², c = 2·m·ω: critically damped with
+//!   ω = 1/`floor_stick_time_constant_secs`, m = N/g the mass the contact carries) is kept if it
+//!   lies inside the friction ellipse (F_axial/(μ_axial·N))² + (F_lateral/(μ_lateral·N))² ≤ 1
+//!   (stick: z grows by v·dt), else replaced by its nearest point on the ellipse (slide: the
+//!   anchor is dragged, z = −F/k). In steady sliding that is μ·N against the sliding direction
+//!   (maximum dissipation on the ellipse), while sticking it is whatever holds the link, with no
+//!   creep. μ_axial is `axial_friction` for a force toward the tail and `backward_friction`
+//!   (directional) toward the head; the coefficients come from the region under the link.
+//! - The sum of the slots' forces and their moments about the centre of mass goes into
+//!   `xfrc_applied`, held over the step; [`Ground::fill_snapshot`] adds it to the recorded
+//!   floor forces.
+//!
 //! Velocities are those of the state at the start of the step: kinematics and centre-of-mass
 //! velocities are recomputed first (`mj_kinematics`, `mj_comPos`, `mj_comVel`), because after
 //! `mj_step` MuJoCo's derived quantities belong to an integrator stage, not to the new state.
@@ -79,8 +105,15 @@ impl Ground {
         if pairs.len() != n && model != GroundModel::Viscous {
             map = SurfaceMap::default();
         }
+        // Only where the model generator made the ground frictionless for it (a user's robot
+        // keeps MuJoCo's friction).
+        let floor_condim = world
+            .model()
+            .name_to_id(MjtObjBase::mjOBJ_GEOM, names::FLOOR)
+            .map(|f| world.model().geom_condim()[f]);
         let own = config.physics.floor_friction == FloorFriction::StickSlip
             && g.model != GroundModel::Viscous
+            && floor_condim == Some(1)
             && pairs.is_empty()
             && n > 0;
         let stick_slip = own.then(|| StickSlip::new(config, world));
