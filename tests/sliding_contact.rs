@@ -146,6 +146,8 @@ fn a_pushed_link_keeps_its_contact_and_slides_at_f_minus_mu_m_g() {
         h.min_over_weight,
         h.peak_over_weight
     );
+    let [p1, p99] = h.accelerometer_z_p1_p99;
+    assert!(p1 >= 0.95 * G && p99 <= 1.05 * G, "accelerometer z 1st-99th percentile {p1} .. {p99} m/s²");
     let err = (h.mean_accel_x_m_per_s2 - expected).abs() / expected;
     assert!(err <= 0.01, "acceleration {} m/s², expected {expected} ({:.2} %)", h.mean_accel_x_m_per_s2, err * 100.0);
 }
@@ -288,7 +290,6 @@ fn on_a_20_degree_slope_mu_0_2_slides_with_g_sin_minus_mu_cos() {
     assert!((a - expected).abs() <= 0.02 * expected, "sliding acceleration {a} m/s², expected {expected}");
 }
 
-
 // --- isotropic drift ---------------------------------------------------------------------------
 
 /// Net displacement of the centre of mass per gait cycle over 4 cycles after the ramp-in, in %
@@ -317,7 +318,8 @@ fn isotropic_drift_percent(friction: FloorFriction, contact_time_constant_secs: 
 #[test]
 fn isotropic_drift_is_small_and_does_not_depend_on_contact_softness() {
     let mujoco = isotropic_drift_percent(FloorFriction::Mujoco, 0.02);
-    let d: Vec<f64> = [0.02, 0.01, 0.005].iter().map(|&t| isotropic_drift_percent(FloorFriction::StickSlip, t)).collect();
+    let d: Vec<f64> =
+        [0.02, 0.01, 0.005].iter().map(|&t| isotropic_drift_percent(FloorFriction::StickSlip, t)).collect();
     eprintln!("drift %/cycle: mujoco (20 ms) {mujoco}; stick_slip 20 / 10 / 5 ms: {d:?}");
     assert!(d[0] < 2.0, "drift {} % of the body length per cycle", d[0]);
     let (lo, hi) = d.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| (l.min(x), h.max(x)));
@@ -330,7 +332,11 @@ fn isotropic_drift_is_small_and_does_not_depend_on_contact_softness() {
 fn floor_friction_keys_are_checked_with_their_key_paths() {
     use simserpent::config::{ConfigError, ConfigSource, DEFAULT_CONFIG_TOML, load_config_str};
     let load = |sets: &[&str]| {
-        load_config_str(DEFAULT_CONFIG_TOML, ConfigSource::Toml, &sets.iter().map(|s| s.to_string()).collect::<Vec<_>>())
+        load_config_str(
+            DEFAULT_CONFIG_TOML,
+            ConfigSource::Toml,
+            &sets.iter().map(|s| s.to_string()).collect::<Vec<_>>(),
+        )
     };
     let key_of = |e: ConfigError| match e {
         ConfigError::InvalidValue { key, .. } => key,

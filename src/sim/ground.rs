@@ -107,10 +107,8 @@ impl Ground {
         }
         // Only where the model generator made the ground frictionless for it (a user's robot
         // keeps MuJoCo's friction).
-        let floor_condim = world
-            .model()
-            .name_to_id(MjtObjBase::mjOBJ_GEOM, names::FLOOR)
-            .map(|f| world.model().geom_condim()[f]);
+        let floor_condim =
+            world.model().name_to_id(MjtObjBase::mjOBJ_GEOM, names::FLOOR).map(|f| world.model().geom_condim()[f]);
         let own = config.physics.floor_friction == FloorFriction::StickSlip
             && g.model != GroundModel::Viscous
             && floor_condim == Some(1)
@@ -287,11 +285,15 @@ impl StickSlip {
 }
 
 impl Ground {
-    /// The friction force (N) and its moment about the link's centre of mass (N·m), world frame,
-    /// that SimSerpent's floor friction applies to each link during the coming step (`None` with
-    /// `physics.floor_friction = "mujoco"`).
-    pub fn applied_friction(&self) -> Option<(&[[f64; 3]], &[[f64; 3]])> {
-        self.stick_slip.as_ref().map(|s| (s.force_n.as_slice(), s.torque_nm.as_slice()))
+    /// The friction force (N, world frame) that SimSerpent's floor friction applies to each link
+    /// during the coming step (`None` with `physics.floor_friction = "mujoco"`).
+    pub fn applied_friction_n(&self) -> Option<&[[f64; 3]]> {
+        self.stick_slip.as_ref().map(|s| s.force_n.as_slice())
+    }
+
+    /// Its moment about each link's centre of mass (N·m, world frame).
+    pub fn applied_friction_torque_nm(&self) -> Option<&[[f64; 3]]> {
+        self.stick_slip.as_ref().map(|s| s.torque_nm.as_slice())
     }
 
     /// Fills what the ground model adds to a snapshot read after [`Ground::before_step`]: the

@@ -1,8 +1,8 @@
 //! Checks of the floor-friction keys (`physics.floor_friction`,
 //! `physics.floor_stick_time_constant_secs`), kept apart from `validate.rs`.
 
-use super::{Config, ConfigError, FloorFriction, GroundModel};
 use super::validate::fmt_f;
+use super::{Config, ConfigError, FloorFriction, GroundModel};
 
 impl Config {
     /// `physics.floor_stick_time_constant_secs` finite and > 0; with `"stick_slip"` in use (any

@@ -9,9 +9,9 @@
 //! Does: parse, merge, override, validate. Does not: touch files other than the config itself,
 //! or MuJoCo.
 
+mod floor;
 mod legacy;
 mod load;
-mod floor;
 pub mod surfaces;
 mod validate;
 
