@@ -357,3 +357,16 @@ fn floor_friction_keys_are_checked_with_their_key_paths() {
     assert_eq!(key_of(load(&torsional).unwrap_err()), "snake.ground_friction");
     assert!(load(&["physics.floor_friction=\"sticky\""]).unwrap_err().to_string().contains("floor_friction"));
 }
+
+#[test]
+fn stick_slip_runs_are_deterministic() {
+    let c = default_job(FloorFriction::StickSlip);
+    let run = || {
+        let mut sim = simulation(&c);
+        run_for(&mut sim, 1.5);
+        let mut s = Snapshot::new(c.snake.n_links, c.snake.n_joints());
+        sim.snapshot(&mut s);
+        (s.link_position_m.clone(), s.link_floor_force_n.clone())
+    };
+    assert_eq!(run(), run(), "same config, same trajectory and forces, bit for bit");
+}
