@@ -28,13 +28,40 @@
 //! friction); and the switch happens at step boundaries, so a link sliding at v crosses up to
 //! v·dt into a region with the old friction (0.5 mm at 0.5 m/s and 1 ms).
 //!
+//! **SimSerpent's floor friction** (`physics.floor_friction = "stick_slip"`, every ground model
+//! but viscous): the link–ground contacts are frictionless (condim 1, see `model`), and before
+//! every step each link gets, at each end of its ground contact (slot 0: contact points ahead of
+//! its centre of mass along its axis, slot 1: behind; a capsule lying on a plane touches it at
+//! both caps), an elasto-plastic Coulomb force:
+//! - N, the contact point and the normal are those of the latest evaluation of the contacts (the
+//!   previous step's last stage — with RK4 an evaluation near the end of that step — or the
+//!   recording's forward pass): MuJoCo's normal force of the link–ground contacts, read before
+//!   anything else this step, summed per slot, point and normal weighted by N. Why the previous
+//!   step's N: the contacts of x_k are only known after a forward pass, which would cost a
+//!   quarter of an RK4 step; N of a resting or sliding link changes little within a step, and
+//!   what lags by one step is only the friction's bound after an abrupt load change.
+//! - v, the velocity of the contact point at x_k (centre-of-mass velocity + ω × r), tangential.
+//! - An anchor on the ground per slot, with the deflection z of the contact point from it. The
+//!   trial force −k·(z + v·dt) − c·v (k = m·ω², c = 2·m·ω: critically damped with
+//!   ω = 1/`floor_stick_time_constant_secs`, m = N/g the mass the contact carries) is kept if it
+//!   lies inside the friction ellipse (F_axial/(μ_axial·N))² + (F_lateral/(μ_lateral·N))² ≤ 1
+//!   (stick: z grows by v·dt), else replaced by its nearest point on the ellipse (slide: the
+//!   anchor is dragged, z = −F/k). In steady sliding that is μ·N against the sliding direction
+//!   (maximum dissipation on the ellipse), while sticking it is whatever holds the link, with no
+//!   creep. μ_axial is `axial_friction` for a force toward the tail and `backward_friction`
+//!   (directional) toward the head; the coefficients come from the region under the link.
+//! - The sum of the slots' forces and their moments about the centre of mass goes into
+//!   `xfrc_applied`, held over the step; [`Ground::fill_snapshot`] adds it to the recorded
+//!   floor forces.
+//!
 //! Velocities are those of the state at the start of the step: kinematics and centre-of-mass
 //! velocities are recomputed first (`mj_kinematics`, `mj_comPos`, `mj_comVel`), because after
 //! `mj_step` MuJoCo's derived quantities belong to an integrator stage, not to the new state.
 
 use super::World;
-use crate::config::{Config, GroundModel};
+use crate::config::{Config, FloorFriction, GroundModel};
 use crate::model::{SurfaceMap, names};
+use crate::state::{GeomClass, Snapshot};
 use mujoco_rs::prelude::MjtObjBase;
 
 /// Below this axial speed (m/s) a link counts as not sliding (directional model).
@@ -57,6 +84,8 @@ pub struct Ground {
     region_now: Vec<usize>,
     /// Body id per link.
     bodies: Vec<usize>,
+    /// SimSerpent's own floor friction (`physics.floor_friction = "stick_slip"`), if in use.
+    stick_slip: Option<StickSlip>,
 }
 
 impl Ground {
@@ -76,7 +105,22 @@ impl Ground {
         if pairs.len() != n && model != GroundModel::Viscous {
             map = SurfaceMap::default();
         }
+        // Only where the model generator made the ground frictionless for it (a user's robot
+        // keeps MuJoCo's friction).
+        let floor_condim =
+            world.model().name_to_id(MjtObjBase::mjOBJ_GEOM, names::FLOOR).map(|f| world.model().geom_condim()[f]);
+        let own = config.physics.floor_friction == FloorFriction::StickSlip
+            && g.model != GroundModel::Viscous
+            && floor_condim == Some(1)
+            && pairs.is_empty()
+            && n > 0;
+        let stick_slip = own.then(|| StickSlip::new(config, world));
+        let model = if own { g.model } else { model };
+        if own {
+            map = SurfaceMap::from_config(config);
+        }
         Self {
+            stick_slip,
             model,
             map,
             torsional: config.snake.ground_friction[1],
@@ -90,7 +134,9 @@ impl Ground {
 
     /// Whether this model does anything per step.
     pub fn is_active(&self) -> bool {
-        matches!(self.model, GroundModel::Directional | GroundModel::Viscous) || !self.map.is_empty()
+        matches!(self.model, GroundModel::Directional | GroundModel::Viscous)
+            || !self.map.is_empty()
+            || self.stick_slip.is_some()
     }
 
     /// The floor surfaces (empty without `[[ground.surfaces]]`).
@@ -109,6 +155,10 @@ impl Ground {
     /// allocate.
     pub fn before_step(&mut self, world: &mut World) {
         if !self.is_active() {
+            return;
+        }
+        if self.stick_slip.is_some() {
+            self.before_step_stick_slip(world);
             return;
         }
         let needs_velocity = matches!(self.model, GroundModel::Directional | GroundModel::Viscous);
@@ -178,5 +228,283 @@ impl Ground {
                 GroundModel::Isotropic | GroundModel::Anisotropic => {}
             }
         }
+    }
+}
+
+/// Slots per link: the front and the back half of its contact (a capsule lying on a plane
+/// touches it at both end caps).
+const SLOTS: usize = 2;
+
+/// Per-step state of SimSerpent's elasto-plastic floor friction (see the module docs).
+#[derive(Debug, Clone)]
+struct StickSlip {
+    /// For each geom: the link it belongs to, if any.
+    link_of_geom: Vec<Option<usize>>,
+    /// Whether each geom carries the snake like the floor (floor, slope, heightfield, mesh terrain).
+    ground_geom: Vec<bool>,
+    /// Stick spring–damper per unit of supported mass: ω² (1/s²) and 2ω (1/s), ω = 1/τ.
+    omega_sq_per_s2: f64,
+    two_omega_per_s: f64,
+    /// |gravity| (m/s²; 9.81 without gravity): N / g is the mass a contact supports.
+    gravity_m_per_s2: f64,
+    timestep_secs: f64,
+    /// Accumulated contact of this step per link and slot: Σ N, Σ N·point, Σ N·normal.
+    normal_n: Vec<[f64; SLOTS]>,
+    point_weighted: Vec<[[f64; 3]; SLOTS]>,
+    normal_weighted: Vec<[[f64; 3]; SLOTS]>,
+    /// Stick deflection per link and slot (m, world frame): how far the contact point has moved
+    /// from its anchor on the ground.
+    deflection_m: Vec<[[f64; 3]; SLOTS]>,
+    /// Friction force (N) and its moment about the centre of mass (N·m) applied to each link in
+    /// the latest prepared step (world frame).
+    force_n: Vec<[f64; 3]>,
+    torque_nm: Vec<[f64; 3]>,
+}
+
+impl StickSlip {
+    fn new(config: &Config, world: &World) -> Self {
+        let n = world.n_links();
+        let omega = 1.0 / config.physics.floor_stick_time_constant_secs;
+        let g = config.general.gravity_m_per_s2;
+        let g_abs = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+        Self {
+            link_of_geom: world.index.geom_link.clone(),
+            ground_geom: world.index.geom_class.iter().map(|c| *c == GeomClass::Floor).collect(),
+            omega_sq_per_s2: omega * omega,
+            two_omega_per_s: 2.0 * omega,
+            gravity_m_per_s2: if g_abs > 0.1 { g_abs } else { 9.81 },
+            timestep_secs: config.general.timestep_secs,
+            normal_n: vec![[0.0; SLOTS]; n],
+            point_weighted: vec![[[0.0; 3]; SLOTS]; n],
+            normal_weighted: vec![[[0.0; 3]; SLOTS]; n],
+            deflection_m: vec![[[0.0; 3]; SLOTS]; n],
+            force_n: vec![[0.0; 3]; n],
+            torque_nm: vec![[0.0; 3]; n],
+        }
+    }
+}
+
+impl Ground {
+    /// The friction force (N, world frame) that SimSerpent's floor friction applies to each link
+    /// during the coming step (`None` with `physics.floor_friction = "mujoco"`).
+    pub fn applied_friction_n(&self) -> Option<&[[f64; 3]]> {
+        self.stick_slip.as_ref().map(|s| s.force_n.as_slice())
+    }
+
+    /// Its moment about each link's centre of mass (N·m, world frame).
+    pub fn applied_friction_torque_nm(&self) -> Option<&[[f64; 3]]> {
+        self.stick_slip.as_ref().map(|s| s.torque_nm.as_slice())
+    }
+
+    /// Fills what the ground model adds to a snapshot read after [`Ground::before_step`]: the
+    /// region under each link, and with `physics.floor_friction = "stick_slip"` the friction
+    /// force it applies, added to each link's floor and total contact force and torque (MuJoCo's
+    /// contacts carry only the normal force then; the per-contact rows keep friction 0).
+    pub fn fill_snapshot(&self, s: &mut Snapshot) {
+        s.link_region.copy_from_slice(&self.region_now);
+        if let Some(st) = &self.stick_slip {
+            for (i, (f, t)) in st.force_n.iter().zip(&st.torque_nm).enumerate() {
+                for k in 0..3 {
+                    s.link_floor_force_n[i][k] += f[k];
+                    s.link_contact_force_n[i][k] += f[k];
+                    s.link_floor_torque_nm[i][k] += t[k];
+                    s.link_contact_torque_nm[i][k] += t[k];
+                }
+            }
+        }
+    }
+
+    /// `physics.floor_friction = "stick_slip"`: the friction of every link's ground contacts
+    /// into `xfrc_applied`.
+    fn before_step_stick_slip(&mut self, world: &mut World) {
+        let Some(st) = self.stick_slip.as_mut() else { return };
+        // Normal forces and points of the latest evaluation (the previous step's last stage, or
+        // a recording's forward pass), per link and slot; read before the kinematics below.
+        for v in &mut st.normal_n {
+            *v = [0.0; SLOTS];
+        }
+        for v in st.point_weighted.iter_mut().chain(st.normal_weighted.iter_mut()) {
+            *v = [[0.0; 3]; SLOTS];
+        }
+        {
+            let d = &world.data;
+            let xipos = d.xipos();
+            let xmat = d.xmat();
+            for (c, contact) in d.contact().iter().enumerate() {
+                let (g1, g2) = (contact.geom[0], contact.geom[1]);
+                if g1 < 0 || g2 < 0 || contact.exclude != 0 {
+                    continue;
+                }
+                let (g1, g2) = (g1 as usize, g2 as usize);
+                // The link side and the sign that turns MuJoCo's normal (geom1 → geom2) into the
+                // normal pointing from the ground into the link.
+                let (link, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
+                    (Some(l), None) if st.ground_geom[g2] => (l, -1.0),
+                    (None, Some(l)) if st.ground_geom[g1] => (l, 1.0),
+                    _ => continue,
+                };
+                let n = d.contact_force(c)[0];
+                if n <= 0.0 {
+                    continue;
+                }
+                let body = self.bodies[link];
+                let m = xmat[body];
+                let axis = [m[0], m[3], m[6]];
+                let com = xipos[body];
+                let along = (contact.pos[0] - com[0]) * axis[0]
+                    + (contact.pos[1] - com[1]) * axis[1]
+                    + (contact.pos[2] - com[2]) * axis[2];
+                let slot = usize::from(along < 0.0);
+                st.normal_n[link][slot] += n;
+                for k in 0..3 {
+                    st.point_weighted[link][slot][k] += n * contact.pos[k];
+                    st.normal_weighted[link][slot][k] += n * sign * contact.frame[k];
+                }
+            }
+        }
+        // Velocities of the state x_k.
+        world.data.kinematics();
+        world.data.com_pos();
+        world.data.com_vel();
+        let surfaces = !self.map.is_empty();
+        let dt = st.timestep_secs;
+        for (i, &body) in self.bodies.iter().enumerate() {
+            let com = world.data.xipos()[body];
+            let region = if surfaces { self.map.region_at(com[0], com[1]) } else { 0 };
+            self.region_now[i] = region;
+            let f = *self.map.friction(region);
+            // Coefficients: forward (friction force toward the tail), backward (toward the head),
+            // lateral.
+            let (mu_fwd, mu_back, mu_lat) = match self.model {
+                GroundModel::Isotropic => (f.sliding, f.sliding, f.sliding),
+                GroundModel::Anisotropic => (f.axial, f.axial, f.lateral),
+                GroundModel::Directional => (f.axial, f.backward, f.lateral),
+                GroundModel::Viscous => (0.0, 0.0, 0.0),
+            };
+            let xmat = world.data.xmat()[body];
+            let axis = [xmat[0], xmat[3], xmat[6]];
+            let vel = world.data.object_velocity(MjtObjBase::mjOBJ_BODY, body, false);
+            let (w, v_com) = ([vel[0], vel[1], vel[2]], [vel[3], vel[4], vel[5]]);
+            let mut force = [0.0; 3];
+            let mut torque = [0.0; 3];
+            for slot in 0..SLOTS {
+                let n_force = st.normal_n[i][slot];
+                let z = &mut st.deflection_m[i][slot];
+                if n_force <= 0.0 {
+                    *z = [0.0; 3];
+                    continue;
+                }
+                let p = st.point_weighted[i][slot].map(|x| x / n_force);
+                let nrm = normalized(st.normal_weighted[i][slot]).unwrap_or([0.0, 0.0, 1.0]);
+                let r = sub(p, com);
+                let v_point = add(v_com, cross(w, r));
+                let v_t = tangential(v_point, nrm);
+                // Tangent frame: the link's axis in the contact plane, and across it.
+                let a = normalized(tangential(axis, nrm)).unwrap_or_else(|| any_perpendicular(nrm));
+                let l = cross(nrm, a);
+                // The anchor stays on the ground: the deflection keeps only its tangential part
+                // and grows by the contact point's motion over the step.
+                let z_pred = add(tangential(*z, nrm), v_t.map(|x| x * dt));
+                let mass = n_force / st.gravity_m_per_s2;
+                let (k, c) = (mass * st.omega_sq_per_s2, mass * st.two_omega_per_s);
+                let trial = [0, 1, 2].map(|j| -k * z_pred[j] - c * v_t[j]);
+                let (ta, tl) = (dot(trial, a), dot(trial, l));
+                let mu_a = if ta > 0.0 { mu_back } else { mu_fwd };
+                let (fa, fl) = project_to_ellipse(ta, tl, mu_a * n_force, mu_lat * n_force);
+                let f_world = [0, 1, 2].map(|j| fa * a[j] + fl * l[j]);
+                if fa == ta && fl == tl {
+                    *z = z_pred; // sticks
+                } else if k > 0.0 {
+                    *z = f_world.map(|x| -x / k); // slides: the anchor is dragged along
+                }
+                force = add(force, f_world);
+                torque = add(torque, cross(r, f_world));
+            }
+            st.force_n[i] = force;
+            st.torque_nm[i] = torque;
+            let slot = &mut world.data.xfrc_applied_mut()[body];
+            *slot = [force[0], force[1], force[2], torque[0], torque[1], torque[2]];
+        }
+    }
+}
+
+/// The point of the ellipse (x/a)² + (y/b)² ≤ 1 nearest to (x, y) (Euclidean): (x, y) itself
+/// when inside. Degenerate axes (a or b = 0) give a segment or the origin.
+fn project_to_ellipse(x: f64, y: f64, a: f64, b: f64) -> (f64, f64) {
+    if a <= 0.0 && b <= 0.0 {
+        return (0.0, 0.0);
+    }
+    if a <= 0.0 {
+        return (0.0, y.clamp(-b, b));
+    }
+    if b <= 0.0 {
+        return (x.clamp(-a, a), 0.0);
+    }
+    if (x / a).powi(2) + (y / b).powi(2) <= 1.0 {
+        return (x, y);
+    }
+    // Nearest point: (a² x / (a² + t), b² y / (b² + t)) with t ≥ 0 the root of
+    // f(t) = (a x / (a² + t))² + (b y / (b² + t))² − 1, convex and decreasing: Newton from 0
+    // climbs to the root without overshooting.
+    let (a2, b2) = (a * a, b * b);
+    let mut t = 0.0;
+    for _ in 0..50 {
+        let (p, q) = (a * x / (a2 + t), b * y / (b2 + t));
+        let f = p * p + q * q - 1.0;
+        if f <= 1e-12 {
+            break;
+        }
+        let df = -2.0 * (p * p / (a2 + t) + q * q / (b2 + t));
+        t -= f / df;
+    }
+    let (px, py) = (a2 * x / (a2 + t), b2 * y / (b2 + t));
+    // Exactly onto the boundary (the Newton root leaves it a hair outside at most).
+    let s = ((px / a).powi(2) + (py / b).powi(2)).sqrt();
+    if s > 1.0 { (px / s, py / s) } else { (px, py) }
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+/// The part of `v` in the plane with unit normal `n`.
+fn tangential(v: [f64; 3], n: [f64; 3]) -> [f64; 3] {
+    let s = dot(v, n);
+    [v[0] - s * n[0], v[1] - s * n[1], v[2] - s * n[2]]
+}
+fn normalized(v: [f64; 3]) -> Option<[f64; 3]> {
+    let len = dot(v, v).sqrt();
+    (len > 1e-9).then(|| v.map(|x| x / len))
+}
+/// A unit vector perpendicular to the unit vector `n`.
+fn any_perpendicular(n: [f64; 3]) -> [f64; 3] {
+    let e = if n[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+    normalized(tangential(e, n)).unwrap_or([1.0, 0.0, 0.0])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::project_to_ellipse;
+
+    #[test]
+    fn projection_onto_the_friction_ellipse() {
+        assert_eq!(project_to_ellipse(0.1, 0.2, 1.0, 1.0), (0.1, 0.2));
+        let (x, y) = project_to_ellipse(3.0, 4.0, 1.0, 1.0);
+        assert!((x - 0.6).abs() < 1e-9 && (y - 0.8).abs() < 1e-9);
+        let (x, y) = project_to_ellipse(2.0, 0.0, 0.5, 1.0);
+        assert!((x - 0.5).abs() < 1e-12 && y == 0.0);
+        // The residual is along the ellipse's normal (nearest point).
+        let (x, y) = project_to_ellipse(1.0, 3.0, 0.1, 1.0);
+        let (nx, ny) = (x / 0.01, y / 1.0);
+        assert!(((1.0 - x) * ny - (3.0 - y) * nx).abs() < 1e-6 * nx.hypot(ny));
+        assert_eq!(project_to_ellipse(1.0, 1.0, 0.0, 0.5), (0.0, 0.5));
     }
 }

@@ -298,7 +298,7 @@ impl<C: Controller> Simulation<C> {
     pub fn snapshot(&mut self, snapshot: &mut Snapshot) {
         self.world.forward();
         self.world.read_snapshot(snapshot, &self.obs_true, &self.obs);
-        snapshot.link_region.copy_from_slice(self.ground.link_regions());
+        self.ground.fill_snapshot(snapshot);
     }
 
     fn view(&self, k: u64, plan: LoopPlan) -> StepView<'_> {
@@ -348,7 +348,7 @@ impl<C: Controller> Simulation<C> {
             if plan.records(*k) {
                 self.world.forward();
                 self.world.read_snapshot(&mut self.snapshot, &self.obs_true, &self.obs);
-                self.snapshot.link_region.copy_from_slice(self.ground.link_regions());
+                self.ground.fill_snapshot(&mut self.snapshot);
                 let view = self.view(*k, plan);
                 for o in observers.iter_mut() {
                     o.on_record(&view, &self.snapshot)?;

@@ -107,6 +107,8 @@ self_collision = false
 contact_time_constant_secs = 0.01
 contact_damping_ratio = 0.8
 solver_iterations = 50
+floor_friction = "stick_slip"
+floor_stick_time_constant_secs = 0.01
 
 [safety]
 max_kinetic_energy_j_per_kg = 250.0
@@ -130,7 +132,8 @@ joint_damping_nm_s_per_rad = 0.25
 joint_armature_kg_m2 = 0.02
 joint_axes = "alternating"
 torque_range_nm = [-2.0, 4.0]
-ground_friction = [0.6, 0.01, 0.001]
+# torsional and rolling must be 0 with physics.floor_friction = "stick_slip"
+ground_friction = [0.6, 0.0, 0.0]
 link_friction = [0.3, 0.002, 0.0002]
 color_rgba = [1.0, 0.5, 0.25, 0.75]
 head_position_m = [1.0, 2.0, 0.5]
@@ -388,6 +391,8 @@ fn all_fields_expected() -> Config {
     p.contact_time_constant_secs = 0.01;
     p.contact_damping_ratio = 0.8;
     p.solver_iterations = 50;
+    p.floor_friction = FloorFriction::StickSlip;
+    p.floor_stick_time_constant_secs = 0.01;
 
     c.safety.max_kinetic_energy_j_per_kg = 250.0;
     c.safety.check_every_n_steps = 3;
@@ -410,7 +415,7 @@ fn all_fields_expected() -> Config {
     s.joint_armature_kg_m2 = 0.02;
     s.joint_axes = JointAxes::Alternating;
     s.torque_range_nm = [-2.0, 4.0];
-    s.ground_friction = [0.6, 0.01, 0.001];
+    s.ground_friction = [0.6, 0.0, 0.0];
     s.link_friction = [0.3, 0.002, 0.0002];
     s.color_rgba = [1.0, 0.5, 0.25, 0.75];
     s.head_position_m = [1.0, 2.0, 0.5];

@@ -9,6 +9,7 @@
 //! Does: parse, merge, override, validate. Does not: touch files other than the config itself,
 //! or MuJoCo.
 
+mod floor;
 mod legacy;
 mod load;
 pub mod surfaces;
@@ -211,6 +212,22 @@ pub struct Physics {
     pub contact_time_constant_secs: f64,
     pub contact_damping_ratio: f64,
     pub solver_iterations: u32,
+    /// Who computes the friction between links and the floor (and ground-like terrain).
+    pub floor_friction: FloorFriction,
+    /// `"stick_slip"` only: time constant of the stick spring–damper that holds a link's contact
+    /// point at rest (s; critically damped). Its presliding displacement is μ·g·τ².
+    pub floor_stick_time_constant_secs: f64,
+}
+
+/// The friction law between links and ground (`physics.floor_friction`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FloorFriction {
+    /// MuJoCo's own friction constraints on the link–floor contacts (sliding contacts hop).
+    Mujoco,
+    /// Frictionless link–ground contacts (condim 1) for the normal force, and SimSerpent's
+    /// elasto-plastic Coulomb law applied at each link's contact points before every step.
+    StickSlip,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

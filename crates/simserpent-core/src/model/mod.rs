@@ -70,7 +70,7 @@ use std::fmt::{self, Write};
 pub use geometry::link_axis_segments_m;
 pub use surfaces::SurfaceMap;
 
-use crate::config::{Config, ConfigError, FrictionCone, GaitKind, GroundModel};
+use crate::config::{Config, ConfigError, FloorFriction, FrictionCone, GaitKind, GroundModel};
 use geometry::{V3, dist_xy_point_segment};
 
 /// A vertical cylinder obstacle standing on the floor.
@@ -492,13 +492,27 @@ fn write_xml(
     // applies its forces itself), or left to the explicit link-floor pairs below.
     // With surfaces the isotropic model also goes through the pairs (their friction is switched
     // by the surface under each link); without surfaces the model is exactly as before.
+    // SimSerpent's own floor friction (`physics.floor_friction = "stick_slip"`, generated snake
+    // only): frictionless link-ground contacts (condim 1; the floor's priority makes its condim
+    // the contact's), `sim::ground` applies the friction.
+    let own_friction = matches!(body, Body::Snake(_))
+        && cfg.physics.floor_friction == FloorFriction::StickSlip
+        && cfg.ground.model != GroundModel::Viscous;
+    let frictionless_attrs = format!(
+        "contype=\"{}\" conaffinity=\"{}\" priority=\"1\" friction=\"{}\" condim=\"1\"{env_solref}",
+        snake::ENV_CONTYPE,
+        snake::ENV_CONAFFINITY,
+        Nums(&cfg.snake.ground_friction)
+    );
     let snake_pairs = matches!(body, Body::Snake(_))
+        && !own_friction
         && match cfg.ground.model {
             GroundModel::Anisotropic | GroundModel::Directional => true,
             GroundModel::Isotropic => !cfg.ground.surfaces.is_empty(),
             GroundModel::Viscous => false,
         };
     let floor_attrs = match cfg.ground.model {
+        _ if own_friction => frictionless_attrs.clone(),
         GroundModel::Viscous => env_attrs([0.0; 3]),
         _ if snake_pairs => format!(
             "contype=\"0\" conaffinity=\"0\" priority=\"1\" friction=\"{}\"{env_solref}",
@@ -509,6 +523,7 @@ fn write_xml(
     // Ground-like terrain surfaces: isotropic ground friction through the default collision
     // filter (no pairs: a capsule-hfield or capsule-box contact frame does not follow the link).
     let ground_attrs = match cfg.ground.model {
+        _ if own_friction => frictionless_attrs,
         GroundModel::Viscous => env_attrs([0.0; 3]),
         _ => env_attrs(cfg.snake.ground_friction),
     };

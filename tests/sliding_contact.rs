@@ -1,0 +1,418 @@
+//! Sliding floor contact (issue 14): measured from every step's snapshot, as the recorded tables
+//! would show it (`Simulation::control`, then the recording's forward pass at x_k, then the step).
+//!
+//! The hop figures: the fraction of link-steps without floor contact (no floor normal force),
+//! the largest floor normal force of one link over its weight, and the recorded floor impulse
+//! (Σ vertical floor force · dt) over the weight's impulse. Run with `--nocapture` to see them.
+#![allow(clippy::unwrap_used)]
+
+use simserpent::config::{Config, FloorFriction, GaitKind, GroundModel, TerrainKind};
+use simserpent::sim::{Simulation, Snapshot, World};
+
+/// Gravity of the default config (m/s²).
+const G: f64 = 9.81;
+
+/// Hop figures of a run segment.
+#[derive(Debug, Clone, Copy)]
+struct Hop {
+    /// Link-steps without any floor normal force / all link-steps.
+    no_contact_fraction: f64,
+    /// Largest floor normal force of one link at one step / that link's weight.
+    peak_over_weight: f64,
+    /// Smallest floor normal force of one link at one step / that link's weight.
+    min_over_weight: f64,
+    /// Σ vertical floor force · dt over Σ weight · dt.
+    impulse_over_weight: f64,
+    /// Head link's mean x acceleration (from its x velocity at the ends of the segment), m/s².
+    mean_accel_x_m_per_s2: f64,
+    /// 1st and 99th percentile of the links' accelerometer z readings (m/s², link frame).
+    accelerometer_z_p1_p99: [f64; 2],
+}
+
+fn simulation(c: &Config) -> Simulation {
+    Simulation::new(c, World::from_config(c).unwrap())
+}
+
+/// Runs `settle_secs` unmeasured, then measures every step for `secs`.
+fn measure(c: &Config, settle_secs: f64, secs: f64) -> Hop {
+    let mut sim = simulation(c);
+    let dt = c.general.timestep_secs;
+    let n = c.snake.n_links;
+    for _ in 0..(settle_secs / dt).round() as usize {
+        sim.step().unwrap();
+    }
+    let mut s = Snapshot::new(n, n.saturating_sub(1));
+    let steps = (secs / dt).round() as usize;
+    let (mut without, mut peak, mut min, mut impulse, mut weight_impulse) = (0usize, 0.0f64, f64::INFINITY, 0.0, 0.0);
+    let mut v_first = None;
+    let mut v_last = 0.0;
+    let mut acc_z = Vec::with_capacity(steps * n);
+    let mut obs = s.observation_true.clone();
+    for _ in 0..steps {
+        sim.control();
+        sim.snapshot(&mut s);
+        // The accelerometers of this instant (the snapshot's forward pass evaluated them).
+        sim.world().observe_true(&mut obs);
+        for i in 0..n {
+            let w = s.link_mass_kg[i] * G;
+            let fz = s.link_floor_force_n[i][2];
+            if fz <= 0.0 {
+                without += 1;
+            }
+            peak = peak.max(fz / w);
+            min = min.min(fz / w);
+            impulse += fz * dt;
+            weight_impulse += w * dt;
+            acc_z.push(obs.imu_accel_m_per_s2[i][2]);
+        }
+        v_first.get_or_insert(s.link_velocity_m_per_s[0][0]);
+        v_last = s.link_velocity_m_per_s[0][0];
+        sim.advance().unwrap();
+    }
+    let v0 = v_first.unwrap();
+    acc_z.sort_by(f64::total_cmp);
+    let pct = |q: f64| acc_z[((acc_z.len() - 1) as f64 * q).round() as usize];
+    Hop {
+        accelerometer_z_p1_p99: [pct(0.01), pct(0.99)],
+        no_contact_fraction: without as f64 / (steps * n) as f64,
+        peak_over_weight: peak,
+        min_over_weight: min,
+        impulse_over_weight: impulse / weight_impulse,
+        mean_accel_x_m_per_s2: (v_last - v0) / ((steps - 1) as f64 * dt),
+    }
+}
+
+/// One 0.3 kg link (L 0.2 m, r 0.04 m) on a bare floor, isotropic μ 0.5, RK4, 1 ms, pushed by
+/// 2 N along +x (its axis) at its centre of mass. The push is a horizontal gravity component
+/// F/m, so that nothing but the engine's own force input is involved.
+fn pushed_link(friction: FloorFriction) -> Config {
+    let mut c = Config::default();
+    c.terrain.kind = TerrainKind::None;
+    c.gait.kind = GaitKind::None;
+    c.snake.n_links = 1;
+    c.ground.model = GroundModel::Isotropic;
+    c.snake.ground_friction = [0.5, 0.0, 0.0];
+    c.physics.floor_friction = friction;
+    c.general.gravity_m_per_s2 = [2.0 / c.snake.link_mass_kg, 0.0, -G];
+    c
+}
+
+const PUSH_N: f64 = 2.0;
+
+fn pushed_link_expected_accel(c: &Config) -> f64 {
+    let m = c.snake.link_mass_kg;
+    (PUSH_N - c.snake.ground_friction[0] * m * G) / m
+}
+
+/// The default job (10 links, anisotropic 0.1 / 1.0, default gait, cylinder path).
+fn default_job(friction: FloorFriction) -> Config {
+    let mut c = Config::default();
+    c.physics.floor_friction = friction;
+    c
+}
+
+#[test]
+#[ignore = "probe: prints the hop figures of BENCHMARKS.md (run with --ignored --nocapture)"]
+fn measure_hops_with_mujoco_friction() {
+    let c = pushed_link(FloorFriction::Mujoco);
+    let h = measure(&c, 0.2, 1.0);
+    eprintln!("single link, mujoco: {h:?}, expected accel {}", pushed_link_expected_accel(&c));
+    let h = measure(&default_job(FloorFriction::Mujoco), 2.0, 4.0);
+    eprintln!("default job, mujoco: {h:?}");
+}
+
+#[test]
+#[ignore = "probe: prints the hop figures of BENCHMARKS.md (run with --ignored --nocapture)"]
+fn measure_hops_with_stick_slip_friction() {
+    let c = pushed_link(FloorFriction::StickSlip);
+    let h = measure(&c, 0.2, 1.0);
+    eprintln!("single link, stick_slip: {h:?}, expected accel {}", pushed_link_expected_accel(&c));
+    let h = measure(&default_job(FloorFriction::StickSlip), 2.0, 4.0);
+    eprintln!("default job, stick_slip: {h:?}");
+}
+
+// --- the issue's targets (physics.floor_friction = "stick_slip") ------------------------------
+
+#[test]
+fn a_pushed_link_keeps_its_contact_and_slides_at_f_minus_mu_m_g() {
+    let c = pushed_link(FloorFriction::StickSlip);
+    let h = measure(&c, 0.2, 1.0);
+    let expected = pushed_link_expected_accel(&c);
+    eprintln!("{h:?}, expected accel {expected}");
+    assert!(h.no_contact_fraction <= 0.01, "steps without contact: {}", h.no_contact_fraction);
+    assert!(
+        h.peak_over_weight <= 1.05 && h.min_over_weight >= 0.95,
+        "normal force / weight within {} .. {}",
+        h.min_over_weight,
+        h.peak_over_weight
+    );
+    let [p1, p99] = h.accelerometer_z_p1_p99;
+    assert!(p1 >= 0.95 * G && p99 <= 1.05 * G, "accelerometer z 1st-99th percentile {p1} .. {p99} m/s²");
+    let err = (h.mean_accel_x_m_per_s2 - expected).abs() / expected;
+    assert!(err <= 0.01, "acceleration {} m/s², expected {expected} ({:.2} %)", h.mean_accel_x_m_per_s2, err * 100.0);
+}
+
+#[test]
+fn the_default_job_keeps_its_floor_contacts() {
+    let h = measure(&default_job(FloorFriction::StickSlip), 2.0, 4.0);
+    eprintln!("{h:?}");
+    assert!(h.no_contact_fraction <= 0.01, "link-steps without contact: {}", h.no_contact_fraction);
+    assert!(h.peak_over_weight <= 2.0, "peak normal force / weight {}", h.peak_over_weight);
+    assert!((h.impulse_over_weight - 1.0).abs() <= 0.01, "floor impulse / weight impulse {}", h.impulse_over_weight);
+}
+
+// --- anisotropic and directional coefficients ------------------------------------------------
+
+/// One 0.3 kg link lying on the floor, yawed by 30°, no gait, with SimSerpent's floor friction.
+fn yawed_link(model: GroundModel) -> Config {
+    let mut c = pushed_link(FloorFriction::StickSlip);
+    c.general.gravity_m_per_s2 = [0.0, 0.0, -G];
+    c.snake.head_rotation_deg = [0.0, 0.0, 30.0];
+    c.ground.model = model;
+    c.ground.axial_friction = 0.1;
+    c.ground.backward_friction = 0.3;
+    c.ground.lateral_friction = 1.0;
+    c
+}
+
+/// The friction coefficient a link launched at 0.5 m/s along its axis (0°), across it (90°) or
+/// backward (180°) meets: the largest ratio of horizontal to vertical recorded floor force over
+/// its first 15 steps (a link sliding sideways soon rolls without slipping).
+/// The link first settles for 0.3 s (it starts just touching the floor: its normal force
+/// rises to the weight over the first steps, and the friction of a step follows the previous
+/// step's normal force).
+fn friction_ratio(config: &Config, direction_deg: f64) -> f64 {
+    let mut sim = simulation(config);
+    run_for(&mut sim, 0.3);
+    let heading = (30.0 + direction_deg).to_radians();
+    let qvel = sim.world_mut().qvel_mut();
+    qvel[0] = 0.5 * heading.cos();
+    qvel[1] = 0.5 * heading.sin();
+    sim.world_mut().forward();
+    let mut s = Snapshot::new(1, 0);
+    let mut largest: f64 = 0.0;
+    for _ in 0..15 {
+        sim.control();
+        sim.snapshot(&mut s);
+        let f = s.link_floor_force_n[0];
+        if f[2] > 1e-6 {
+            largest = largest.max(f[0].hypot(f[1]) / f[2]);
+        }
+        sim.advance().unwrap();
+    }
+    largest
+}
+
+#[test]
+fn anisotropic_and_directional_coefficients_measure_as_configured() {
+    let c = yawed_link(GroundModel::Anisotropic);
+    let (along, across) = (friction_ratio(&c, 0.0), friction_ratio(&c, 90.0));
+    let iso = friction_ratio(&yawed_link(GroundModel::Isotropic), 0.0);
+    let d = yawed_link(GroundModel::Directional);
+    let (forward, backward) = (friction_ratio(&d, 0.0), friction_ratio(&d, 180.0));
+    eprintln!("axial {along}, lateral {across}, isotropic {iso}, forward {forward}, backward {backward}");
+    assert!((along - 0.1).abs() < 0.003, "axial {along}");
+    assert!((across - 1.0).abs() < 0.03, "lateral {across}");
+    assert!((iso - 0.5).abs() < 0.015, "isotropic {iso}");
+    assert!((forward - 0.1).abs() < 0.003, "forward {forward}");
+    assert!((backward - 0.3).abs() < 0.009, "backward {backward}");
+}
+
+// --- slope -------------------------------------------------------------------------------------
+
+/// A single link lying on a 20° slope, head uphill, its centre `s_m` up the surface from the
+/// foot line at x = 1; returns (config, unit vector up the slope).
+fn link_on_slope(mu: f64, angle_deg: f64, s_m: f64) -> (Config, [f64; 3]) {
+    let mut c = pushed_link(FloorFriction::StickSlip);
+    c.general.gravity_m_per_s2 = [0.0, 0.0, -G];
+    c.snake.ground_friction = [mu, 0.0, 0.0];
+    let th = angle_deg.to_radians();
+    c.terrain.slope.angle_deg = angle_deg;
+    c.terrain.slope.start_m = [1.0, 0.0];
+    c.terrain.slope.direction_deg = 0.0;
+    c.terrain.slope.length_m = 3.0;
+    c.terrain.slope.width_m = 1.0;
+    let (l, r) = (c.snake.link_length_m, c.snake.link_radius_m);
+    let dir = [th.cos(), 0.0, th.sin()];
+    let normal = [-th.sin(), 0.0, th.cos()];
+    let centre: Vec<f64> = (0..3).map(|k| [1.0, 0.0, 0.0][k] + s_m * dir[k] + r * normal[k]).collect();
+    let tip: Vec<f64> = (0..3).map(|k| centre[k] + l / 2.0 * dir[k]).collect();
+    c.snake.head_position_m = [tip[0], tip[1], tip[2] - r];
+    c.snake.head_rotation_deg = [0.0, -angle_deg, 0.0];
+    (c, dir)
+}
+
+/// Velocity of the link's centre along the slope (m/s) after `secs`.
+fn slope_velocity(sim: &mut Simulation, dir: [f64; 3]) -> f64 {
+    let mut s = Snapshot::new(1, 0);
+    sim.snapshot(&mut s);
+    let v = s.link_velocity_m_per_s[0];
+    v[0] * dir[0] + v[2] * dir[2]
+}
+
+fn run_for(sim: &mut Simulation, secs: f64) {
+    for _ in 0..(secs / 0.001f64).round() as usize {
+        sim.step().unwrap();
+    }
+}
+
+#[test]
+fn on_a_20_degree_slope_mu_0_5_holds_without_creep() {
+    let (c, dir) = link_on_slope(0.5, 20.0, 1.0);
+    let mut sim = simulation(&c);
+    run_for(&mut sim, 0.3);
+    let mut s = Snapshot::new(1, 0);
+    sim.snapshot(&mut s);
+    let p0 = s.link_position_m[0];
+    run_for(&mut sim, 1.0);
+    sim.snapshot(&mut s);
+    let p1 = s.link_position_m[0];
+    let moved = (p1[0] - p0[0]) * dir[0] + (p1[2] - p0[2]) * dir[2];
+    let v = slope_velocity(&mut sim, dir);
+    eprintln!("hold: moved {moved} m in 1 s, v {v} m/s");
+    assert!(moved.abs() <= 0.001, "creep {} mm/s", moved * 1e3);
+    assert!(v.abs() <= 0.001, "creep velocity {} mm/s", v * 1e3);
+}
+
+#[test]
+fn on_a_20_degree_slope_mu_0_2_slides_with_g_sin_minus_mu_cos() {
+    let mu = 0.2;
+    let (c, dir) = link_on_slope(mu, 20.0, 2.5);
+    let mut sim = simulation(&c);
+    run_for(&mut sim, 0.2);
+    let va = slope_velocity(&mut sim, dir);
+    run_for(&mut sim, 0.5);
+    let vb = slope_velocity(&mut sim, dir);
+    let a = -(vb - va) / 0.5;
+    let th = 20f64.to_radians();
+    let expected = G * (th.sin() - mu * th.cos());
+    eprintln!("slide: a = {a} m/s², expected {expected} m/s²");
+    assert!((a - expected).abs() <= 0.02 * expected, "sliding acceleration {a} m/s², expected {expected}");
+}
+
+// --- isotropic drift ---------------------------------------------------------------------------
+
+/// Net displacement of the centre of mass per gait cycle over 4 cycles after the ramp-in, in %
+/// of the body length: the default snake (10 links) at the default gait on a bare floor with
+/// isotropic friction 0.5.
+fn isotropic_drift_percent(friction: FloorFriction, contact_time_constant_secs: f64) -> f64 {
+    let mut c = default_job(friction);
+    c.terrain.kind = TerrainKind::None;
+    c.ground.model = GroundModel::Isotropic;
+    c.snake.ground_friction = [0.5, 0.0, 0.0];
+    c.physics.contact_time_constant_secs = contact_time_constant_secs;
+    let period = 1.0 / c.gait.sine_wave.frequency_hz;
+    let body_m = c.snake.n_links as f64 * c.snake.link_length_m;
+    let mut sim = simulation(&c);
+    let mut s = Snapshot::new(c.snake.n_links, c.snake.n_joints());
+    run_for(&mut sim, 2.0);
+    sim.snapshot(&mut s);
+    let a = s.centre_of_mass_m();
+    let cycles = 4.0;
+    run_for(&mut sim, cycles * period);
+    sim.snapshot(&mut s);
+    let b = s.centre_of_mass_m();
+    (b[0] - a[0]).hypot(b[1] - a[1]) / cycles / body_m * 100.0
+}
+
+#[test]
+fn isotropic_drift_is_small_and_does_not_depend_on_contact_softness() {
+    let mujoco = isotropic_drift_percent(FloorFriction::Mujoco, 0.02);
+    let d: Vec<f64> =
+        [0.02, 0.01, 0.005].iter().map(|&t| isotropic_drift_percent(FloorFriction::StickSlip, t)).collect();
+    eprintln!("drift %/cycle: mujoco (20 ms) {mujoco}; stick_slip 20 / 10 / 5 ms: {d:?}");
+    assert!(d[0] < 2.0, "drift {} % of the body length per cycle", d[0]);
+    let (lo, hi) = d.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| (l.min(x), h.max(x)));
+    // "Within ±0.5 % of each other", read strictly: no two differ by more than 0.5 % points.
+    assert!(hi - lo <= 0.5, "drift at 20 / 10 / 5 ms within ±0.5 % of each other: {d:?}");
+}
+
+// --- configuration -----------------------------------------------------------------------------
+
+#[test]
+fn floor_friction_keys_are_checked_with_their_key_paths() {
+    use simserpent::config::{ConfigError, ConfigSource, DEFAULT_CONFIG_TOML, load_config_str};
+    let load = |sets: &[&str]| {
+        load_config_str(
+            DEFAULT_CONFIG_TOML,
+            ConfigSource::Toml,
+            &sets.iter().map(|s| s.to_string()).collect::<Vec<_>>(),
+        )
+    };
+    let key_of = |e: ConfigError| match e {
+        ConfigError::InvalidValue { key, .. } => key,
+        other => panic!("{other}"),
+    };
+    assert_eq!(load(&[]).unwrap().physics.floor_friction, FloorFriction::Mujoco);
+    let c = load(&["physics.floor_friction=\"stick_slip\""]).unwrap();
+    assert_eq!(c.physics.floor_friction, FloorFriction::StickSlip);
+    let short = ["physics.floor_friction=\"stick_slip\"", "physics.floor_stick_time_constant_secs=0.002"];
+    assert_eq!(key_of(load(&short).unwrap_err()), "physics.floor_stick_time_constant_secs");
+    // The 3-timestep rule applies only where the law is in use.
+    assert!(load(&["physics.floor_stick_time_constant_secs=0.002"]).is_ok());
+    assert_eq!(
+        key_of(load(&["physics.floor_stick_time_constant_secs=-1"]).unwrap_err()),
+        "physics.floor_stick_time_constant_secs"
+    );
+    let torsional = ["physics.floor_friction=\"stick_slip\"", "snake.ground_friction=[0.5, 0.01, 0.0]"];
+    assert_eq!(key_of(load(&torsional).unwrap_err()), "snake.ground_friction");
+    assert!(load(&["physics.floor_friction=\"sticky\""]).unwrap_err().to_string().contains("floor_friction"));
+}
+
+#[test]
+fn stick_slip_runs_are_deterministic() {
+    let c = default_job(FloorFriction::StickSlip);
+    let run = || {
+        let mut sim = simulation(&c);
+        run_for(&mut sim, 1.5);
+        let mut s = Snapshot::new(c.snake.n_links, c.snake.n_joints());
+        sim.snapshot(&mut s);
+        (s.link_position_m.clone(), s.link_floor_force_n.clone())
+    };
+    assert_eq!(run(), run(), "same config, same trajectory and forces, bit for bit");
+}
+
+// --- floor surfaces ----------------------------------------------------------------------------
+
+#[test]
+fn floor_surfaces_give_their_coefficients_to_stick_slip_friction() {
+    use simserpent::config::{ConfigSource, load_config_str};
+    // One link lying along x (centre at x = −0.1 m) on a surface around it, launched along its
+    // axis after settling; the ratio of horizontal to vertical floor force is the coefficient.
+    let on_surface = |ground: &str, surface: &str| {
+        let text = format!(
+            "[physics]\nfloor_friction = \"stick_slip\"\n[snake]\nn_links = 1\nground_friction = [0.5, 0.0, 0.0]\n\
+             [terrain]\nkind = \"none\"\n[gait]\nkind = \"none\"\n[ground]\n{ground}\n[[ground.surfaces]]\nshape = \
+             \"rectangle\"\ncenter_m = [0.0, 0.0]\nsize_m = [4.0, 4.0]\n{surface}\n"
+        );
+        load_config_str(&text, ConfigSource::Toml, &[]).unwrap()
+    };
+    let ratio = |c: &Config, speed: f64| {
+        let mut sim = simulation(c);
+        run_for(&mut sim, 0.2);
+        sim.world_mut().qvel_mut()[0] = speed;
+        sim.world_mut().forward();
+        let mut s = Snapshot::new(1, 0);
+        let mut largest: f64 = 0.0;
+        for _ in 0..10 {
+            sim.control();
+            sim.snapshot(&mut s);
+            let f = s.link_floor_force_n[0];
+            assert_eq!(s.link_region[0], 1, "the link is on the surface");
+            largest = largest.max(f[0].hypot(f[1]) / f[2]);
+            sim.advance().unwrap();
+        }
+        largest
+    };
+    let ice = ratio(&on_surface("model = \"isotropic\"", "preset = \"ice\""), 0.5);
+    let concrete = ratio(&on_surface("model = \"isotropic\"", "preset = \"concrete\""), 0.5);
+    // Anisotropic 0.1 / 1.0 on μ0 = 0.5, scaled by μ / μ0 on a 0.25 surface: axial 0.05.
+    let scaled = ratio(&on_surface("model = \"anisotropic\"", "friction = 0.25"), 0.5);
+    // Directional, backward 0.3 → 0.15 when sliding backward.
+    let backward = ratio(&on_surface("model = \"directional\"", "friction = 0.25"), -0.5);
+    eprintln!("ice {ice}, concrete {concrete}, anisotropic axial {scaled}, directional backward {backward}");
+    assert!((ice - 0.03).abs() < 1e-3, "ice {ice}");
+    assert!((concrete - 0.7).abs() < 1e-3, "concrete {concrete}");
+    assert!((scaled - 0.05).abs() < 1e-3, "anisotropic axial on a 0.25 surface {scaled}");
+    assert!((backward - 0.15).abs() < 1e-3, "directional backward on a 0.25 surface {backward}");
+}
