@@ -267,7 +267,7 @@ impl<C: Controller> Simulation<C> {
         match self.controller_state.as_mut() {
             Some(state) => {
                 self.world.read_snapshot(state, &self.obs_true, &self.obs);
-                state.link_region.copy_from_slice(self.ground.link_regions());
+                self.ground.fill_snapshot(state);
                 self.controller.update_with_state(&self.obs, state, &mut self.cmd);
             }
             None => self.controller.update(&self.obs, &mut self.cmd),

@@ -23,6 +23,7 @@ mod plot;
 mod render;
 mod robustness;
 mod sensors;
+mod sliding_contact;
 mod surfaces;
 mod sweep;
 mod sweep_interrupt;

@@ -4,13 +4,11 @@
 //! The hop figures: the fraction of link-steps without floor contact (no floor normal force),
 //! the largest floor normal force of one link over its weight, and the recorded floor impulse
 //! (Σ vertical floor force · dt) over the weight's impulse. Run with `--nocapture` to see them.
-#![allow(clippy::unwrap_used)]
 
 use simserpent::config::{Config, FloorFriction, GaitKind, GroundModel, TerrainKind};
 use simserpent::sim::{Simulation, Snapshot, World};
 
-/// Gravity of the default config (m/s²).
-const G: f64 = 9.81;
+use crate::common::G;
 
 /// Hop figures of a run segment.
 #[derive(Debug, Clone, Copy)]
