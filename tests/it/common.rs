@@ -176,3 +176,39 @@ pub fn in_child_process(test_name: &str, body: impl FnOnce()) {
         println!("{line}");
     }
 }
+
+/// Sets `path` = `value` in `table`, creating sections ; returns false on a clash.
+pub fn set_path(table: &mut toml::Table, path: &str, value: toml::Value) -> bool {
+    let mut parts: Vec<&str> = path.split('.').collect();
+    let Some(last) = parts.pop() else { return false };
+    let mut t = table;
+    for p in parts {
+        let entry = t.entry(p.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        match entry {
+            toml::Value::Table(sub) => t = sub,
+            _ => return false,
+        }
+    }
+    t.insert(last.to_string(), value);
+    true
+}
+
+/// Puts a 1-link snake on a slope of `angle_deg` (a 3 m × 1 m slope rising along +x from the
+/// foot line at x = 1), head uphill, its centre `s_m` up the surface from the foot line; returns
+/// the unit vector up the slope.
+pub fn place_link_on_slope(c: &mut Config, angle_deg: f64, s_m: f64) -> [f64; 3] {
+    let th = angle_deg.to_radians();
+    c.terrain.slope.angle_deg = angle_deg;
+    c.terrain.slope.start_m = [1.0, 0.0];
+    c.terrain.slope.direction_deg = 0.0;
+    c.terrain.slope.length_m = 3.0;
+    c.terrain.slope.width_m = 1.0;
+    let (l, r) = (c.snake.link_length_m, c.snake.link_radius_m);
+    let dir = [th.cos(), 0.0, th.sin()];
+    let normal = [-th.sin(), 0.0, th.cos()];
+    let centre: Vec<f64> = (0..3).map(|k| [1.0, 0.0, 0.0][k] + s_m * dir[k] + r * normal[k]).collect();
+    let tip: Vec<f64> = (0..3).map(|k| centre[k] + l / 2.0 * dir[k]).collect();
+    c.snake.head_position_m = [tip[0], tip[1], tip[2] - r];
+    c.snake.head_rotation_deg = [0.0, -angle_deg, 0.0];
+    dir
+}

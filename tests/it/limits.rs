@@ -12,7 +12,7 @@ use std::process::Output;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
-use crate::common::{in_child_process, manifest_dir, simserpent};
+use crate::common::{in_child_process, manifest_dir, set_path, simserpent};
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
@@ -421,22 +421,6 @@ fn mutation(leaves: Vec<(String, toml::Value)>) -> impl Strategy<Value = Mutatio
         1 => (any::<usize>(), 0..4usize, prop_oneof![Just(String::new()), ".{0,3}", Just("e999".to_string()), Just("\u{FFFD}".to_string())])
             .prop_map(|(at, delete, insert)| Mutation::Text { at, delete, insert }),
     ]
-}
-
-/// Sets `path` = `value` in `table`, creating sections (returns false on a clash).
-fn set_path(table: &mut toml::Table, path: &str, value: toml::Value) -> bool {
-    let mut parts: Vec<&str> = path.split('.').collect();
-    let Some(last) = parts.pop() else { return false };
-    let mut t = table;
-    for p in parts {
-        let entry = t.entry(p.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()));
-        match entry {
-            toml::Value::Table(sub) => t = sub,
-            _ => return false,
-        }
-    }
-    t.insert(last.to_string(), value);
-    true
 }
 
 fn apply(text: &str, source: ConfigSource, m: &Mutation) -> String {

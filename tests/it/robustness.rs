@@ -3,7 +3,8 @@
 //! problems (unwritable folder, full disk), determinism, and the documented exit codes.
 
 use crate::common::{
-    data, exe, in_child_process, leaf_paths, manifest, manifest_dir, read_complete_csv, run_folders, simserpent, text,
+    data, exe, in_child_process, leaf_paths, manifest, manifest_dir, read_complete_csv, run_folders, set_path,
+    simserpent, text,
 };
 use proptest::prelude::*;
 use simserpent::config::{self, Config, ConfigSource};
@@ -183,22 +184,6 @@ fn any_key(keys: Vec<String>) -> impl Strategy<Value = String> {
         }),
         1 => "[a-z_]{1,8}(\\.[a-z_]{1,8}){0,2}",
     ]
-}
-
-/// Sets `path` = `value` in `table`, creating sections; returns false on a clash.
-fn set_path(table: &mut toml::Table, path: &str, value: toml::Value) -> bool {
-    let mut parts: Vec<&str> = path.split('.').collect();
-    let last = parts.pop().unwrap();
-    let mut t = table;
-    for p in parts {
-        let entry = t.entry(p.to_string()).or_insert_with(|| toml::Value::Table(toml::Table::new()));
-        match entry {
-            toml::Value::Table(sub) => t = sub,
-            _ => return false,
-        }
-    }
-    t.insert(last.to_string(), value);
-    true
 }
 
 proptest! {

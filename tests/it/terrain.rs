@@ -36,19 +36,7 @@ fn geom_name(world: &World, g: usize) -> &str {
 /// from the foot line at x = 1; returns (config, unit vector up the slope).
 fn link_on_slope(mu: f64, angle_deg: f64, s_m: f64) -> (Config, [f64; 3]) {
     let mut c = isotropic_link(mu);
-    let th = angle_deg.to_radians();
-    c.terrain.slope.angle_deg = angle_deg;
-    c.terrain.slope.start_m = [1.0, 0.0];
-    c.terrain.slope.direction_deg = 0.0;
-    c.terrain.slope.length_m = 3.0;
-    c.terrain.slope.width_m = 1.0;
-    let (l, r) = (c.snake.link_length_m, c.snake.link_radius_m);
-    let dir = [th.cos(), 0.0, th.sin()];
-    let normal = [-th.sin(), 0.0, th.cos()];
-    let centre: Vec<f64> = (0..3).map(|k| [1.0, 0.0, 0.0][k] + s_m * dir[k] + r * normal[k]).collect();
-    let tip: Vec<f64> = (0..3).map(|k| centre[k] + l / 2.0 * dir[k]).collect();
-    c.snake.head_position_m = [tip[0], tip[1], tip[2] - r];
-    c.snake.head_rotation_deg = [0.0, -angle_deg, 0.0];
+    let dir = crate::common::place_link_on_slope(&mut c, angle_deg, s_m);
     (c, dir)
 }
 
