@@ -259,6 +259,7 @@ impl<C: Controller> Simulation<C> {
     /// public so a caller can take the loop apart (tests, a custom read-out).
     pub fn control(&mut self) {
         if self.controller_state.is_some() {
+            // Fresh sensors for this instant, then its whole state.
             self.world.forward();
         }
         if self.controller.reads_sensors() || self.controller_state.is_some() {
@@ -296,9 +297,7 @@ impl<C: Controller> Simulation<C> {
     /// velocities, accelerations, contacts, sensors and constraint forces all describe this
     /// instant, and reads them into `snapshot`.
     pub fn snapshot(&mut self, snapshot: &mut Snapshot) {
-        self.world.forward();
-        self.world.read_snapshot(snapshot, &self.obs_true, &self.obs);
-        self.ground.fill_snapshot(snapshot);
+        read_instant(&mut self.world, &self.ground, &self.obs_true, &self.obs, snapshot);
     }
 
     fn view(&self, k: u64, plan: LoopPlan) -> StepView<'_> {
@@ -346,9 +345,7 @@ impl<C: Controller> Simulation<C> {
         loop {
             self.control();
             if plan.records(*k) {
-                self.world.forward();
-                self.world.read_snapshot(&mut self.snapshot, &self.obs_true, &self.obs);
-                self.ground.fill_snapshot(&mut self.snapshot);
+                read_instant(&mut self.world, &self.ground, &self.obs_true, &self.obs, &mut self.snapshot);
                 let view = self.view(*k, plan);
                 for o in observers.iter_mut() {
                     o.on_record(&view, &self.snapshot)?;
@@ -367,4 +364,18 @@ impl<C: Controller> Simulation<C> {
             *k += 1;
         }
     }
+}
+
+/// A forward pass at the current state and controls, read into `snapshot` with the ground
+/// model's part (floor regions, SimSerpent's floor friction): everything of one instant.
+fn read_instant(
+    world: &mut World,
+    ground: &Ground,
+    obs_true: &Observation,
+    obs: &Observation,
+    snapshot: &mut Snapshot,
+) {
+    world.forward();
+    world.read_snapshot(snapshot, obs_true, obs);
+    ground.fill_snapshot(snapshot);
 }

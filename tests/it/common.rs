@@ -212,3 +212,21 @@ pub fn place_link_on_slope(c: &mut Config, angle_deg: f64, s_m: f64) -> [f64; 3]
     c.snake.head_rotation_deg = [0.0, -angle_deg, 0.0];
     dir
 }
+
+/// The largest ratio of horizontal to vertical floor force on link 0 over the next `steps`
+/// steps, each read from the snapshot of the instant (the friction coefficient a sliding link
+/// meets: Coulomb friction never exceeds μ·N and equals it while sliding).
+pub fn largest_floor_friction_ratio(sim: &mut Simulation, steps: usize) -> f64 {
+    let mut s = Snapshot::new(1, 0);
+    let mut largest: f64 = 0.0;
+    for _ in 0..steps {
+        sim.control();
+        sim.snapshot(&mut s);
+        let f = s.link_floor_force_n[0];
+        if f[2] > 1e-6 {
+            largest = largest.max(f[0].hypot(f[1]) / f[2]);
+        }
+        sim.advance().unwrap();
+    }
+    largest
+}

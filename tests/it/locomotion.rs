@@ -35,18 +35,7 @@ fn launch(config: &Config, direction_deg: f64, speed: f64) -> Simulation {
 /// so only the first milliseconds show sliding friction across the link.
 fn friction_ratio(config: &Config, direction_deg: f64) -> f64 {
     let mut sim = launch(config, direction_deg, 0.5);
-    let mut s = Snapshot::new(1, 0);
-    let mut largest: f64 = 0.0;
-    for _ in 0..15 {
-        sim.control();
-        sim.snapshot(&mut s);
-        let f = s.link_contact_force_n[0];
-        if f[2] > 1e-6 {
-            largest = largest.max(f[0].hypot(f[1]) / f[2]);
-        }
-        sim.advance().unwrap();
-    }
-    largest
+    crate::common::largest_floor_friction_ratio(&mut sim, 15)
 }
 
 #[test]

@@ -187,18 +187,7 @@ fn friction_ratio(config: &Config, direction_deg: f64) -> f64 {
     qvel[0] = 0.5 * heading.cos();
     qvel[1] = 0.5 * heading.sin();
     sim.world_mut().forward();
-    let mut s = Snapshot::new(1, 0);
-    let mut largest: f64 = 0.0;
-    for _ in 0..15 {
-        sim.control();
-        sim.snapshot(&mut s);
-        let f = s.link_floor_force_n[0];
-        if f[2] > 1e-6 {
-            largest = largest.max(f[0].hypot(f[1]) / f[2]);
-        }
-        sim.advance().unwrap();
-    }
-    largest
+    crate::common::largest_floor_friction_ratio(&mut sim, 15)
 }
 
 #[test]
