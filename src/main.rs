@@ -378,6 +378,26 @@ fn run_command(args: &ConfigArgs, robot: Option<PathBuf>, quiet: bool, viewer: b
         summary.max_penetration_m * 1e3
     );
     outln!("actuator energy:   {:.3} J", summary.actuator_energy_j);
+    if let Some(joints) = &summary.tracking {
+        outln!("tracking of the gait (after the ramp-in; error = actual - commanded angle):");
+        outln!("  joint        amplitude  reached   RMS error           max error");
+        for j in joints {
+            outln!(
+                "  {:<12} {:>6.2} deg {:>6.0} %   {:.4} rad {:>5.0} %   {:.4} rad {:>5.0} %{}",
+                j.joint,
+                j.command_amplitude_rad.to_degrees(),
+                j.reached_amplitude_percent,
+                j.rms_error_rad,
+                j.rms_error_percent,
+                j.max_error_rad,
+                j.max_error_percent,
+                if j.tracks() { "" } else { "  (not tracked)" }
+            );
+        }
+    }
+    if let Some(warning) = run::tracking_warning(&config, &summary) {
+        errln!("warning: {warning}");
+    }
     outln!("speed:             {:.0} steps/s, {:.1}x real time", summary.steps_per_wall_sec, summary.real_time_factor);
     if viewer && !cfg!(feature = "viewer") {
         // Without the in-process viewer, show the finished run in Python's viewer.
@@ -486,12 +506,47 @@ fn model(args: &ConfigArgs, output: Option<&Path>, scene_dir: Option<&Path>) -> 
         simserpent::sim::write_model_folder(dir, &generated.xml, &f.texts, &f.copies)?;
         errln!("wrote {} (scene.xml, terrain.xml, robot.xml, model.xml)", dir.display());
     }
+    // A third-party terrain (terrain.include_mjcf) is included by file name: the written model
+    // only loads with that file (and the assets it names) beside it.
+    let included: Vec<&simserpent::model::features::FileCopy> = if generated.files.model_needs_files {
+        let sources = simserpent::model::features::SOURCES_DIR;
+        generated.files.copies.iter().filter(|c| !c.dest.starts_with(sources)).collect()
+    } else {
+        Vec::new()
+    };
     match output {
         Some(path) => {
             std::fs::write(path, &generated.xml).with_context(|| format!("cannot write {}", path.display()))?;
-            errln!("wrote {}", path.display());
+            let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+            for c in &included {
+                // Never copy a file onto itself (an asset already where the model looks for it).
+                let dest = dir.join(&c.dest);
+                let same = matches!((c.source.canonicalize(), dest.canonicalize()), (Ok(a), Ok(b)) if a == b);
+                if !same {
+                    simserpent::sim::copy_file(dir, c)?;
+                }
+            }
+            if included.is_empty() {
+                errln!("wrote {}", path.display());
+            } else {
+                let names: Vec<&str> = included.iter().map(|c| c.dest.as_str()).collect();
+                errln!(
+                    "wrote {} and beside it {} (the third-party terrain of terrain.include_mjcf, which the model includes)",
+                    path.display(),
+                    names.join(", ")
+                );
+            }
         }
-        None => out!("{}", generated.xml),
+        None => {
+            out!("{}", generated.xml);
+            if !included.is_empty() {
+                errln!(
+                    "note: this model includes {} (terrain.include_mjcf), which stdout cannot carry: write it with \
+                     `model -o FILE` (the included files are written beside FILE) or --scene-dir DIR",
+                    included[0].dest
+                );
+            }
+        }
     }
     Ok(())
 }

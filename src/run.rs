@@ -90,6 +90,11 @@ pub struct RunSummary {
     /// torques and joint velocities of the recorded steps, each held until the next one.
     #[serde(default)]
     pub actuator_energy_j: f64,
+    /// How well each joint followed the configured gait (built-in controller with a moving
+    /// gait only; `null` otherwise): amplitude reached, RMS and largest error, in rad and in % of
+    /// the command amplitude, from the end of the gait's ramp-in on.
+    #[serde(default)]
+    pub tracking: Option<Vec<crate::state::JointTracking>>,
     /// Steps per second of wall time.
     pub steps_per_wall_sec: f64,
     /// Simulated seconds per wall second.
@@ -115,11 +120,52 @@ pub fn build_world(config: &Config, options: &RunOptions) -> Result<World, SimEr
     }
 }
 
-/// Runs the built-in controller of `config`.
+/// Runs the built-in controller of `config`; the summary reports how well the joints tracked
+/// the gait ([`RunSummary::tracking`]).
 pub fn run(config: &Config, options: &RunOptions) -> Result<RunSummary, RunError> {
     let world = build_world(config, options)?;
     let sim = Simulation::new(config, world);
-    run_simulation(config, options, sim)
+    let tracking = Tracking::new(config, sim.world());
+    run_simulation_tracked(config, options, sim, tracking)
+}
+
+/// The tracking warning of a summary: which joints missed their command (see
+/// [`crate::state::JointTracking::tracks`]), by how much, and what to change; `None` when every
+/// joint tracked (or nothing was commanded).
+pub fn tracking_warning(config: &Config, summary: &RunSummary) -> Option<String> {
+    use crate::config::ControlMethod;
+    let joints = summary.tracking.as_deref()?;
+    let missed: Vec<&crate::state::JointTracking> = joints.iter().filter(|j| !j.tracks()).collect();
+    let worst = missed.iter().max_by(|a, b| a.rms_error_percent.total_cmp(&b.rms_error_percent))?;
+    let c = &config.control;
+    let gain = match c.method {
+        ControlMethod::Position => format!(
+            "control.position_kp_nm_per_rad = {} (and position_kv_nm_s_per_rad = {})",
+            c.position_kp_nm_per_rad, c.position_kv_nm_s_per_rad
+        ),
+        ControlMethod::Velocity => format!("control.velocity_kv_nm_s_per_rad = {}", c.velocity_kv_nm_s_per_rad),
+        ControlMethod::Intvelocity => format!("control.intvelocity_kp_nm_per_rad = {}", c.intvelocity_kp_nm_per_rad),
+        ControlMethod::Torque => format!(
+            "control.pid_kp_nm_per_rad = {}, pid_kd_nm_s_per_rad = {}",
+            c.pid_kp_nm_per_rad, c.pid_kd_nm_s_per_rad
+        ),
+    };
+    let [lo, hi] = crate::state::TRACKING_AMPLITUDE_PERCENT;
+    Some(format!(
+        "the joints do not track the gait: {} of {} joints miss it (reached amplitude outside {lo}–{hi} % or RMS \
+         error above {} % of the command amplitude); worst {}: reached {:.0} % of the commanded ±{:.2}°, RMS \
+         error {:.0} %, max {:.0} %. The servos cannot follow this gait with {gain} and \
+         snake.torque_range_nm = {:?}: raise the gain (or the torque range), or slow the gait down",
+        missed.len(),
+        joints.len(),
+        crate::state::TRACKING_RMS_ERROR_PERCENT,
+        worst.joint,
+        worst.reached_amplitude_percent,
+        worst.command_amplitude_rad.to_degrees(),
+        worst.rms_error_percent,
+        worst.max_error_percent,
+        config.snake.torque_range_nm,
+    ))
 }
 
 /// Runs a user's controller on the world of `config`.
@@ -142,7 +188,18 @@ pub fn run_with_controller(
 pub fn run_simulation<C: Controller>(
     config: &Config,
     options: &RunOptions,
+    sim: Simulation<C>,
+) -> Result<RunSummary, RunError> {
+    run_simulation_tracked(config, options, sim, None)
+}
+
+/// [`run_simulation`], with the joints' tracking of the configured gait measured when `tracking`
+/// is given (only meaningful for the built-in controller, which follows that gait).
+fn run_simulation_tracked<C: Controller>(
+    config: &Config,
+    options: &RunOptions,
     mut sim: Simulation<C>,
+    mut tracking: Option<Tracking>,
 ) -> Result<RunSummary, RunError> {
     if crate::interrupt::requested() {
         return Err(RunError::InterruptedSetUp);
@@ -206,6 +263,9 @@ pub fn run_simulation<C: Controller>(
     let mut progress = Every::new(1024, Progress::new(options.progress, total_steps));
     let outcome = {
         let mut observers: Vec<&mut dyn Observer<RunError>> = vec![&mut totals];
+        if let Some(t) = tracking.as_mut() {
+            observers.push(t);
+        }
         if let Some(r) = recorder.as_mut() {
             observers.push(r);
         }
@@ -231,6 +291,7 @@ pub fn run_simulation<C: Controller>(
             peak_contact_force_n: totals.0.peak_contact_force_n,
             max_penetration_m: totals.0.max_penetration_m,
             actuator_energy_j: totals.0.actuator_energy_j,
+            tracking: tracking.as_ref().and_then(|t| t.totals.report(&t.joint_names)),
             steps_per_wall_sec: 0.0,
             real_time_factor: 0.0,
         }
@@ -384,6 +445,50 @@ impl Observer<RunError> for crate::render::RunVisuals {
     }
     fn on_step(&mut self, view: &StepView<'_>) -> Result<(), RunError> {
         Ok(self.on_step(view.world.data(), view.world.timestep_secs())?)
+    }
+}
+
+/// The joints' tracking of the configured gait: at every instant, the gait's commanded angles
+/// against the joints' actual angles (no allocation per step: the buffers are sized once).
+struct Tracking {
+    trajectory: Box<dyn crate::control::JointTrajectory>,
+    target_rad: Vec<f64>,
+    target_velocity_rad_per_s: Vec<f64>,
+    actual_rad: Vec<f64>,
+    qpos_adr: Vec<usize>,
+    joint_names: Vec<String>,
+    totals: crate::state::TrackingTotals,
+}
+
+impl Tracking {
+    /// `None` without a moving gait or without joints.
+    fn new(config: &Config, world: &World) -> Option<Self> {
+        let n = world.n_joints();
+        if config.gait.kind == crate::config::GaitKind::None || n == 0 {
+            return None;
+        }
+        Some(Self {
+            trajectory: crate::control::trajectory_from_config(config),
+            target_rad: vec![0.0; n],
+            target_velocity_rad_per_s: vec![0.0; n],
+            actual_rad: vec![0.0; n],
+            qpos_adr: world.index.joints.iter().map(|j| j.qpos_adr).collect(),
+            joint_names: world.index.joints.iter().map(|j| j.name.clone()).collect(),
+            totals: crate::state::TrackingTotals::new(n, config.gait.ramp_secs),
+        })
+    }
+}
+
+impl Observer<RunError> for Tracking {
+    fn on_step(&mut self, view: &StepView<'_>) -> Result<(), RunError> {
+        let t = view.time_secs();
+        self.trajectory.targets(t, &mut self.target_rad, &mut self.target_velocity_rad_per_s);
+        let qpos = view.world.data().qpos();
+        for (x, &adr) in self.actual_rad.iter_mut().zip(&self.qpos_adr) {
+            *x = qpos[adr];
+        }
+        self.totals.add(t, &self.target_rad, &self.actual_rad);
+        Ok(())
     }
 }
 

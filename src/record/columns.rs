@@ -162,6 +162,12 @@ pub(super) const LINKS: TableSpec = TableSpec {
                     Names::List(&["orientation_qw", "orientation_qx", "orientation_qy", "orientation_qz"]),
                     |t, a| t.nums(&a.s.link_quat[a.i]),
                 ),
+                // The same orientation, readable: the link's heading (yaw of z-y'-x'' Euler angles).
+                Group::float(
+                    |w| w.flags.link_orientation,
+                    Names::One("yaw_rad"),
+                    |t, a| t.num(crate::state::yaw_rad(a.s.link_quat[a.i])),
+                ),
                 Group::float(
                     |w| w.flags.link_velocity,
                     Names::Xyz("velocity", "m_per_s"),
@@ -269,16 +275,22 @@ pub(super) const JOINTS: TableSpec = TableSpec {
     ],
 };
 
-/// The link sensors of one observation (`true` or `measured`).
+/// The IMU columns (`recording.imu_sensors`): only these go with the switch; the joint
+/// encoders and force/torque sensors stay in `sensors.csv`.
+fn imu(w: Wanted<'_>) -> bool {
+    w.flags.imu_sensors
+}
+
+/// The link sensors (IMUs) of one observation (`true` or `measured`).
 macro_rules! link_sensors {
     ($obs:ident, $variant:literal) => {
         Section {
             per: Per::Link,
             groups: &[
-                Group::float(always, Names::Xyz(concat!("accelerometer_", $variant), "m_per_s2"), |t, a| {
+                Group::float(imu, Names::Xyz(concat!("accelerometer_", $variant), "m_per_s2"), |t, a| {
                     t.nums(&a.s.$obs.imu_accel_m_per_s2[a.i])
                 }),
-                Group::float(always, Names::Xyz(concat!("gyro_", $variant), "rad_per_s"), |t, a| {
+                Group::float(imu, Names::Xyz(concat!("gyro_", $variant), "rad_per_s"), |t, a| {
                     t.nums(&a.s.$obs.imu_gyro_rad_per_s[a.i])
                 }),
             ],
@@ -316,7 +328,7 @@ macro_rules! joint_sensors {
 /// measured (with the noise model).
 pub(super) const SENSORS: TableSpec = TableSpec {
     name: "sensors",
-    on: |w| w.flags.imu_sensors,
+    on: always,
     rows: Rows::One,
     sections: &[
         Section {
@@ -332,7 +344,7 @@ pub(super) const SENSORS: TableSpec = TableSpec {
         joint_sensors!(observation_measured, "measured"),
         Section {
             per: Per::Link,
-            groups: &[Group::float(always, Names::Xyz("velocimeter_true", "m_per_s"), |t, a| {
+            groups: &[Group::float(imu, Names::Xyz("velocimeter_true", "m_per_s"), |t, a| {
                 t.nums(&a.s.link_velocimeter_m_per_s[a.i])
             })],
         },

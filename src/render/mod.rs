@@ -367,6 +367,25 @@ pub struct ReplayOptions {
     pub progress: bool,
 }
 
+/// `--images` with no image times would write nothing and look like success: an error naming
+/// the key to set (and how to set it on the command line).
+pub fn check_images_wanted(config_path: &Path, config: &Config, options: &ReplayOptions) -> Result<(), RenderError> {
+    if options.images && config.render.image_times_secs.is_empty() {
+        return Err(RenderError::Config {
+            file: config_path.to_path_buf(),
+            source: ConfigError::InvalidValue {
+                key: "render.image_times_secs".into(),
+                value: "[]".into(),
+                allowed: "--images renders the times listed in render.image_times_secs (seconds within the run), \
+                          and this run's config lists none; give them, e.g. \
+                          `--set 'render.image_times_secs=[0.5, 2.0]'`"
+                    .into(),
+            },
+        });
+    }
+    Ok(())
+}
+
 /// Replays a run folder's `state.csv` into a video and/or images; returns the files written.
 #[cfg(feature = "render")]
 pub fn render_run_folder(folder: &Path, options: &ReplayOptions) -> Result<Vec<PathBuf>, RenderError> {
@@ -380,6 +399,7 @@ pub fn render_run_folder(folder: &Path, options: &ReplayOptions) -> Result<Vec<P
     }
     let config = crate::config::load_config(&config_path, &options.overrides)
         .map_err(|source| RenderError::Config { file: config_path.clone(), source })?;
+    check_images_wanted(&config_path, &config, options)?;
     let state_path = folder.join(STATE_FILE);
     if !state_path.is_file() {
         return Err(RenderError::BadFile {

@@ -5,7 +5,7 @@ use crate::config::ControlMethod;
 use crate::model::names;
 use crate::state::GeomClass;
 use mujoco_rs::prelude::*;
-use mujoco_rs::wrappers::mj_model::{MjtJoint, MjtObjBase, MjtTrn};
+use mujoco_rs::wrappers::mj_model::{MjtBias, MjtDyn, MjtGain, MjtJoint, MjtObjBase, MjtTrn};
 
 /// Where one link's data live in the model.
 #[derive(Debug, Clone)]
@@ -117,9 +117,15 @@ impl Index {
     }
 
     /// The index of any robot (a user's MJCF or URDF): every body with mass is a link, every
-    /// hinge or slide joint a joint; a joint's actuator of kind `method` is the first actuator
-    /// that drives it.
-    pub fn for_robot(model: &MjModel, method: ControlMethod) -> Self {
+    /// hinge or slide joint a joint. Each actuator that drives a joint directly is sorted by
+    /// what it takes as its control ([`actuator_kind`]: a `<motor>` takes torque, a
+    /// `<position>` servo an angle, …) into that kind's slot, so a command of one kind never
+    /// reaches an actuator of another (and its force is recorded under its own kind).
+    ///
+    /// # Errors
+    /// A joint whose actuators are all of kinds other than `method` (the controller could not
+    /// drive it), or an actuator whose kind cannot be told, named with what would work.
+    pub fn for_robot(model: &MjModel, method: ControlMethod) -> Result<Self, String> {
         let nbody = model.nbody() as usize;
         let body_names = object_names(model, MjtObjBase::mjOBJ_BODY, nbody, "body");
         let links: Vec<LinkIndex> = (1..nbody)
@@ -138,16 +144,48 @@ impl Index {
         let trn = model.actuator_trnid();
         // Only joint transmissions drive a joint directly (a tendon's or site's id is no joint id).
         let trn_type = model.actuator_trntype();
-        let method_slot = ControlMethod::ALL.iter().position(|k| *k == method).unwrap_or(0);
+        let actuator_names = object_names(model, MjtObjBase::mjOBJ_ACTUATOR, model.nu() as usize, "actuator");
         let mut joints = Vec::new();
         let mut head_free_qpos_adr = None;
         for (jid, name) in joint_names.iter().enumerate() {
             match model.jnt_type()[jid] {
                 MjtJoint::mjJNT_HINGE | MjtJoint::mjJNT_SLIDE => {
                     let mut actuators = [None; 4];
-                    actuators[method_slot] = trn.iter().zip(trn_type).position(|(t, kind)| {
+                    let driving = trn.iter().zip(trn_type).enumerate().filter(|(_, (t, kind))| {
                         matches!(kind, MjtTrn::mjTRN_JOINT | MjtTrn::mjTRN_JOINTINPARENT) && t[0] as usize == jid
                     });
+                    let mut found = Vec::new();
+                    for (a, _) in driving {
+                        let kind = actuator_kind(model, a).ok_or_else(|| {
+                            format!(
+                                "actuator `{}` of joint `{name}` is of no kind SimSerpent can command (a <motor>, \
+                                 <position>, <velocity> or <intvelocity> actuator, or a <general> one with the same \
+                                 gain, bias and dynamics); control.method = \"{}\" needs a {} on every joint",
+                                actuator_names[a],
+                                method.name(),
+                                actuator_element(method)
+                            )
+                        })?;
+                        let slot = ControlMethod::ALL.iter().position(|k| *k == kind).unwrap_or(0);
+                        actuators[slot].get_or_insert(a);
+                        found.push((a, kind));
+                    }
+                    let method_slot = ControlMethod::ALL.iter().position(|k| *k == method).unwrap_or(0);
+                    if actuators[method_slot].is_none() {
+                        if let Some((a, kind)) = found.first() {
+                            return Err(format!(
+                                "joint `{name}` is driven by actuator `{}`, a {} that takes {}, but control.method = \
+                                 \"{}\" sends {}; set control.method = \"{}\" (or give the joint a {})",
+                                actuator_names[*a],
+                                actuator_element(*kind),
+                                control_meaning(*kind),
+                                method.name(),
+                                control_meaning(method),
+                                kind.name(),
+                                actuator_element(method)
+                            ));
+                        }
+                    }
                     joints.push(JointIndex {
                         name: name.clone(),
                         qpos_adr: model.jnt_qposadr()[jid] as usize,
@@ -163,7 +201,7 @@ impl Index {
                 _ => {}
             }
         }
-        Self::finish(model, links, joints, head_free_qpos_adr)
+        Ok(Self::finish(model, links, joints, head_free_qpos_adr))
     }
 
     fn finish(
@@ -198,5 +236,49 @@ impl Index {
             head_free_qpos_adr,
             robot_mass_kg,
         }
+    }
+}
+
+/// What actuator `a` of `model` takes as its control, from its dynamics, gain and bias as
+/// MuJoCo's shortcut elements set them (a `<general>` actuator with the same parameters counts
+/// as that kind): `<motor>` (no dynamics, fixed gain, no bias) a torque; `<position>` (bias
+/// −kp·q − kv·q̇ with kp = gain) an angle; `<velocity>` (bias −kv·q̇ with kv = gain) a joint
+/// velocity; `<intvelocity>` (integrator dynamics, position bias) a velocity it integrates.
+/// `None` for anything else (muscles, filters, custom gains).
+pub fn actuator_kind(model: &MjModel, a: usize) -> Option<ControlMethod> {
+    let (dyn_type, gain_type, bias_type) =
+        (model.actuator_dyntype()[a], model.actuator_gaintype()[a], model.actuator_biastype()[a]);
+    let (gain, bias) = (model.actuator_gainprm()[a][0], model.actuator_biasprm()[a]);
+    if gain_type != MjtGain::mjGAIN_FIXED {
+        return None;
+    }
+    let position_bias = bias[0] == 0.0 && bias[1] == -gain && gain != 0.0;
+    let velocity_bias = bias[0] == 0.0 && bias[1] == 0.0 && bias[2] == -gain && gain != 0.0;
+    match (dyn_type, bias_type) {
+        (MjtDyn::mjDYN_NONE, MjtBias::mjBIAS_NONE) => Some(ControlMethod::Torque),
+        (MjtDyn::mjDYN_NONE, MjtBias::mjBIAS_AFFINE) if position_bias => Some(ControlMethod::Position),
+        (MjtDyn::mjDYN_NONE, MjtBias::mjBIAS_AFFINE) if velocity_bias => Some(ControlMethod::Velocity),
+        (MjtDyn::mjDYN_INTEGRATOR, MjtBias::mjBIAS_AFFINE) if position_bias => Some(ControlMethod::Intvelocity),
+        _ => None,
+    }
+}
+
+/// The MJCF element of an actuator kind.
+fn actuator_element(kind: ControlMethod) -> &'static str {
+    match kind {
+        ControlMethod::Torque => "<motor>",
+        ControlMethod::Position => "<position> servo",
+        ControlMethod::Velocity => "<velocity> servo",
+        ControlMethod::Intvelocity => "<intvelocity> servo",
+    }
+}
+
+/// What a command of `kind` is, in words with its unit.
+fn control_meaning(kind: ControlMethod) -> &'static str {
+    match kind {
+        ControlMethod::Torque => "torques (N m)",
+        ControlMethod::Position => "target angles (rad)",
+        ControlMethod::Velocity => "target velocities (rad/s)",
+        ControlMethod::Intvelocity => "velocities to integrate into target angles (rad/s)",
     }
 }

@@ -10,6 +10,7 @@ mod compile;
 mod ground;
 mod index;
 mod noise;
+mod robot;
 mod safety;
 mod snapshot;
 mod step_loop;
@@ -224,6 +225,10 @@ impl From<model::ModelError> for SimError {
     }
 }
 
+/// The deepest a robot may start inside the floor, an obstacle or the terrain (m): resting
+/// contact at the start is fine, a placement error is not (see [`World::check_start_clear`]).
+pub const START_PENETRATION_TOLERANCE_M: f64 = 0.5e-3;
+
 /// A compiled world: model, engine state and the index of the robot in it.
 ///
 /// The engine state owns its model (`Box`), so the few model parameters that MuJoCo allows to
@@ -291,7 +296,78 @@ impl World {
             initial_pair_friction,
         };
         world.reset()?;
+        world.check_start_clear(config, "the snake")?;
         Ok(world)
+    }
+
+    /// Fails when the robot starts inside the floor, an obstacle or a terrain feature deeper than
+    /// [`START_PENETRATION_TOLERANCE_M`]: MuJoCo's collision detection at the starting state
+    /// (the contacts of the last forward pass) is the check, so it sees slopes, heightfields,
+    /// meshes and third-party terrain exactly as the run will. A snake started 72 mm inside a box
+    /// would otherwise be thrown out of it with kilonewtons in the first steps.
+    pub fn check_start_clear(&self, config: &Config, what: &str) -> Result<(), SimError> {
+        use crate::state::GeomClass;
+        let d = &self.data;
+        let class = |g: i32| usize::try_from(g).ok().and_then(|g| self.index.geom_class.get(g).copied());
+        let mut worst: Option<(f64, usize, usize)> = None; // (depth, link geom, other geom)
+        for contact in d.contact() {
+            let pair = match (class(contact.geom[0]), class(contact.geom[1])) {
+                (Some(GeomClass::Link(_)), Some(GeomClass::Link(_))) => None,
+                (Some(GeomClass::Link(_)), Some(_)) => Some((contact.geom[0], contact.geom[1])),
+                (Some(_), Some(GeomClass::Link(_))) => Some((contact.geom[1], contact.geom[0])),
+                _ => None,
+            };
+            if let Some((link, other)) = pair {
+                let depth = -contact.dist;
+                if depth > START_PENETRATION_TOLERANCE_M && worst.is_none_or(|w| depth > w.0) {
+                    worst = Some((depth, link as usize, other as usize));
+                }
+            }
+        }
+        let Some((depth, link, other)) = worst else { return Ok(()) };
+        let names = &self.index.geom_names;
+        let other_name = names.get(other).map_or("?", String::as_str);
+        let link_name = names.get(link).map_or("?", String::as_str);
+        let source = match other_name {
+            model::names::FLOOR => "the floor (z = 0)",
+            model::names::TERRAIN_SLOPE => "the slope (terrain.slope.*)",
+            model::names::TERRAIN_HEIGHTFIELD => "the heightfield (terrain.heightfield.*)",
+            model::names::TERRAIN_MESH => "the mesh terrain (terrain.mesh_terrain.*)",
+            n if n.starts_with("obstacle_") => {
+                "an obstacle (terrain.kind, terrain.pegboard, terrain.walls, terrain.channel or terrain.mesh_obstacles)"
+            }
+            _ => "a geom of the scene (terrain.include_mjcf or the robot file)",
+        };
+        let (key, value, fix) = if what == "the snake" {
+            (
+                "snake.head_position_m",
+                format!("{:?}", config.snake.head_position_m),
+                format!(
+                    "raise the snake (snake.head_position_m[2] up by at least {depth:.4} m puts that link on top; \
+                     on a slope, turn it with snake.head_rotation_deg), or move {source} away from the starting pose"
+                ),
+            )
+        } else {
+            (
+                "robot.position_m",
+                format!("{:?}", config.robot.position_m),
+                format!(
+                    "move the robot (robot.position_m; robot.place_on_floor = true only clears the floor), or move \
+                     {source} away from its starting pose"
+                ),
+            )
+        };
+        Err(SimError::Config(crate::config::ConfigError::InvalidValue {
+            key: key.into(),
+            value,
+            allowed: format!(
+                "{what} would start {:.1} mm deep inside {source}: geom `{link_name}` overlaps `{other_name}` at the \
+                 starting pose (more than the {} mm allowed), which throws it out with large contact forces in the \
+                 first steps; {fix}",
+                depth * 1e3,
+                START_PENETRATION_TOLERANCE_M * 1e3
+            ),
+        }))
     }
 
     /// A user's robot (MJCF or URDF, as MuJoCo's loader reads them) placed in the terrain that
@@ -307,14 +383,20 @@ impl World {
             let message = compile::full_load_error(compile::Mjcf::File(robot)).unwrap_or_else(|| e.to_string());
             robot_err(format!("MuJoCo cannot load the robot ({message})"))
         })?;
-        // Canonical MJCF of the robot (URDF converted), with absolute asset paths kept by MuJoCo.
-        let robot_mjcf = scratch_dir.join("robot.xml");
-        robot_model
-            .save_last_xml(&robot_mjcf)
-            .map_err(|e| robot_err(format!("cannot convert the robot to MJCF ({e})")))?;
         drop(robot_model);
-        let robot_text = std::fs::read_to_string(&robot_mjcf)
-            .map_err(|e| robot_err(format!("cannot read back {} ({e})", robot_mjcf.display())))?;
+        if config.initial_state != crate::config::Config::default().initial_state {
+            return Err(SimError::Config(crate::config::ConfigError::InvalidValue {
+                key: "initial_state".into(),
+                value: "(set)".into(),
+                allowed: "[initial_state] sets the generated snake's starting joint angles and velocity; with \
+                          --robot leave it at its defaults and give the robot's start in [robot] (position_m, \
+                          rotation_deg, floating_base, place_on_floor) and its joints' reference angles in its file"
+                    .into(),
+            }));
+        }
+        // MJCF of the robot (URDF converted), placed as [robot] says, with absolute asset paths
+        // kept by MuJoCo.
+        let robot_text = robot::prepared_mjcf(config, robot, scratch_dir).map_err(robot_err)?;
         let scene = model::scene_with_robot("robot.xml", config)?;
         let mut texts = vec![("robot.xml".to_string(), robot_text)];
         texts.extend(scene.files.texts.iter().cloned());
@@ -322,7 +404,7 @@ impl World {
             .map_err(|e| robot_err(e.to_string()))?;
         let model = MjModel::from_xml(&scene_path)
             .map_err(|e| robot_err(format!("MuJoCo cannot load the robot inside the terrain ({e})")))?;
-        let index = Index::for_robot(&model, config.control.method);
+        let index = Index::for_robot(&model, config.control.method).map_err(robot_err)?;
         safety::check_robot_actuators(config, &index).map_err(robot_err)?;
         let initial_pair_friction = model.pair_friction().to_vec();
         let mut world = Self {
@@ -336,6 +418,7 @@ impl World {
             initial_pair_friction,
         };
         world.reset()?;
+        world.check_start_clear(config, "the robot")?;
         Ok(world)
     }
 

@@ -506,6 +506,7 @@ mod tests {
             peak_contact_force_n: 6.0,
             max_penetration_m: 7.0,
             actuator_energy_j: 8.0,
+            tracking: None,
             steps_per_wall_sec: 9.0,
             real_time_factor: 10.0,
         };

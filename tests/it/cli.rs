@@ -67,7 +67,14 @@ fn recording_switches_choose_the_columns() {
     let out = simserpent(dir.path(), &args);
     assert!(out.status.success(), "{}", text(&out));
     let run = &run_folders(dir.path())[0];
-    assert!(!run.join("contacts.csv").exists() && !run.join("sensors.csv").exists());
+    assert!(!run.join("contacts.csv").exists());
+    // imu_sensors = false drops only the IMU columns: the encoders and force/torque sensors stay.
+    let (header, _) = read_csv(&run.join("sensors.csv"));
+    assert!(!header.iter().any(|h| h.contains("accelerometer") || h.contains("gyro") || h.contains("velocimeter")));
+    for kept in ["joint_01_encoder_true_rad", "joint_01_force_sensor_measured_x_n", "joint_01_torque_sensor_true_z_nm"]
+    {
+        assert!(header.iter().any(|h| h == kept), "{kept} missing in {header:?}");
+    }
     let (header, _) = read_csv(&run.join("links.csv"));
     assert!(!header.iter().any(|h| h.contains("orientation")));
     let (header, _) = read_csv(&run.join("joints.csv"));
@@ -177,11 +184,11 @@ fn thesis_config_json_runs() {
 
 #[test]
 fn user_robots_run_in_the_terrain_and_are_recorded() {
-    // MuJoCo welds a URDF's root link to the world, so only the arm is a moving link there.
+    // A URDF's base link gets a free joint (robot.floating_base), so it is a link of its own.
     // The URDF has no actuators (MuJoCo's URDF loader makes none), so it runs without a gait.
     let cases: [(&str, &[&str], &str, &str); 2] = [
         ("two_link_arm.xml", &["base", "arm"], "elbow", "gait.kind=\"sine_wave\""),
-        ("two_link.urdf", &["arm"], "elbow", "gait.kind=\"none\""),
+        ("two_link.urdf", &["base", "arm"], "elbow", "gait.kind=\"none\""),
     ];
     for (file, links, joint, gait) in cases {
         let dir = tempfile::tempdir().unwrap();

@@ -25,6 +25,7 @@ mod robustness;
 mod sensors;
 mod sliding_contact;
 mod surfaces;
+mod surprises;
 mod sweep;
 mod sweep_interrupt;
 mod terrain;

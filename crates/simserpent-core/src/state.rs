@@ -9,6 +9,7 @@
 //! [`peak_contact_force_n`]); [`RunTotals`] accumulates them over the recorded instants of a run.
 
 use crate::control::Observation;
+use serde::{Deserialize, Serialize};
 
 /// What a geom is, for splitting contact forces into ground reaction, obstacle and link–link.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -280,6 +281,15 @@ pub fn heading_xy([w, x, y, z]: [f64; 4]) -> [f64; 2] {
     if norm > 1e-9 { [hx / norm, hy / norm] } else { [1.0, 0.0] }
 }
 
+/// Yaw angle (rad, in (−π, π]) of the orientation quaternion `(w, x, y, z)`: the first angle of
+/// the intrinsic z-y′-x″ (yaw-pitch-roll) Euler angles, which is the direction of the body's
+/// +x axis in the xy-plane measured from world +x, counter-clockwise seen from above. For the
+/// snake's links (+x points towards the head) it is the heading of the link. Undefined (numerically any value) when
+/// the axis is vertical (no heading).
+pub fn yaw_rad([w, x, y, z]: [f64; 4]) -> f64 {
+    (2.0 * (x * y + w * z)).atan2(1.0 - 2.0 * (y * y + z * z))
+}
+
 /// Σ over joints of |τ·q̇| (W) for `(joint-space actuator torque N·m, joint velocity rad/s)`
 /// pairs: the rate at which the actuators do work, counting braking as work too.
 pub fn actuator_power_w(joints: impl IntoIterator<Item = (f64, f64)>) -> f64 {
@@ -342,6 +352,107 @@ impl RunTotals {
     }
 }
 
+/// How well the joints followed their commanded angles: what [`JointTracking`] reports, added up
+/// one instant at a time (no allocation after [`TrackingTotals::new`]).
+///
+/// Only instants at or after `from_secs` count (the end of the gait's ramp-in, when the command
+/// has its full amplitude); when the run ends before that, every instant counts.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrackingTotals {
+    from_secs: f64,
+    /// Per joint: [Σ error², max |error|, min ref, max ref, min actual, max actual] after `from_secs`
+    /// (index 0) and over the whole run (index 1).
+    acc: [Vec<[f64; 6]>; 2],
+    count: [u64; 2],
+}
+
+/// One joint's tracking of its commanded angle over a run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct JointTracking {
+    /// The joint's name.
+    pub joint: String,
+    /// Half the peak-to-peak range of the commanded angle (rad): the amplitude of a wave.
+    pub command_amplitude_rad: f64,
+    /// Half the peak-to-peak range of the joint's actual angle, in % of the command's.
+    pub reached_amplitude_percent: f64,
+    /// Root mean square of (actual − commanded angle) (rad), and in % of the command amplitude.
+    pub rms_error_rad: f64,
+    pub rms_error_percent: f64,
+    /// Largest |actual − commanded angle| (rad), and in % of the command amplitude.
+    pub max_error_rad: f64,
+    pub max_error_percent: f64,
+}
+
+/// A joint "tracks" its command when it reaches 90–110 % of the commanded amplitude and its RMS
+/// error stays within 20 % of that amplitude (for a sine, 20 % RMS is a phase lag of about 16°
+/// at full amplitude). See [`JointTracking::tracks`].
+pub const TRACKING_AMPLITUDE_PERCENT: [f64; 2] = [90.0, 110.0];
+/// See [`TRACKING_AMPLITUDE_PERCENT`].
+pub const TRACKING_RMS_ERROR_PERCENT: f64 = 20.0;
+
+impl JointTracking {
+    /// Whether the joint followed its command well enough (see [`TRACKING_AMPLITUDE_PERCENT`]).
+    pub fn tracks(&self) -> bool {
+        let [lo, hi] = TRACKING_AMPLITUDE_PERCENT;
+        (lo..=hi).contains(&self.reached_amplitude_percent) && self.rms_error_percent <= TRACKING_RMS_ERROR_PERCENT
+    }
+}
+
+impl TrackingTotals {
+    /// Totals for `n_joints` joints, counting instants from `from_secs` on.
+    pub fn new(n_joints: usize, from_secs: f64) -> Self {
+        let start = [0.0, 0.0, f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
+        Self { from_secs, acc: [vec![start; n_joints], vec![start; n_joints]], count: [0; 2] }
+    }
+
+    /// Adds one instant: the commanded and the actual angle of every joint (rad).
+    pub fn add(&mut self, time_secs: f64, command_rad: &[f64], actual_rad: &[f64]) {
+        let parts: &[usize] = if time_secs >= self.from_secs { &[0, 1] } else { &[1] };
+        for &p in parts {
+            self.count[p] += 1;
+            for ((a, &c), &x) in self.acc[p].iter_mut().zip(command_rad).zip(actual_rad) {
+                let e = x - c;
+                a[0] += e * e;
+                a[1] = a[1].max(e.abs());
+                a[2] = a[2].min(c);
+                a[3] = a[3].max(c);
+                a[4] = a[4].min(x);
+                a[5] = a[5].max(x);
+            }
+        }
+    }
+
+    /// The report per joint (named by `joint_names`), or nothing when no instant was added or no
+    /// joint was commanded to move (a command amplitude of zero has no percentages).
+    pub fn report(&self, joint_names: &[String]) -> Option<Vec<JointTracking>> {
+        let p = if self.count[0] > 0 { 0 } else { 1 };
+        let n = self.count[p];
+        if n == 0 || self.acc[p].iter().all(|a| a[3] - a[2] <= 0.0) {
+            return None;
+        }
+        let percent = |x: f64, of: f64| if of > 0.0 { 100.0 * x / of } else { 0.0 };
+        Some(
+            self.acc[p]
+                .iter()
+                .zip(joint_names)
+                .map(|(a, name)| {
+                    let amplitude = 0.5 * (a[3] - a[2]);
+                    let rms = (a[0] / n as f64).sqrt();
+                    JointTracking {
+                        joint: name.clone(),
+                        command_amplitude_rad: amplitude,
+                        reached_amplitude_percent: percent(0.5 * (a[5] - a[4]), amplitude),
+                        rms_error_rad: rms,
+                        rms_error_percent: percent(rms, amplitude),
+                        max_error_rad: a[1],
+                        max_error_percent: percent(a[1], amplitude),
+                    }
+                })
+                .collect(),
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -361,6 +472,32 @@ mod tests {
         // Pointing straight up: no heading, +x by convention.
         let pitch = -90f64.to_radians();
         assert_eq!(heading_xy([(pitch / 2.0).cos(), 0.0, (pitch / 2.0).sin(), 0.0]), [1.0, 0.0]);
+    }
+
+    #[test]
+    fn yaw_of_a_rotation_is_its_heading_angle() {
+        let q_of = |axis: [f64; 3], angle: f64| {
+            let s = (angle / 2.0).sin();
+            [(angle / 2.0).cos(), axis[0] * s, axis[1] * s, axis[2] * s]
+        };
+        for deg in [-179.0, -90.0, -30.0, 0.0, 45.0, 135.0, 180.0] {
+            let yaw = f64::to_radians(deg);
+            assert!((yaw_rad(q_of([0.0, 0.0, 1.0], yaw)) - yaw).abs() < 1e-12, "{deg}°");
+        }
+        // A roll about the body's own +x axis after a yaw keeps the yaw; a pitch of 20° too.
+        let mul = |a: [f64; 4], b: [f64; 4]| {
+            [
+                a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+                a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+                a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+                a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
+            ]
+        };
+        let yawed = q_of([0.0, 0.0, 1.0], 1.0);
+        let q = mul(mul(yawed, q_of([0.0, 1.0, 0.0], 0.35)), q_of([1.0, 0.0, 0.0], 0.7));
+        assert!((yaw_rad(q) - 1.0).abs() < 1e-12);
+        let h = heading_xy(q);
+        assert!((yaw_rad(q) - h[1].atan2(h[0])).abs() < 1e-12);
     }
 
     #[test]
@@ -394,6 +531,35 @@ mod tests {
         s.begin_contacts();
         assert_eq!(s.link_floor_force_n[0], [0.0; 3]);
         assert!(s.contacts.is_empty());
+    }
+
+    #[test]
+    fn tracking_of_a_lagging_smaller_sine() {
+        // Command A·sin(ωt); the joint answers 0.77·A·sin(ωt − 30°) (a servo that cannot keep up).
+        let (a, w, lag) = (0.2, std::f64::consts::TAU * 0.5, 30f64.to_radians());
+        let mut t = TrackingTotals::new(2, 1.0);
+        let n = 200_000;
+        for k in 0..=n {
+            let time = 1.0 + 4.0 * k as f64 / n as f64; // four whole periods after the ramp
+            let c = a * (w * time).sin();
+            t.add(time, &[c, c], &[0.77 * a * (w * time - lag).sin(), c]);
+        }
+        t.add(0.5, &[5.0, 5.0], &[0.0, 0.0]); // before `from_secs`: not counted
+        let r = t.report(&["joint_01".into(), "joint_02".into()]).expect("a report");
+        assert!((r[0].command_amplitude_rad - a).abs() < 1e-6);
+        assert!((r[0].reached_amplitude_percent - 77.0).abs() < 1e-3);
+        // |0.77 e^{-i lag} − 1| · A / √2 is the RMS of the difference of the two sines.
+        let gap = ((0.77 * lag.cos() - 1.0).powi(2) + (0.77 * lag.sin()).powi(2)).sqrt();
+        assert!((r[0].rms_error_rad - gap * a / 2f64.sqrt()).abs() < 1e-5, "{:?}", r[0]);
+        assert!((r[0].max_error_rad - gap * a).abs() < 1e-5);
+        assert!((r[0].max_error_percent - 100.0 * gap).abs() < 1e-2);
+        assert!(!r[0].tracks());
+        assert_eq!((r[1].rms_error_rad, r[1].max_error_rad, r[1].reached_amplitude_percent), (0.0, 0.0, 100.0));
+        assert!(r[1].tracks());
+        // Nothing commanded: no report.
+        let mut still = TrackingTotals::new(1, 0.0);
+        still.add(0.0, &[0.0], &[0.01]);
+        assert!(still.report(&["joint_01".into()]).is_none());
     }
 
     #[test]

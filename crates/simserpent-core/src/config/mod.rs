@@ -157,6 +157,8 @@ pub struct Config {
     pub safety: Safety,
     pub visual: Visual,
     pub snake: Snake,
+    pub initial_state: InitialState,
+    pub robot: Robot,
     pub ground: Ground,
     pub sensors: Sensors,
     pub control: Control,
@@ -289,6 +291,39 @@ impl Snake {
 pub enum JointAxes {
     Yaw,
     Alternating,
+}
+
+/// The state a run starts from beyond the snake's pose (`[initial_state]`): joint angles and
+/// a velocity of the whole body (the thesis' experiment II set `data.qvel`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitialState {
+    /// Starting angle of every joint (joint_01 first), degrees; empty = the gait's own start.
+    pub joint_angles_deg: Vec<f64>,
+    /// Starting velocity of the head's frame origin (the head's front tip), world frame (m/s);
+    /// the whole snake moves with it.
+    pub linear_velocity_m_per_s: [f64; 3],
+    /// Starting angular velocity of the whole snake about the head's front tip, world frame
+    /// (rad/s).
+    pub angular_velocity_rad_per_s: [f64; 3],
+}
+
+/// A user's robot (`run --robot FILE`, `[robot]`): its base and where it starts.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Robot {
+    /// Give every root body of the robot that has no joint (a URDF's base link, an MJCF body
+    /// without a joint) a free joint, so that it can move; false keeps it welded to the world.
+    pub floating_base: bool,
+    /// Translation of the whole robot from where its file puts it (m, world frame), applied
+    /// after `rotation_deg`.
+    pub position_m: [f64; 3],
+    /// Rotation of the whole robot about the world origin, Euler angles about x, y, z (degrees,
+    /// intrinsic x, then y, then z, as `snake.head_rotation_deg`).
+    pub rotation_deg: [f64; 3],
+    /// Move the robot up or down so that its lowest colliding geom just touches the floor
+    /// (z = 0) at the start, whatever `position_m[2]` says.
+    pub place_on_floor: bool,
 }
 
 /// Friction between links and floor (`[ground]`).

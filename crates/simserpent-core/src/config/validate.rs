@@ -206,6 +206,8 @@ impl Config {
         self.validate_floor_friction()?;
         self.validate_safety()?;
         self.validate_snake()?;
+        self.validate_initial_state()?;
+        self.validate_robot()?;
         self.validate_ground()?;
         self.validate_sensors()?;
         self.validate_control()?;
@@ -512,6 +514,44 @@ impl Config {
         }
         all_finite("snake.head_position_m", &s.head_position_m)?;
         all_finite("snake.head_rotation_deg", &s.head_rotation_deg)
+    }
+
+    fn validate_initial_state(&self) -> Check {
+        let i = &self.initial_state;
+        let key = "initial_state.joint_angles_deg";
+        let nj = self.snake.n_joints();
+        all_finite(key, &i.joint_angles_deg)?;
+        ensure(
+            i.joint_angles_deg.is_empty() || i.joint_angles_deg.len() == nj,
+            key,
+            fmt_a(&i.joint_angles_deg),
+            format!(
+                "either [] (the gait's own start) or one angle per joint: snake.n_links = {} has {nj} joints, \
+                 this list has {} values",
+                self.snake.n_links,
+                i.joint_angles_deg.len()
+            ),
+        )?;
+        let limit = self.snake.joint_range_deg;
+        if let Some((j, a)) = i.joint_angles_deg.iter().enumerate().find(|(_, a)| a.abs() > limit) {
+            return fail(
+                key,
+                fmt_a(&i.joint_angles_deg),
+                format!(
+                    "every angle must be within the joint range +-{} deg (snake.joint_range_deg); joint_{:02} is {} deg",
+                    fmt_f(limit),
+                    j + 1,
+                    fmt_f(*a)
+                ),
+            );
+        }
+        all_finite("initial_state.linear_velocity_m_per_s", &i.linear_velocity_m_per_s)?;
+        all_finite("initial_state.angular_velocity_rad_per_s", &i.angular_velocity_rad_per_s)
+    }
+
+    fn validate_robot(&self) -> Check {
+        all_finite("robot.position_m", &self.robot.position_m)?;
+        all_finite("robot.rotation_deg", &self.robot.rotation_deg)
     }
 
     fn validate_sensors(&self) -> Check {

@@ -36,6 +36,24 @@ impl JointTrajectory for Still {
     }
 }
 
+/// All joints held at fixed angles (rad; joints beyond the list at zero): `gait.kind = "none"`
+/// with `initial_state.joint_angles_deg`, so that the snake keeps the shape it starts in.
+#[derive(Debug, Clone, Default)]
+pub struct Hold {
+    /// The angle of each joint (rad), joint_01 first.
+    pub angles_rad: Vec<f64>,
+}
+
+impl JointTrajectory for Hold {
+    fn targets(&self, _t_secs: f64, angle_rad: &mut [f64], velocity_rad_per_s: &mut [f64]) {
+        angle_rad.fill(0.0);
+        for (a, held) in angle_rad.iter_mut().zip(&self.angles_rad) {
+            *a = *held;
+        }
+        velocity_rad_per_s.fill(0.0);
+    }
+}
+
 /// The sinusoidal joint wave (thesis "do_sinus"; lateral undulation):
 /// φ_j(t) = r(t)·(A·sin(2πf·t − j·δ) + φ₀), j = 0 for the joint right behind the head, so that
 /// with δ > 0 the wave travels from head to tail. r(t) is the smooth ramp-in.
@@ -165,7 +183,10 @@ impl JointTrajectory for TwoPlaneWave {
 pub fn trajectory_from_config(config: &Config) -> Box<dyn JointTrajectory> {
     let gait = &config.gait;
     match gait.kind {
-        GaitKind::None => Box::new(Still),
+        GaitKind::None if config.initial_state.joint_angles_deg.is_empty() => Box::new(Still),
+        GaitKind::None => Box::new(Hold {
+            angles_rad: config.initial_state.joint_angles_deg.iter().map(|a| a.to_radians()).collect(),
+        }),
         GaitKind::SineWave => Box::new(SineWave {
             amplitude_rad: gait.sine_wave.amplitude_deg.to_radians(),
             frequency_hz: gait.sine_wave.frequency_hz,

@@ -7,7 +7,9 @@
 mod gait;
 mod pid;
 
-pub use gait::{FormClosureShift, JointTrajectory, SineWave, Still, TwoPlaneWave, serpenoid, trajectory_from_config};
+pub use gait::{
+    FormClosureShift, Hold, JointTrajectory, SineWave, Still, TwoPlaneWave, serpenoid, trajectory_from_config,
+};
 pub use pid::Pid;
 
 use crate::config::{Config, ControlMethod};

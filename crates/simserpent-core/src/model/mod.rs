@@ -212,12 +212,32 @@ pub fn scene_with_robot(robot_file: &str, cfg: &Config) -> Result<GeneratedModel
     Ok(GeneratedModel { xml, obstacles, initial_joint_angles_rad: Vec::new(), files, features })
 }
 
-/// Starting joint angles (index `j - 1` for joint `j`), rad: zero, except with
+/// Unit quaternion (w, x, y, z) of Euler angles in degrees about x, then y, then z (intrinsic,
+/// MJCF `euler` with `eulerseq="xyz"`), as `snake.head_rotation_deg` and `robot.rotation_deg`
+/// are read.
+pub fn euler_xyz_deg_quat(angles_deg: [f64; 3]) -> [f64; 4] {
+    geometry::euler_xyz_quat(angles_deg.map(f64::to_radians))
+}
+
+/// Starting joint angles (index `j - 1` for joint `j`), rad: `initial_state.joint_angles_deg`
+/// when given; otherwise zero, except with
 /// `gait.kind = "form_closure"`, where joint `j` starts at `pattern_deg[(j − 1) % len]`, and with
 /// a `sine_wave` or `serpenoid` gait without ramp-in (`gait.ramp_secs = 0`), which starts in the
 /// wave's shape at t = 0.
 pub(crate) fn initial_joint_angles(cfg: &Config) -> Result<Vec<f64>, ConfigError> {
     let nj = cfg.snake.n_joints();
+    let given = &cfg.initial_state.joint_angles_deg;
+    if !given.is_empty() {
+        // Checked by `Config::validate` (length and range); rechecked for a config built in code.
+        if given.len() != nj || given.iter().any(|a| !a.is_finite()) {
+            return Err(ConfigError::invalid(
+                "initial_state.joint_angles_deg",
+                format!("{given:?}"),
+                format!("[] or {nj} finite angles (one per joint)"),
+            ));
+        }
+        return Ok(given.iter().map(|a| a.to_radians()).collect());
+    }
     if nj > 0 && cfg.gait.ramp_secs == 0.0 && matches!(cfg.gait.kind, GaitKind::SineWave | GaitKind::Serpenoid) {
         // Without a ramp-in a planar wave starts at full amplitude: the snake starts in its shape
         // at t = 0, so that it does not jump (and pegs can be placed at its bends).

@@ -238,6 +238,19 @@ pub(crate) fn write_keyframe(out: &mut String, cfg: &Config, angles: &[f64]) -> 
     qpos.extend_from_slice(&quat);
     qpos.extend_from_slice(angles);
     write!(out, "  <keyframe>\n    <key name=\"{}\" qpos=\"{}\"", names::INITIAL_KEYFRAME, Nums(&qpos))?;
+    // `[initial_state]` velocities: the free joint's qvel is the linear velocity of the head's
+    // frame origin in the world frame and the angular velocity in the head's own frame.
+    let init = &cfg.initial_state;
+    if init.linear_velocity_m_per_s != [0.0; 3] || init.angular_velocity_rad_per_s != [0.0; 3] {
+        let r = super::geometry::euler_xyz_matrix(super::geometry::head_rotation_rad(cfg));
+        let w = init.angular_velocity_rad_per_s;
+        // Rᵀ·ω: world to head frame.
+        let local = [0, 1, 2].map(|k| r[0][k] * w[0] + r[1][k] * w[1] + r[2][k] * w[2]);
+        let mut qvel: Vec<f64> = init.linear_velocity_m_per_s.to_vec();
+        qvel.extend_from_slice(&local);
+        qvel.resize(6 + angles.len(), 0.0);
+        write!(out, " qvel=\"{}\"", Nums(&qvel))?;
+    }
     if !angles.is_empty() {
         let nj = angles.len();
         let mut ctrl = vec![0.0; 4 * nj];
