@@ -171,20 +171,20 @@ impl Index {
                         found.push((a, kind));
                     }
                     let method_slot = ControlMethod::ALL.iter().position(|k| *k == method).unwrap_or(0);
-                    if actuators[method_slot].is_none() {
-                        if let Some((a, kind)) = found.first() {
-                            return Err(format!(
-                                "joint `{name}` is driven by actuator `{}`, a {} that takes {}, but control.method = \
+                    if actuators[method_slot].is_none()
+                        && let Some((a, kind)) = found.first()
+                    {
+                        return Err(format!(
+                            "joint `{name}` is driven by actuator `{}`, a {} that takes {}, but control.method = \
                                  \"{}\" sends {}; set control.method = \"{}\" (or give the joint a {})",
-                                actuator_names[*a],
-                                actuator_element(*kind),
-                                control_meaning(*kind),
-                                method.name(),
-                                control_meaning(method),
-                                kind.name(),
-                                actuator_element(method)
-                            ));
-                        }
+                            actuator_names[*a],
+                            actuator_element(*kind),
+                            control_meaning(*kind),
+                            method.name(),
+                            control_meaning(method),
+                            kind.name(),
+                            actuator_element(method)
+                        ));
                     }
                     joints.push(JointIndex {
                         name: name.clone(),

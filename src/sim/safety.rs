@@ -96,9 +96,16 @@ pub(crate) fn check_robot_actuators(config: &Config, index: &super::Index) -> Re
     }
     let gait =
         toml::Value::try_from(config.gait.kind).map_or_else(|_| format!("{:?}", config.gait.kind), |v| v.to_string());
+    let element = match config.control.method {
+        crate::config::ControlMethod::Torque => "<motor>",
+        crate::config::ControlMethod::Position => "<position>",
+        crate::config::ControlMethod::Velocity => "<velocity>",
+        crate::config::ControlMethod::Intvelocity => "<intvelocity>",
+    };
     let fix = format!(
-        "add a <{method}> (or <motor>/<general>) actuator with joint=\"…\" for it, or run with --set gait.kind=none",
-        method = config.control.method.name()
+        "add a {element} actuator (or an equivalent <general> one) with joint=\"…\" for it (control.method = \"{}\"), \
+         or run with --set gait.kind=none",
+        config.control.method.name()
     );
     if index.joints.is_empty() {
         return Err(format!(

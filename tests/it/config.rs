@@ -139,6 +139,17 @@ color_rgba = [1.0, 0.5, 0.25, 0.75]
 head_position_m = [1.0, 2.0, 0.5]
 head_rotation_deg = [10.0, 20.0, 30.0]
 
+[initial_state]
+joint_angles_deg = [1.0, -2.0, 3.0, -4.0, 5.0, -6.0]
+linear_velocity_m_per_s = [0.5, 0.0, -0.1]
+angular_velocity_rad_per_s = [0.0, 0.2, 1.0]
+
+[robot]
+floating_base = false
+position_m = [1.0, -1.0, 0.25]
+rotation_deg = [0.0, 0.0, 45.0]
+place_on_floor = false
+
 [ground]
 model = "directional"
 axial_friction = 0.15
@@ -420,6 +431,18 @@ fn all_fields_expected() -> Config {
     s.color_rgba = [1.0, 0.5, 0.25, 0.75];
     s.head_position_m = [1.0, 2.0, 0.5];
     s.head_rotation_deg = [10.0, 20.0, 30.0];
+
+    c.initial_state = InitialState {
+        joint_angles_deg: vec![1.0, -2.0, 3.0, -4.0, 5.0, -6.0],
+        linear_velocity_m_per_s: [0.5, 0.0, -0.1],
+        angular_velocity_rad_per_s: [0.0, 0.2, 1.0],
+    };
+    c.robot = Robot {
+        floating_base: false,
+        position_m: [1.0, -1.0, 0.25],
+        rotation_deg: [0.0, 0.0, 45.0],
+        place_on_floor: false,
+    };
 
     let gr = &mut c.ground;
     gr.model = GroundModel::Directional;

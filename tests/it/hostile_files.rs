@@ -158,7 +158,7 @@ fn planted_symlinks_at_the_old_scratch_names_are_not_followed() {
     simserpent::sim::World::from_config(&c).unwrap();
     let options = simserpent::run::RunOptions { robot: Some(data("two_link_arm.xml")), ..Default::default() };
     let mut robot_config = Config::default();
-    robot_config.control.method = config::ControlMethod::Torque;
+    robot_config.control.method = config::ControlMethod::Position;
     let _ = simserpent::run::build_world(&robot_config, &options);
     assert!(entries(&victim).is_empty(), "written through a planted link: {:?}", entries(&victim));
     for p in &planted.0 {
@@ -219,7 +219,7 @@ fn scratch_folders_are_removed_after_success_failure_and_sigterm() {
                 "--set",
                 "general.duration_secs=0.01",
                 "--set",
-                "control.method=\"torque\"",
+                "control.method=\"position\"",
                 "--robot",
                 &robot,
                 "--quiet",
