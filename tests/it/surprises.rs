@@ -174,7 +174,7 @@ fn render_images_without_image_times_fails_naming_the_key() {
 // --- 4. a start inside the terrain ------------------------------------------------------------
 
 #[test]
-fn a_snake_starting_inside_a_slope_or_heightfield_is_refused_naming_the_depth() {
+fn a_snake_starting_inside_a_slope_heightfield_or_mesh_is_refused_naming_the_depth() {
     // A 10° slope whose foot is 1.5 m behind the head: at the head it stands 0.26 m high.
     let slope = config(&[
         "terrain.kind=\"none\"",
@@ -203,6 +203,33 @@ fn a_snake_starting_inside_a_slope_or_heightfield_is_refused_naming_the_depth() 
     );
     assert_eq!(out.status.code(), Some(2), "{}", text(&out));
     assert!(run_folders(dir.path()).is_empty());
+    // A heightfield (uniformly 0.1 m high) and a mesh rock over the snake's start.
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("plateau.png");
+    {
+        let file = std::fs::File::create(&png).unwrap();
+        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), 8, 8);
+        enc.set_color(png::ColorType::Grayscale);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.write_header().unwrap().write_image_data(&[255u8; 64]).unwrap();
+    }
+    let hfield = config(&[
+        "terrain.kind=\"none\"",
+        &format!("terrain.heightfield.file={:?}", png.display().to_string()),
+        "terrain.heightfield.center_m=[-1.0, 0.0]",
+        "terrain.heightfield.height_m=0.1",
+    ]);
+    let e = World::from_config(&hfield).err().expect("the snake starts inside the heightfield").to_string();
+    assert!(e.contains("the heightfield (terrain.heightfield.*)") && e.contains("mm deep"), "{e}");
+    let rock = config(&[
+        "terrain.kind=\"none\"",
+        &format!(
+            "terrain.mesh_obstacles=[{{ file = {:?}, position_m = [-0.5, 0.0, 0.0], rotation_deg = [0.0, 0.0, 0.0], scale = 2.0 }}]",
+            data("rock.stl").display().to_string()
+        ),
+    ]);
+    let e = World::from_config(&rock).err().expect("the snake starts inside the rock").to_string();
+    assert!(e.contains("an obstacle") && e.contains("obstacle_00"), "{e}");
     // A one-link snake placed on the same kind of slope starts clear.
     let mut on_slope = crate::common::one_link();
     crate::common::place_link_on_slope(&mut on_slope, 10.0, 1.0);
