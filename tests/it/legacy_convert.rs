@@ -160,6 +160,11 @@ fn every_config_json_key_has_a_rule_and_a_note() {
             assert!(conversion.notes.iter().any(|n| n.legacy_key == key), "{key}: no note");
         }
     }
+    // Every note carries the rule of its own key.
+    for n in &conversion.notes {
+        let keys = n.rule.simserpent_keys;
+        assert!(keys.split(", ").any(|k| k == n.key) || keys.contains('<'), "{}: rule for {keys}", n.key);
+    }
     // Every SimSerpent key a note names exists in the default config.
     let defaults: toml::Table = config::DEFAULT_CONFIG_TOML.parse().unwrap();
     for n in &conversion.notes {

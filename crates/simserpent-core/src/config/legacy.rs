@@ -351,11 +351,13 @@ pub fn legacy_rule_table() -> String {
     out
 }
 
-/// The rule of `legacy_key` (exact, or the `<other>` / `<quantity>` entry of its section).
-fn rule(legacy_key: &str) -> &'static LegacyRule {
-    LEGACY_RULES
-        .iter()
-        .find(|r| r.legacy_key == legacy_key)
+/// The rule that sets `key` from `legacy_key` (exact, or the `<other>` / `<quantity>` entry of
+/// its section).
+fn rule(legacy_key: &str, key: &str) -> &'static LegacyRule {
+    let exact = || LEGACY_RULES.iter().filter(|r| r.legacy_key == legacy_key);
+    exact()
+        .find(|r| r.simserpent_keys.split(", ").any(|k| k == key))
+        .or_else(|| exact().next())
         .or_else(|| {
             let section = legacy_key.split('.').next().unwrap_or("");
             LEGACY_RULES.iter().find(|r| r.legacy_key.starts_with(section) && r.legacy_key.ends_with('>'))
@@ -500,7 +502,7 @@ impl Out {
             legacy_value: from.map_or_else(String::new, Json::to_string),
             key: key.to_string(),
             value,
-            rule: rule(legacy_key),
+            rule: rule(legacy_key, key),
         });
     }
 }
