@@ -94,6 +94,16 @@ fn check_prints_the_conversion_notes_once_on_stderr() {
         assert_eq!(stderr.matches(n.as_str()).count(), 1, "{n}");
     }
     assert!(!stdout.contains("note:"));
+    // `run` prints the same notes, once.
+    let json = thesis_json();
+    let out = format!("general.output_dir={:?}", dir.path().join("runs").display().to_string());
+    let args = ["run", json.to_str().unwrap(), "--quiet", "--set", "general.duration_secs=0.05", "--set", &out];
+    let o = simserpent(dir.path(), &args);
+    assert!(o.status.success(), "{}", text(&o));
+    let run_stderr = String::from_utf8_lossy(&o.stderr);
+    for n in &notes {
+        assert_eq!(run_stderr.matches(n.as_str()).count(), 1, "{n}");
+    }
     // A TOML config gets no notes.
     let toml = dir.path().join("c.toml");
     std::fs::write(&toml, "").unwrap();
