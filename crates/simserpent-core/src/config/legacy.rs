@@ -265,9 +265,10 @@ pub const LEGACY_RULES: &[LegacyRule] = &[
     LegacyRule {
         legacy_key: "store_data_to_csv.<quantity>",
         simserpent_keys: "recording.<table switch>",
-        rule: "position: link_position, velocity: link_velocity, accel: link_acceleration, angle: \
-               link_orientation, angular_vel: link_angular_velocity, angular_accel: link_angular_acceleration, \
-               the actuator forces, joint_angles and external_contact_forces: same name",
+        rule: "the [recording] switch of the same quantity: position -> link_position, velocity -> link_velocity, \
+               accel -> link_acceleration, angle -> link_orientation, angular_vel -> link_angular_velocity, \
+               angular_accel -> link_angular_acceleration; the actuator forces, joint_angles and \
+               external_contact_forces keep their names",
         deviation: "the columns go into SimSerpent's tables (links.csv, joints.csv, ...; README \"Run folder\"), not \
                     the original's CSV files",
     },
@@ -381,14 +382,19 @@ pub struct LegacyNote {
 }
 
 impl LegacyNote {
-    /// One line: `` `legacy` = v -> `key` = v: rule; differs from the original: ... ``.
-    pub fn line(&self) -> String {
+    /// `` `legacy` = v -> `key` = v ``.
+    pub fn head(&self) -> String {
         let from = if self.legacy_key == "(always)" {
             "(every conversion)".to_string()
         } else {
             format!("`{}` = {}", self.legacy_key, self.legacy_value)
         };
-        let mut line = format!("{from} -> `{}` = {}: {}", self.key, self.value, self.rule.rule);
+        format!("{from} -> `{}` = {}", self.key, self.value)
+    }
+
+    /// One line: `` `legacy` = v -> `key` = v: rule; differs from the original: ... ``.
+    pub fn line(&self) -> String {
+        let mut line = format!("{}: {}", self.head(), self.rule.rule);
         if !self.rule.deviation.is_empty() {
             line.push_str("; differs from the original: ");
             line.push_str(self.rule.deviation);
@@ -408,9 +414,36 @@ pub struct LegacyConversion {
 }
 
 impl LegacyConversion {
-    /// The note lines that `check` and `run` print.
+    /// The note lines that `check` and `run` print: one per config.json key (its SimSerpent keys
+    /// together); a rule and its difference from the original are spelt out the first time only.
     pub fn note_lines(&self) -> Vec<String> {
-        self.notes.iter().map(LegacyNote::line).collect()
+        let mut lines = Vec::new();
+        let mut explained: Vec<&'static LegacyRule> = Vec::new();
+        let notes = &self.notes;
+        let mut i = 0;
+        while i < notes.len() {
+            let first = &notes[i];
+            let same = |n: &LegacyNote| n.legacy_key == first.legacy_key && std::ptr::eq(n.rule, first.rule);
+            let group = notes[i..].iter().take_while(|n| same(n)).count().max(1);
+            let mut line = first.head();
+            for n in &notes[i + 1..i + group] {
+                line.push_str(&format!(", `{}` = {}", n.key, n.value));
+            }
+            if explained.iter().any(|r| std::ptr::eq(*r, first.rule)) {
+                line.push_str(" (rule as above)");
+            } else {
+                explained.push(first.rule);
+                line.push_str(": ");
+                line.push_str(first.rule.rule);
+                if !first.rule.deviation.is_empty() {
+                    line.push_str("; differs from the original: ");
+                    line.push_str(first.rule.deviation);
+                }
+            }
+            lines.push(line);
+            i += group;
+        }
+        lines
     }
 
     /// The converted keys as an annotated TOML file: each key with comments naming its
