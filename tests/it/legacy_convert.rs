@@ -338,12 +338,24 @@ fn experiments_record_what_their_analysis_reads_whatever_the_base_config_says() 
     assert_eq!(notes.len(), 1, "{notes:?}");
     assert!(simserpent::experiments::force_analysis_recording(&mut Config::default()).is_empty());
 
-    // The thesis' own config.json (store_data = false) runs an experiment to its checks.
+    // The thesis' own config.json (store_data = false) runs an experiment to its checks; with the
+    // original capsules, experiment I finds every link where the original tool put it.
     let dir = tempfile::tempdir().unwrap();
     let out = format!("general.output_dir={:?}", dir.path().display().to_string());
-    let o =
-        simserpent(dir.path(), &["experiment", "configure", "--quick", thesis_json().to_str().unwrap(), "--set", &out]);
+    let json = thesis_json();
+    let args = [
+        "experiment",
+        "configure",
+        "--quick",
+        json.to_str().unwrap(),
+        "--set",
+        &out,
+        "--set",
+        "legacy.geometry=\"faithful\"",
+    ];
+    let o = simserpent(dir.path(), &args);
     let all = text(&o);
     assert!(o.status.success(), "{all}");
     assert!(all.contains("note: recording.enabled = false -> true"), "{all}");
+    assert!(all.contains("3 of 3 checks passed"), "{all}");
 }
