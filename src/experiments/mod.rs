@@ -156,6 +156,21 @@ pub fn run_experiment(name: &str, base: &Config, output_dir: &Path, quick: bool)
         .into_iter()
         .map(|n| format!("{n}: the experiment's analysis reads the recorded tables"))
         .collect();
+    // Only `configure` knows where the original tool's capsules go; the other experiments' cases
+    // (positions, launch directions, expected values) are laid out for SimSerpent's links.
+    let mut notes = notes;
+    let mut own_base;
+    let base = if name != "configure" && base.legacy.geometry == crate::config::LegacyGeometry::Faithful {
+        own_base = base.clone();
+        own_base.legacy.geometry = crate::config::LegacyGeometry::NoOverlap;
+        notes.push(format!(
+            "legacy.geometry = \"faithful\" -> \"no_overlap\": the cases of `{name}` are laid out for SimSerpent's \
+             links (only `configure` places the original tool's capsules)"
+        ));
+        &own_base
+    } else {
+        base
+    };
     let mut report = Report { title: format!("SimSerpent experiment `{name}`"), ..Report::default() };
     let cases = match name {
         "estimation" => "Each case below wrote estimation_<case>.csv and plots/ next to this report.",
@@ -167,7 +182,7 @@ pub fn run_experiment(name: &str, base: &Config, output_dir: &Path, quick: bool)
         crate::sim::engine_version()
     );
     if !notes.is_empty() {
-        report.intro.push_str(&format!(" Recording settings forced for every case: {}.", notes.join("; ")));
+        report.intro.push_str(&format!(" Settings forced for every case: {}.", notes.join("; ")));
     }
     let section = match name {
         "collision" => collision::run(&ctx, base)?,
