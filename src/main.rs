@@ -171,6 +171,19 @@ enum Command {
         #[arg(long)]
         scene_dir: Option<PathBuf>,
     },
+    /// Convert the original tool's config.json into an annotated SimSerpent TOML: each converted
+    /// key with a comment naming its config.json key, the rule and any difference from the
+    /// original tool (README "The original tool").
+    Convert {
+        /// The original tool's config.json.
+        input: PathBuf,
+        /// Where to write the TOML (default: standard output).
+        #[arg(long, short)]
+        output: Option<PathBuf>,
+        /// Overwrite an existing output file.
+        #[arg(long)]
+        force: bool,
+    },
     /// Check a config and print it fully resolved, without running anything.
     Check {
         #[command(flatten)]
@@ -320,15 +333,58 @@ fn failure<E: ExitCodeOf + Into<anyhow::Error>>(e: E) -> Failure {
     Failure { code: e.exit_code(), error: e.into() }
 }
 
+/// Loads the config; for the original tool's config.json, prints the conversion notes to
+/// standard error (once: every command loads its config once).
 fn load(args: &ConfigArgs) -> Result<(Config, String), Failure> {
-    let result: Result<Config, ConfigError> = match &args.config {
-        Some(path) => config::load_config(path, &args.overrides),
-        None => config::load_config_str(config::DEFAULT_CONFIG_TOML, config::ConfigSource::Toml, &args.overrides),
+    let result: Result<(Config, Vec<String>), ConfigError> = match &args.config {
+        Some(path) => config::load_config_with_notes(path, &args.overrides),
+        None => config::load_config_str(config::DEFAULT_CONFIG_TOML, config::ConfigSource::Toml, &args.overrides)
+            .map(|c| (c, Vec::new())),
     };
     let source = args.config.as_ref().map_or("embedded default".to_string(), |p| p.display().to_string());
-    result
-        .map(|c| (c, source.clone()))
-        .map_err(|e| bad_input(anyhow::Error::new(e).context(format!("config {source}"))))
+    let (config, notes) = result.map_err(|e| bad_input(anyhow::Error::new(e).context(format!("config {source}"))))?;
+    if !notes.is_empty() {
+        errln!(
+            "note: {source} is the original tool's config.json; converted as follows (`simserpent convert` writes \
+             it as an annotated TOML; README \"The original tool\"):"
+        );
+        for line in &notes {
+            errln!("note:   {line}");
+        }
+    }
+    Ok((config, source))
+}
+
+/// `simserpent convert config.json [-o config.toml]`.
+fn convert(input: &Path, output: Option<&Path>, force: bool) -> Result<(), Failure> {
+    if !input.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
+        return Err(bad_input(anyhow::anyhow!(
+            "{}: `convert` reads the original tool's config.json (a `.json` file); a SimSerpent TOML needs no \
+             conversion",
+            input.display()
+        )));
+    }
+    // The whole pipeline first: a config.json that does not load is not converted.
+    config::load_config(input, &[])
+        .map_err(|e| bad_input(anyhow::Error::new(e).context(format!("config {}", input.display()))))?;
+    let converted = config::convert_legacy_file(input)
+        .map_err(|e| bad_input(anyhow::Error::new(e).context(format!("config {}", input.display()))))?;
+    let name = input.file_name().map_or_else(|| input.display().to_string(), |n| n.to_string_lossy().into_owned());
+    let text = converted.annotated_toml(&name);
+    match output {
+        Some(path) => {
+            if path.exists() && !force {
+                return Err(bad_input(anyhow::anyhow!(
+                    "{} exists already; use --force to overwrite it",
+                    path.display()
+                )));
+            }
+            std::fs::write(path, &text).with_context(|| format!("cannot write {}", path.display()))?;
+            errln!("wrote {} ({} converted keys)", path.display(), converted.notes.len());
+        }
+        None => out!("{text}"),
+    }
+    Ok(())
 }
 
 fn run_command(args: &ConfigArgs, robot: Option<PathBuf>, quiet: bool, viewer: bool) -> Result<(), Failure> {
@@ -452,6 +508,9 @@ fn experiment(name: &str, args: &ConfigArgs, quick: bool) -> Result<(), Failure>
     let (config, _) = load(args)?;
     let outcome = simserpent::experiments::run_experiment(name, &config, Path::new(&config.general.output_dir), quick)
         .map_err(failure)?;
+    for note in &outcome.notes {
+        errln!("note: {note}");
+    }
     let report = &outcome.report;
     for c in report.checks() {
         outln!("{} {}", if c.passed { "pass" } else { "FAIL" }, c.name);
@@ -708,6 +767,7 @@ fn main() -> ExitCode {
         Some(Command::Experiment { name, config, quick }) => experiment(&name, &config, quick),
         Some(Command::Model { config, output, scene_dir }) => model(&config, output.as_deref(), scene_dir.as_deref()),
         Some(Command::Check { config }) => check(&config),
+        Some(Command::Convert { input, output, force }) => convert(&input, output.as_deref(), force),
         Some(Command::Bench { config, links, duration_secs, output_dir, repeats }) => {
             bench(&config, &links, duration_secs, &output_dir, repeats)
         }

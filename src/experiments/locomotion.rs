@@ -527,7 +527,8 @@ pub fn configure(ctx: &Context, base: &Config) -> Result<Section, ExperimentErro
             "Configuration sets A, B, C of table 5 (0.3 kg links; the thesis' link lengths 0.8, 2 and 1 m were capsule \
                half lengths, so the joint spacing is 1.6, 4 and 2 m), simulated for 1 s without a gait. Checked: \
                the run completes, and at t = 0 every link's centre is where the geometry says: head tip + rotation · \
-               (−(i + ½)·L, 0, 0), with the body axis at z = head z + radius."
+               (−(i + ½)·L, 0, 0), with the body axis at z = head z + radius (with legacy.geometry = \"faithful\": \
+               head + (L, 0, 0) + rotation · ((i + ½)·L, 0, 0), as the original tool placed it)."
                 .into(),
         ..Section::default()
     };
@@ -549,10 +550,13 @@ pub fn configure(ctx: &Context, base: &Config) -> Result<Section, ExperimentErro
         // Rotation of the whole snake (MJCF euler xyz, intrinsic): R = Rx·Ry·Rz.
         let [ax, ay, az] = rot.map(f64::to_radians);
         let r = mat_mul(mat_mul(rot_x(ax), rot_y(ay)), rot_z(az));
-        let tip = [head[0], head[1], head[2] + radius];
+        // legacy.geometry = "faithful": the original's head joint point, body along +x.
+        let faithful = c.legacy.geometry == crate::config::LegacyGeometry::Faithful;
+        let (dx, along) = if faithful { (length, 1.0) } else { (0.0, -1.0) };
+        let tip = [head[0] + dx, head[1], head[2] + radius];
         let mut worst: f64 = 0.0;
         for i in 0..n {
-            let local = [-(i as f64 + 0.5) * length, 0.0, 0.0];
+            let local = [along * (i as f64 + 0.5) * length, 0.0, 0.0];
             for (k, axis) in ["x", "y", "z"].iter().enumerate() {
                 let expected = tip[k] + r[k][0] * local[0] + r[k][1] * local[1] + r[k][2] * local[2];
                 let got = links.col(&format!("{}_position_{axis}_m", names::link_body(i)))?[0];

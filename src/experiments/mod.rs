@@ -69,6 +69,7 @@ impl Context {
         prepare: impl FnOnce(&mut World),
     ) -> Result<PathBuf, ExperimentError> {
         let mut config = config.clone();
+        force_analysis_recording(&mut config);
         config.general.output_dir = self.folder.display().to_string();
         config.general.run_name = name.to_string();
         config.validate().map_err(|e| RunError::Sim(e.into()))?;
@@ -93,6 +94,50 @@ pub struct Outcome {
     pub folder: PathBuf,
     /// The report.
     pub report: Report,
+    /// What the experiment changed in the base config's recording settings (also in the report).
+    pub notes: Vec<String>,
+}
+
+/// Sets the recording settings every experiment's analysis needs, whatever the base config says:
+/// recording on, CSV tables (Parquet-only becomes CSV and Parquet) and every table switch on.
+/// Returns one note per setting changed.
+pub fn force_analysis_recording(config: &mut Config) -> Vec<String> {
+    use crate::config::TableFormat;
+    let r = &mut config.recording;
+    let mut notes = Vec::new();
+    if !r.enabled {
+        r.enabled = true;
+        notes.push("recording.enabled = false -> true".to_string());
+    }
+    if !r.format.csv() {
+        r.format = TableFormat::Both;
+        notes.push("recording.format = \"parquet\" -> \"both\" (the analysis reads the CSV tables)".to_string());
+    }
+    let switches: [(&str, &mut bool); 16] = [
+        ("link_position", &mut r.link_position),
+        ("link_orientation", &mut r.link_orientation),
+        ("link_velocity", &mut r.link_velocity),
+        ("link_acceleration", &mut r.link_acceleration),
+        ("link_angular_velocity", &mut r.link_angular_velocity),
+        ("link_angular_acceleration", &mut r.link_angular_acceleration),
+        ("joint_angles", &mut r.joint_angles),
+        ("joint_velocities", &mut r.joint_velocities),
+        ("torque_actuator_forces", &mut r.torque_actuator_forces),
+        ("position_actuator_forces", &mut r.position_actuator_forces),
+        ("velocity_actuator_forces", &mut r.velocity_actuator_forces),
+        ("intvelocity_actuator_forces", &mut r.intvelocity_actuator_forces),
+        ("external_contact_forces", &mut r.external_contact_forces),
+        ("internal_joint_forces", &mut r.internal_joint_forces),
+        ("imu_sensors", &mut r.imu_sensors),
+        ("contacts", &mut r.contacts),
+    ];
+    for (name, on) in switches {
+        if !*on {
+            *on = true;
+            notes.push(format!("recording.{name} = false -> true"));
+        }
+    }
+    notes
 }
 
 /// Runs experiment `name` on top of `base` (the user's config: keys the experiment does not set
@@ -106,6 +151,26 @@ pub fn run_experiment(name: &str, base: &Config, output_dir: &Path, quick: bool)
     let folder = record::create_run_folder(output_dir, &format!("experiment-{name}"), &record::utc_stamp(unix_secs))
         .map_err(RunError::from)?;
     let ctx = Context { folder: folder.clone(), quick };
+    // Every case records what its analysis reads (Context::sub_run forces it); say what changed.
+    let notes: Vec<String> = force_analysis_recording(&mut base.clone())
+        .into_iter()
+        .map(|n| format!("{n}: the experiment's analysis reads the recorded tables"))
+        .collect();
+    // Only `configure` knows where the original tool's capsules go; the other experiments' cases
+    // (positions, launch directions, expected values) are laid out for SimSerpent's links.
+    let mut notes = notes;
+    let mut own_base;
+    let base = if name != "configure" && base.legacy.geometry == crate::config::LegacyGeometry::Faithful {
+        own_base = base.clone();
+        own_base.legacy.geometry = crate::config::LegacyGeometry::NoOverlap;
+        notes.push(format!(
+            "legacy.geometry = \"faithful\" -> \"no_overlap\": the cases of `{name}` are laid out for SimSerpent's \
+             links (only `configure` places the original tool's capsules)"
+        ));
+        &own_base
+    } else {
+        base
+    };
     let mut report = Report { title: format!("SimSerpent experiment `{name}`"), ..Report::default() };
     let cases = match name {
         "estimation" => "Each case below wrote estimation_<case>.csv and plots/ next to this report.",
@@ -116,6 +181,9 @@ pub fn run_experiment(name: &str, base: &Config, output_dir: &Path, quick: bool)
         env!("CARGO_PKG_VERSION"),
         crate::sim::engine_version()
     );
+    if !notes.is_empty() {
+        report.intro.push_str(&format!(" Settings forced for every case: {}.", notes.join("; ")));
+    }
     let section = match name {
         "collision" => collision::run(&ctx, base)?,
         "undulation" => locomotion::undulation(&ctx, base)?,
@@ -128,5 +196,5 @@ pub fn run_experiment(name: &str, base: &Config, output_dir: &Path, quick: bool)
     let path = folder.join("report.md");
     std::fs::write(&path, report.to_markdown())
         .map_err(|e| RunError::from(record::RecordError::Io { path: path.clone(), source: e }))?;
-    Ok(Outcome { folder, report })
+    Ok(Outcome { folder, report, notes })
 }

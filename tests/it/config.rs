@@ -382,6 +382,9 @@ reward_forward_weight = 2.0
 reward_energy_weight = 0.5
 reward_contact_force_weight = 0.001
 terminate_contact_force_n = 500.0
+
+[legacy]
+geometry = "faithful"
 "#;
 
 fn all_fields_expected() -> Config {
@@ -641,6 +644,7 @@ fn all_fields_expected() -> Config {
         reward_contact_force_weight: 0.001,
         terminate_contact_force_n: 500.0,
     };
+    c.legacy.geometry = LegacyGeometry::Faithful;
     c
 }
 
@@ -1169,7 +1173,9 @@ fn thesis_config_json_maps_as_documented() {
     assert_eq!(c.velocity_kv_nm_s_per_rad, 0.0);
     assert_eq!(c.intvelocity_kp_nm_per_rad, 50.0);
     assert_eq!([c.pid_kp_nm_per_rad, c.pid_ki_nm_per_rad_s, c.pid_kd_nm_s_per_rad], [0.4, 0.0, 0.0]);
-    assert_eq!(c.position_kv_nm_s_per_rad, d.control.position_kv_nm_s_per_rad);
+    // velocity_actuator_KP is also the position servo's D gain (the thesis' PD control).
+    assert_eq!(c.position_kv_nm_s_per_rad, 0.0);
+    assert_eq!(config.legacy.geometry, LegacyGeometry::NoOverlap);
 
     assert_eq!(config.terrain.kind, TerrainKind::None);
     assert_eq!(config.gait.kind, GaitKind::None);

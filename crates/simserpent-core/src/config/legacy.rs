@@ -7,52 +7,11 @@
 //! did-you-mean among the legacy keys and the key path in legacy naming
 //! (`snake_specifications.nr_of_link`).
 //!
-//! | legacy key (config.json)                      | SimSerpent key                                   |
-//! |-----------------------------------------------|--------------------------------------------------|
-//! | `xml_path`                                    | accepted and ignored (the model is generated)    |
-//! | `simulation_time`                             | `general.duration_secs`                          |
-//! | `simulation_timestep`                         | `general.timestep_secs`                          |
-//! | `integrator_type`                             | `general.integrator`                             |
-//! | `plot_data`                                   | `general.plot`                                   |
-//! | `visual_options.show_contact_force`           | `visual.show_contact_forces`                     |
-//! | `visual_options.<other>`                      | `visual.<other>` (same name)                     |
-//! | `snake_specifications.nr_of_links`            | `snake.n_links`                                  |
-//! | `snake_specifications.link_mass_in_kg`        | `snake.link_mass_kg`                             |
-//! | `snake_specifications.link_lenght_in_m` (sic) | `snake.link_length_m` = **2 ×** value (the original used it as the capsule's half length; links were 2× that apart) |
-//! | `snake_specifications.link_radius_in_m`       | `snake.link_radius_m`                            |
-//! | `snake_specifications.maximum_torque_in_nm`   | `snake.torque_range_nm` (`[min, max]`; a single number `m` means `[-m, m]`) |
-//! | `snake_specifications.friction`               | sliding coefficient of `snake.ground_friction`, `snake.link_friction` and `terrain.obstacle_friction` (torsional and rolling keep their defaults) |
-//! | (always)                                      | `ground.model = "isotropic"`: the original tool had only isotropic friction |
-//! | `snake_specifications.joint_damping`          | `snake.joint_damping_nm_s_per_rad`               |
-//! | `snake_specifications.joint_armature`         | `snake.joint_armature_kg_m2`                     |
-//! | `snake_specifications.sensor_noise`           | `sensors.noise_enabled` (`"enable"` / `"disable"`, any case; `true` / `false` also accepted) |
-//! | `snake_specifications.sensor_noise_amount`    | every `sensors.<kind>.std` value                 |
-//! | `snake_specifications.snake_color_rgb`        | `snake.color_rgba` (it holds RGBA; three values get alpha 1) |
-//! | `snake_specifications.head_position_xyz`      | `snake.head_position_m` (same meaning: the original floor was at z = −radius, z = 0 lies on the floor) |
-//! | `snake_specifications.head_rotation_xyz`      | `snake.head_rotation_deg`                        |
-//! | `control_parameters.control_method`           | `control.method` (any case: `position`, `torque`, `velocity`, `IntVelocity`) |
-//! | `control_parameters.torque_actuator_KP`       | `control.torque_gear`                            |
-//! | `control_parameters.position_actuator_KP`     | `control.position_kp_nm_per_rad`                 |
-//! | `control_parameters.velocity_actuator_KP`     | `control.velocity_kv_nm_s_per_rad`               |
-//! | `control_parameters.IntVelocity_actuator_KP`  | `control.intvelocity_kp_nm_per_rad`              |
-//! | `control_parameters.PID_parameters_Kp_Ki_Kd`  | `control.pid_kp_nm_per_rad`, `control.pid_ki_nm_per_rad_s`, `control.pid_kd_nm_s_per_rad` |
-//! | `terrain.generate_two_cylinders`              | `terrain.kind = "two_cylinders"`                 |
-//! | `terrain.generate_random_cylinders`           | `terrain.kind = "random_cylinders"`              |
-//! | `terrain.generate_cylinder_path`              | `terrain.kind = "cylinder_path"`; at most one `generate_*` may be true, none true gives `terrain.kind = "none"` |
-//! | `prebuilt_experiments.do_sinus`               | `gait.kind = "sine_wave"`                        |
-//! | `prebuilt_experiments.form_closure`           | `gait.kind = "form_closure"` and `terrain.kind = "form_closure"` (cannot be combined with a `generate_*` terrain); both true is an error, neither gives `gait.kind = "none"` |
-//! | `store_data_to_csv.store_data`                | `recording.enabled`                              |
-//! | `store_data_to_csv.position`                  | `recording.link_position`                        |
-//! | `store_data_to_csv.velocity`                  | `recording.link_velocity`                        |
-//! | `store_data_to_csv.accel`                     | `recording.link_acceleration`                    |
-//! | `store_data_to_csv.angle`                     | `recording.link_orientation`                     |
-//! | `store_data_to_csv.angular_vel`               | `recording.link_angular_velocity`                |
-//! | `store_data_to_csv.angular_accel`             | `recording.link_angular_acceleration`            |
-//! | `store_data_to_csv.torque_actuator_forces`    | `recording.torque_actuator_forces`               |
-//! | `store_data_to_csv.position_actuator_forces`  | `recording.position_actuator_forces`             |
-//! | `store_data_to_csv.velocity_actuator_forces`  | `recording.velocity_actuator_forces`             |
-//! | `store_data_to_csv.joint_angles`              | `recording.joint_angles`                         |
-//! | `store_data_to_csv.external_contact_forces`   | `recording.external_contact_forces`              |
+//! The conversion table is data: [`LEGACY_RULES`] (one entry per config.json key: the SimSerpent
+//! keys it sets, the rule and what differs from the original tool) and [`LEGACY_DEVIATIONS`]
+//! (differences that no key shows). The same data gives the notes that `check` and `run`
+//! print, the comments of `simserpent convert` ([`LegacyConversion::annotated_toml`]) and the
+//! README's table ([`legacy_deviation_table`], checked against the README by a test).
 //!
 //! The terrain and experiment rules apply only when the section has at least one of its keys;
 //! an absent section keeps the defaults. Recording tables the original tool did not have
@@ -62,6 +21,524 @@ use super::ConfigError;
 use super::load::{join, lookup, suggest};
 use serde_json::{Map, Value as Json};
 use toml::{Table, Value};
+
+/// One rule of the conversion: a config.json key, the SimSerpent keys it sets, how, and what
+/// differs from the original tool.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LegacyRule {
+    /// The config.json key (`section.key`); `visual_options.<other>` stands for the section's
+    /// other keys; `(always)` for what every conversion sets.
+    pub legacy_key: &'static str,
+    /// The SimSerpent keys it sets.
+    pub simserpent_keys: &'static str,
+    /// How the value is converted.
+    pub rule: &'static str,
+    /// What differs from the original tool (empty: nothing).
+    pub deviation: &'static str,
+}
+
+/// A difference from the original tool that no single config.json key shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LegacyDeviation {
+    /// What it is about.
+    pub topic: &'static str,
+    /// The original tool (thesis section or listing).
+    pub original: &'static str,
+    /// SimSerpent.
+    pub simserpent: &'static str,
+}
+
+const FROM_TIME: &str = "same value";
+
+/// Every conversion rule, in the order of the thesis' listing (appendix 12.1).
+pub const LEGACY_RULES: &[LegacyRule] = &[
+    LegacyRule {
+        legacy_key: "xml_path",
+        simserpent_keys: "(none)",
+        rule: "accepted and ignored: SimSerpent generates the model from the config",
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "simulation_time",
+        simserpent_keys: "general.duration_secs",
+        rule: FROM_TIME,
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "simulation_timestep",
+        simserpent_keys: "general.timestep_secs",
+        rule: FROM_TIME,
+        deviation: "",
+    },
+    LegacyRule { legacy_key: "integrator_type", simserpent_keys: "general.integrator", rule: FROM_TIME, deviation: "" },
+    LegacyRule {
+        legacy_key: "plot_data",
+        simserpent_keys: "general.plot",
+        rule: FROM_TIME,
+        deviation: "SimSerpent's plots are its own standard panels (PNG and SVG in the run folder), not the \
+                    original's figures",
+    },
+    LegacyRule {
+        legacy_key: "visual_options.show_contact_force",
+        simserpent_keys: "visual.show_contact_forces",
+        rule: "same value (the key gets a plural)",
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "visual_options.<other>",
+        simserpent_keys: "visual.<other>",
+        rule: "same name, same value",
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "snake_specifications.nr_of_links",
+        simserpent_keys: "snake.n_links",
+        rule: FROM_TIME,
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "snake_specifications.link_mass_in_kg",
+        simserpent_keys: "snake.link_mass_kg",
+        rule: FROM_TIME,
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "snake_specifications.link_lenght_in_m",
+        simserpent_keys: "snake.link_length_m",
+        rule: "2 x the value: the original used it as the capsule's half length (its core between two joints), \
+               and its joints were 2 x that apart",
+        deviation: "with legacy.geometry = \"no_overlap\" (the default) each capsule spans only joint to joint, end \
+                    caps included (0.20 m instead of the original 0.36 m for 0.10 m and radius 0.08 m; yaw \
+                    inertia about the link centre 0.00105 instead of 0.0029 kg m^2), and a radius of at least half \
+                    the spacing gives spheres (thesis set C); legacy.geometry = \"faithful\" builds the original \
+                    capsules",
+    },
+    LegacyRule {
+        legacy_key: "snake_specifications.link_radius_in_m",
+        simserpent_keys: "snake.link_radius_m",
+        rule: FROM_TIME,
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "snake_specifications.maximum_torque_in_nm",
+        simserpent_keys: "snake.torque_range_nm",
+        rule: "[min, max] as written; a single number m means [-m, m]",
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "snake_specifications.friction",
+        simserpent_keys: "snake.ground_friction, snake.link_friction, terrain.obstacle_friction",
+        rule: "the sliding coefficient of all three (torsional and rolling keep their defaults, 0: condim 3 as in \
+               the original)",
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "snake_specifications.joint_damping",
+        simserpent_keys: "snake.joint_damping_nm_s_per_rad",
+        rule: FROM_TIME,
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "snake_specifications.joint_armature",
+        simserpent_keys: "snake.joint_armature_kg_m2",
+        rule: FROM_TIME,
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "snake_specifications.sensor_noise",
+        simserpent_keys: "sensors.noise_enabled",
+        rule: "\"enable\" / \"disable\" (any case; true / false also accepted)",
+        deviation: "the original wrote MuJoCo's sensor `noise` attribute, which MuJoCo 3 does not apply; SimSerpent \
+                    adds the noise itself (seeded, per sensor: bias, random walk, noise, resolution, rate)",
+    },
+    LegacyRule {
+        legacy_key: "snake_specifications.sensor_noise_amount",
+        simserpent_keys: "sensors.<kind>.std (every kind)",
+        rule: "the same standard deviation for every sensor kind, in each kind's unit",
+        deviation: "the original had one amount for every sensor; SimSerpent has one model per kind, the other \
+                    keys keep their defaults",
+    },
+    LegacyRule {
+        legacy_key: "snake_specifications.snake_color_rgb",
+        simserpent_keys: "snake.color_rgba",
+        rule: "same value (it holds RGBA; three values get alpha 1)",
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "snake_specifications.head_position_xyz",
+        simserpent_keys: "snake.head_position_m",
+        rule: "same value: the original floor was at z = -radius, SimSerpent's is at z = 0, so z = 0 lies on the \
+               floor in both",
+        deviation: "with legacy.geometry = \"no_overlap\" it is the head's front tip and the body extends along -x \
+                    from it (the snake faces +x); the original (and \"faithful\") put the head's front joint point \
+                    at head position + (2 x link_lenght_in_m, 0, 0) (listing 3) with the body along +x (it faces \
+                    -x)",
+    },
+    LegacyRule {
+        legacy_key: "snake_specifications.head_rotation_xyz",
+        simserpent_keys: "snake.head_rotation_deg",
+        rule: "same value (Euler angles about x, y, z in degrees)",
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "control_parameters.control_method",
+        simserpent_keys: "control.method",
+        rule: "lower case: position, torque, velocity, intvelocity (any case accepted)",
+        deviation: "only the chosen actuator kind gets non-zero gains (MuJoCo servos act even at zero command)",
+    },
+    LegacyRule {
+        legacy_key: "control_parameters.torque_actuator_KP",
+        simserpent_keys: "control.torque_gear",
+        rule: FROM_TIME,
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "control_parameters.position_actuator_KP",
+        simserpent_keys: "control.position_kp_nm_per_rad",
+        rule: "same value (the P gain of the position servo)",
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "control_parameters.velocity_actuator_KP",
+        simserpent_keys: "control.position_kv_nm_s_per_rad, control.velocity_kv_nm_s_per_rad",
+        rule: "both: the D gain of the position servo (the original made its PD control from the position servo \
+               plus the velocity servo with this gain, thesis 6.2.3 and 11.1) and the gain of the velocity servo \
+               (control_method = velocity)",
+        deviation: "MuJoCo's position servo applies kp (target - q) - kv q', i.e. the original's velocity servo at \
+                    zero command; P and D together are limited to maximum_torque_in_nm, where the original's two \
+                    servos had a limit each",
+    },
+    LegacyRule {
+        legacy_key: "control_parameters.IntVelocity_actuator_KP",
+        simserpent_keys: "control.intvelocity_kp_nm_per_rad",
+        rule: FROM_TIME,
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "control_parameters.PID_parameters_Kp_Ki_Kd",
+        simserpent_keys: "control.pid_kp_nm_per_rad, control.pid_ki_nm_per_rad_s, control.pid_kd_nm_s_per_rad",
+        rule: "[Kp, Ki, Kd] in order (the joint-angle PID of control_method = torque)",
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "terrain.generate_two_cylinders",
+        simserpent_keys: "terrain.kind",
+        rule: "true gives \"two_cylinders\"; at most one generate_* may be true, none true gives \"none\"",
+        deviation: "the original's cylinder sizes and places are not published; SimSerpent's layout is in [terrain] \
+                    (README \"Terrain\")",
+    },
+    LegacyRule {
+        legacy_key: "terrain.generate_random_cylinders",
+        simserpent_keys: "terrain.kind",
+        rule: "true gives \"random_cylinders\"",
+        deviation: "SimSerpent's random layout (seeded by general.seed), not the original's",
+    },
+    LegacyRule {
+        legacy_key: "terrain.generate_cylinder_path",
+        simserpent_keys: "terrain.kind",
+        rule: "true gives \"cylinder_path\"",
+        deviation: "SimSerpent's path layout, not the original's",
+    },
+    LegacyRule {
+        legacy_key: "prebuilt_experiments.do_sinus",
+        simserpent_keys: "gait.kind",
+        rule: "true gives \"sine_wave\"; neither experiment true gives \"none\"",
+        deviation: "the original's wave (\"a sine wave from 0 - 180 degrees\" shifted through the position servos, \
+                    thesis 8.3) has no published amplitude or frequency; SimSerpent's sine_wave uses [gait.sine_wave] \
+                    (30 deg, 0.5 Hz, 40 deg lag, 1 s ramp). With the thesis' exp. III gains (kp 1, kv 0.4, armature \
+                    0.2) the joints cannot follow it (README \"The original tool\")",
+    },
+    LegacyRule {
+        legacy_key: "prebuilt_experiments.form_closure",
+        simserpent_keys: "gait.kind, terrain.kind",
+        rule: "true gives \"form_closure\" for both (no generate_* terrain may be true as well; both experiments \
+               true is an error)",
+        deviation: "pegs around the starting shape from [gait.form_closure] and [terrain.form_closure]; the \
+                    original's shape and peg places are not published",
+    },
+    LegacyRule {
+        legacy_key: "store_data_to_csv.store_data",
+        simserpent_keys: "recording.enabled",
+        rule: FROM_TIME,
+        deviation: "experiments turn recording on whatever this says (their analysis reads the tables)",
+    },
+    LegacyRule {
+        legacy_key: "store_data_to_csv.<quantity>",
+        simserpent_keys: "recording.<table switch>",
+        rule: "the [recording] switch of the same quantity: position -> link_position, velocity -> link_velocity, \
+               accel -> link_acceleration, angle -> link_orientation, angular_vel -> link_angular_velocity, \
+               angular_accel -> link_angular_acceleration; the actuator forces, joint_angles and \
+               external_contact_forces keep their names",
+        deviation: "the columns go into SimSerpent's tables (links.csv, joints.csv, ...; README \"Run folder\"), not \
+                    the original's CSV files",
+    },
+    LegacyRule {
+        legacy_key: "(always)",
+        simserpent_keys: "ground.model",
+        rule: "\"isotropic\": the original tool had only isotropic Coulomb friction with the floor",
+        deviation: "",
+    },
+    LegacyRule {
+        legacy_key: "(always)",
+        simserpent_keys: "legacy.geometry",
+        rule: "\"no_overlap\" (SimSerpent's links); set \"faithful\" for the original tool's capsules and placement",
+        deviation: "see snake_specifications.link_lenght_in_m and head_position_xyz",
+    },
+];
+
+/// Differences from the original tool that no config.json key shows.
+pub const LEGACY_DEVIATIONS: &[LegacyDeviation] = &[
+    LegacyDeviation {
+        topic: "floor height",
+        original: "floor plane at z = -link radius (listing 3)",
+        simserpent: "floor at z = 0; every height is link radius higher",
+    },
+    LegacyDeviation {
+        topic: "link frames (legacy.geometry = \"faithful\")",
+        original: "each link's x axis points toward the tail",
+        simserpent: "x points toward the head: link orientations and IMU x, y readings differ by 180 deg about z",
+    },
+    LegacyDeviation {
+        topic: "IMU placement",
+        original: "velocimeter, accelerometer and gyro at the link's rear joint (site at 2 x link_lenght_in_m)",
+        simserpent: "at the link's centre of mass (site link_ii_imu); joint force/torque sensors at every joint",
+    },
+    LegacyDeviation {
+        topic: "friction cone",
+        original: "MuJoCo's default pyramidal cone",
+        simserpent: "elliptic (physics.friction_cone): the pyramidal cone makes isotropic friction depend on the \
+                     sliding direction (an undulating snake drifted 0.1-0.65 m in 20 s)",
+    },
+    LegacyDeviation {
+        topic: "position servo command range",
+        original: "ctrlrange -3 to 3 (rad) on every actuator",
+        simserpent: "+/- snake.joint_range_deg (the joint's own range)",
+    },
+    LegacyDeviation {
+        topic: "recorded values",
+        original: "read after each step by get_snake_info.py",
+        simserpent: "one consistent instant per row (README \"Run folder\"); sensors.csv holds the sensor values of \
+                     the previous step",
+    },
+];
+
+/// The README table of every difference from the original tool (Markdown): the rules with a
+/// deviation, then [`LEGACY_DEVIATIONS`].
+pub fn legacy_deviation_table() -> String {
+    let cell = |s: &str| s.replace('|', "\\|");
+    let mut out = String::from("| what | the original tool | SimSerpent |\n|---|---|---|\n");
+    for r in LEGACY_RULES.iter().filter(|r| !r.deviation.is_empty()) {
+        out.push_str(&format!(
+            "| `{}` -> `{}` | {} | {} |\n",
+            cell(r.legacy_key),
+            cell(r.simserpent_keys),
+            cell(r.rule),
+            cell(r.deviation)
+        ));
+    }
+    for d in LEGACY_DEVIATIONS {
+        out.push_str(&format!("| {} | {} | {} |\n", cell(d.topic), cell(d.original), cell(d.simserpent)));
+    }
+    out
+}
+
+/// The whole conversion table (Markdown), one row per rule.
+pub fn legacy_rule_table() -> String {
+    let cell = |s: &str| s.replace('|', "\\|");
+    let mut out = String::from("| config.json key | SimSerpent key | rule |\n|---|---|---|\n");
+    for r in LEGACY_RULES {
+        out.push_str(&format!("| `{}` | `{}` | {} |\n", cell(r.legacy_key), cell(r.simserpent_keys), cell(r.rule)));
+    }
+    out
+}
+
+/// The rule that sets `key` from `legacy_key` (exact, or the `<other>` / `<quantity>` entry of
+/// its section).
+fn rule(legacy_key: &str, key: &str) -> &'static LegacyRule {
+    let exact = || LEGACY_RULES.iter().filter(|r| r.legacy_key == legacy_key);
+    exact()
+        .find(|r| r.simserpent_keys.split(", ").any(|k| k == key))
+        .or_else(|| exact().next())
+        .or_else(|| {
+            let section = legacy_key.split('.').next().unwrap_or("");
+            LEGACY_RULES.iter().find(|r| r.legacy_key.starts_with(section) && r.legacy_key.ends_with('>'))
+        })
+        .unwrap_or(&LEGACY_RULES[0])
+}
+
+/// What the conversion did to one SimSerpent key.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LegacyNote {
+    /// The config.json key (`(always)` for keys every conversion sets).
+    pub legacy_key: String,
+    /// Its value as written in config.json (JSON).
+    pub legacy_value: String,
+    /// The SimSerpent key set.
+    pub key: String,
+    /// The value set.
+    pub value: Value,
+    /// The rule applied.
+    pub rule: &'static LegacyRule,
+}
+
+impl LegacyNote {
+    /// `` `legacy` = v -> `key` = v ``.
+    pub fn head(&self) -> String {
+        let from = if self.legacy_key == "(always)" {
+            "(every conversion)".to_string()
+        } else {
+            format!("`{}` = {}", self.legacy_key, self.legacy_value)
+        };
+        format!("{from} -> `{}` = {}", self.key, self.value)
+    }
+
+    /// One line: `` `legacy` = v -> `key` = v: rule; differs from the original: ... ``.
+    pub fn line(&self) -> String {
+        let mut line = format!("{}: {}", self.head(), self.rule.rule);
+        if !self.rule.deviation.is_empty() {
+            line.push_str("; differs from the original: ");
+            line.push_str(self.rule.deviation);
+        }
+        line
+    }
+}
+
+/// A converted config.json: the partial table in SimSerpent's layout and what was done to
+/// every key, in order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LegacyConversion {
+    /// The converted keys (merge it onto the defaults like a TOML file).
+    pub table: Table,
+    /// One note per SimSerpent key set (the last one for a key set twice).
+    pub notes: Vec<LegacyNote>,
+}
+
+impl LegacyConversion {
+    /// The note lines that `check` and `run` print: one per config.json key (its SimSerpent keys
+    /// together); a rule and its difference from the original are spelt out the first time only.
+    pub fn note_lines(&self) -> Vec<String> {
+        let mut lines = Vec::new();
+        let mut explained: Vec<&'static LegacyRule> = Vec::new();
+        let notes = &self.notes;
+        let mut i = 0;
+        while i < notes.len() {
+            let first = &notes[i];
+            let same = |n: &LegacyNote| n.legacy_key == first.legacy_key && std::ptr::eq(n.rule, first.rule);
+            let group = notes[i..].iter().take_while(|n| same(n)).count().max(1);
+            let mut line = first.head();
+            for n in &notes[i + 1..i + group] {
+                line.push_str(&format!(", `{}` = {}", n.key, n.value));
+            }
+            if explained.iter().any(|r| std::ptr::eq(*r, first.rule)) {
+                line.push_str(" (rule as above)");
+            } else {
+                explained.push(first.rule);
+                line.push_str(": ");
+                line.push_str(first.rule.rule);
+                if !first.rule.deviation.is_empty() {
+                    line.push_str("; differs from the original: ");
+                    line.push_str(first.rule.deviation);
+                }
+            }
+            lines.push(line);
+            i += group;
+        }
+        lines
+    }
+
+    /// The converted keys as an annotated TOML file: each key with comments naming its
+    /// config.json key, the rule and any difference from the original tool; the header lists
+    /// the differences no key shows. Loading it gives the same config as the config.json.
+    pub fn annotated_toml(&self, source: &str) -> String {
+        let mut out = String::new();
+        let comment = |out: &mut String, text: &str| {
+            for line in wrap(text, 96) {
+                out.push_str("# ");
+                out.push_str(&line);
+                out.push('\n');
+            }
+        };
+        comment(
+            &mut out,
+            &format!(
+                "SimSerpent config converted by `simserpent convert` from {source} (the original tool's config.json, \
+                 thesis appendix 12.1). Every key below comes from it; all other keys keep SimSerpent's defaults \
+                 (`simserpent init` writes them, with comments). README \"The original tool\" has the whole table."
+            ),
+        );
+        out.push_str("#\n");
+        comment(&mut out, "Differences from the original tool that no key below shows:");
+        for d in LEGACY_DEVIATIONS {
+            comment(&mut out, &format!("- {}: original {}; SimSerpent {}.", d.topic, d.original, d.simserpent));
+        }
+        // Group the keys by their table, in order of first appearance.
+        let mut tables: Vec<(String, Vec<&LegacyNote>)> = Vec::new();
+        for note in &self.notes {
+            let (table, _) = note.key.rsplit_once('.').unwrap_or(("", &note.key));
+            match tables.iter_mut().find(|(t, _)| t == table) {
+                Some((_, notes)) => notes.push(note),
+                None => tables.push((table.to_string(), vec![note])),
+            }
+        }
+        for (table, notes) in tables {
+            out.push_str(&format!("\n[{table}]\n"));
+            for note in notes {
+                let leaf = note.key.rsplit_once('.').map_or(note.key.as_str(), |(_, leaf)| leaf);
+                let from = if note.legacy_key == "(always)" {
+                    "every conversion".to_string()
+                } else {
+                    format!("config.json `{}` = {}", note.legacy_key, note.legacy_value)
+                };
+                comment(&mut out, &format!("{from}: {}.", note.rule.rule));
+                if !note.rule.deviation.is_empty() {
+                    comment(&mut out, &format!("Differs from the original: {}.", note.rule.deviation));
+                }
+                out.push_str(&format!("{leaf} = {}\n", note.value));
+            }
+        }
+        out
+    }
+}
+
+/// `text` in lines of at most `width` characters (words are not split).
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines = Vec::new();
+    let mut line = String::new();
+    for word in text.split_whitespace() {
+        if !line.is_empty() && line.chars().count() + 1 + word.chars().count() > width {
+            lines.push(std::mem::take(&mut line));
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    if !line.is_empty() {
+        lines.push(line);
+    }
+    lines
+}
+
+/// The converted table and its notes, built together.
+struct Out {
+    table: Table,
+    notes: Vec<LegacyNote>,
+}
+
+impl Out {
+    /// Sets `key` (dotted) to `value`, converted from `legacy_key` (whose JSON value is `from`).
+    fn set(&mut self, key: &str, value: Value, legacy_key: &str, from: Option<&Json>) {
+        set(&mut self.table, key, value.clone());
+        self.notes.retain(|n| n.key != key);
+        self.notes.push(LegacyNote {
+            legacy_key: legacy_key.to_string(),
+            legacy_value: from.map_or_else(String::new, Json::to_string),
+            key: key.to_string(),
+            value,
+            rule: rule(legacy_key, key),
+        });
+    }
+}
 
 /// Top-level legacy keys that are single values.
 const TOP_VALUES: [&str; 5] = ["xml_path", "simulation_time", "simulation_timestep", "integrator_type", "plot_data"];
@@ -152,11 +629,12 @@ const RECORDING: [(&str, &str); 12] = [
     ("external_contact_forces", "external_contact_forces"),
 ];
 
-/// Converts a parsed legacy `config.json` into a partial table in SimSerpent's layout.
+/// Converts a parsed legacy `config.json` into a partial table in SimSerpent's layout, with a
+/// note for every key set.
 ///
 /// `defaults` is the embedded default config (for the friction coefficients the original
 /// tool did not have and for the list of sensor noise keys).
-pub(super) fn convert(json: &Json, defaults: &Table) -> Result<Table, ConfigError> {
+pub(super) fn convert(json: &Json, defaults: &Table) -> Result<LegacyConversion, ConfigError> {
     let Json::Object(root) = json else {
         return Err(ConfigError::invalid(
             "(top level)",
@@ -165,29 +643,29 @@ pub(super) fn convert(json: &Json, defaults: &Table) -> Result<Table, ConfigErro
         ));
     };
     check_keys(root)?;
-    let mut out = Table::new();
+    let mut out = Out { table: Table::new(), notes: Vec::new() };
     // The original tool knew only isotropic Coulomb friction with the floor.
-    set(&mut out, "ground.model", Value::String("isotropic".into()));
+    out.set("ground.model", Value::String("isotropic".into()), "(always)", None);
+    out.set("legacy.geometry", Value::String("no_overlap".into()), "(always)", None);
 
     // Top level.
-    if let Some(v) = root.get("simulation_time") {
-        set(&mut out, "general.duration_secs", to_toml("simulation_time", v)?);
-    }
-    if let Some(v) = root.get("simulation_timestep") {
-        set(&mut out, "general.timestep_secs", to_toml("simulation_timestep", v)?);
-    }
-    if let Some(v) = root.get("integrator_type") {
-        set(&mut out, "general.integrator", to_toml("integrator_type", v)?);
-    }
-    if let Some(v) = root.get("plot_data") {
-        set(&mut out, "general.plot", to_toml("plot_data", v)?);
+    for (legacy_key, key) in [
+        ("simulation_time", "general.duration_secs"),
+        ("simulation_timestep", "general.timestep_secs"),
+        ("integrator_type", "general.integrator"),
+        ("plot_data", "general.plot"),
+    ] {
+        if let Some(v) = root.get(legacy_key) {
+            out.set(key, to_toml(legacy_key, v)?, legacy_key, Some(v));
+        }
     }
 
     // visual_options: 1:1.
     if let Some(section) = section(root, "visual_options") {
         for (key, v) in section {
             let new_key = if key == "show_contact_force" { "show_contact_forces" } else { key.as_str() };
-            set(&mut out, &format!("visual.{new_key}"), to_toml(&format!("visual_options.{key}"), v)?);
+            let legacy_key = format!("visual_options.{key}");
+            out.set(&format!("visual.{new_key}"), to_toml(&legacy_key, v)?, &legacy_key, Some(v));
         }
     }
 
@@ -209,14 +687,47 @@ pub(super) fn convert(json: &Json, defaults: &Table) -> Result<Table, ConfigErro
         for (legacy_key, new_key) in RECORDING {
             if let Some(v) = section.get(legacy_key) {
                 let key = format!("store_data_to_csv.{legacy_key}");
-                set(&mut out, &format!("recording.{new_key}"), Value::Boolean(boolean(&key, v)?));
+                out.set(&format!("recording.{new_key}"), Value::Boolean(boolean(&key, v)?), &key, Some(v));
             }
         }
     }
-    Ok(out)
+    Ok(LegacyConversion { table: out.table, notes: out.notes })
 }
 
 /// Rejects unknown legacy keys and sections that are not objects.
+fn check_keys(root: &Map<String, Json>) -> Result<(), ConfigError> {
+    let top: Vec<&str> = TOP_VALUES.iter().copied().chain(SECTIONS.iter().map(|(name, _)| *name)).collect();
+    for (key, value) in root {
+        if let Some((name, keys)) = SECTIONS.iter().find(|(name, _)| name == key) {
+            let Json::Object(section) = value else {
+                return Err(ConfigError::invalid(
+                    name,
+                    value,
+                    format!("`{name}` must be an object with keys: {}", keys.join(", ")),
+                ));
+            };
+            for sub in section.keys() {
+                if !keys.contains(&sub.as_str()) {
+                    return Err(ConfigError::UnknownKey {
+                        key: join(name, sub),
+                        suggestion: suggest(sub, keys).map(|s| join(name, s)),
+                        allowed: keys.join(", "),
+                    });
+                }
+            }
+        } else if !TOP_VALUES.contains(&key.as_str()) {
+            return Err(ConfigError::UnknownKey {
+                key: key.clone(),
+                suggestion: suggest(key, &top).map(str::to_string),
+                allowed: top.join(", "),
+            });
+        } else if value.is_object() {
+            return Err(ConfigError::invalid(key, value, "expected a single value, not an object"));
+        }
+    }
+    Ok(())
+}
+
 /// A `config.json` parse error as a [`ConfigError`]: a number out of range (`1e999`) names its
 /// key path besides the line and column; other errors are [`ConfigError::Syntax`].
 pub(super) fn json_error(file: &str, text: &str, e: &serde_json::Error) -> ConfigError {
@@ -278,40 +789,7 @@ fn byte_offset(text: &str, line: usize, column: usize) -> Option<usize> {
     None
 }
 
-fn check_keys(root: &Map<String, Json>) -> Result<(), ConfigError> {
-    let top: Vec<&str> = TOP_VALUES.iter().copied().chain(SECTIONS.iter().map(|(name, _)| *name)).collect();
-    for (key, value) in root {
-        if let Some((name, keys)) = SECTIONS.iter().find(|(name, _)| name == key) {
-            let Json::Object(section) = value else {
-                return Err(ConfigError::invalid(
-                    name,
-                    value,
-                    format!("`{name}` must be an object with keys: {}", keys.join(", ")),
-                ));
-            };
-            for sub in section.keys() {
-                if !keys.contains(&sub.as_str()) {
-                    return Err(ConfigError::UnknownKey {
-                        key: join(name, sub),
-                        suggestion: suggest(sub, keys).map(|s| join(name, s)),
-                        allowed: keys.join(", "),
-                    });
-                }
-            }
-        } else if !TOP_VALUES.contains(&key.as_str()) {
-            return Err(ConfigError::UnknownKey {
-                key: key.clone(),
-                suggestion: suggest(key, &top).map(str::to_string),
-                allowed: top.join(", "),
-            });
-        } else if value.is_object() {
-            return Err(ConfigError::invalid(key, value, "expected a single value, not an object"));
-        }
-    }
-    Ok(())
-}
-
-fn convert_snake(section: &Map<String, Json>, defaults: &Table, out: &mut Table) -> Result<(), ConfigError> {
+fn convert_snake(section: &Map<String, Json>, defaults: &Table, out: &mut Out) -> Result<(), ConfigError> {
     const DIRECT: [(&str, &str); 7] = [
         ("nr_of_links", "snake.n_links"),
         ("link_mass_in_kg", "snake.link_mass_kg"),
@@ -321,30 +799,34 @@ fn convert_snake(section: &Map<String, Json>, defaults: &Table, out: &mut Table)
         ("head_position_xyz", "snake.head_position_m"),
         ("head_rotation_xyz", "snake.head_rotation_deg"),
     ];
+    let legacy = |key: &str| format!("snake_specifications.{key}");
     for (legacy_key, new_key) in DIRECT {
         if let Some(v) = section.get(legacy_key) {
-            set(out, new_key, to_toml(&format!("snake_specifications.{legacy_key}"), v)?);
+            let key = legacy(legacy_key);
+            out.set(new_key, to_toml(&key, v)?, &key, Some(v));
         }
     }
     if let Some(v) = section.get("link_lenght_in_m") {
-        let half = number("snake_specifications.link_lenght_in_m", v)?;
-        set(out, "snake.link_length_m", Value::Float(2.0 * half));
+        let key = legacy("link_lenght_in_m");
+        let half = number(&key, v)?;
+        out.set("snake.link_length_m", Value::Float(2.0 * half), &key, Some(v));
     }
     if let Some(v) = section.get("maximum_torque_in_nm") {
-        let key = "snake_specifications.maximum_torque_in_nm";
+        let key = legacy("maximum_torque_in_nm");
         let range = match v {
             Json::Number(_) => {
-                let m = number(key, v)?.abs();
+                let m = number(&key, v)?.abs();
                 Value::Array(vec![Value::Float(-m), Value::Float(m)])
             }
-            _ => to_toml(key, v)?,
+            _ => to_toml(&key, v)?,
         };
-        set(out, "snake.torque_range_nm", range);
+        out.set("snake.torque_range_nm", range, &key, Some(v));
     }
     if let Some(v) = section.get("friction") {
-        let sliding = number("snake_specifications.friction", v)?;
-        for key in ["snake.ground_friction", "snake.link_friction", "terrain.obstacle_friction"] {
-            let mut triple = match lookup(defaults, key) {
+        let key = legacy("friction");
+        let sliding = number(&key, v)?;
+        for new_key in ["snake.ground_friction", "snake.link_friction", "terrain.obstacle_friction"] {
+            let mut triple = match lookup(defaults, new_key) {
                 Some(Value::Array(a)) => a.clone(),
                 _ => Vec::new(),
             };
@@ -352,47 +834,51 @@ fn convert_snake(section: &Map<String, Json>, defaults: &Table, out: &mut Table)
                 Some(first) => *first = Value::Float(sliding),
                 None => triple.push(Value::Float(sliding)),
             }
-            set(out, key, Value::Array(triple));
+            out.set(new_key, Value::Array(triple), &key, Some(v));
         }
     }
     if let Some(v) = section.get("sensor_noise") {
-        let key = "snake_specifications.sensor_noise";
+        let key = legacy("sensor_noise");
         let enabled = match v {
             Json::Bool(b) => *b,
             Json::String(s) if s.eq_ignore_ascii_case("enable") => true,
             Json::String(s) if s.eq_ignore_ascii_case("disable") => false,
             _ => {
-                return Err(ConfigError::invalid(key, v, "expected \"enable\" or \"disable\""));
+                return Err(ConfigError::invalid(&key, v, "expected \"enable\" or \"disable\""));
             }
         };
-        set(out, "sensors.noise_enabled", Value::Boolean(enabled));
+        out.set("sensors.noise_enabled", Value::Boolean(enabled), &key, Some(v));
     }
     if let Some(v) = section.get("sensor_noise_amount") {
-        let amount = number("snake_specifications.sensor_noise_amount", v)?;
+        let key = legacy("sensor_noise_amount");
+        let amount = number(&key, v)?;
         if let Some(Value::Table(sensors)) = defaults.get("sensors") {
             // Every sensor kind's table (`[sensors.<kind>]`) gets the amount as its std.
             for (kind, _) in sensors.iter().filter(|(_, v)| v.is_table()) {
-                set(out, &format!("sensors.{kind}.std"), Value::Float(amount));
+                out.set(&format!("sensors.{kind}.std"), Value::Float(amount), &key, Some(v));
             }
         }
     }
     if let Some(v) = section.get("snake_color_rgb") {
-        let key = "snake_specifications.snake_color_rgb";
-        let mut color = to_toml(key, v)?;
+        let key = legacy("snake_color_rgb");
+        let mut color = to_toml(&key, v)?;
         if let Value::Array(items) = &mut color
             && items.len() == 3
         {
             items.push(Value::Float(1.0));
         }
-        set(out, "snake.color_rgba", color);
+        out.set("snake.color_rgba", color, &key, Some(v));
     }
     Ok(())
 }
 
-fn convert_control(section: &Map<String, Json>, out: &mut Table) -> Result<(), ConfigError> {
-    const DIRECT: [(&str, &str); 4] = [
+fn convert_control(section: &Map<String, Json>, out: &mut Out) -> Result<(), ConfigError> {
+    // velocity_actuator_KP is both the position servo's D gain (the thesis' PD control) and the
+    // velocity servo's gain.
+    const DIRECT: [(&str, &str); 5] = [
         ("torque_actuator_KP", "control.torque_gear"),
         ("position_actuator_KP", "control.position_kp_nm_per_rad"),
+        ("velocity_actuator_KP", "control.position_kv_nm_s_per_rad"),
         ("velocity_actuator_KP", "control.velocity_kv_nm_s_per_rad"),
         ("IntVelocity_actuator_KP", "control.intvelocity_kp_nm_per_rad"),
     ];
@@ -409,11 +895,12 @@ fn convert_control(section: &Map<String, Json>, out: &mut Table) -> Result<(), C
             "intvelocity" => "intvelocity",
             _ => return Err(ConfigError::invalid(key, v, allowed)),
         };
-        set(out, "control.method", Value::String(method.into()));
+        out.set("control.method", Value::String(method.into()), key, Some(v));
     }
     for (legacy_key, new_key) in DIRECT {
         if let Some(v) = section.get(legacy_key) {
-            set(out, new_key, to_toml(&format!("control_parameters.{legacy_key}"), v)?);
+            let key = format!("control_parameters.{legacy_key}");
+            out.set(new_key, to_toml(&key, v)?, &key, Some(v));
         }
     }
     if let Some(v) = section.get("PID_parameters_Kp_Ki_Kd") {
@@ -428,15 +915,15 @@ fn convert_control(section: &Map<String, Json>, out: &mut Table) -> Result<(), C
         let names = ["control.pid_kp_nm_per_rad", "control.pid_ki_nm_per_rad_s", "control.pid_kd_nm_s_per_rad"];
         for (name, item) in names.into_iter().zip(items) {
             let gain = item.as_f64().ok_or_else(|| ConfigError::invalid(key, v, allowed))?;
-            set(out, name, Value::Float(gain));
+            out.set(name, Value::Float(gain), key, Some(v));
         }
     }
     Ok(())
 }
 
-fn convert_terrain_and_experiments(root: &Map<String, Json>, out: &mut Table) -> Result<(), ConfigError> {
-    // terrain: at most one generator.
-    let mut terrain: Option<(String, &str)> = None; // (legacy key that chose it, kind)
+fn convert_terrain_and_experiments(root: &Map<String, Json>, out: &mut Out) -> Result<(), ConfigError> {
+    // terrain: at most one generator. (legacy key that chose it, its JSON value, kind)
+    let mut terrain: Option<(String, Option<&Json>, &str)> = None;
     if let Some(section) = section(root, "terrain") {
         let mut chosen: Option<String> = None;
         for (legacy_key, kind) in TERRAIN_KINDS {
@@ -452,12 +939,14 @@ fn convert_terrain_and_experiments(root: &Map<String, Json>, out: &mut Table) ->
                         format!("at most one terrain generator may be true, but `{first}` is true as well"),
                     ));
                 }
-                terrain = Some((key.clone(), kind));
+                terrain = Some((key.clone(), Some(v), kind));
                 chosen = Some(key);
             }
         }
-        if terrain.is_none() && !section.is_empty() {
-            terrain = Some((String::new(), "none"));
+        if terrain.is_none()
+            && let Some((first, v)) = section.iter().next()
+        {
+            terrain = Some((format!("terrain.{first}"), Some(v), "none"));
         }
     }
 
@@ -475,7 +964,7 @@ fn convert_terrain_and_experiments(root: &Map<String, Json>, out: &mut Table) ->
             ));
         }
         let gait = if form_closure {
-            if let Some((terrain_key, kind)) = &terrain
+            if let Some((terrain_key, _, kind)) = &terrain
                 && *kind != "none"
             {
                 return Err(ConfigError::invalid(
@@ -487,20 +976,29 @@ fn convert_terrain_and_experiments(root: &Map<String, Json>, out: &mut Table) ->
                     ),
                 ));
             }
-            terrain = Some((key_fc.to_string(), "form_closure"));
-            "form_closure"
+            terrain = Some((key_fc.to_string(), section.get("form_closure"), "form_closure"));
+            Some((key_fc, "form_closure"))
         } else if do_sinus {
-            "sine_wave"
+            Some((key_sin, "sine_wave"))
         } else {
-            "none"
+            None
         };
-        if !section.is_empty() {
-            set(out, "gait.kind", Value::String(gait.into()));
+        match gait {
+            Some((key, kind)) => {
+                let v = section.get(key.rsplit('.').next().unwrap_or(key));
+                out.set("gait.kind", Value::String(kind.into()), key, v);
+            }
+            None => {
+                if let Some((first, v)) = section.iter().next() {
+                    let key = if first == "form_closure" { key_fc } else { key_sin };
+                    out.set("gait.kind", Value::String("none".into()), key, Some(v));
+                }
+            }
         }
     }
 
-    if let Some((_, kind)) = terrain {
-        set(out, "terrain.kind", Value::String(kind.into()));
+    if let Some((key, v, kind)) = terrain {
+        out.set("terrain.kind", Value::String(kind.into()), &key, v);
     }
     Ok(())
 }
@@ -575,7 +1073,7 @@ fn kind_of(v: &Json) -> &'static str {
 
 /// Adds the config.json key a SimSerpent key was converted from to an [`ConfigError::InvalidValue`]
 /// about a converted value (unless a `--set` override set that key).
-pub(super) fn annotate(error: ConfigError, converted: &Table, overrides: &[String]) -> ConfigError {
+pub(super) fn annotate(error: ConfigError, converted: &LegacyConversion, overrides: &[String]) -> ConfigError {
     let ConfigError::InvalidValue { key, value, allowed } = error else {
         return error;
     };
@@ -584,56 +1082,12 @@ pub(super) fn annotate(error: ConfigError, converted: &Table, overrides: &[Strin
         let k = o.split('=').next().unwrap_or("").trim();
         base == k || base.starts_with(&format!("{k}."))
     });
-    let allowed = match legacy_source(base) {
-        Some(note) if !overridden && lookup(converted, base).is_some() => {
-            format!("{allowed} ({note})")
+    let note = converted.notes.iter().find(|n| n.key == base && n.legacy_key != "(always)");
+    let allowed = match note {
+        Some(note) if !overridden => {
+            format!("{allowed} (converted from config.json key `{}`: {})", note.legacy_key, note.rule.rule)
         }
         _ => allowed,
     };
     ConfigError::InvalidValue { key, value, allowed }
-}
-
-/// Which config.json key a SimSerpent key is converted from, as a note for error messages.
-fn legacy_source(key: &str) -> Option<String> {
-    let from = |legacy: &str| Some(format!("converted from config.json key `{legacy}`"));
-    match key {
-        "general.duration_secs" => from("simulation_time"),
-        "general.timestep_secs" => from("simulation_timestep"),
-        "general.integrator" => from("integrator_type"),
-        "general.plot" => from("plot_data"),
-        "visual.show_contact_forces" => from("visual_options.show_contact_force"),
-        "snake.n_links" => from("snake_specifications.nr_of_links"),
-        "snake.link_mass_kg" => from("snake_specifications.link_mass_in_kg"),
-        "snake.link_length_m" => Some(
-            "converted from config.json key `snake_specifications.link_lenght_in_m`, the capsule's half length: \
-             link_length_m = 2 x link_lenght_in_m"
-                .into(),
-        ),
-        "snake.link_radius_m" => from("snake_specifications.link_radius_in_m"),
-        "snake.torque_range_nm" => from("snake_specifications.maximum_torque_in_nm"),
-        "snake.ground_friction" | "snake.link_friction" | "terrain.obstacle_friction" => {
-            from("snake_specifications.friction")
-        }
-        "snake.joint_damping_nm_s_per_rad" => from("snake_specifications.joint_damping"),
-        "snake.joint_armature_kg_m2" => from("snake_specifications.joint_armature"),
-        "snake.color_rgba" => from("snake_specifications.snake_color_rgb"),
-        "snake.head_position_m" => from("snake_specifications.head_position_xyz"),
-        "snake.head_rotation_deg" => from("snake_specifications.head_rotation_xyz"),
-        "control.torque_gear" => from("control_parameters.torque_actuator_KP"),
-        "control.position_kp_nm_per_rad" => from("control_parameters.position_actuator_KP"),
-        "control.velocity_kv_nm_s_per_rad" => from("control_parameters.velocity_actuator_KP"),
-        "control.intvelocity_kp_nm_per_rad" => from("control_parameters.IntVelocity_actuator_KP"),
-        "control.pid_kp_nm_per_rad" | "control.pid_ki_nm_per_rad_s" | "control.pid_kd_nm_s_per_rad" => {
-            from("control_parameters.PID_parameters_Kp_Ki_Kd")
-        }
-        k if k.starts_with("sensors.") && k.ends_with(".std") => from("snake_specifications.sensor_noise_amount"),
-        k => {
-            if let Some(rest) = k.strip_prefix("visual.") {
-                return from(&format!("visual_options.{rest}"));
-            }
-            let rest = k.strip_prefix("recording.")?;
-            let (legacy, _) = RECORDING.iter().find(|(_, new)| *new == rest)?;
-            from(&format!("store_data_to_csv.{legacy}"))
-        }
-    }
 }

@@ -4,6 +4,7 @@
 //! Every step reports the full key path of the problem (`snake.n_links`), the value as written
 //! and what is allowed; misspelt keys get a did-you-mean suggestion.
 
+use super::legacy::LegacyConversion;
 use super::{Config, ConfigError, DEFAULT_CONFIG_TOML, legacy};
 use std::path::Path;
 use toml::{Table, Value};
@@ -122,6 +123,42 @@ fn resolve_file_paths(user: &mut Table, base: &Path) {
     }
 }
 
+/// Converts the original tool's `config.json` text (`file` names it in errors) into SimSerpent's
+/// layout, with a note per key (see [`LegacyConversion`]); the keys are checked when the table is
+/// loaded.
+///
+/// # Errors
+/// [`ConfigError::Syntax`] for invalid JSON, [`ConfigError::UnknownKey`] /
+/// [`ConfigError::InvalidValue`] (legacy key names) for keys and values the conversion rejects.
+pub fn convert_legacy_text(text: &str, file: &str) -> Result<LegacyConversion, ConfigError> {
+    let json: serde_json::Value = serde_json::from_str(text).map_err(|e| legacy::json_error(file, text, &e))?;
+    legacy::convert(&json, &default_table()?)
+}
+
+/// Reads the original tool's `config.json` at `path` and converts it (see [`convert_legacy_text`]).
+///
+/// # Errors
+/// As [`load_config`].
+pub fn convert_legacy_file(path: &Path) -> Result<LegacyConversion, ConfigError> {
+    let file = path.display().to_string();
+    let bytes = crate::model::files::read_regular_file(path, crate::model::files::MAX_CONFIG_BYTES)
+        .map_err(|e| ConfigError::Io { file: path.to_path_buf(), source: std::io::Error::other(e).into() })?;
+    convert_legacy_text(&utf8_text(&file, bytes)?, &file)
+}
+
+/// [`load_config`], plus the conversion notes of a `config.json` (one line per converted key:
+/// the config.json key, the rule and what differs from the original tool; empty for TOML), for
+/// `check` and `run` to print.
+///
+/// # Errors
+/// As [`load_config`].
+pub fn load_config_with_notes(path: &Path, overrides: &[String]) -> Result<(Config, Vec<String>), ConfigError> {
+    let config = load_config(path, overrides)?;
+    let is_json = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"));
+    let notes = if is_json { convert_legacy_file(path)?.note_lines() } else { Vec::new() };
+    Ok((config, notes))
+}
+
 /// Same as [`load_config`] on a string; `source` says which syntax it is in.
 ///
 /// # Errors
@@ -193,10 +230,9 @@ fn load_named(
             user
         }
         ConfigSource::LegacyJson => {
-            let json: serde_json::Value = serde_json::from_str(text).map_err(|e| legacy::json_error(file, text, &e))?;
-            let converted = legacy::convert(&json, &defaults)?;
+            let converted = convert_legacy_text(text, file)?;
             // Errors on converted values also name the config.json key they came from.
-            return resolve(converted.clone(), &defaults, overrides)
+            return resolve(converted.table.clone(), &defaults, overrides)
                 .map_err(|e| legacy::annotate(e, &converted, overrides));
         }
     };

@@ -15,7 +15,14 @@ mod load;
 pub mod surfaces;
 mod validate;
 
-pub use load::{ConfigSource, load_config, load_config_str, parse_override};
+pub use legacy::{
+    LEGACY_DEVIATIONS, LEGACY_RULES, LegacyConversion, LegacyDeviation, LegacyNote, LegacyRule, legacy_deviation_table,
+    legacy_rule_table,
+};
+pub use load::{
+    ConfigSource, convert_legacy_file, convert_legacy_text, load_config, load_config_str, load_config_with_notes,
+    parse_override,
+};
 pub use surfaces::{ExplicitFriction, FrictionSource, PRESETS, Preset, Surface, SurfaceFriction, SurfaceShape};
 
 use serde::{Deserialize, Serialize};
@@ -169,6 +176,30 @@ pub struct Config {
     pub render: Render,
     pub video: Video,
     pub env: Env,
+    pub legacy: Legacy,
+}
+
+/// How the original tool's geometry is reproduced (`[legacy]`; README "The original tool").
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Legacy {
+    pub geometry: LegacyGeometry,
+}
+
+/// `legacy.geometry`: which link shape and placement the snake gets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LegacyGeometry {
+    /// SimSerpent's links: each capsule spans exactly joint to joint (`snake.link_length_m`, end caps
+    /// included), the body extends along the head's −x axis from the head tip at
+    /// `snake.head_position_m`.
+    NoOverlap,
+    /// The original tool's links (thesis appendix 12.2): a capsule of core length
+    /// `snake.link_length_m` between the two joints plus an end cap of `snake.link_radius_m` beyond
+    /// each joint (neighbours overlap by 2 × radius), the body extending along +x (rotated by
+    /// `snake.head_rotation_deg`) from the head, whose front joint point is at
+    /// `head_position_m + (link_length_m, 0, 0)` as in listing 3.
+    Faithful,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -866,6 +897,15 @@ impl Default for Config {
 }
 
 impl Config {
+    /// Full length of one link's capsule, end caps included (m): `snake.link_length_m` for
+    /// `legacy.geometry = "no_overlap"`, `link_length_m + 2 × link_radius_m` for `"faithful"`.
+    pub fn link_capsule_length_m(&self) -> f64 {
+        match self.legacy.geometry {
+            LegacyGeometry::NoOverlap => self.snake.link_length_m,
+            LegacyGeometry::Faithful => self.snake.link_length_m + 2.0 * self.snake.link_radius_m,
+        }
+    }
+
     /// The resolved config as TOML (written to every run folder).
     pub fn to_toml_string(&self) -> String {
         toml::to_string_pretty(self).unwrap_or_else(|e| format!("# cannot serialize config: {e}\n"))

@@ -18,7 +18,7 @@
 //! snake is checked by model generation, not here.
 
 use super::surfaces::{self, FrictionSource, SurfaceShape};
-use super::{Config, ConfigError, GaitKind, GroundModel, JointAxes, TerrainKind};
+use super::{Config, ConfigError, GaitKind, GroundModel, JointAxes, LegacyGeometry, TerrainKind};
 
 /// The most surfaces a config may have (`ground.surfaces`).
 pub const MAX_SURFACES: usize = 100;
@@ -423,13 +423,14 @@ impl Config {
         positive("snake.link_length_m", s.link_length_m)?;
         positive("snake.link_radius_m", s.link_radius_m)?;
         ensure(
-            s.link_length_m >= 2.0 * s.link_radius_m,
+            self.legacy.geometry == LegacyGeometry::Faithful || s.link_length_m >= 2.0 * s.link_radius_m,
             "snake.link_length_m",
             fmt_f(s.link_length_m),
             format!(
                 "must be at least the link diameter 2 x snake.link_radius_m = {}: the link length is the full \
                  capsule length (end caps included) between neighbouring joints, and it must not be shorter than the \
-                 diameter or neighbouring links would overlap (equal to it gives spherical links)",
+                 diameter or neighbouring links would overlap (equal to it gives spherical links; legacy.geometry = \
+                 \"faithful\" allows overlapping links as the original tool had)",
                 fmt_f(2.0 * s.link_radius_m)
             ),
         )?;
@@ -440,7 +441,7 @@ impl Config {
             format!("must be at least {MIN_LINK_RADIUS_M} m (MuJoCo rejects thinner links as massless)"),
         )?;
         positive("snake.link_mass_kg", s.link_mass_kg)?;
-        let inertia = link_axial_inertia_kg_m2(s.link_mass_kg, s.link_radius_m, s.link_length_m);
+        let inertia = link_axial_inertia_kg_m2(s.link_mass_kg, s.link_radius_m, self.link_capsule_length_m());
         ensure(
             inertia >= MIN_LINK_INERTIA_KG_M2,
             "snake.link_mass_kg",

@@ -226,7 +226,7 @@ pub(crate) fn build(
             ));
         }
         let u = [d[0] / len, d[1] / len];
-        if let Some((i, dist)) = wall_overlap(segments, r, a, b, thickness) {
+        if let Some((i, dist)) = wall_overlap(segments, r, super::geometry::core_inset_m(cfg), a, b, thickness) {
             return Err(ConfigError::invalid(
                 &key,
                 value,
@@ -485,9 +485,16 @@ fn seg_seg_dist(a0: [f64; 2], a1: [f64; 2], b0: [f64; 2], b1: [f64; 2]) -> f64 {
 
 /// First link whose capsule (seen from above) comes closer than `r + thickness/2` to the wall's
 /// centre line, with that distance.
-fn wall_overlap(segments: &[[V3; 2]], r: f64, a: [f64; 2], b: [f64; 2], thickness: f64) -> Option<(usize, f64)> {
+fn wall_overlap(
+    segments: &[[V3; 2]],
+    r: f64,
+    inset: f64,
+    a: [f64; 2],
+    b: [f64; 2],
+    thickness: f64,
+) -> Option<(usize, f64)> {
     segments.iter().enumerate().find_map(|(i, s)| {
-        let core = super::capsule_core(*s, r);
+        let core = super::capsule_core(*s, inset);
         let d = seg_seg_dist([core[0][0], core[0][1]], [core[1][0], core[1][1]], a, b);
         (d < r + thickness / 2.0).then_some((i, d))
     })

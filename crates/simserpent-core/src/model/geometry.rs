@@ -8,7 +8,7 @@
 //! - Link `i` spans x ∈ [−L, 0] of its own frame; link `i > 0` hangs at (−L, 0, 0) of link
 //!   `i − 1`, rotated by joint `i` about the joint's axis (z for yaw joints, y for pitch joints).
 
-use crate::config::{Config, JointAxes};
+use crate::config::{Config, JointAxes, LegacyGeometry};
 
 /// A 3-vector.
 pub(crate) type V3 = [f64; 3];
@@ -96,15 +96,40 @@ pub(crate) fn joint_axis_index(axes: JointAxes, j: usize) -> usize {
     }
 }
 
-/// World position of the head tip: `head_position_m + (0, 0, link_radius_m)`.
+/// World position of the head link's frame: the head tip `head_position_m + (0, 0, link_radius_m)`
+/// (`legacy.geometry = "no_overlap"`), or, for `"faithful"`, the head's front joint point where the
+/// original tool put its head body: `head_position_m + (link_length_m, 0, link_radius_m)` (thesis
+/// listing 3: head body at x = 0.2 m for head position 0 and link_lenght_in_m 0.10; the original
+/// floor was at z = −radius, ours at 0).
 pub(crate) fn head_tip(cfg: &Config) -> V3 {
     let p = cfg.snake.head_position_m;
-    [p[0], p[1], p[2] + cfg.snake.link_radius_m]
+    let dx = match cfg.legacy.geometry {
+        LegacyGeometry::NoOverlap => 0.0,
+        LegacyGeometry::Faithful => cfg.snake.link_length_m,
+    };
+    [p[0] + dx, p[1], p[2] + cfg.snake.link_radius_m]
 }
 
-/// Head rotation (world from snake frame) in radians.
+/// Head rotation (world from snake frame) in radians, as MJCF `euler` (`xyz`). For
+/// `legacy.geometry = "faithful"` the configured rotation is followed by 180° about the head's
+/// z axis (R·Rz(π) = Rx(a)·Ry(b)·Rz(c + π)), so that the body extends along the rotated +x axis
+/// as in the original tool, while link frames keep SimSerpent's orientation (x toward the head).
 pub(crate) fn head_rotation_rad(cfg: &Config) -> [f64; 3] {
-    cfg.snake.head_rotation_deg.map(f64::to_radians)
+    let mut e = cfg.snake.head_rotation_deg.map(f64::to_radians);
+    if cfg.legacy.geometry == LegacyGeometry::Faithful {
+        e[2] += std::f64::consts::PI;
+    }
+    e
+}
+
+/// How far a link's capsule core starts inside its joint-to-joint segment (m): `link_radius_m`
+/// for `"no_overlap"` (the caps end at the joints), 0 for `"faithful"` (the core is the segment,
+/// the caps reach beyond the joints).
+pub(crate) fn core_inset_m(cfg: &Config) -> f64 {
+    match cfg.legacy.geometry {
+        LegacyGeometry::NoOverlap => cfg.snake.link_radius_m,
+        LegacyGeometry::Faithful => 0.0,
+    }
 }
 
 /// Position and world rotation of every link frame for the given joint angles (missing angles are
@@ -126,13 +151,16 @@ pub(crate) fn link_frames(cfg: &Config, joint_angles_rad: &[f64]) -> Vec<(V3, M3
     frames
 }
 
-/// World-frame segment (front point, back point) of each link's body axis (joint to joint; the
-/// capsule including its caps spans exactly this segment), for the given joint angles.
+/// World-frame segment (front point, back point) of each link's body axis (joint to joint; with
+/// `legacy.geometry = "no_overlap"` the capsule including its caps spans exactly this segment, with
+/// `"faithful"` it is the capsule's core and the caps reach `link_radius_m` beyond), for the given
+/// joint angles.
 ///
 /// `joint_angles_rad[j - 1]` is the angle of joint `j` (between link `j - 1` and link `j`); missing
 /// angles count as zero and extra ones are ignored. The result has `snake.n_links` entries;
 /// entry 0 is the head, whose front point is the head tip
-/// `head_position_m + (0, 0, link_radius_m)`.
+/// `head_position_m + (0, 0, link_radius_m)` (for `"faithful"`: its front joint point, see
+/// `head_tip`).
 pub fn link_axis_segments_m(cfg: &Config, joint_angles_rad: &[f64]) -> Vec<[[f64; 3]; 2]> {
     let l = cfg.snake.link_length_m;
     link_frames(cfg, joint_angles_rad).into_iter().map(|(p, r)| [p, add(p, mat_vec(&r, [-l, 0.0, 0.0]))]).collect()

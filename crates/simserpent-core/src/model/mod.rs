@@ -17,6 +17,11 @@
 //! - Link `i`'s geom spans exactly x ∈ [−L, 0] of its body frame, caps included: a capsule from
 //!   (−r, 0, 0) to (−(L − r), 0, 0) with radius r. `L = 2r` (allowed) gives a sphere of radius r at
 //!   (−L/2, 0, 0). Mass `link_mass_kg`, colour `color_rgba`.
+//! - `legacy.geometry = "faithful"` (the original tool's links, thesis appendix 12.2): link `i`'s
+//!   capsule has its core from (0, 0, 0) to (−L, 0, 0) (joint to joint) and radius r, so its caps
+//!   reach r beyond both joints (length L + 2r; any r); `link_00` is placed at
+//!   `head_position_m + (L, 0, link_radius_m)` with `euler = head_rotation_deg + (0, 0, 180°)`, so
+//!   the body extends along the configured +x from the head as in the original.
 //! - Sites: `link_ii_imu` at the link centre (−L/2, 0, 0); `joint_jj_site` at the origin of link
 //!   `j` (the joint anchor).
 //! - Contacts: link geoms contype 1, conaffinity 3 (or 2 without `physics.self_collision`); floor
@@ -303,7 +308,7 @@ fn sanity(cfg: &Config) -> Result<(), ConfigError> {
     if !(r.is_finite() && r > 0.0) {
         return Err(ConfigError::invalid("snake.link_radius_m", r, "a number > 0"));
     }
-    if !(l.is_finite() && l >= 2.0 * r) {
+    if !(l.is_finite() && (l >= 2.0 * r || cfg.legacy.geometry == crate::config::LegacyGeometry::Faithful)) {
         return Err(ConfigError::invalid(
             "snake.link_length_m",
             l,
@@ -349,8 +354,13 @@ fn check_above_floor(cfg: &Config, segments: &[[V3; 2]]) -> Result<(), ConfigErr
     ))
 }
 
-/// Capsule core (segment whose r-neighbourhood is the capsule) of a link axis segment.
+/// Capsule core (segment whose r-neighbourhood is the capsule) of a link axis segment whose ends
+/// lie `r` beyond the core (`r` = [`geometry::core_inset_m`]: the radius for
+/// `legacy.geometry = "no_overlap"`, 0 for `"faithful"`, whose segment is the core).
 pub(crate) fn capsule_core(seg: [V3; 2], r: f64) -> [V3; 2] {
+    if r == 0.0 {
+        return seg;
+    }
     let d = geometry::sub(seg[1], seg[0]);
     let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
     if len <= 2.0 * r || len == 0.0 {
@@ -366,8 +376,9 @@ pub(crate) fn capsule_core(seg: [V3; 2], r: f64) -> [V3; 2] {
 /// cylinder's), with the xy-distance from the cylinder's axis to the link's capsule core.
 pub(crate) fn cylinder_overlap(cfg: &Config, segments: &[[V3; 2]], c: &Cylinder) -> Option<(usize, f64)> {
     let r = cfg.snake.link_radius_m;
+    let inset = geometry::core_inset_m(cfg);
     segments.iter().enumerate().find_map(|(i, seg)| {
-        let core = capsule_core(*seg, r);
+        let core = capsule_core(*seg, inset);
         let (zlo, zhi) = (core[0][2].min(core[1][2]) - r, core[0][2].max(core[1][2]) + r);
         if zlo >= c.height_m || zhi <= 0.0 {
             return None; // the link passes above the cylinder

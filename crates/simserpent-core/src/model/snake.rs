@@ -14,7 +14,7 @@ use std::fmt::{self, Write};
 
 use super::names::{self, SensorKind};
 use super::{Nums, fmt_num as n};
-use crate::config::{Config, ControlMethod};
+use crate::config::{Config, ControlMethod, LegacyGeometry};
 
 /// Below this core length (L − 2r, m) a capsule is written with explicit `pos`/`zaxis`/`size`
 /// instead of `fromto`: MuJoCo rejects `fromto` points closer than about 3e-8 m.
@@ -50,11 +50,19 @@ fn indent(out: &mut String, depth: usize) {
     }
 }
 
-/// Writes the link geom of one link (capsule spanning x ∈ [−L, 0], or a sphere when L = 2r).
+/// Writes the link geom of one link: for `legacy.geometry = "no_overlap"` a capsule spanning
+/// x ∈ [−L, 0] (a sphere when L = 2r); for `"faithful"` the original tool's capsule, core x ∈ [−L, 0]
+/// (joint to joint) plus a cap of radius r beyond each joint.
 fn write_link_geom(out: &mut String, cfg: &Config, i: usize) -> fmt::Result {
     let s = &cfg.snake;
     let (l, r) = (s.link_length_m, s.link_radius_m);
-    let shape = if l - 2.0 * r <= 0.0 {
+    let shape = if cfg.legacy.geometry == LegacyGeometry::Faithful {
+        if l < MIN_FROMTO_CORE_M {
+            format!("type=\"capsule\" pos=\"{} 0 0\" zaxis=\"1 0 0\" size=\"{} {}\"", n(-l / 2.0), n(r), n(l / 2.0))
+        } else {
+            format!("type=\"capsule\" fromto=\"0 0 0 {} 0 0\" size=\"{}\"", n(-l), n(r))
+        }
+    } else if l - 2.0 * r <= 0.0 {
         format!("type=\"sphere\" pos=\"{} 0 0\" size=\"{}\"", n(-l / 2.0), n(r))
     } else if l - 2.0 * r < MIN_FROMTO_CORE_M {
         format!("type=\"capsule\" pos=\"{} 0 0\" zaxis=\"1 0 0\" size=\"{} {}\"", n(-l / 2.0), n(r), n(l / 2.0 - r))
