@@ -527,11 +527,15 @@ pub fn configure(ctx: &Context, base: &Config) -> Result<Section, ExperimentErro
             "Configuration sets A, B, C of table 5 (0.3 kg links; the thesis' link lengths 0.8, 2 and 1 m were capsule \
                half lengths, so the joint spacing is 1.6, 4 and 2 m), simulated for 1 s without a gait. Checked: \
                the run completes, and at t = 0 every link's centre is where the geometry says: head tip + rotation · \
-               (−(i + ½)·L, 0, 0), with the body axis at z = head z + radius."
+               (−(i + ½)·L, 0, 0), with the body axis at z = head z + radius. The thesis' evidence was pictures \
+               (figures 22–24): each set is drawn at t = 0 (offscreen, MuJoCo's renderer, joints and actuators \
+               shown, the camera looking at the middle of the snake from +y and above) into configure-<set>.png \
+               next to this report. The thesis' reference cylinders are not placed."
                 .into(),
         ..Section::default()
     };
     let mut rows = Vec::new();
+    let mut pictures = String::new();
     for (name, n, length, radius, head, rot, rgba) in sets {
         let mut c = base.clone();
         c.snake.n_links = n;
@@ -574,7 +578,28 @@ pub fn configure(ctx: &Context, base: &Config) -> Result<Section, ExperimentErro
             1e-9,
             "m",
         ));
+        // The picture: a fixed camera at the middle of the body, far enough to see all of it.
+        let mid = [-0.5 * n as f64 * length, 0.0, 0.0];
+        let lookat: [f64; 3] = std::array::from_fn(|k| tip[k] + (0..3).map(|j| r[k][j] * mid[j]).sum::<f64>());
+        let view = super::pictures::View {
+            lookat_m: lookat,
+            distance_m: (1.4 * (n as f64 * length + 2.0 * radius)).max(3.0),
+            azimuth_deg: 90.0,
+            elevation_deg: -30.0,
+        };
+        let file = format!("configure-{name}.png");
+        match super::pictures::picture_at_start(&run, view, &ctx.folder, &file) {
+            Ok(_) => {
+                pictures.push_str(&format!("\n\n![Set {name}: {n} links, radius {radius} m]({file})"));
+                section.checks.push(Check::at_least(&format!("set {name}: picture {file} written"), 1.0, 1.0, ""));
+            }
+            Err(why) => {
+                pictures.push_str(&format!("\n\nSet {name}: no picture ({why})."));
+                section.checks.push(Check::at_least(&format!("set {name}: picture {file} written"), 0.0, 1.0, ""));
+            }
+        }
     }
+    section.text.push_str(&pictures);
     section.tables.push((
         ["set", "links", "link length (m)", "radius (m)", "head (m)", "rotation (°)", "placement error (m)"]
             .map(String::from)

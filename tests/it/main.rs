@@ -28,3 +28,4 @@ mod surfaces;
 mod sweep;
 mod sweep_interrupt;
 mod terrain;
+mod thesis_homes;
