@@ -36,7 +36,7 @@ pub const TIMESTEP_SECS: f64 = 0.001;
 /// Speed limit (m/s), table 1 (a setting of the engines tried there; MuJoCo has none, so it is a check).
 pub const MAX_SPEED_M_PER_S: f64 = 100.0;
 /// The contact of the main case: direct stiffness (1/s²) without damping.
-pub const ELASTIC_STIFFNESS_PER_S2: f64 = 1.0e5;
+pub const ELASTIC_STIFFNESS_PER_S2: f64 = 1.0e4;
 
 /// MuJoCo's default impedance (`solimp = 0.9 0.95 0.001 0.5 2`), which SimSerpent keeps.
 const SOLIMP: [f64; 5] = [0.9, 0.95, 0.001, 0.5, 2.0];
@@ -264,7 +264,7 @@ pub fn predicted_rebound_ratio(contact: Contact) -> f64 {
 /// The contact settings of the sweep (full mode) and of quick mode.
 fn sweep(quick: bool) -> Vec<Contact> {
     if quick {
-        vec![Contact::Standard(0.02, 1.0), Contact::Standard(0.1, 0.05), Contact::Direct(1.0e4, 0.0)]
+        vec![Contact::Standard(0.02, 1.0), Contact::Standard(0.1, 0.05), Contact::Direct(1.0e5, 0.0)]
     } else {
         vec![
             Contact::Standard(0.02, 1.0),
@@ -275,6 +275,7 @@ fn sweep(quick: bool) -> Vec<Contact> {
             Contact::Standard(0.1, 0.02),
             Contact::Direct(1.0e3, 0.0),
             Contact::Direct(1.0e4, 0.0),
+            Contact::Direct(1.0e5, 0.0),
             Contact::Direct(1.0e4, 1.0),
             Contact::Direct(1.0e4, 10.0),
         ]
@@ -287,7 +288,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
     let impact_speed = (2.0 * GRAVITY_M_PER_S2 * (DROP_HEIGHT_M - BALL_RADIUS_M)).sqrt();
     // Main case: three bounces (full) or one (quick).
     let main_contact = Contact::Direct(ELASTIC_STIFFNESS_PER_S2, 0.0);
-    let main_secs = if ctx.quick { 2.2 * fall_secs } else { 5.1 * fall_secs };
+    let main_secs = if ctx.quick { 2.2 * fall_secs } else { 7.1 * fall_secs };
     let main_config = ball_config(base, main_contact, main_secs);
     let integrator = main_config.general.integrator.mjcf_name();
     let main_run = ctx.sub_run("bounce-elastic", &main_config, |_| {})?;
@@ -322,14 +323,21 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
         "m/s",
     ));
     section.checks.push(Check::at_most(
-        "energy conserved in free fall: max |E − E₀| / E₀",
+        "energy conserved in free fall: largest deviation of E from E₀ over E₀",
         d.free_fall_energy_error * 100.0,
         0.1,
         "%",
     ));
+    // Every complete bounce: the one farthest from the drop height.
+    let worst = d
+        .rebound_ratios
+        .iter()
+        .copied()
+        .filter(|x| x.is_finite())
+        .fold(d.rebound_ratio, |w, x| if (x - 1.0).abs() > (w - 1.0).abs() { x } else { w });
     section.checks.push(Check::relative(
-        "restitution 1: rebound apex / drop height (first bounce)",
-        d.rebound_ratio,
+        "restitution 1: rebound apex / drop height, the bounce farthest from 1",
+        worst,
         1.0,
         0.01,
         "",
@@ -385,7 +393,10 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
          k, b from solref, d from the default solimp) without a time step: the difference to \"measured\" is the \
          1 ms step's error. With the standard solref the damping b = 2/(d·τ) never vanishes, so the rebound stays \
          below 1 however small the damping ratio (and a small ratio stiffens the contact: k = 1/(d²·τ²·ζ²)); only \
-         the direct form with damping 0 is elastic. Effective restitution = √(rebound ratio).\n"
+         the direct form with damping 0 is elastic. A stiffer elastic contact penetrates less, but the step \
+         then resolves the impact worse: at stiffness 1e5 the rebound grows by about 0.35 % per bounce (RK4; \
+         Euler 0.6 %), at 1e4 it stays within 0.15 % over three bounces, which is why the main case uses 1e4. \
+         Effective restitution = √(rebound ratio).\n"
     ));
     section.tables.push((
         [
