@@ -297,7 +297,8 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
     let mut section = Section {
         heading: "Ball drop (project assignment, thesis table 1)".into(),
         text: format!(
-            "A ball of {BALL_MASS_KG} kg and radius {BALL_RADIUS_M} m (one spherical link), its centre {DROP_HEIGHT_M} m \
+            "A ball of {BALL_MASS_KG} kg and radius {BALL_RADIUS_M} m (density {} kg/m³, table 1: 1.9; one spherical \
+             link), its centre {DROP_HEIGHT_M} m \
              above the floor, falls under gravity −{GRAVITY_M_PER_S2} m/s² with a {} ms step ({integrator}), no friction. \
              Table 1 asks for restitution 1. MuJoCo has no restitution coefficient: a contact is a soft spring–damper \
              constraint (solref), and SimSerpent's default contact (time constant 0.02 s, damping ratio 1, critically \
@@ -307,6 +308,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
              {MAX_SPEED_M_PER_S} m/s was a setting of the engines tried there; MuJoCo has none, so it is checked as a \
              bound. Expected: the ball touches the floor after √(2h/g) = {} s at √(2gh) = {} m/s (h = {} m, the drop \
              of its lowest point), energy is conserved in flight, and it rebounds to its drop height.",
+            sig(BALL_MASS_KG / (4.0 / 3.0 * std::f64::consts::PI * BALL_RADIUS_M.powi(3))),
             sig(TIMESTEP_SECS * 1e3),
             sig(fall_secs),
             sig(impact_speed),

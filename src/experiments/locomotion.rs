@@ -530,7 +530,9 @@ pub fn configure(ctx: &Context, base: &Config) -> Result<Section, ExperimentErro
                (−(i + ½)·L, 0, 0), with the body axis at z = head z + radius. The thesis' evidence was pictures \
                (figures 22–24): each set is drawn at t = 0 (offscreen, MuJoCo's renderer, joints and actuators \
                shown, the camera looking at the middle of the snake from +y and above) into configure-<set>.png \
-               next to this report. The thesis' reference cylinders are not placed."
+               next to this report, and the picture must show the snake in its colour (≥ 500 pixels within 60/255 \
+               per channel of the set's colour or of its shaded 60 %). The thesis' reference cylinders are not \
+               placed."
                 .into(),
         ..Section::default()
     };
@@ -588,14 +590,28 @@ pub fn configure(ctx: &Context, base: &Config) -> Result<Section, ExperimentErro
             elevation_deg: -30.0,
         };
         let file = format!("configure-{name}.png");
-        match super::pictures::picture_at_start(&run, view, &ctx.folder, &file) {
-            Ok(_) => {
+        let drawn = super::pictures::picture_at_start(&run, view, &ctx.folder, &file)
+            .and_then(|path| super::pictures::pixels_of_colour(&path, [rgba[0], rgba[1], rgba[2]]));
+        match drawn {
+            Ok(pixels) => {
                 pictures.push_str(&format!("\n\n![Set {name}: {n} links, radius {radius} m]({file})"));
-                section.checks.push(Check::at_least(&format!("set {name}: picture {file} written"), 1.0, 1.0, ""));
+                // The snake fills part of the picture in its own colour (the floor is black and
+                // white, the sky grey): it is in view and drawn with the configured colour.
+                section.checks.push(Check::at_least(
+                    &format!("set {name}: pixels of the snake's colour in {file}"),
+                    pixels as f64,
+                    500.0,
+                    "px",
+                ));
             }
             Err(why) => {
                 pictures.push_str(&format!("\n\nSet {name}: no picture ({why})."));
-                section.checks.push(Check::at_least(&format!("set {name}: picture {file} written"), 0.0, 1.0, ""));
+                section.checks.push(Check::at_least(
+                    &format!("set {name}: pixels of the snake's colour in {file}"),
+                    0.0,
+                    500.0,
+                    "px",
+                ));
             }
         }
     }

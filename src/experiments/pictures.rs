@@ -49,3 +49,20 @@ pub fn picture_at_start(run: &Path, view: View, report_folder: &Path, file_name:
     std::fs::copy(image, &copy).map_err(|e| format!("cannot copy {} to {}: {e}", image.display(), copy.display()))?;
     Ok(copy)
 }
+
+/// Pixels of an RGB PNG whose colour is within 60 (of 255) per channel of `rgb` (0..1) or of
+/// its shaded version 0.6·`rgb`: how much of a picture shows a body of that colour.
+pub fn pixels_of_colour(path: &Path, rgb: [f64; 3]) -> Result<usize, String> {
+    let file = std::fs::File::open(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let mut reader =
+        png::Decoder::new(std::io::BufReader::new(file)).read_info().map_err(|e| format!("{}: {e}", path.display()))?;
+    let size = reader.output_buffer_size().ok_or_else(|| format!("{}: picture too large", path.display()))?;
+    let mut buf = vec![0; size];
+    let info = reader.next_frame(&mut buf).map_err(|e| format!("{}: {e}", path.display()))?;
+    if info.color_type != png::ColorType::Rgb {
+        return Err(format!("{}: not an RGB picture", path.display()));
+    }
+    buf.truncate(info.buffer_size());
+    let near = |p: &[u8], shade: f64| (0..3).all(|k| (f64::from(p[k]) - 255.0 * shade * rgb[k]).abs() < 60.0);
+    Ok(buf.chunks(3).filter(|p| near(p, 1.0) || near(p, 0.6)).count())
+}
