@@ -188,8 +188,8 @@ pub fn analyse(run: &std::path::Path) -> Result<Drop, ExperimentError> {
         while i < n && !touching(i) && v[2][i] > 0.0 {
             i += 1;
         }
-        // The apex is only known once the ball falls again (or it is the last row of a rebound
-        // that never left the floor).
+        // The apex is known only once the ball falls again: a run that ends before that, or a
+        // ball that never leaves the floor, has no ratio for this bounce (NaN: "no rebound").
         if i >= n || flight >= n {
             break;
         }
