@@ -139,7 +139,7 @@ enum Command {
         overrides: Vec<String>,
     },
     /// Run one of the thesis' experiments with its physics checks: configure, collision,
-    /// undulation, form-closure, oal, estimation. Writes runs/experiment-<name>-<UTC time>/report.md; exits 1
+    /// undulation, form-closure, oal, estimation, bounce (the project assignment's ball drop). Writes runs/experiment-<name>-<UTC time>/report.md; exits 1
     /// if a check fails.
     Experiment {
         /// Which experiment.
@@ -150,7 +150,7 @@ enum Command {
         #[arg(long)]
         quick: bool,
     },
-    /// Write the fully commented default config.
+    /// Write the fully commented default config, or with --preset a robot's config.
     Init {
         /// Where to write it.
         #[arg(default_value = "config.toml")]
@@ -158,6 +158,9 @@ enum Command {
         /// Overwrite an existing file.
         #[arg(long)]
         force: bool,
+        /// Write a real robot's config instead (its sources cited in the file): boa.
+        #[arg(long, value_name = "NAME")]
+        preset: Option<String>,
     },
     /// Write the MJCF model that a config generates (to stdout, or to --output).
     Model {
@@ -528,7 +531,17 @@ fn experiment(name: &str, args: &ConfigArgs, quick: bool) -> Result<(), Failure>
     }
 }
 
-fn init(path: &Path, force: bool) -> Result<(), Failure> {
+fn init(path: &Path, force: bool, preset: Option<&str>) -> Result<(), Failure> {
+    use simserpent::config::presets;
+    let text = match preset {
+        None => config::DEFAULT_CONFIG_TOML,
+        Some(name) => presets::config_preset(name).ok_or_else(|| {
+            bad_input(anyhow::anyhow!(
+                "unknown preset `{name}` (--preset); available: {}",
+                presets::config_preset_names()
+            ))
+        })?,
+    };
     if path.exists() && !force {
         return Err(bad_input(anyhow::anyhow!("{} exists already; use --force to overwrite it", path.display())));
     }
@@ -541,7 +554,7 @@ fn init(path: &Path, force: bool) -> Result<(), Failure> {
             parent.display()
         )));
     }
-    std::fs::write(path, config::DEFAULT_CONFIG_TOML).with_context(|| format!("cannot write {}", path.display()))?;
+    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?;
     outln!("wrote {}", path.display());
     Ok(())
 }
@@ -763,7 +776,7 @@ fn main() -> ExitCode {
             render_command(&run_folder, video, images, &overrides, quiet)
         }
         Some(Command::View { path, overrides }) => view_command(path.as_deref(), &overrides),
-        Some(Command::Init { path, force }) => init(&path, force),
+        Some(Command::Init { path, force, preset }) => init(&path, force, preset.as_deref()),
         Some(Command::Experiment { name, config, quick }) => experiment(&name, &config, quick),
         Some(Command::Model { config, output, scene_dir }) => model(&config, output.as_deref(), scene_dir.as_deref()),
         Some(Command::Check { config }) => check(&config),

@@ -528,11 +528,17 @@ pub fn configure(ctx: &Context, base: &Config) -> Result<Section, ExperimentErro
                half lengths, so the joint spacing is 1.6, 4 and 2 m), simulated for 1 s without a gait. Checked: \
                the run completes, and at t = 0 every link's centre is where the geometry says: head tip + rotation · \
                (−(i + ½)·L, 0, 0), with the body axis at z = head z + radius (with legacy.geometry = \"faithful\": \
-               head + (L, 0, 0) + rotation · ((i + ½)·L, 0, 0), as the original tool placed it)."
+               head + (L, 0, 0) + rotation · ((i + ½)·L, 0, 0), as the original tool placed it). The thesis' evidence \
+               was pictures (figures 22–24): each set is drawn at t = 0 (offscreen, MuJoCo's renderer, joints and \
+               actuators shown, the camera looking at the middle of the snake from +y and above) into \
+               configure-<set>.png next to this report, and the picture must show the snake in its colour (≥ 500 \
+               pixels within 60/255 per channel of the set's colour or of its shaded 60 %). The thesis' reference \
+               cylinders are not placed."
                 .into(),
         ..Section::default()
     };
     let mut rows = Vec::new();
+    let mut pictures = String::new();
     for (name, n, length, radius, head, rot, rgba) in sets {
         let mut c = base.clone();
         c.snake.n_links = n;
@@ -578,7 +584,42 @@ pub fn configure(ctx: &Context, base: &Config) -> Result<Section, ExperimentErro
             1e-9,
             "m",
         ));
+        // The picture: a fixed camera at the middle of the body, far enough to see all of it.
+        let mid = [-0.5 * n as f64 * length, 0.0, 0.0];
+        let lookat: [f64; 3] = std::array::from_fn(|k| tip[k] + (0..3).map(|j| r[k][j] * mid[j]).sum::<f64>());
+        let view = super::pictures::View {
+            lookat_m: lookat,
+            distance_m: (1.4 * (n as f64 * length + 2.0 * radius)).max(3.0),
+            azimuth_deg: 90.0,
+            elevation_deg: -30.0,
+        };
+        let file = format!("configure-{name}.png");
+        let drawn = super::pictures::picture_at_start(&run, view, &ctx.folder, &file)
+            .and_then(|path| super::pictures::pixels_of_colour(&path, [rgba[0], rgba[1], rgba[2]]));
+        match drawn {
+            Ok(pixels) => {
+                pictures.push_str(&format!("\n\n![Set {name}: {n} links, radius {radius} m]({file})"));
+                // The snake fills part of the picture in its own colour (the floor is black and
+                // white, the sky grey): it is in view and drawn with the configured colour.
+                section.checks.push(Check::at_least(
+                    &format!("set {name}: pixels of the snake's colour in {file}"),
+                    pixels as f64,
+                    500.0,
+                    "px",
+                ));
+            }
+            Err(why) => {
+                pictures.push_str(&format!("\n\nSet {name}: no picture ({why})."));
+                section.checks.push(Check::at_least(
+                    &format!("set {name}: pixels of the snake's colour in {file}"),
+                    0.0,
+                    500.0,
+                    "px",
+                ));
+            }
+        }
     }
+    section.text.push_str(&pictures);
     section.tables.push((
         ["set", "links", "link length (m)", "radius (m)", "head (m)", "rotation (°)", "placement error (m)"]
             .map(String::from)

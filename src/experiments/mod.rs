@@ -6,10 +6,12 @@
 //! measured value, expected value, tolerance and pass/fail. The command exits 0 when every check
 //! passes and 1 otherwise.
 
+pub mod bounce;
 mod collision;
 mod data;
 pub mod estimation;
 mod locomotion;
+mod pictures;
 mod report;
 
 pub use data::Table;
@@ -49,7 +51,7 @@ pub enum ExperimentError {
 }
 
 /// The experiments, by command name.
-pub const NAMES: [&str; 6] = ["configure", "collision", "undulation", "form-closure", "oal", "estimation"];
+pub const NAMES: [&str; 7] = ["configure", "collision", "undulation", "form-closure", "oal", "estimation", "bounce"];
 
 /// Where an experiment writes and how long its runs are.
 pub struct Context {
@@ -190,6 +192,7 @@ pub fn run_experiment(name: &str, base: &Config, output_dir: &Path, quick: bool)
         "oal" => locomotion::oal(&ctx, base)?,
         "form-closure" => locomotion::form_closure(&ctx, base)?,
         "estimation" => estimation::run(&ctx, base)?,
+        "bounce" => bounce::run(&ctx, base)?,
         _ => locomotion::configure(&ctx, base)?,
     };
     report.sections.push(section);

@@ -106,6 +106,8 @@ friction_cone = "pyramidal"
 self_collision = false
 contact_time_constant_secs = 0.01
 contact_damping_ratio = 0.8
+contact_stiffness_per_s2 = 2000.0
+contact_damping_per_s = 3.0
 solver_iterations = 50
 floor_friction = "stick_slip"
 floor_stick_time_constant_secs = 0.01
@@ -404,6 +406,8 @@ fn all_fields_expected() -> Config {
     p.self_collision = false;
     p.contact_time_constant_secs = 0.01;
     p.contact_damping_ratio = 0.8;
+    p.contact_stiffness_per_s2 = 2000.0;
+    p.contact_damping_per_s = 3.0;
     p.solver_iterations = 50;
     p.floor_friction = FloorFriction::StickSlip;
     p.floor_stick_time_constant_secs = 0.01;
@@ -739,6 +743,10 @@ const RULES: &[(&[&str], &str)] = &[
     (&["general.timestep_secs=0.011"], "physics.contact_time_constant_secs"),
     (&["physics.contact_damping_ratio=0"], "physics.contact_damping_ratio"),
     (&["physics.solver_iterations=0"], "physics.solver_iterations"),
+    (&["physics.contact_stiffness_per_s2=-1"], "physics.contact_stiffness_per_s2"),
+    (&["physics.contact_stiffness_per_s2=2e6"], "physics.contact_stiffness_per_s2"),
+    (&["physics.contact_damping_per_s=-1", "physics.contact_stiffness_per_s2=1e4"], "physics.contact_damping_per_s"),
+    (&["physics.contact_damping_per_s=1"], "physics.contact_damping_per_s"),
     // safety
     (&["safety.max_kinetic_energy_j_per_kg=-1"], "safety.max_kinetic_energy_j_per_kg"),
     (&["safety.max_kinetic_energy_j_per_kg=nan"], "safety.max_kinetic_energy_j_per_kg"),

@@ -30,3 +30,4 @@ mod surprises;
 mod sweep;
 mod sweep_interrupt;
 mod terrain;
+mod thesis_homes;

@@ -12,6 +12,7 @@
 mod floor;
 mod legacy;
 mod load;
+pub mod presets;
 pub mod surfaces;
 mod validate;
 
@@ -244,6 +245,12 @@ pub struct Physics {
     pub self_collision: bool,
     pub contact_time_constant_secs: f64,
     pub contact_damping_ratio: f64,
+    /// Direct contact stiffness (MuJoCo's solref in its direct form, `solref = (−k, −b)`), 1/s²;
+    /// 0 = off (the time constant and damping ratio above are used).
+    pub contact_stiffness_per_s2: f64,
+    /// Direct contact damping b (1/s), used only with `contact_stiffness_per_s2 > 0`; 0 = none
+    /// (an elastic contact: restitution close to 1).
+    pub contact_damping_per_s: f64,
     pub solver_iterations: u32,
     /// Who computes the friction between links and the floor (and ground-like terrain).
     pub floor_friction: FloorFriction,

@@ -407,6 +407,26 @@ impl Config {
             ),
         )?;
         positive("physics.contact_damping_ratio", p.contact_damping_ratio)?;
+        non_negative("physics.contact_stiffness_per_s2", p.contact_stiffness_per_s2)?;
+        non_negative("physics.contact_damping_per_s", p.contact_damping_per_s)?;
+        let dt = self.general.timestep_secs;
+        ensure(
+            p.contact_stiffness_per_s2 * dt * dt <= 1.0,
+            "physics.contact_stiffness_per_s2",
+            fmt_f(p.contact_stiffness_per_s2),
+            format!(
+                "must be at most 1 / general.timestep_secs^2 = {} (the contact's natural frequency times the \
+                 timestep must stay at most 1 for a stable, accurate contact)",
+                fmt_f(1.0 / (dt * dt))
+            ),
+        )?;
+        ensure(
+            p.contact_damping_per_s == 0.0 || p.contact_stiffness_per_s2 > 0.0,
+            "physics.contact_damping_per_s",
+            fmt_f(p.contact_damping_per_s),
+            "needs physics.contact_stiffness_per_s2 > 0 (direct contact stiffness and damping go together; with \
+             stiffness 0 the contact uses contact_time_constant_secs and contact_damping_ratio)",
+        )?;
         ensure(p.solver_iterations >= 1, "physics.solver_iterations", p.solver_iterations, "must be at least 1")?;
         ensure(
             p.solver_iterations <= MAX_SOLVER_ITERATIONS,

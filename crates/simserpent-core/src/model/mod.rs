@@ -7,7 +7,8 @@
 //! - All lengths SI, `<compiler angle="radian" autolimits="true"/>`.
 //! - `<option>`: `general.timestep_secs`, `general.integrator`, `general.gravity_m_per_s2`,
 //!   `physics.friction_cone`, `physics.solver_iterations`. Default geom
-//!   `solref = "contact_time_constant_secs contact_damping_ratio"`.
+//!   `solref = "contact_time_constant_secs contact_damping_ratio"`, or MuJoCo's direct form
+//!   `"-contact_stiffness_per_s2 -contact_damping_per_s"` when the stiffness is > 0.
 //! - Snake frame: the head's front tip at the origin, the body along −x, z up (the snake faces +x).
 //!   Body `link_00` is placed at `head_position_m + (0, 0, link_radius_m)` with
 //!   `euler = head_rotation_deg` (radians, `eulerseq="xyz"`: intrinsic x, then y, then z) and has
@@ -280,6 +281,8 @@ fn sanity(cfg: &Config) -> Result<(), ConfigError> {
         ("general.gravity_m_per_s2", &cfg.general.gravity_m_per_s2),
         ("physics.contact_time_constant_secs", &[cfg.physics.contact_time_constant_secs]),
         ("physics.contact_damping_ratio", &[cfg.physics.contact_damping_ratio]),
+        ("physics.contact_stiffness_per_s2", &[cfg.physics.contact_stiffness_per_s2]),
+        ("physics.contact_damping_per_s", &[cfg.physics.contact_damping_per_s]),
         ("snake.link_mass_kg", &[s.link_mass_kg]),
         ("snake.joint_range_deg", &[s.joint_range_deg]),
         ("snake.joint_damping_nm_s_per_rad", &[s.joint_damping_nm_s_per_rad]),
@@ -485,7 +488,7 @@ fn write_xml(
         FrictionCone::Elliptic => "elliptic",
         FrictionCone::Pyramidal => "pyramidal",
     };
-    let solref = format!("{} {}", n(cfg.physics.contact_time_constant_secs), n(cfg.physics.contact_damping_ratio));
+    let solref = contact_solref(&cfg.physics);
     p.header.push_str("  <compiler angle=\"radian\" autolimits=\"true\"/>\n");
     writeln!(
         p.header,
@@ -690,4 +693,17 @@ fn write_xml(
 
 fn xml_escape(s: &str) -> String {
     s.replace('&', "&amp;").replace('"', "&quot;").replace('<', "&lt;").replace('>', "&gt;")
+}
+
+/// The contact `solref` of floor and obstacles: `"timeconst dampratio"` (MuJoCo's standard form),
+/// or `"-stiffness -damping"` (its direct form) when `physics.contact_stiffness_per_s2 > 0`.
+/// Both numbers of the direct form are ≤ 0: MuJoCo replaces a solref of mixed signs by its
+/// default (with a warning), so a damping of 0 is written as `0`, not `-0`.
+pub fn contact_solref(p: &crate::config::Physics) -> String {
+    if p.contact_stiffness_per_s2 > 0.0 {
+        let damping = if p.contact_damping_per_s > 0.0 { fmt_num(-p.contact_damping_per_s) } else { "0".into() };
+        format!("{} {damping}", fmt_num(-p.contact_stiffness_per_s2))
+    } else {
+        format!("{} {}", fmt_num(p.contact_time_constant_secs), fmt_num(p.contact_damping_ratio))
+    }
 }
