@@ -43,7 +43,8 @@
 //! - v, the velocity of the contact point at x_k (centre-of-mass velocity + ω × r), tangential.
 //! - An anchor on the ground per slot, with the deflection z of the contact point from it. The
 //!   trial force −k·(z + v·dt) − c·v (k = m·ω², c = 2·m·ω: critically damped with
-//!   ω = 1/`floor_stick_time_constant_secs`, m = N/g the mass the contact carries) is kept if it
+//!   ω = 1/`floor_stick_time_constant_secs` (`"auto"`: max(5 ms, 5 timesteps)), m = N/g the
+//!   mass the contact carries) is kept if it
 //!   lies inside the friction ellipse (F_axial/(μ_axial·N))² + (F_lateral/(μ_lateral·N))² ≤ 1
 //!   (stick: z grows by v·dt), else replaced by its nearest point on the ellipse (slide: the
 //!   anchor is dragged, z = −F/k). In steady sliding that is μ·N against the sliding direction
@@ -61,7 +62,7 @@
 use super::World;
 use crate::config::{Config, FloorFriction, GroundModel};
 use crate::model::{SurfaceMap, names};
-use crate::state::{GeomClass, Snapshot};
+use crate::state::{ContactRow, GeomClass, Snapshot};
 use mujoco_rs::prelude::MjtObjBase;
 
 /// Below this axial speed (m/s) a link counts as not sliding (directional model).
@@ -258,13 +259,16 @@ struct StickSlip {
     /// Friction force (N) and its moment about the centre of mass (N·m) applied to each link in
     /// the latest prepared step (world frame).
     force_n: Vec<[f64; 3]>,
+    /// The same force per link and slot (N, world frame): what the contact rows of a snapshot
+    /// carry as their friction.
+    slot_force_n: Vec<[[f64; 3]; SLOTS]>,
     torque_nm: Vec<[f64; 3]>,
 }
 
 impl StickSlip {
     fn new(config: &Config, world: &World) -> Self {
         let n = world.n_links();
-        let omega = 1.0 / config.physics.floor_stick_time_constant_secs;
+        let omega = 1.0 / config.floor_stick_time_constant_secs();
         let g = config.general.gravity_m_per_s2;
         let g_abs = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
         Self {
@@ -279,6 +283,7 @@ impl StickSlip {
             normal_weighted: vec![[[0.0; 3]; SLOTS]; n],
             deflection_m: vec![[[0.0; 3]; SLOTS]; n],
             force_n: vec![[0.0; 3]; n],
+            slot_force_n: vec![[[0.0; 3]; SLOTS]; n],
             torque_nm: vec![[0.0; 3]; n],
         }
     }
@@ -299,18 +304,62 @@ impl Ground {
     /// Fills what the ground model adds to a snapshot read after [`Ground::before_step`]: the
     /// region under each link, and with `physics.floor_friction = "stick_slip"` the friction
     /// force it applies, added to each link's floor and total contact force and torque (MuJoCo's
-    /// contacts carry only the normal force then; the per-contact rows keep friction 0).
+    /// contacts carry only the normal force then), and to the contact rows.
+    ///
+    /// Contact rows: each link–ground row gets its share of the friction applied at its end
+    /// (slot) of the link, in proportion to its normal force among the rows of that end, in its
+    /// `friction_force_n` (along the row's tangent axes) and `force_on_geom2_n`; the rows of a
+    /// link then add up to the link's recorded floor force. (The friction of a step was computed
+    /// from the previous evaluation's contacts: at an end that has just lost its contact the
+    /// friction still acts for this step and no row carries it; the link's columns do.)
     pub fn fill_snapshot(&self, s: &mut Snapshot) {
         s.link_region.copy_from_slice(&self.region_now);
-        if let Some(st) = &self.stick_slip {
-            for (i, (f, t)) in st.force_n.iter().zip(&st.torque_nm).enumerate() {
-                for k in 0..3 {
-                    s.link_floor_force_n[i][k] += f[k];
-                    s.link_contact_force_n[i][k] += f[k];
-                    s.link_floor_torque_nm[i][k] += t[k];
-                    s.link_contact_torque_nm[i][k] += t[k];
-                }
+        let Some(st) = &self.stick_slip else { return };
+        for (i, (f, t)) in st.force_n.iter().zip(&st.torque_nm).enumerate() {
+            for k in 0..3 {
+                s.link_floor_force_n[i][k] += f[k];
+                s.link_contact_force_n[i][k] += f[k];
+                s.link_floor_torque_nm[i][k] += t[k];
+                s.link_contact_torque_nm[i][k] += t[k];
             }
+        }
+        // The link, its end (slot) and the sign of the force on geom 2 of a link–ground row.
+        let link_end = |c: &ContactRow| -> Option<(usize, usize, f64)> {
+            let (g1, g2) = (c.geom[0], c.geom[1]);
+            let of = |g: usize| st.link_of_geom.get(g).copied().flatten();
+            let ground = |g: usize| st.ground_geom.get(g).copied().unwrap_or(false);
+            let (link, sign) = match (of(g1), of(g2)) {
+                (Some(l), None) if ground(g2) => (l, -1.0),
+                (None, Some(l)) if ground(g1) => (l, 1.0),
+                _ => return None,
+            };
+            let com = s.link_position_m[link];
+            let axis = quat_x_axis(s.link_quat[link]);
+            let along = dot(sub(c.position_m, com), axis);
+            Some((link, usize::from(along < 0.0), sign))
+        };
+        for r in 0..s.contacts.len() {
+            let Some((link, slot, sign)) = link_end(&s.contacts[r]) else { continue };
+            let n_row = s.contacts[r].normal_force_n;
+            if n_row <= 0.0 {
+                continue;
+            }
+            // Σ N over the rows of this link end (a handful of rows: no scratch needed).
+            let n_end: f64 = s
+                .contacts
+                .iter()
+                .filter(|c| c.normal_force_n > 0.0 && link_end(c).is_some_and(|(l, e, _)| l == link && e == slot))
+                .map(|c| c.normal_force_n)
+                .sum();
+            let f_on_geom2 = st.slot_force_n[link][slot].map(|x| sign * x * n_row / n_end);
+            let axis = quat_x_axis(s.link_quat[link]);
+            let row = &mut s.contacts[r];
+            // Tangent axes: the link's axis in the contact plane, and normal × that (MuJoCo's
+            // frame of a capsule–plane contact, whose first tangent follows the capsule axis).
+            let t1 = normalized(tangential(axis, row.normal)).unwrap_or_else(|| any_perpendicular(row.normal));
+            let t2 = cross(row.normal, t1);
+            row.friction_force_n = [dot(f_on_geom2, t1), dot(f_on_geom2, t2)];
+            row.force_on_geom2_n = add(row.force_on_geom2_n, f_on_geom2);
         }
     }
 
@@ -390,6 +439,7 @@ impl Ground {
             for slot in 0..SLOTS {
                 let n_force = st.normal_n[i][slot];
                 let z = &mut st.deflection_m[i][slot];
+                st.slot_force_n[i][slot] = [0.0; 3];
                 if n_force <= 0.0 {
                     *z = [0.0; 3];
                     continue;
@@ -417,6 +467,7 @@ impl Ground {
                 } else if k > 0.0 {
                     *z = f_world.map(|x| -x / k); // slides: the anchor is dragged along
                 }
+                st.slot_force_n[i][slot] = f_world;
                 force = add(force, f_world);
                 torque = add(torque, cross(r, f_world));
             }
@@ -483,6 +534,11 @@ fn tangential(v: [f64; 3], n: [f64; 3]) -> [f64; 3] {
 fn normalized(v: [f64; 3]) -> Option<[f64; 3]> {
     let len = dot(v, v).sqrt();
     (len > 1e-9).then(|| v.map(|x| x / len))
+}
+/// The x axis (first column of the rotation matrix) of the unit quaternion (w, x, y, z).
+fn quat_x_axis(q: [f64; 4]) -> [f64; 3] {
+    let [w, x, y, z] = q;
+    [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)]
 }
 /// A unit vector perpendicular to the unit vector `n`.
 fn any_perpendicular(n: [f64; 3]) -> [f64; 3] {

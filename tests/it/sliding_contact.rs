@@ -5,7 +5,7 @@
 //! the largest floor normal force of one link over its weight, and the recorded floor impulse
 //! (Σ vertical floor force · dt) over the weight's impulse. Run with `--nocapture` to see them.
 
-use simserpent::config::{Config, FloorFriction, GaitKind, GroundModel, TerrainKind};
+use simserpent::config::{AutoSecs, Config, FloorFriction, GaitKind, GroundModel, StickTimeConstant, TerrainKind};
 use simserpent::sim::{Simulation, Snapshot, World};
 
 use crate::common::G;
@@ -273,9 +273,16 @@ fn on_a_20_degree_slope_mu_0_2_slides_with_g_sin_minus_mu_cos() {
 fn isotropic_drift_percent(friction: FloorFriction, contact_time_constant_secs: f64) -> f64 {
     let mut c = default_job(friction);
     c.terrain.kind = TerrainKind::None;
+    c.physics.environment_contact_time_constant_secs = AutoSecs::Secs(contact_time_constant_secs);
+    // Critically damped, as the old default was, so that only the stiffness changes.
+    c.physics.environment_contact_damping_ratio = 1.0;
+    drift_percent(c)
+}
+
+/// The same for `c` with isotropic friction 0.5.
+fn drift_percent(mut c: Config) -> f64 {
     c.ground.model = GroundModel::Isotropic;
     c.snake.ground_friction = [0.5, 0.0, 0.0];
-    c.physics.contact_time_constant_secs = contact_time_constant_secs;
     let period = 1.0 / c.gait.sine_wave.frequency_hz;
     let body_m = c.snake.n_links as f64 * c.snake.link_length_m;
     let mut sim = simulation(&c);
@@ -295,7 +302,12 @@ fn isotropic_drift_is_small_and_does_not_depend_on_contact_softness() {
     let mujoco = isotropic_drift_percent(FloorFriction::Mujoco, 0.02);
     let d: Vec<f64> =
         [0.02, 0.01, 0.005].iter().map(|&t| isotropic_drift_percent(FloorFriction::StickSlip, t)).collect();
-    eprintln!("drift %/cycle: mujoco (20 ms) {mujoco}; stick_slip 20 / 10 / 5 ms: {d:?}");
+    // The default contact settings (2 ms, 0.5).
+    let mut c = default_job(FloorFriction::StickSlip);
+    c.terrain.kind = TerrainKind::None;
+    let default = drift_percent(c);
+    eprintln!("drift %/cycle: mujoco (20 ms) {mujoco}; stick_slip 20 / 10 / 5 ms: {d:?}; default settings {default}");
+    assert!(default < 2.0, "drift {default} % of the body length per cycle with the default settings");
     assert!(d[0] < 2.0, "drift {} % of the body length per cycle", d[0]);
     let (lo, hi) = d.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| (l.min(x), h.max(x)));
     // "Within ±0.5 % of each other", read strictly: no two differ by more than 0.5 % points.
@@ -318,19 +330,37 @@ fn floor_friction_keys_are_checked_with_their_key_paths() {
         ConfigError::InvalidValue { key, .. } => key,
         other => panic!("{other}"),
     };
-    assert_eq!(load(&[]).unwrap().physics.floor_friction, FloorFriction::Mujoco);
-    let c = load(&["physics.floor_friction=\"stick_slip\""]).unwrap();
-    assert_eq!(c.physics.floor_friction, FloorFriction::StickSlip);
-    let short = ["physics.floor_friction=\"stick_slip\"", "physics.floor_stick_time_constant_secs=0.002"];
-    assert_eq!(key_of(load(&short).unwrap_err()), "physics.floor_stick_time_constant_secs");
-    // The 3-timestep rule applies only where the law is in use.
-    assert!(load(&["physics.floor_stick_time_constant_secs=0.002"]).is_ok());
-    assert_eq!(
-        key_of(load(&["physics.floor_stick_time_constant_secs=-1"]).unwrap_err()),
-        "physics.floor_stick_time_constant_secs"
-    );
-    let torsional = ["physics.floor_friction=\"stick_slip\"", "snake.ground_friction=[0.5, 0.01, 0.0]"];
-    assert_eq!(key_of(load(&torsional).unwrap_err()), "snake.ground_friction");
+    // The default: SimSerpent's floor friction with the stick time constant "auto".
+    let d = load(&[]).unwrap();
+    assert_eq!(d.physics.floor_friction, FloorFriction::StickSlip);
+    assert_eq!(d.physics.floor_stick_time_constant_secs, StickTimeConstant::Auto);
+    // "auto" = max(5 ms, 5 timesteps): 5 ms at 1 ms steps, 50 ms at 10 ms (no error there).
+    assert_eq!(d.floor_stick_time_constant_secs(), 0.005);
+    let coarse = load(&["general.timestep_secs=0.01", "physics.contact_time_constant_secs=0.02"]).unwrap();
+    assert!((coarse.floor_stick_time_constant_secs() - 0.05).abs() < 1e-15);
+    assert_eq!(load(&["general.timestep_secs=0.0002"]).unwrap().floor_stick_time_constant_secs(), 0.005);
+    // An explicit value (integers too) is used as given, and must be at least 5 timesteps.
+    let explicit = load(&["physics.floor_stick_time_constant_secs=0.008"]).unwrap();
+    assert_eq!(explicit.floor_stick_time_constant_secs(), 0.008);
+    assert_eq!(load(&["physics.floor_stick_time_constant_secs=1"]).unwrap().floor_stick_time_constant_secs(), 1.0);
+    let short = load(&["physics.floor_stick_time_constant_secs=0.002"]).unwrap_err();
+    let text = short.to_string();
+    assert_eq!(key_of(short), "physics.floor_stick_time_constant_secs");
+    assert!(text.contains("0.002") && text.contains("auto") && text.contains("0.005"), "{text}");
+    let coarse = ["general.timestep_secs=0.01", "physics.contact_time_constant_secs=0.02"];
+    let e = load(&[&coarse[..], &["physics.floor_stick_time_constant_secs=0.04"]].concat()).unwrap_err();
+    assert_eq!(key_of(e), "physics.floor_stick_time_constant_secs");
+    // The 5-timestep rule applies only where the law is in use.
+    assert!(load(&["physics.floor_friction=\"mujoco\"", "physics.floor_stick_time_constant_secs=0.002"]).is_ok());
+    assert!(load(&["ground.model=\"viscous\"", "physics.floor_stick_time_constant_secs=0.002"]).is_ok());
+    for bad in ["-1", "0", "\"fast\"", "true", "nan"] {
+        let e = load(&[&format!("physics.floor_stick_time_constant_secs={bad}")]).unwrap_err();
+        let text = e.to_string();
+        assert_eq!(key_of(e), "physics.floor_stick_time_constant_secs", "{bad}");
+        assert!(text.contains("auto"), "{bad}: {text}");
+    }
+    assert_eq!(key_of(load(&["snake.ground_friction=[0.5, 0.01, 0.0]"]).unwrap_err()), "snake.ground_friction");
+    assert!(load(&["physics.floor_friction=\"mujoco\"", "snake.ground_friction=[0.5, 0.01, 0.0]"]).is_ok());
     assert!(load(&["physics.floor_friction=\"sticky\""]).unwrap_err().to_string().contains("floor_friction"));
 }
 

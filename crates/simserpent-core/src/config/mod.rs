@@ -15,6 +15,7 @@ mod load;
 pub mod surfaces;
 mod validate;
 
+pub use floor::{AutoSecs, StickTimeConstant};
 pub use load::{ConfigSource, load_config, load_config_str, parse_override};
 pub use surfaces::{ExplicitFriction, FrictionSource, PRESETS, Preset, Surface, SurfaceFriction, SurfaceShape};
 
@@ -215,8 +216,15 @@ pub struct Physics {
     /// Who computes the friction between links and the floor (and ground-like terrain).
     pub floor_friction: FloorFriction,
     /// `"stick_slip"` only: time constant of the stick spring–damper that holds a link's contact
-    /// point at rest (s; critically damped). Its presliding displacement is μ·g·τ².
-    pub floor_stick_time_constant_secs: f64,
+    /// point at rest (s; critically damped), or `"auto"`: max(5 ms, 5 timesteps) (see
+    /// [`Config::floor_stick_time_constant_secs`]). Its presliding displacement is μ·g·τ².
+    pub floor_stick_time_constant_secs: StickTimeConstant,
+    /// Link–obstacle and link–ground contacts (floor, obstacles, terrain features): MuJoCo solref
+    /// time constant (s), or `"auto"`: max(2 ms, 2 timesteps) (see
+    /// [`Config::environment_contact_time_constant_secs`]).
+    pub environment_contact_time_constant_secs: AutoSecs,
+    /// Their damping ratio (MuJoCo solref; 1 = critically damped).
+    pub environment_contact_damping_ratio: f64,
 }
 
 /// The friction law between links and ground (`physics.floor_friction`).

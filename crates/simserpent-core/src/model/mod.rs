@@ -7,7 +7,10 @@
 //! - All lengths SI, `<compiler angle="radian" autolimits="true"/>`.
 //! - `<option>`: `general.timestep_secs`, `general.integrator`, `general.gravity_m_per_s2`,
 //!   `physics.friction_cone`, `physics.solver_iterations`. Default geom
-//!   `solref = "contact_time_constant_secs contact_damping_ratio"`.
+//!   `solref = "contact_time_constant_secs contact_damping_ratio"` (link–link contacts); floor,
+//!   obstacles, terrain and the link–floor pairs get `solref = "τ_env
+//!   environment_contact_damping_ratio"` (τ_env = `environment_contact_time_constant_secs`,
+//!   `"auto"` = max(2 ms, 2 timesteps)), which their priority makes the contact's.
 //! - Snake frame: the head's front tip at the origin, the body along −x, z up (the snake faces +x).
 //!   Body `link_00` is placed at `head_position_m + (0, 0, link_radius_m)` with
 //!   `euler = head_rotation_deg` (radians, `eulerseq="xyz"`: intrinsic x, then y, then z) and has
@@ -255,6 +258,8 @@ fn sanity(cfg: &Config) -> Result<(), ConfigError> {
         ("general.gravity_m_per_s2", &cfg.general.gravity_m_per_s2),
         ("physics.contact_time_constant_secs", &[cfg.physics.contact_time_constant_secs]),
         ("physics.contact_damping_ratio", &[cfg.physics.contact_damping_ratio]),
+        ("physics.environment_contact_time_constant_secs", &[cfg.environment_contact_time_constant_secs()]),
+        ("physics.environment_contact_damping_ratio", &[cfg.physics.environment_contact_damping_ratio]),
         ("snake.link_mass_kg", &[s.link_mass_kg]),
         ("snake.joint_range_deg", &[s.joint_range_deg]),
         ("snake.joint_damping_nm_s_per_rad", &[s.joint_damping_nm_s_per_rad]),
@@ -464,14 +469,18 @@ fn write_xml(
         Nums(&cfg.general.gravity_m_per_s2),
         cfg.physics.solver_iterations,
     )?;
-    // With a user's robot its own defaults stay in force; floor and obstacles get the solref directly.
-    let env_solref = match body {
-        Body::Snake(_) => {
-            writeln!(p.header, "  <default>\n    <geom solref=\"{solref}\"/>\n  </default>")?;
-            String::new()
-        }
-        Body::Include(_) => format!(" solref=\"{solref}\""),
-    };
+    // With a user's robot its own defaults stay in force. Floor, obstacles and terrain get the
+    // environment contact solref directly (their priority 1 makes it the contact's: MuJoCo takes
+    // solref and solimp from the geom of higher priority).
+    if matches!(body, Body::Snake(_)) {
+        writeln!(p.header, "  <default>\n    <geom solref=\"{solref}\"/>\n  </default>")?;
+    }
+    let env_solref_value = format!(
+        "{} {}",
+        n(cfg.environment_contact_time_constant_secs()),
+        n(cfg.physics.environment_contact_damping_ratio)
+    );
+    let env_solref = format!(" solref=\"{env_solref_value}\"");
     p.scene_assets.push_str(concat!(
         "    <texture name=\"skybox\" type=\"skybox\" builtin=\"gradient\" rgb1=\"1 1 1\" rgb2=\"0 0 0\" width=\"100\" height=\"100\"/>\n",
         "    <texture name=\"texplane\" type=\"2d\" builtin=\"checker\" rgb1=\"0 0 0\" rgb2=\"0.8 0.8 0.8\" width=\"100\" height=\"100\"/>\n",
@@ -563,7 +572,7 @@ fn write_xml(
             for i in 0..cfg.snake.n_links {
                 writeln!(
                     p.pairs,
-                    "    <pair name=\"{}\" geom1=\"{}\" geom2=\"{}\" condim=\"{condim}\" friction=\"{}\" solref=\"{solref}\"/>",
+                    "    <pair name=\"{}\" geom1=\"{}\" geom2=\"{}\" condim=\"{condim}\" friction=\"{}\" solref=\"{env_solref_value}\"/>",
                     names::ground_pair(i),
                     names::FLOOR,
                     names::link_geom(i),
