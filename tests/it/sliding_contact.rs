@@ -421,3 +421,148 @@ fn floor_surfaces_give_their_coefficients_to_stick_slip_friction() {
     assert!((scaled - 0.05).abs() < 1e-3, "anisotropic axial on a 0.25 surface {scaled}");
     assert!((backward - 0.15).abs() < 1e-3, "directional backward on a 0.25 surface {backward}");
 }
+
+// --- link–obstacle (peg) contacts ----------------------------------------------------------------
+
+/// Peg-contact figures of the default job (cylinder path) over a run segment, every link-step.
+#[derive(Debug, Clone, Copy)]
+#[allow(dead_code)] // a probe's figures, printed with Debug
+struct PegContacts {
+    /// Link-steps with an obstacle normal force.
+    contact_link_steps: usize,
+    /// Link-steps without obstacle force that lie in a gap of at most 3 steps between two steps
+    /// with it (the contact opens and closes again at once: a hop).
+    flicker_link_steps: usize,
+    /// Contact episodes (runs of steps with force, per link), after merging gaps of ≤ 3 steps.
+    episodes: usize,
+    /// Largest obstacle force of one link (N) and the median of the nonzero ones.
+    peak_n: f64,
+    median_n: f64,
+    /// Mean forward speed of the centre of mass over the segment (m/s).
+    speed_m_per_s: f64,
+}
+
+fn measure_pegs(c: &Config, settle_secs: f64, secs: f64) -> PegContacts {
+    let mut sim = simulation(c);
+    let dt = c.general.timestep_secs;
+    let n = c.snake.n_links;
+    run_for(&mut sim, settle_secs);
+    let steps = (secs / dt).round() as usize;
+    let mut s = Snapshot::new(n, n - 1);
+    let mut on = vec![vec![false; steps]; n];
+    let mut trace = vec![vec![0.0f64; steps]; n];
+    let mut forces = Vec::new();
+    let mut x0 = None;
+    for k in 0..steps {
+        sim.control();
+        sim.snapshot(&mut s);
+        for i in 0..n {
+            let f = s.link_obstacle_force_n[i];
+            let m = (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt();
+            trace[i][k] = m;
+            if m > 1e-9 {
+                on[i][k] = true;
+                forces.push(m);
+            }
+        }
+        x0.get_or_insert(s.centre_of_mass_m()[0]);
+        if k + 1 == steps {
+            let x1 = s.centre_of_mass_m()[0];
+            x0 = Some((x1 - x0.unwrap()) / ((steps - 1) as f64 * dt));
+        }
+        sim.advance().unwrap();
+    }
+    let (mut flicker, mut episodes) = (0, 0);
+    for link in &on {
+        let mut k = 0;
+        let mut last_on: Option<usize> = None;
+        while k < steps {
+            if link[k] {
+                match last_on {
+                    Some(l) if k - l - 1 <= 3 => flicker += k - l - 1,
+                    _ => episodes += 1,
+                }
+                last_on = Some(k);
+            }
+            k += 1;
+        }
+    }
+    if std::env::var_os("SIMSERPENT_PEG_TRACE").is_some() {
+        // The force history of the link and steps around the largest obstacle force.
+        let (mut best, mut at) = (0.0, (0, 0));
+        for (i, link) in trace.iter().enumerate() {
+            for (k, &f) in link.iter().enumerate() {
+                if f > best {
+                    best = f;
+                    at = (i, k);
+                }
+            }
+        }
+        let (i, k) = at;
+        let window: Vec<String> =
+            trace[i][k.saturating_sub(8)..(k + 8).min(steps)].iter().map(|f| format!("{f:.1}")).collect();
+        eprintln!("peak {best:.1} N at link {i}, step {k}: {}", window.join(" "));
+    }
+    forces.sort_by(f64::total_cmp);
+    PegContacts {
+        contact_link_steps: forces.len(),
+        flicker_link_steps: flicker,
+        episodes,
+        peak_n: forces.last().copied().unwrap_or(0.0),
+        median_n: forces.get(forces.len() / 2).copied().unwrap_or(0.0),
+        speed_m_per_s: x0.unwrap_or(0.0),
+    }
+}
+
+#[test]
+#[ignore = "probe: link-peg contacts of the default job (run with --ignored --nocapture)"]
+fn measure_peg_contacts() {
+    let base = Config::default();
+    let mut frictionless = base.clone();
+    frictionless.terrain.obstacle_friction = [0.0; 3];
+    let mut old_contacts = base.clone();
+    old_contacts.physics.environment_contact_time_constant_secs = AutoSecs::Secs(0.02);
+    old_contacts.physics.environment_contact_damping_ratio = 1.0;
+    for (label, c) in [("default", &base), ("frictionless pegs", &frictionless), ("contacts (20 ms, 1)", &old_contacts)]
+    {
+        let p = measure_pegs(c, 2.0, 8.0);
+        eprintln!("{label}: {p:?}");
+    }
+}
+
+// --- contact rows --------------------------------------------------------------------------------
+
+#[test]
+fn contact_rows_carry_the_applied_friction() {
+    // The pushed link, sliding: each row's friction is its share of μ·N, and the rows add up to
+    // the link's recorded floor force (normal and friction).
+    let c = pushed_link(FloorFriction::StickSlip);
+    let mut sim = simulation(&c);
+    run_for(&mut sim, 0.3);
+    let mut s = Snapshot::new(1, 0);
+    for _ in 0..20 {
+        sim.control();
+        sim.snapshot(&mut s);
+        let mut sum = [0.0; 3];
+        let mut rows = 0;
+        for row in &s.contacts {
+            // The sign that turns the force on geom 2 into the force on the link (body 0: the world).
+            let sign = if row.body[1] != 0 { 1.0 } else { -1.0 };
+            for k in 0..3 {
+                sum[k] += sign * row.force_on_geom2_n[k];
+            }
+            let friction = row.friction_force_n[0].hypot(row.friction_force_n[1]);
+            let mu_n = c.snake.ground_friction[0] * row.normal_force_n;
+            assert!((friction - mu_n).abs() <= 1e-6 * mu_n, "row friction {friction} N, μN {mu_n} N");
+            // Sliding along +x (the link's axis): friction along the first tangent, backward.
+            assert!(row.friction_force_n[0] * sign < 0.0 && row.friction_force_n[1].abs() < 1e-9 * friction);
+            rows += 1;
+        }
+        assert!(rows >= 1);
+        let f = s.link_floor_force_n[0];
+        for k in 0..3 {
+            assert!((sum[k] - f[k]).abs() <= 1e-9 * f[2], "rows {sum:?} vs link {f:?}");
+        }
+        sim.advance().unwrap();
+    }
+}

@@ -178,7 +178,7 @@ impl Config {
         self.validate_no_torsional_ground_friction()
     }
 
-    /// With `"stick_slip"` in use: no torsional or rolling ground friction.
+    /// With `"stick_slip"` in use: no torsional or rolling ground or obstacle friction.
     fn validate_no_torsional_ground_friction(&self) -> Result<(), ConfigError> {
         let g = &self.snake.ground_friction;
         if g[1] != 0.0 || g[2] != 0.0 {
@@ -187,6 +187,15 @@ impl Config {
                 super::validate::fmt_a(g),
                 "torsional and rolling coefficients must be 0 with physics.floor_friction = \"stick_slip\" \
                  (SimSerpent's floor friction has only sliding friction)",
+            ));
+        }
+        let o = &self.terrain.obstacle_friction;
+        if o[1] != 0.0 || o[2] != 0.0 {
+            return Err(ConfigError::invalid(
+                "terrain.obstacle_friction",
+                super::validate::fmt_a(o),
+                "torsional and rolling coefficients must be 0 with physics.floor_friction = \"stick_slip\" \
+                 (SimSerpent applies the link-obstacle friction too, and it has only sliding friction)",
             ));
         }
         Ok(())

@@ -547,7 +547,18 @@ fn write_xml(
         surfaces::write_tiles(&mut p.terrain_geoms, cfg)?;
     }
     let kind_cylinders = obstacles.len() - feats.pegs.len();
-    let obstacle_attrs = env_attrs(cfg.terrain.obstacle_friction);
+    // With SimSerpent's own friction the link-obstacle contacts are frictionless too (condim 1;
+    // `sim::ground` applies their friction, `terrain.obstacle_friction[0]`).
+    let obstacle_attrs = if own_friction {
+        format!(
+            "contype=\"{}\" conaffinity=\"{}\" priority=\"1\" friction=\"{}\" condim=\"1\"{env_solref}",
+            snake::ENV_CONTYPE,
+            snake::ENV_CONAFFINITY,
+            Nums(&cfg.terrain.obstacle_friction)
+        )
+    } else {
+        env_attrs(cfg.terrain.obstacle_friction)
+    };
     for c in &obstacles[..kind_cylinders] {
         features::write_cylinder(&mut p.terrain_geoms, c, &obstacle_attrs)?;
     }
