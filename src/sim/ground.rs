@@ -476,9 +476,9 @@ impl Ground {
                     continue;
                 }
                 let (g1, g2) = (g1 as usize, g2 as usize);
-                // The link side and the sign that turns MuJoCo's normal (geom1 → geom2) into the
-                // normal pointing from the ground into the link.
                 let n = d.contact_force(c)[0];
+                // The link side and the sign that turns MuJoCo's normal (geom1 → geom2) into the
+                // normal pointing from the obstacle or ground into the link.
                 // Link–obstacle contacts: one slot per obstacle geom.
                 let obstacle = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
                     (Some(l), None) if st.obstacle_geom[g2] => Some((l, g2, -1.0)),
