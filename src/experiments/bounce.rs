@@ -99,8 +99,11 @@ pub fn ball_config(base: &Config, contact: Contact, duration_secs: f64) -> Confi
     c.general.duration_secs = duration_secs;
     match contact {
         Contact::Standard(tc, dr) => {
+            // The ball–floor contact takes the floor's (environment) solref; link–link alike.
             c.physics.contact_time_constant_secs = tc;
             c.physics.contact_damping_ratio = dr;
+            c.physics.environment_contact_time_constant_secs = crate::config::AutoSecs::Secs(tc);
+            c.physics.environment_contact_damping_ratio = dr;
             c.physics.contact_stiffness_per_s2 = 0.0;
             c.physics.contact_damping_per_s = 0.0;
         }
@@ -267,6 +270,7 @@ fn sweep(quick: bool) -> Vec<Contact> {
         vec![Contact::Standard(0.02, 1.0), Contact::Standard(0.1, 0.05), Contact::Direct(1.0e5, 0.0)]
     } else {
         vec![
+            Contact::Standard(0.002, 0.5),
             Contact::Standard(0.02, 1.0),
             Contact::Standard(0.02, 0.5),
             Contact::Standard(0.02, 0.2),
@@ -301,8 +305,9 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
              link), its centre {DROP_HEIGHT_M} m \
              above the floor, falls under gravity −{GRAVITY_M_PER_S2} m/s² with a {} ms step ({integrator}), no friction. \
              Table 1 asks for restitution 1. MuJoCo has no restitution coefficient: a contact is a soft spring–damper \
-             constraint (solref), and SimSerpent's default contact (time constant 0.02 s, damping ratio 1, critically \
-             damped so that a crawling snake does not bounce) **does not bounce back: see the sweep below**. The main \
+             constraint (solref); SimSerpent's default environment contact (time constant max(2 ms, 2 steps), damping \
+             ratio 0.5) and its earlier default (0.02 s, damping ratio 1, critically damped) **do not bounce back \
+             fully: see the sweep below**. The main \
              case uses the direct, undamped contact `physics.contact_stiffness_per_s2 = {ELASTIC_STIFFNESS_PER_S2:.0e}`, \
              `physics.contact_damping_per_s = 0` (solref = −{ELASTIC_STIFFNESS_PER_S2:.0e} 0). Table 1's speed limit of \
              {MAX_SPEED_M_PER_S} m/s was a setting of the engines tried there; MuJoCo has none, so it is checked as a \

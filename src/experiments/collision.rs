@@ -6,15 +6,17 @@
 //! no spikes (peak ≤ 3 × mean force over the impact), penetration ≤ 5 mm, and before the impact
 //! the floor carries the snake's weight.
 //!
-//! Contact settings (documented in the report): timestep 0.1 ms, RK4, contact time constant
-//! 2 ms with damping ratio 0.5 (MuJoCo solref), elliptic cone; joints held straight by stiff
-//! position servos (kp 1000 N·m/rad). The time constant bounds the penetration at 5 m/s to a few
-//! millimetres (measured 2.5–3.1 mm). A critically damped contact (ratio 1) starts with its
-//! largest force — the damping term b·v at first touch — giving peak/mean ≈ 3.2; at ratio 0.5
-//! the force rises and falls like a half sine (peak/mean ≈ 1.8), so no filtering is needed. The
-//! 0.1 ms step samples a 2.4 ms impact 24 times, so Σ F·dt matches the momentum change (at
-//! 0.5 ms the first partial step was missed: −15 %). The thesis' 10 ms step would force τ ≥ 20 ms (MuJoCo needs τ ≥ 2·dt)
-//! and ~40 mm of penetration.
+//! Contact settings (documented in the report): the defaults for the link–obstacle and link–floor
+//! contacts (`physics.environment_contact_*`: solref (2 ms, 0.5) at steps up to 1 ms), RK4,
+//! elliptic cone; joints held straight by stiff position servos (kp 1000 N·m/rad); timestep
+//! 0.1 ms. The time constant bounds the penetration at 5 m/s to a few millimetres (measured
+//! 2.5–3.1 mm). A critically damped contact (ratio 1) starts with its largest force — the damping
+//! term b·v at first touch — giving peak/mean ≈ 3.2; at ratio 0.5 the force rises and falls like a
+//! half sine (peak/mean ≈ 1.8), so no filtering is needed. The 0.1 ms step samples a 2.4 ms impact
+//! 24 times, so Σ F·dt of the recorded (instantaneous) forces matches the momentum change; at the
+//! default 1 ms step an impact of ≤ 5 mm at 5 m/s lasts 2–4 steps and Σ F·dt misses Δp by up to
+//! ±20 % depending on where the first touch falls between two steps (`tests/it/impacts.rs`). The
+//! thesis' 10 ms step would force τ ≥ 20 ms (MuJoCo needs τ ≥ 2·dt) and ~20 mm of penetration.
 
 use super::data::Table;
 use super::report::{Check, Section, sig};
@@ -26,8 +28,18 @@ use crate::model::names;
 pub const LAUNCH_SPEED_M_PER_S: f64 = 5.0;
 
 /// The configuration of one case (thesis table 6, converted: the thesis' 0.10 m link length was
-/// the capsule's half length).
+/// the capsule's half length), recorded every step at a 0.1 ms timestep.
 pub fn case_config(base: &Config, n_links: usize) -> Config {
+    let mut c = case_bodies(base, n_links);
+    c.general.timestep_secs = 0.0001;
+    c.general.duration_secs = 0.25;
+    c.recording.every_n_steps = 1;
+    c
+}
+
+/// The bodies of one case: the snake, the cylinders, no friction, stiff straight joints; timestep
+/// and contact settings stay those of `base`.
+pub fn case_bodies(base: &Config, n_links: usize) -> Config {
     let mut c = base.clone();
     c.snake.n_links = n_links;
     c.snake.link_mass_kg = 0.3;
@@ -49,11 +61,6 @@ pub fn case_config(base: &Config, n_links: usize) -> Config {
     c.control.position_kv_nm_s_per_rad = 5.0;
     c.snake.torque_range_nm = [-1000.0, 1000.0];
     c.general.integrator = crate::config::Integrator::RK4;
-    c.general.timestep_secs = 0.0001;
-    c.physics.contact_time_constant_secs = 0.002;
-    c.physics.contact_damping_ratio = 0.5;
-    c.general.duration_secs = 0.25;
-    c.recording.every_n_steps = 1;
     c
 }
 
@@ -175,9 +182,13 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
             "Snakes of 1 and 10 links (0.3 kg, 0.2 m, radius 0.08 m; the thesis' 0.10 m was the capsule's half \
              length) launched at {LAUNCH_SPEED_M_PER_S} m/s along x into the cylinder ahead and along y into the \
              cylinder beside the body's middle (radius 0.2 m, 0.3 m away), no friction anywhere, joints held \
-             straight by stiff position servos (kp 1000 N·m/rad). Contact settings: timestep 0.1 ms, RK4, solref = \
-             (2 ms, 0.5), elliptic cone; no filtering. Critical damping (ratio 1) made the force start at its \
-             maximum (b·v at first touch: peak/mean 3.2), and a 0.5 ms step missed 15 % of the impulse. Every step is recorded; the force is the cylinder's push on the snake along the \
+             straight by stiff position servos (kp 1000 N·m/rad). Contact settings: the defaults \
+             (physics.environment_contact_*: solref = (2 ms, 0.5) for link–obstacle and link–floor contacts), \
+             RK4, elliptic cone, timestep 0.1 ms; no filtering. Critical damping (ratio 1) made the force start at \
+             its maximum (b·v at first touch: peak/mean 3.2). The 0.1 ms step is for the impulse check: the \
+             recorded forces are instantaneous samples, and at the default 1 ms step an impact of ≤ 5 mm at 5 m/s \
+             lasts only 2–4 samples (Σ F·dt misses Δp by up to ±20 %, depending on where the first touch falls \
+             between steps; a 0.5 ms step missed 15 %). Every step is recorded; the force is the cylinder's push on the snake along the \
              launch axis, summed over its contacts."
         ),
         ..Section::default()

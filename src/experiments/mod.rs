@@ -14,6 +14,7 @@ mod locomotion;
 mod pictures;
 mod report;
 
+pub use collision::{LAUNCH_SPEED_M_PER_S, case_bodies as collision_case_bodies};
 pub use data::Table;
 pub use locomotion::averaged_viscous_speed;
 pub use report::{Check, Report, Section};

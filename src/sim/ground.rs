@@ -28,8 +28,8 @@
 //! friction); and the switch happens at step boundaries, so a link sliding at v crosses up to
 //! v·dt into a region with the old friction (0.5 mm at 0.5 m/s and 1 ms).
 //!
-//! **SimSerpent's floor friction** (`physics.floor_friction = "stick_slip"`, every ground model
-//! but viscous): the link–ground contacts are frictionless (condim 1, see `model`), and before
+//! **SimSerpent's floor friction** (`physics.floor_friction = "stick_slip"`, the default; every
+//! ground model but viscous): the link–ground contacts are frictionless (condim 1, see `model`), and before
 //! every step each link gets, at each end of its ground contact (slot 0: contact points ahead of
 //! its centre of mass along its axis, slot 1: behind; a capsule lying on a plane touches it at
 //! both caps), an elasto-plastic Coulomb force:
@@ -43,16 +43,25 @@
 //! - v, the velocity of the contact point at x_k (centre-of-mass velocity + ω × r), tangential.
 //! - An anchor on the ground per slot, with the deflection z of the contact point from it. The
 //!   trial force −k·(z + v·dt) − c·v (k = m·ω², c = 2·m·ω: critically damped with
-//!   ω = 1/`floor_stick_time_constant_secs`, m = N/g the mass the contact carries) is kept if it
+//!   ω = 1/`floor_stick_time_constant_secs` (`"auto"`: max(5 ms, 5 timesteps)), m = N/g the
+//!   mass the contact carries) is kept if it
 //!   lies inside the friction ellipse (F_axial/(μ_axial·N))² + (F_lateral/(μ_lateral·N))² ≤ 1
 //!   (stick: z grows by v·dt), else replaced by its nearest point on the ellipse (slide: the
 //!   anchor is dragged, z = −F/k). In steady sliding that is μ·N against the sliding direction
 //!   (maximum dissipation on the ellipse), while sticking it is whatever holds the link, with no
 //!   creep. μ_axial is `axial_friction` for a force toward the tail and `backward_friction`
 //!   (directional) toward the head; the coefficients come from the region under the link.
+//! - **Obstacle contacts** (`obstacle_*` geoms: cylinders, pegs, walls, mesh obstacles) are
+//!   frictionless in MuJoCo too and get the same law, one slot per link and touching obstacle
+//!   geom (at most 4 per link), isotropic with `terrain.obstacle_friction[0]`, the link's axis as
+//!   the first tangent, and a stick spring–damper scaled by min(N/g, half the link's mass) (see
+//!   [`ObstacleSlot`]). Why: a link sliding along a wall or peg with MuJoCo's friction hops off it
+//!   exactly as off the floor (measured with a capsule pressed against a wall by 2 N and pushed
+//!   along it: no contact on 86 % of the steps and peaks of 22 × the push at solref (20 ms, 1),
+//!   99 % and 148 × at (2 ms, 0.5); frictionless: contact on every step, the push to 10⁻⁴).
 //! - The sum of the slots' forces and their moments about the centre of mass goes into
 //!   `xfrc_applied`, held over the step; [`Ground::fill_snapshot`] adds it to the recorded
-//!   floor forces.
+//!   floor forces and shares each slot's force among its contact rows.
 //!
 //! Velocities are those of the state at the start of the step: kinematics and centre-of-mass
 //! velocities are recomputed first (`mj_kinematics`, `mj_comPos`, `mj_comVel`), because after
@@ -61,7 +70,7 @@
 use super::World;
 use crate::config::{Config, FloorFriction, GroundModel};
 use crate::model::{SurfaceMap, names};
-use crate::state::{GeomClass, Snapshot};
+use crate::state::{ContactRow, GeomClass, Snapshot};
 use mujoco_rs::prelude::MjtObjBase;
 
 /// Below this axial speed (m/s) a link counts as not sliding (directional model).
@@ -242,6 +251,19 @@ struct StickSlip {
     link_of_geom: Vec<Option<usize>>,
     /// Whether each geom carries the snake like the floor (floor, slope, heightfield, mesh terrain).
     ground_geom: Vec<bool>,
+    /// Whether each geom is an obstacle (`obstacle_*`: cylinders, pegs, walls, mesh obstacles).
+    obstacle_geom: Vec<bool>,
+    /// Link–obstacle friction coefficient (`terrain.obstacle_friction[0]`, isotropic).
+    obstacle_mu: f64,
+    /// Half of each link's mass (kg): the largest mass an obstacle contact's stick spring–damper
+    /// is scaled for (see [`ObstacleSlot`]).
+    half_link_mass_kg: Vec<f64>,
+    /// Obstacle contacts per link, one slot per touching obstacle geom.
+    obstacle_slots: Vec<[ObstacleSlot; OBSTACLE_SLOTS]>,
+    /// Friction force (N) and moment (N·m) of the obstacle contacts per link (world frame; part
+    /// of `force_n`/`torque_nm`).
+    obstacle_force_n: Vec<[f64; 3]>,
+    obstacle_torque_nm: Vec<[f64; 3]>,
     /// Stick spring–damper per unit of supported mass: ω² (1/s²) and 2ω (1/s), ω = 1/τ.
     omega_sq_per_s2: f64,
     two_omega_per_s: f64,
@@ -258,18 +280,63 @@ struct StickSlip {
     /// Friction force (N) and its moment about the centre of mass (N·m) applied to each link in
     /// the latest prepared step (world frame).
     force_n: Vec<[f64; 3]>,
+    /// The same force per link and slot (N, world frame): what the contact rows of a snapshot
+    /// carry as their friction.
+    slot_force_n: Vec<[[f64; 3]; SLOTS]>,
     torque_nm: Vec<[f64; 3]>,
+}
+
+/// Obstacle slots per link: a link touching more obstacle geoms at once than this gets no
+/// friction from the extra ones (their normal force still acts).
+const OBSTACLE_SLOTS: usize = 4;
+
+/// One link's contact with one obstacle geom: the same elasto-plastic law as a ground slot, with
+/// the isotropic coefficient `terrain.obstacle_friction[0]`. The stick spring–damper is scaled by
+/// the mass m = min(N/g, half the link's mass) (a ground slot: m = N/g, the mass it carries; a
+/// link pressed hard against a peg would otherwise get a damper too stiff for a force held over
+/// the step), so its presliding displacement is μ·g·τ² at small loads and grows at large ones.
+#[derive(Debug, Clone, Copy)]
+struct ObstacleSlot {
+    /// The obstacle geom, or `usize::MAX` when the slot is free.
+    geom: usize,
+    /// Whether a contact with `geom` was seen in the latest evaluation.
+    seen: bool,
+    normal_n: f64,
+    point_weighted: [f64; 3],
+    normal_weighted: [f64; 3],
+    deflection_m: [f64; 3],
+    /// The friction force applied in the latest prepared step (N, world frame).
+    force_n: [f64; 3],
+}
+
+impl ObstacleSlot {
+    const FREE: Self = Self {
+        geom: usize::MAX,
+        seen: false,
+        normal_n: 0.0,
+        point_weighted: [0.0; 3],
+        normal_weighted: [0.0; 3],
+        deflection_m: [0.0; 3],
+        force_n: [0.0; 3],
+    };
 }
 
 impl StickSlip {
     fn new(config: &Config, world: &World) -> Self {
         let n = world.n_links();
-        let omega = 1.0 / config.physics.floor_stick_time_constant_secs;
+        let body_mass = world.model().body_mass();
+        let omega = 1.0 / config.floor_stick_time_constant_secs();
         let g = config.general.gravity_m_per_s2;
         let g_abs = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
         Self {
             link_of_geom: world.index.geom_link.clone(),
             ground_geom: world.index.geom_class.iter().map(|c| *c == GeomClass::Floor).collect(),
+            obstacle_geom: world.index.geom_class.iter().map(|c| *c == GeomClass::Obstacle).collect(),
+            obstacle_mu: config.terrain.obstacle_friction[0],
+            half_link_mass_kg: world.index.links.iter().map(|l| 0.5 * body_mass[l.body]).collect(),
+            obstacle_slots: vec![[ObstacleSlot::FREE; OBSTACLE_SLOTS]; n],
+            obstacle_force_n: vec![[0.0; 3]; n],
+            obstacle_torque_nm: vec![[0.0; 3]; n],
             omega_sq_per_s2: omega * omega,
             two_omega_per_s: 2.0 * omega,
             gravity_m_per_s2: if g_abs > 0.1 { g_abs } else { 9.81 },
@@ -279,6 +346,7 @@ impl StickSlip {
             normal_weighted: vec![[[0.0; 3]; SLOTS]; n],
             deflection_m: vec![[[0.0; 3]; SLOTS]; n],
             force_n: vec![[0.0; 3]; n],
+            slot_force_n: vec![[[0.0; 3]; SLOTS]; n],
             torque_nm: vec![[0.0; 3]; n],
         }
     }
@@ -298,19 +366,85 @@ impl Ground {
 
     /// Fills what the ground model adds to a snapshot read after [`Ground::before_step`]: the
     /// region under each link, and with `physics.floor_friction = "stick_slip"` the friction
-    /// force it applies, added to each link's floor and total contact force and torque (MuJoCo's
-    /// contacts carry only the normal force then; the per-contact rows keep friction 0).
+    /// force it applies, added to each link's floor (ground slots), obstacle (obstacle slots) and
+    /// total contact force and torque (MuJoCo's contacts carry only the normal force then), and
+    /// to the contact rows.
+    ///
+    /// Contact rows: each link–ground or link–obstacle row gets its share of the friction
+    /// applied at its slot (ground: its end of the link; obstacle: that obstacle geom), in
+    /// proportion to its normal force among the rows of that slot, in its `friction_force_n`
+    /// (along the link's axis in the contact plane and across it) and `force_on_geom2_n`; the
+    /// rows of a link then add up to the link's recorded floor and obstacle forces. (The friction
+    /// of a step was computed from the previous evaluation's contacts: at a slot that has just
+    /// lost its contact the friction still acts for this step and no row carries it; the link's
+    /// columns do.)
     pub fn fill_snapshot(&self, s: &mut Snapshot) {
         s.link_region.copy_from_slice(&self.region_now);
-        if let Some(st) = &self.stick_slip {
-            for (i, (f, t)) in st.force_n.iter().zip(&st.torque_nm).enumerate() {
-                for k in 0..3 {
-                    s.link_floor_force_n[i][k] += f[k];
-                    s.link_contact_force_n[i][k] += f[k];
-                    s.link_floor_torque_nm[i][k] += t[k];
-                    s.link_contact_torque_nm[i][k] += t[k];
-                }
+        let Some(st) = &self.stick_slip else { return };
+        for i in 0..st.force_n.len() {
+            let (fo, to) = (st.obstacle_force_n[i], st.obstacle_torque_nm[i]);
+            let (ff, tf) = (sub(st.force_n[i], fo), sub(st.torque_nm[i], to));
+            for k in 0..3 {
+                s.link_floor_force_n[i][k] += ff[k];
+                s.link_floor_torque_nm[i][k] += tf[k];
+                s.link_obstacle_force_n[i][k] += fo[k];
+                s.link_obstacle_torque_nm[i][k] += to[k];
+                s.link_contact_force_n[i][k] += ff[k] + fo[k];
+                s.link_contact_torque_nm[i][k] += tf[k] + to[k];
             }
+        }
+        // The link of a link–ground or link–obstacle row, which of its friction slots the row
+        // belongs to (ground: its end 0/1; obstacle: 2 + the obstacle geom id), and the sign of
+        // the force on geom 2.
+        let row_slot = |c: &ContactRow| -> Option<(usize, usize, f64)> {
+            let (g1, g2) = (c.geom[0], c.geom[1]);
+            let of = |g: usize| st.link_of_geom.get(g).copied().flatten();
+            let ground = |g: usize| st.ground_geom.get(g).copied().unwrap_or(false);
+            let obstacle = |g: usize| st.obstacle_geom.get(g).copied().unwrap_or(false);
+            let (link, other, sign) = match (of(g1), of(g2)) {
+                (Some(l), None) => (l, g2, -1.0),
+                (None, Some(l)) => (l, g1, 1.0),
+                _ => return None,
+            };
+            if obstacle(other) {
+                return Some((link, SLOTS + other, sign));
+            }
+            if !ground(other) {
+                return None;
+            }
+            let along = dot(sub(c.position_m, s.link_position_m[link]), quat_x_axis(s.link_quat[link]));
+            Some((link, usize::from(along < 0.0), sign))
+        };
+        for r in 0..s.contacts.len() {
+            let Some((link, slot, sign)) = row_slot(&s.contacts[r]) else { continue };
+            let n_row = s.contacts[r].normal_force_n;
+            if n_row <= 0.0 {
+                continue;
+            }
+            let applied = if slot < SLOTS {
+                st.slot_force_n[link][slot]
+            } else {
+                match st.obstacle_slots[link].iter().find(|o| o.geom == slot - SLOTS) {
+                    Some(o) => o.force_n,
+                    None => continue,
+                }
+            };
+            // Σ N over the rows of this slot (a handful of rows: no scratch needed).
+            let n_slot: f64 = s
+                .contacts
+                .iter()
+                .filter(|c| c.normal_force_n > 0.0 && row_slot(c).is_some_and(|(l, k, _)| l == link && k == slot))
+                .map(|c| c.normal_force_n)
+                .sum();
+            let f_on_geom2 = applied.map(|x| sign * x * n_row / n_slot);
+            let axis = quat_x_axis(s.link_quat[link]);
+            let row = &mut s.contacts[r];
+            // Tangent axes: the link's axis in the contact plane, and normal × that (MuJoCo's
+            // frame of a capsule–plane contact, whose first tangent follows the capsule axis).
+            let t1 = normalized(tangential(axis, row.normal)).unwrap_or_else(|| any_perpendicular(row.normal));
+            let t2 = cross(row.normal, t1);
+            row.friction_force_n = [dot(f_on_geom2, t1), dot(f_on_geom2, t2)];
+            row.force_on_geom2_n = add(row.force_on_geom2_n, f_on_geom2);
         }
     }
 
@@ -326,6 +460,12 @@ impl Ground {
         for v in st.point_weighted.iter_mut().chain(st.normal_weighted.iter_mut()) {
             *v = [[0.0; 3]; SLOTS];
         }
+        for slot in st.obstacle_slots.iter_mut().flatten() {
+            slot.seen = false;
+            slot.normal_n = 0.0;
+            slot.point_weighted = [0.0; 3];
+            slot.normal_weighted = [0.0; 3];
+        }
         {
             let d = &world.data;
             let xipos = d.xipos();
@@ -336,14 +476,43 @@ impl Ground {
                     continue;
                 }
                 let (g1, g2) = (g1 as usize, g2 as usize);
+                let n = d.contact_force(c)[0];
                 // The link side and the sign that turns MuJoCo's normal (geom1 → geom2) into the
-                // normal pointing from the ground into the link.
+                // normal pointing from the obstacle or ground into the link.
+                // Link–obstacle contacts: one slot per obstacle geom.
+                let obstacle = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
+                    (Some(l), None) if st.obstacle_geom[g2] => Some((l, g2, -1.0)),
+                    (None, Some(l)) if st.obstacle_geom[g1] => Some((l, g1, 1.0)),
+                    _ => None,
+                };
+                if let Some((link, geom, sign)) = obstacle {
+                    if n <= 0.0 {
+                        continue;
+                    }
+                    let slots = &mut st.obstacle_slots[link];
+                    let k = slots
+                        .iter()
+                        .position(|s| s.geom == geom)
+                        .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
+                        .or_else(|| slots.iter().position(|s| !s.seen));
+                    let Some(k) = k else { continue };
+                    let slot = &mut slots[k];
+                    if slot.geom != geom {
+                        *slot = ObstacleSlot { geom, ..ObstacleSlot::FREE };
+                    }
+                    slot.seen = true;
+                    slot.normal_n += n;
+                    for j in 0..3 {
+                        slot.point_weighted[j] += n * contact.pos[j];
+                        slot.normal_weighted[j] += n * sign * contact.frame[j];
+                    }
+                    continue;
+                }
                 let (link, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
                     (Some(l), None) if st.ground_geom[g2] => (l, -1.0),
                     (None, Some(l)) if st.ground_geom[g1] => (l, 1.0),
                     _ => continue,
                 };
-                let n = d.contact_force(c)[0];
                 if n <= 0.0 {
                     continue;
                 }
@@ -390,6 +559,7 @@ impl Ground {
             for slot in 0..SLOTS {
                 let n_force = st.normal_n[i][slot];
                 let z = &mut st.deflection_m[i][slot];
+                st.slot_force_n[i][slot] = [0.0; 3];
                 if n_force <= 0.0 {
                     *z = [0.0; 3];
                     continue;
@@ -417,9 +587,47 @@ impl Ground {
                 } else if k > 0.0 {
                     *z = f_world.map(|x| -x / k); // slides: the anchor is dragged along
                 }
+                st.slot_force_n[i][slot] = f_world;
                 force = add(force, f_world);
                 torque = add(torque, cross(r, f_world));
             }
+            // Obstacle contacts: the same law, isotropic, with the link's axis as the first tangent.
+            let (mut o_force, mut o_torque) = ([0.0; 3], [0.0; 3]);
+            let mu = st.obstacle_mu;
+            for slot in st.obstacle_slots[i].iter_mut() {
+                if !slot.seen {
+                    *slot = ObstacleSlot::FREE;
+                    continue;
+                }
+                let n_force = slot.normal_n;
+                let p = slot.point_weighted.map(|x| x / n_force);
+                let nrm = normalized(slot.normal_weighted).unwrap_or([0.0, 0.0, 1.0]);
+                let r = sub(p, com);
+                let v_t = tangential(add(v_com, cross(w, r)), nrm);
+                let z_pred = add(tangential(slot.deflection_m, nrm), v_t.map(|x| x * dt));
+                let mass = (n_force / st.gravity_m_per_s2).min(st.half_link_mass_kg[i]);
+                let (k, c) = (mass * st.omega_sq_per_s2, mass * st.two_omega_per_s);
+                let trial = [0, 1, 2].map(|j| -k * z_pred[j] - c * v_t[j]);
+                let limit = mu * n_force;
+                let size = dot(trial, trial).sqrt();
+                let f_world = if size <= limit {
+                    slot.deflection_m = z_pred; // sticks
+                    trial
+                } else {
+                    let f = trial.map(|x| x * limit / size);
+                    if k > 0.0 {
+                        slot.deflection_m = f.map(|x| -x / k); // slides
+                    }
+                    f
+                };
+                slot.force_n = f_world;
+                o_force = add(o_force, f_world);
+                o_torque = add(o_torque, cross(r, f_world));
+            }
+            st.obstacle_force_n[i] = o_force;
+            st.obstacle_torque_nm[i] = o_torque;
+            let force = add(force, o_force);
+            let torque = add(torque, o_torque);
             st.force_n[i] = force;
             st.torque_nm[i] = torque;
             let slot = &mut world.data.xfrc_applied_mut()[body];
@@ -483,6 +691,11 @@ fn tangential(v: [f64; 3], n: [f64; 3]) -> [f64; 3] {
 fn normalized(v: [f64; 3]) -> Option<[f64; 3]> {
     let len = dot(v, v).sqrt();
     (len > 1e-9).then(|| v.map(|x| x / len))
+}
+/// The x axis (first column of the rotation matrix) of the unit quaternion (w, x, y, z).
+fn quat_x_axis(q: [f64; 4]) -> [f64; 3] {
+    let [w, x, y, z] = q;
+    [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)]
 }
 /// A unit vector perpendicular to the unit vector `n`.
 fn any_perpendicular(n: [f64; 3]) -> [f64; 3] {

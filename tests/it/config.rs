@@ -109,8 +109,10 @@ contact_damping_ratio = 0.8
 contact_stiffness_per_s2 = 2000.0
 contact_damping_per_s = 3.0
 solver_iterations = 50
-floor_friction = "stick_slip"
+floor_friction = "mujoco"
 floor_stick_time_constant_secs = 0.01
+environment_contact_time_constant_secs = 0.004
+environment_contact_damping_ratio = 0.7
 
 [safety]
 max_kinetic_energy_j_per_kg = 250.0
@@ -134,7 +136,6 @@ joint_damping_nm_s_per_rad = 0.25
 joint_armature_kg_m2 = 0.02
 joint_axes = "alternating"
 torque_range_nm = [-2.0, 4.0]
-# torsional and rolling must be 0 with physics.floor_friction = "stick_slip"
 ground_friction = [0.6, 0.0, 0.0]
 link_friction = [0.3, 0.002, 0.0002]
 color_rgba = [1.0, 0.5, 0.25, 0.75]
@@ -409,8 +410,10 @@ fn all_fields_expected() -> Config {
     p.contact_stiffness_per_s2 = 2000.0;
     p.contact_damping_per_s = 3.0;
     p.solver_iterations = 50;
-    p.floor_friction = FloorFriction::StickSlip;
-    p.floor_stick_time_constant_secs = 0.01;
+    p.floor_friction = FloorFriction::Mujoco;
+    p.floor_stick_time_constant_secs = StickTimeConstant::Secs(0.01);
+    p.environment_contact_time_constant_secs = AutoSecs::Secs(0.004);
+    p.environment_contact_damping_ratio = 0.7;
 
     c.safety.max_kinetic_energy_j_per_kg = 250.0;
     c.safety.check_every_n_steps = 3;

@@ -2,7 +2,7 @@
 //! the experiment checks (the full ones: `simserpent experiment <name>`).
 
 use crate::common::one_link;
-use simserpent::config::{Config, ControlMethod, GaitKind, GroundModel, TerrainKind};
+use simserpent::config::{Config, ControlMethod, FloorFriction, GaitKind, GroundModel, TerrainKind};
 use simserpent::experiments::{Check, run_experiment};
 use simserpent::sim::{Simulation, Snapshot, World};
 
@@ -17,16 +17,21 @@ fn yawed_link(model: GroundModel) -> Config {
     c
 }
 
-/// Launches the link with `speed` along its axis (angle 0) or across it (angle 90°) and returns
-/// the simulation after `steps` steps.
+/// Settles the link on the floor for 0.3 s (it starts just touching the floor: its normal force
+/// rises to the weight over the first steps, and with `"stick_slip"` the friction of a step
+/// follows the previous step's normal force), then launches it with `speed` along its axis (angle
+/// 0) or across it (angle 90°).
 fn launch(config: &Config, direction_deg: f64, speed: f64) -> Simulation {
-    let mut world = World::from_config(config).unwrap();
+    let mut sim = Simulation::new(config, World::from_config(config).unwrap());
+    for _ in 0..(0.3 / config.general.timestep_secs).round() as usize {
+        sim.step().unwrap();
+    }
     let heading = (30.0 + direction_deg).to_radians();
-    let qvel = world.qvel_mut();
+    let qvel = sim.world_mut().qvel_mut();
     qvel[0] = speed * heading.cos();
     qvel[1] = speed * heading.sin();
-    world.forward();
-    Simulation::new(config, world)
+    sim.world_mut().forward();
+    sim
 }
 
 /// The friction coefficient the link meets: the largest ratio of horizontal friction force to
@@ -38,25 +43,36 @@ fn friction_ratio(config: &Config, direction_deg: f64) -> f64 {
     crate::common::largest_floor_friction_ratio(&mut sim, 15)
 }
 
+/// Both floor-friction laws: SimSerpent's (the default) and MuJoCo's friction constraints.
+const FLOOR_FRICTIONS: [FloorFriction; 2] = [FloorFriction::StickSlip, FloorFriction::Mujoco];
+
 #[test]
 fn anisotropic_friction_differs_along_and_across_the_link() {
-    // MuJoCo aligns a capsule-plane contact frame with the capsule axis (yawed 30° here).
-    let c = yawed_link(GroundModel::Anisotropic);
-    let along = friction_ratio(&c, 0.0);
-    assert!((along - 0.1).abs() < 0.003, "axial friction coefficient {along}");
-    let across = friction_ratio(&c, 90.0);
-    assert!((across - 1.0).abs() < 0.03, "lateral friction coefficient {across}");
-    let iso = friction_ratio(&yawed_link(GroundModel::Isotropic), 0.0);
-    assert!((iso - 0.5).abs() < 0.015, "isotropic coefficient {iso}");
+    // "mujoco": MuJoCo aligns a capsule-plane contact frame with the capsule axis (yawed 30° here).
+    for law in FLOOR_FRICTIONS {
+        let mut c = yawed_link(GroundModel::Anisotropic);
+        c.physics.floor_friction = law;
+        let along = friction_ratio(&c, 0.0);
+        assert!((along - 0.1).abs() < 0.003, "{law:?}: axial friction coefficient {along}");
+        let across = friction_ratio(&c, 90.0);
+        assert!((across - 1.0).abs() < 0.03, "{law:?}: lateral friction coefficient {across}");
+        let mut c = yawed_link(GroundModel::Isotropic);
+        c.physics.floor_friction = law;
+        let iso = friction_ratio(&c, 0.0);
+        assert!((iso - 0.5).abs() < 0.015, "{law:?}: isotropic coefficient {iso}");
+    }
 }
 
 #[test]
 fn directional_friction_depends_on_the_sliding_direction() {
-    let c = yawed_link(GroundModel::Directional);
-    let forward = friction_ratio(&c, 0.0);
-    let backward = friction_ratio(&c, 180.0);
-    assert!((forward - 0.1).abs() < 0.003, "forward {forward}");
-    assert!((backward - 0.3).abs() < 0.009, "backward {backward}");
+    for law in FLOOR_FRICTIONS {
+        let mut c = yawed_link(GroundModel::Directional);
+        c.physics.floor_friction = law;
+        let forward = friction_ratio(&c, 0.0);
+        let backward = friction_ratio(&c, 180.0);
+        assert!((forward - 0.1).abs() < 0.003, "{law:?}: forward {forward}");
+        assert!((backward - 0.3).abs() < 0.009, "{law:?}: backward {backward}");
+    }
 }
 
 #[test]

@@ -13,6 +13,7 @@ mod config;
 mod dying_processes;
 mod estimation;
 mod hostile_files;
+mod impacts;
 mod legacy_convert;
 mod limits;
 mod locomotion;

@@ -4,7 +4,9 @@
 use crate::common::bare_floor;
 use mujoco_rs::prelude::*;
 use mujoco_rs::wrappers::mj_model::{MjtCone, MjtGeomBase, MjtJoint, MjtObjBase, MjtSensor};
-use simserpent::config::{Config, ConfigError, ControlMethod, FrictionCone, GaitKind, JointAxes, TerrainKind};
+use simserpent::config::{
+    Config, ConfigError, ControlMethod, FloorFriction, FrictionCone, GaitKind, JointAxes, TerrainKind,
+};
 use simserpent::model::{self, GeneratedModel, ModelError, link_axis_segments_m, names};
 
 const TOL: f64 = 1e-9;
@@ -613,7 +615,16 @@ fn snake_below_the_floor_is_rejected() {
 
 #[test]
 fn self_collision_cone_and_axes() {
+    // The default floor friction (SimSerpent's own, "stick_slip"): frictionless condim-1
+    // link-floor contacts through the floor geom, no pairs.
+    let (_, m) = gen_load(&bare_floor());
+    let floor = id(&m, MjtObjBase::mjOBJ_GEOM, names::FLOOR);
+    assert_eq!(bare_floor().physics.floor_friction, FloorFriction::StickSlip);
+    assert_eq!(m.npair(), 0);
+    assert_eq!(m.geom_condim()[floor], 1, "frictionless link-floor contacts");
+    // Below: MuJoCo's friction constraints, with the pairs of the anisotropic model.
     let mut cfg = bare_floor();
+    cfg.physics.floor_friction = FloorFriction::Mujoco;
     cfg.physics.self_collision = false;
     cfg.physics.friction_cone = FrictionCone::Pyramidal;
     let (_, m) = gen_load(&cfg);
@@ -673,8 +684,15 @@ fn self_collision_cone_and_axes() {
     let floor = id(&m, MjtObjBase::mjOBJ_GEOM, names::FLOOR);
     assert_eq!(m.geom_condim()[floor], 4);
     assert_eq!(m.geom_condim()[links[0]], 3);
-    // solref of every geom from the contact settings.
-    assert_close(&m.geom_solref()[floor], &[0.02, 1.0], 0.0, "solref");
+    // solref: links from the contact settings, floor and obstacles from the environment contact
+    // settings ("auto": max(2 ms, 2 timesteps) = 2 ms at 1 ms steps; damping ratio 0.5).
+    assert_close(&m.geom_solref()[links[0]], &[0.02, 1.0], 0.0, "link solref");
+    assert_close(&m.geom_solref()[floor], &[0.002, 0.5], 0.0, "floor solref");
+    let peg = id(&m, MjtObjBase::mjOBJ_GEOM, &names::obstacle(0));
+    assert_close(&m.geom_solref()[peg], &[0.002, 0.5], 0.0, "obstacle solref");
+    cfg.general.timestep_secs = 0.004;
+    let (_, m) = gen_load(&cfg);
+    assert_close(&m.geom_solref()[id(&m, MjtObjBase::mjOBJ_GEOM, names::FLOOR)], &[0.008, 0.5], 0.0, "auto");
 
     let mut cfg = bare_floor();
     cfg.snake.joint_axes = JointAxes::Alternating;

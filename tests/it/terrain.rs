@@ -4,7 +4,7 @@
 
 use crate::common::{G, data, one_link, snapshot};
 use mujoco_rs::prelude::*;
-use simserpent::config::{Config, GroundModel, MeshObstacle, PegLayout, TerrainKind, Wall};
+use simserpent::config::{AutoSecs, Config, GroundModel, MeshObstacle, PegLayout, TerrainKind, Wall};
 use simserpent::model::{self, names};
 use simserpent::sim::{Simulation, Snapshot, World};
 use std::path::Path;
@@ -16,6 +16,14 @@ fn isotropic_link(mu: f64) -> Config {
     c.ground.model = GroundModel::Isotropic;
     c.snake.ground_friction = [mu, 0.0, 0.0];
     c.terrain.obstacle_friction = [mu, 0.0, 0.0];
+    c
+}
+
+/// Link–obstacle contacts critically damped with a 20 ms time constant (the defaults, 2 ms and
+/// 0.5, are resolved by 1 ms steps only roughly): the penetration is then v0 τ / e.
+fn critically_damped_walls(mut c: Config) -> Config {
+    c.physics.environment_contact_time_constant_secs = AutoSecs::Secs(0.02);
+    c.physics.environment_contact_damping_ratio = 1.0;
     c
 }
 
@@ -346,7 +354,7 @@ fn peg_boards_have_the_configured_count_and_spacing_and_stay_clear_of_the_snake(
 fn a_wall_stops_a_sliding_link_and_a_channel_keeps_it_between_its_walls() {
     // Frictionless floor; the link (head tip at x = 0, heading +x) slides at 1 m/s into a wall
     // whose face is at x = 0.5.
-    let mut c = isotropic_link(0.0);
+    let mut c = critically_damped_walls(isotropic_link(0.0));
     c.terrain.walls = vec![Wall { start_m: [0.525, -1.0], end_m: [0.525, 1.0], height_m: 0.2, thickness_m: 0.05 }];
     let mut sim = Simulation::new(&c, World::from_config(&c).unwrap());
     sim.world_mut().qvel_mut()[0] = 1.0;
@@ -357,7 +365,7 @@ fn a_wall_stops_a_sliding_link_and_a_channel_keeps_it_between_its_walls() {
     }
     // A soft contact with time constant τ and damping ratio 1 is a critically damped
     // spring-damper: hit at v0 it penetrates at most v0 τ / e (at t = τ).
-    let tau = c.physics.contact_time_constant_secs;
+    let tau = c.environment_contact_time_constant_secs();
     let depth = 1.0 * tau / std::f64::consts::E;
     let pen = max_tip - 0.5;
     assert!(
@@ -367,7 +375,7 @@ fn a_wall_stops_a_sliding_link_and_a_channel_keeps_it_between_its_walls() {
     assert!(sim.world().data().qpos()[0] < 0.5, "and it does not pass through");
 
     // A channel 0.2 m wide around y = 0: the link slides sideways at 1 m/s and stays inside.
-    let mut c = isotropic_link(0.0);
+    let mut c = critically_damped_walls(isotropic_link(0.0));
     c.terrain.channel.enabled = true;
     c.terrain.channel.start_m = [-3.0, 0.0];
     c.terrain.channel.end_m = [1.0, 0.0];
@@ -381,7 +389,7 @@ fn a_wall_stops_a_sliding_link_and_a_channel_keeps_it_between_its_walls() {
     }
     let limit = 0.1 - c.snake.link_radius_m;
     let pen = max_y - limit;
-    let depth = 1.0 * c.physics.contact_time_constant_secs / std::f64::consts::E;
+    let depth = 1.0 * c.environment_contact_time_constant_secs() / std::f64::consts::E;
     assert!(
         (pen - depth).abs() < 0.05 * depth,
         "inner face at y = 0.1: penetration {pen} m, expected v0 τ/e = {depth} m"

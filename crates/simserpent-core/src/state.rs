@@ -40,7 +40,9 @@ pub struct ContactRow {
     pub distance_m: f64,
     /// Normal force (N, ≥ 0: geom 0 pushes geom 1 along `normal`).
     pub normal_force_n: f64,
-    /// Friction force along the contact frame's two tangent axes (N).
+    /// Friction force along the contact frame's two tangent axes (N). Link–ground rows with
+    /// `physics.floor_friction = "stick_slip"`: the share of SimSerpent's friction at this row,
+    /// along the link's axis in the contact plane and across it (see `sim::Ground`).
     pub friction_force_n: [f64; 2],
     /// Total contact force on the second geom (`geom[1]`, column geom2) in the world frame (N); the first feels the opposite.
     pub force_on_geom2_n: [f64; 3],

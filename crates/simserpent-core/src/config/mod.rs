@@ -16,6 +16,7 @@ pub mod presets;
 pub mod surfaces;
 mod validate;
 
+pub use floor::{AutoSecs, StickTimeConstant};
 pub use legacy::{
     LEGACY_DEVIATIONS, LEGACY_RULES, LegacyConversion, LegacyDeviation, LegacyNote, LegacyRule, legacy_deviation_table,
     legacy_rule_table,
@@ -255,8 +256,15 @@ pub struct Physics {
     /// Who computes the friction between links and the floor (and ground-like terrain).
     pub floor_friction: FloorFriction,
     /// `"stick_slip"` only: time constant of the stick spring–damper that holds a link's contact
-    /// point at rest (s; critically damped). Its presliding displacement is μ·g·τ².
-    pub floor_stick_time_constant_secs: f64,
+    /// point at rest (s; critically damped), or `"auto"`: max(5 ms, 5 timesteps) (see
+    /// [`Config::floor_stick_time_constant_secs`]). Its presliding displacement is μ·g·τ².
+    pub floor_stick_time_constant_secs: StickTimeConstant,
+    /// Link–obstacle and link–ground contacts (floor, obstacles, terrain features): MuJoCo solref
+    /// time constant (s), or `"auto"`: max(2 ms, 2 timesteps) (see
+    /// [`Config::environment_contact_time_constant_secs`]).
+    pub environment_contact_time_constant_secs: AutoSecs,
+    /// Their damping ratio (MuJoCo solref; 1 = critically damped).
+    pub environment_contact_damping_ratio: f64,
 }
 
 /// The friction law between links and ground (`physics.floor_friction`).

@@ -204,6 +204,7 @@ impl Config {
         self.validate_general()?;
         self.validate_physics()?;
         self.validate_floor_friction()?;
+        self.validate_environment_contact()?;
         self.validate_safety()?;
         self.validate_snake()?;
         self.validate_initial_state()?;

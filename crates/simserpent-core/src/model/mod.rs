@@ -7,8 +7,11 @@
 //! - All lengths SI, `<compiler angle="radian" autolimits="true"/>`.
 //! - `<option>`: `general.timestep_secs`, `general.integrator`, `general.gravity_m_per_s2`,
 //!   `physics.friction_cone`, `physics.solver_iterations`. Default geom
-//!   `solref = "contact_time_constant_secs contact_damping_ratio"`, or MuJoCo's direct form
-//!   `"-contact_stiffness_per_s2 -contact_damping_per_s"` when the stiffness is > 0.
+//!   `solref = "contact_time_constant_secs contact_damping_ratio"` (link–link contacts); floor,
+//!   obstacles, terrain and the link–floor pairs get `solref = "τ_env
+//!   environment_contact_damping_ratio"` (τ_env = `environment_contact_time_constant_secs`,
+//!   `"auto"` = max(2 ms, 2 timesteps)), which their priority makes the contact's. MuJoCo's direct
+//!   form `"-contact_stiffness_per_s2 -contact_damping_per_s"` replaces both when the stiffness is > 0.
 //! - Snake frame: the head's front tip at the origin, the body along −x, z up (the snake faces +x).
 //!   Body `link_00` is placed at `head_position_m + (0, 0, link_radius_m)` with
 //!   `euler = head_rotation_deg` (radians, `eulerseq="xyz"`: intrinsic x, then y, then z) and has
@@ -283,6 +286,8 @@ fn sanity(cfg: &Config) -> Result<(), ConfigError> {
         ("physics.contact_damping_ratio", &[cfg.physics.contact_damping_ratio]),
         ("physics.contact_stiffness_per_s2", &[cfg.physics.contact_stiffness_per_s2]),
         ("physics.contact_damping_per_s", &[cfg.physics.contact_damping_per_s]),
+        ("physics.environment_contact_time_constant_secs", &[cfg.environment_contact_time_constant_secs()]),
+        ("physics.environment_contact_damping_ratio", &[cfg.physics.environment_contact_damping_ratio]),
         ("snake.link_mass_kg", &[s.link_mass_kg]),
         ("snake.joint_range_deg", &[s.joint_range_deg]),
         ("snake.joint_damping_nm_s_per_rad", &[s.joint_damping_nm_s_per_rad]),
@@ -498,14 +503,14 @@ fn write_xml(
         Nums(&cfg.general.gravity_m_per_s2),
         cfg.physics.solver_iterations,
     )?;
-    // With a user's robot its own defaults stay in force; floor and obstacles get the solref directly.
-    let env_solref = match body {
-        Body::Snake(_) => {
-            writeln!(p.header, "  <default>\n    <geom solref=\"{solref}\"/>\n  </default>")?;
-            String::new()
-        }
-        Body::Include(_) => format!(" solref=\"{solref}\""),
-    };
+    // With a user's robot its own defaults stay in force. Floor, obstacles and terrain get the
+    // environment contact solref directly (their priority 1 makes it the contact's: MuJoCo takes
+    // solref and solimp from the geom of higher priority).
+    if matches!(body, Body::Snake(_)) {
+        writeln!(p.header, "  <default>\n    <geom solref=\"{solref}\"/>\n  </default>")?;
+    }
+    let env_solref_value = environment_solref(cfg);
+    let env_solref = format!(" solref=\"{env_solref_value}\"");
     p.scene_assets.push_str(concat!(
         "    <texture name=\"skybox\" type=\"skybox\" builtin=\"gradient\" rgb1=\"1 1 1\" rgb2=\"0 0 0\" width=\"100\" height=\"100\"/>\n",
         "    <texture name=\"texplane\" type=\"2d\" builtin=\"checker\" rgb1=\"0 0 0\" rgb2=\"0.8 0.8 0.8\" width=\"100\" height=\"100\"/>\n",
@@ -572,7 +577,18 @@ fn write_xml(
         surfaces::write_tiles(&mut p.terrain_geoms, cfg)?;
     }
     let kind_cylinders = obstacles.len() - feats.pegs.len();
-    let obstacle_attrs = env_attrs(cfg.terrain.obstacle_friction);
+    // With SimSerpent's own friction the link-obstacle contacts are frictionless too (condim 1;
+    // `sim::ground` applies their friction, `terrain.obstacle_friction[0]`).
+    let obstacle_attrs = if own_friction {
+        format!(
+            "contype=\"{}\" conaffinity=\"{}\" priority=\"1\" friction=\"{}\" condim=\"1\"{env_solref}",
+            snake::ENV_CONTYPE,
+            snake::ENV_CONAFFINITY,
+            Nums(&cfg.terrain.obstacle_friction)
+        )
+    } else {
+        env_attrs(cfg.terrain.obstacle_friction)
+    };
     for c in &obstacles[..kind_cylinders] {
         features::write_cylinder(&mut p.terrain_geoms, c, &obstacle_attrs)?;
     }
@@ -597,7 +613,7 @@ fn write_xml(
             for i in 0..cfg.snake.n_links {
                 writeln!(
                     p.pairs,
-                    "    <pair name=\"{}\" geom1=\"{}\" geom2=\"{}\" condim=\"{condim}\" friction=\"{}\" solref=\"{solref}\"/>",
+                    "    <pair name=\"{}\" geom1=\"{}\" geom2=\"{}\" condim=\"{condim}\" friction=\"{}\" solref=\"{env_solref_value}\"/>",
                     names::ground_pair(i),
                     names::FLOOR,
                     names::link_geom(i),
@@ -695,7 +711,23 @@ fn xml_escape(s: &str) -> String {
     s.replace('&', "&amp;").replace('"', "&quot;").replace('<', "&lt;").replace('>', "&gt;")
 }
 
-/// The contact `solref` of floor and obstacles: `"timeconst dampratio"` (MuJoCo's standard form),
+/// The `solref` of the links' contacts with the environment (floor, obstacles, terrain, link–floor
+/// pairs): `"τ_env environment_contact_damping_ratio"`, or the direct form of
+/// [`contact_solref`] when `physics.contact_stiffness_per_s2 > 0` (a stiffness given directly
+/// sets every contact of the snake).
+pub fn environment_solref(cfg: &Config) -> String {
+    if cfg.physics.contact_stiffness_per_s2 > 0.0 {
+        contact_solref(&cfg.physics)
+    } else {
+        format!(
+            "{} {}",
+            fmt_num(cfg.environment_contact_time_constant_secs()),
+            fmt_num(cfg.physics.environment_contact_damping_ratio)
+        )
+    }
+}
+
+/// The contact `solref` of link–link contacts: `"timeconst dampratio"` (MuJoCo's standard form),
 /// or `"-stiffness -damping"` (its direct form) when `physics.contact_stiffness_per_s2 > 0`.
 /// Both numbers of the direct form are ≤ 0: MuJoCo replaces a solref of mixed signs by its
 /// default (with a warning), so a damping of 0 is written as `0`, not `-0`.
