@@ -24,6 +24,7 @@ mod render;
 mod robustness;
 mod sensors;
 mod sliding_contact;
+mod step_loop;
 mod surfaces;
 mod sweep;
 mod sweep_interrupt;
