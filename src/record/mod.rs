@@ -99,8 +99,6 @@ pub struct Recorder {
     to_writer: Option<std::sync::mpsc::SyncSender<ToWriter>>,
     /// Written snapshots back from the writer thread, for reuse.
     free: std::sync::mpsc::Receiver<Box<Snapshot>>,
-    /// Snapshots allocated so far (at most [`POOL`]).
-    allocated: usize,
     /// The writer thread; it returns the tables.
     writer: Option<std::thread::JoinHandle<Tables>>,
     /// The writer thread's first error, for the loop to take.
@@ -232,6 +230,10 @@ impl Recorder {
         let tables = Tables { tables, names };
         let (to_writer, rows) = std::sync::mpsc::sync_channel(POOL);
         let (give_back, free) = std::sync::mpsc::sync_channel(POOL);
+        // The whole pool now: a recorded step allocates nothing (but more contacts than ever).
+        for _ in 0..POOL {
+            let _ = give_back.try_send(Box::new(Snapshot::new(index.links.len(), index.joints.len())));
+        }
         let error = Arc::new(Mutex::new(None));
         let failed = Arc::new(AtomicBool::new(false));
         let (slot, flag) = (error.clone(), failed.clone());
@@ -239,7 +241,7 @@ impl Recorder {
             .name("simserpent-recorder".into())
             .spawn(move || tables.serve(rows, give_back, &slot, &flag))
             .map_err(io_err(folder))?;
-        Ok(Self { to_writer: Some(to_writer), free, allocated: 0, writer: Some(writer), error, failed })
+        Ok(Self { to_writer: Some(to_writer), free, writer: Some(writer), error, failed })
     }
 
     /// The writer thread's first error, once it has one (taken: the loop stops with it).
@@ -259,21 +261,11 @@ impl Recorder {
     }
 
     /// Appends one snapshot (step number `step`): copies it into a buffer of the pool (no
-    /// allocation once the pool is full, except for more contacts than ever before) and hands
-    /// it to the writer thread; waits only when the writer is [`POOL`] rows behind.
+    /// allocation, except for more contacts than ever before) and hands it to the writer
+    /// thread; waits only when the writer is [`POOL`] rows behind.
     pub fn write(&mut self, step: u64, s: &Snapshot) -> Result<(), RecordError> {
         self.writer_error()?;
-        let mut buffer = match self.free.try_recv() {
-            Ok(b) => b,
-            Err(_) if self.allocated < POOL => {
-                self.allocated += 1;
-                Box::new(s.clone())
-            }
-            Err(_) => match self.free.recv() {
-                Ok(b) => b,
-                Err(_) => return Err(self.writer_gone()),
-            },
-        };
+        let Ok(mut buffer) = self.free.recv() else { return Err(self.writer_gone()) };
         buffer.copy_from(s);
         match self.to_writer.as_ref().map(|t| t.send(ToWriter::Row(step, buffer))) {
             Some(Ok(())) => Ok(()),
