@@ -120,3 +120,44 @@ pub fn run_bench(
     }
     Ok(rows)
 }
+
+/// Full pipeline over the bare engine with the same gait ("bare, gait") for each full-pipeline
+/// row of `rows`: `(n_links, mode, ratio)`.
+pub fn pipeline_ratios(rows: &[BenchRow]) -> Vec<(usize, &'static str, f64)> {
+    let bare_of = |n: usize| rows.iter().find(|r| r.n_links == n && r.mode == BARE_GAIT).map(|r| r.steps_per_sec);
+    rows.iter()
+        .filter(|r| r.mode == FULL_CSV || r.mode == FULL_PARQUET)
+        .filter_map(|r| bare_of(r.n_links).map(|b| (r.n_links, r.mode, r.steps_per_sec / b)))
+        .collect()
+}
+
+/// The benchmark as one JSON document (`simserpent bench --json`): the settings and, per
+/// snake size and mode, steps per wall second and the ratio to the bare engine with the same
+/// gait. A ratio, not a time, is what a regression guard on a shared machine compares.
+pub fn to_json(config: &Config, duration_secs: f64, repeats: usize, rows: &[BenchRow]) -> serde_json::Value {
+    let ratios = pipeline_ratios(rows);
+    let rows: Vec<serde_json::Value> = rows
+        .iter()
+        .map(|r| {
+            let ratio = ratios.iter().find(|(n, m, _)| *n == r.n_links && *m == r.mode).map(|(_, _, x)| *x);
+            serde_json::json!({
+                "n_links": r.n_links,
+                "mode": r.mode,
+                "steps": r.steps,
+                "steps_per_sec": r.steps_per_sec,
+                "real_time_factor": r.steps_per_sec * config.general.timestep_secs,
+                "ratio_to_bare_gait": ratio,
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "simserpent": env!("CARGO_PKG_VERSION"),
+        "mujoco": crate::sim::engine_version(),
+        "timestep_secs": config.general.timestep_secs,
+        "integrator": format!("{:?}", config.general.integrator),
+        "recording_every_n_steps": config.recording.every_n_steps,
+        "duration_secs": duration_secs,
+        "repeats": repeats,
+        "rows": rows,
+    })
+}

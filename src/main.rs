@@ -149,6 +149,9 @@ enum Command {
         /// Shorter runs (fewer gait cycles), the same checks.
         #[arg(long)]
         quick: bool,
+        /// Worker threads for the experiment's cases (independent runs; default: all cores).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
     },
     /// Write the fully commented default config, or with --preset a robot's config.
     Init {
@@ -208,6 +211,29 @@ enum Command {
         /// Measure each mode this many times (interleaved) and report the fastest.
         #[arg(long, default_value_t = 1)]
         repeats: usize,
+        /// Print the results as one JSON document (settings, steps/s, ratio full pipeline /
+        /// bare engine with the same gait) instead of a table.
+        #[arg(long)]
+        json: bool,
+        /// Regression guard: exit with code 1 when any full-pipeline ratio (full pipeline /
+        /// bare engine with the same gait) is below this value, e.g. 0.85.
+        #[arg(long, value_name = "RATIO")]
+        min_ratio: Option<f64>,
+    },
+    /// Studies that run many configurations: `accuracy` compares RK4, implicitfast and Euler at
+    /// 0.25-10 ms against RK4 at 0.1 ms on the default job, the undulation experiment and an
+    /// impact (errors, cost, work-precision plots; see BENCHMARKS.md, "Accuracy study").
+    Study {
+        /// Which study: `accuracy`.
+        name: String,
+        #[command(flatten)]
+        config: ConfigArgs,
+        /// 2 s runs instead of 10 s (a first look; the impact stays 0.5 s).
+        #[arg(long)]
+        quick: bool,
+        /// Worker threads for the accuracy runs (default: all cores); cost runs one at a time.
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
     },
     /// Run a parameter sweep in parallel: a grid or random/Latin-hypercube samples of config
     /// keys, one run folder per parameter set, a summary table (see README, "Sweeps").
@@ -507,10 +533,12 @@ fn view_command(path: Option<&Path>, overrides: &[String]) -> Result<(), Failure
     }
 }
 
-fn experiment(name: &str, args: &ConfigArgs, quick: bool) -> Result<(), Failure> {
+fn experiment(name: &str, args: &ConfigArgs, quick: bool, threads: usize) -> Result<(), Failure> {
     let (config, _) = load(args)?;
-    let outcome = simserpent::experiments::run_experiment(name, &config, Path::new(&config.general.output_dir), quick)
-        .map_err(failure)?;
+    let options = simserpent::experiments::ExperimentOptions { quick, threads, progress: true };
+    let outcome =
+        simserpent::experiments::run_experiment_with(name, &config, Path::new(&config.general.output_dir), &options)
+            .map_err(failure)?;
     for note in &outcome.notes {
         errln!("note: {note}");
     }
@@ -524,6 +552,7 @@ fn experiment(name: &str, args: &ConfigArgs, quick: bool) -> Result<(), Failure>
         report.checks().count(),
         outcome.folder.join("report.md").display()
     );
+    outln!("wall time {:.1} s, cases on {} threads", outcome.wall_secs, outcome.threads);
     if report.all_passed() {
         Ok(())
     } else {
@@ -623,15 +652,79 @@ fn model(args: &ConfigArgs, output: Option<&Path>, scene_dir: Option<&Path>) -> 
     Ok(())
 }
 
+fn study(name: &str, args: &ConfigArgs, quick: bool, threads: usize) -> Result<(), Failure> {
+    if name != "accuracy" {
+        return Err(bad_input(anyhow::anyhow!("unknown study `{name}`; available: accuracy")));
+    }
+    let (config, source) = load(args)?;
+    let scenarios = simserpent::study::scenarios(&config, quick);
+    let unix_secs =
+        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+    let folder = simserpent::record::create_run_folder(
+        Path::new(&config.general.output_dir),
+        "study-accuracy",
+        &simserpent::record::utc_stamp(unix_secs),
+    )
+    .map_err(|e| Failure { code: 1, error: e.into() })?;
+    let start = std::time::Instant::now();
+    let rows =
+        simserpent::study::run_study(&scenarios, threads, true).map_err(|e| Failure { code: 1, error: e.into() })?;
+    let header = format!(
+        "# Accuracy study\n\nSimSerpent {}, MuJoCo {}; config: {source}; physics.floor_friction = {:?}; quick: {quick}; \
+         {} scenarios; wall time {:.0} s. Errors against RK4 at 0.1 ms; ✓: every quantity within {} % (heading \
+         within {} deg). Cost: recording off, one run at a time.",
+        env!("CARGO_PKG_VERSION"),
+        simserpent::sim::engine_version(),
+        config.physics.floor_friction,
+        scenarios.len(),
+        start.elapsed().as_secs_f64(),
+        simserpent::study::SAME_ANSWER_PERCENT,
+        simserpent::study::HEADING_BOUND_DEG,
+    );
+    let files =
+        simserpent::study::write_outputs(&folder, &rows, &header).map_err(|e| Failure { code: 1, error: e.into() })?;
+    outln!("{}", simserpent::study::to_markdown(&rows));
+    outln!("written: {}", files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>().join(", "));
+    Ok(())
+}
+
+#[allow(clippy::too_many_arguments)]
 fn bench(
     args: &ConfigArgs,
     links: &[usize],
     duration_secs: f64,
     output_dir: &str,
     repeats: usize,
+    json: bool,
+    min_ratio: Option<f64>,
 ) -> Result<(), Failure> {
+    if let Some(r) = min_ratio.filter(|r| !(r.is_finite() && *r > 0.0)) {
+        return Err(bad_input(anyhow::anyhow!("--min-ratio {r}: must be a number greater than 0 (e.g. 0.85)")));
+    }
     let (config, source) = load(args)?;
     let rows = simserpent::bench::run_bench(&config, links, duration_secs, output_dir, repeats).map_err(failure)?;
+    let below: Vec<String> = simserpent::bench::pipeline_ratios(&rows)
+        .into_iter()
+        .filter(|(_, _, ratio)| min_ratio.is_some_and(|floor| *ratio < floor))
+        .map(|(n, mode, ratio)| format!("{n} links, {mode}: {ratio:.3}"))
+        .collect();
+    let guard = || -> Result<(), Failure> {
+        match (below.is_empty(), min_ratio) {
+            (false, Some(floor)) => Err(Failure {
+                code: 1,
+                error: anyhow::anyhow!(
+                    "full pipeline / bare engine below the floor {floor}: {} (see BENCHMARKS.md)",
+                    below.join("; ")
+                ),
+            }),
+            _ => Ok(()),
+        }
+    };
+    if json {
+        let doc = simserpent::bench::to_json(&config, duration_secs, repeats, &rows);
+        outln!("{}", serde_json::to_string_pretty(&doc).unwrap_or_default());
+        return guard();
+    }
     outln!(
         "config: {source}; timestep {} s, integrator {:?}, {} s simulated per row",
         config.general.timestep_secs,
@@ -654,7 +747,7 @@ fn bench(
             );
         }
     }
-    Ok(())
+    guard()
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -777,17 +870,18 @@ fn main() -> ExitCode {
         }
         Some(Command::View { path, overrides }) => view_command(path.as_deref(), &overrides),
         Some(Command::Init { path, force, preset }) => init(&path, force, preset.as_deref()),
-        Some(Command::Experiment { name, config, quick }) => experiment(&name, &config, quick),
+        Some(Command::Experiment { name, config, quick, threads }) => experiment(&name, &config, quick, threads),
         Some(Command::Model { config, output, scene_dir }) => model(&config, output.as_deref(), scene_dir.as_deref()),
         Some(Command::Check { config }) => check(&config),
         Some(Command::Convert { input, output, force }) => convert(&input, output.as_deref(), force),
-        Some(Command::Bench { config, links, duration_secs, output_dir, repeats }) => {
-            bench(&config, &links, duration_secs, &output_dir, repeats)
+        Some(Command::Bench { config, links, duration_secs, output_dir, repeats, json, min_ratio }) => {
+            bench(&config, &links, duration_secs, &output_dir, repeats, json, min_ratio)
         }
         Some(Command::Sweep { config, vary, sample, samples, seed, sweep_dir, threads, shard, quiet }) => {
             sweep(&config, &vary, sample, samples, seed, sweep_dir, threads, shard, quiet)
         }
         Some(Command::SweepMerge { sweep_dir }) => sweep_merge(&sweep_dir),
+        Some(Command::Study { name, config, quick, threads }) => study(&name, &config, quick, threads),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

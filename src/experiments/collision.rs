@@ -194,14 +194,18 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
         ..Section::default()
     };
     let mut rows = Vec::new();
-    for (n_links, axis) in [(1, 0), (1, 1), (10, 0), (10, 1)] {
-        let config = case_config(base, n_links);
+    let launches = [(1, 0), (1, 1), (10, 0), (10, 1)];
+    let configs: Vec<(String, Config)> = launches
+        .iter()
+        .map(|&(n_links, axis)| (format!("collision-{n_links}-{}", ["x", "y"][axis]), case_config(base, n_links)))
+        .collect();
+    let runs = ctx.sub_runs(&configs, |case, world| {
+        let axis = launches[case].1;
+        world.qvel_mut()[axis] = LAUNCH_SPEED_M_PER_S;
+    })?;
+    for (((n_links, axis), run), (_, config)) in launches.into_iter().zip(&runs).zip(&configs) {
         let label = format!("{n_links} link{} along {}", if n_links == 1 { "" } else { "s" }, ["x", "y"][axis]);
-        let run = ctx.sub_run(&format!("collision-{n_links}-{}", ["x", "y"][axis]), &config, |world| {
-            let qvel = world.qvel_mut();
-            qvel[axis] = LAUNCH_SPEED_M_PER_S;
-        })?;
-        let i = analyse(&run, &config, axis)?;
+        let i = analyse(run, config, axis)?;
         let mean = i.mean_force_n();
         rows.push(vec![
             label.clone(),
@@ -258,4 +262,10 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
         rows,
     ));
     Ok(section)
+}
+
+/// The 10-link launch along x for the accuracy study (`crate::study`): its config, the free
+/// joint's velocity component and the launch speed (m/s).
+pub fn impact_study_case(base: &Config) -> (Config, usize, f64) {
+    (case_config(base, 10), 0, LAUNCH_SPEED_M_PER_S)
 }

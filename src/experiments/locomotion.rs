@@ -91,6 +91,23 @@ fn undulation_config(base: &Config, ctx: &Context) -> Config {
     c
 }
 
+/// Two cases of experiment III for the accuracy study (`crate::study`): isotropic Coulomb
+/// friction 0.5, and anisotropic friction lateral 0.5 / axial 0.05 (ratio 10).
+pub fn undulation_study_cases(base: &Config) -> Vec<(String, Config)> {
+    let mut c = snake_on_floor(base, 10, 0.08, 0.5);
+    c.terrain.kind = TerrainKind::None;
+    sine_wave_by_position(&mut c, 30.0, 0.5, 2.0);
+    let mut iso = c.clone();
+    iso.ground.model = GroundModel::Isotropic;
+    iso.snake.ground_friction = [0.5, 0.0, 0.0];
+    iso.snake.link_friction = [0.5, 0.0, 0.0];
+    let mut aniso = c;
+    aniso.ground.model = GroundModel::Anisotropic;
+    aniso.ground.lateral_friction = 0.5;
+    aniso.ground.axial_friction = 0.05;
+    vec![("undulation, isotropic 0.5".into(), iso), ("undulation, anisotropic ratio 10".into(), aniso)]
+}
+
 /// Experiment III (thesis 7.3, table 7) plus anisotropic and viscous friction.
 pub fn undulation(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
     let mut section = Section {
@@ -108,15 +125,31 @@ pub fn undulation(ctx: &Context, base: &Config) -> Result<Section, ExperimentErr
     let ramp = base_cfg.gait.ramp_secs;
     let mut rows = Vec::new();
 
-    // Isotropic friction 0.5 and no friction: no propulsion.
-    for (label, mu) in [("isotropic friction 0.5", 0.5), ("no friction", 0.0)] {
+    // Every case first, run in parallel; then the analysis in order.
+    let isotropic = [("isotropic friction 0.5", 0.5), ("no friction", 0.0)];
+    let ratios = [1.0, 2.0, 5.0, 10.0, 20.0];
+    let mut cases = Vec::new();
+    for (_, mu) in isotropic {
         let mut c = base_cfg.clone();
         c.ground.model = GroundModel::Isotropic;
         c.snake.ground_friction = [mu, 0.0, 0.0];
         c.snake.link_friction = [mu, 0.0, 0.0];
-        let run =
-            ctx.sub_run(&format!("undulation-{}", if mu > 0.0 { "isotropic" } else { "frictionless" }), &c, |_| {})?;
-        let v = mean_velocity(&run, c.snake.n_links, ramp)?;
+        cases.push((format!("undulation-{}", if mu > 0.0 { "isotropic" } else { "frictionless" }), c));
+    }
+    for ratio in ratios {
+        let mut c = base_cfg.clone();
+        c.ground.model = GroundModel::Anisotropic;
+        c.ground.lateral_friction = 0.5;
+        c.ground.axial_friction = 0.5 / ratio;
+        cases.push((format!("undulation-anisotropic-{ratio}"), c));
+    }
+    let runs = ctx.sub_runs(&cases, |_, _| {})?;
+    let mut runs = runs.iter().zip(&cases);
+
+    // Isotropic friction 0.5 and no friction: no propulsion.
+    for (label, mu) in isotropic {
+        let Some((run, (_, c))) = runs.next() else { break };
+        let v = mean_velocity(run, c.snake.n_links, ramp)?;
         let per_cycle = v[0].hypot(v[1]) * period;
         rows.push(vec![label.to_string(), "-".into(), sig(v[0]), sig(v[1]), sig(per_cycle / body_m * 100.0)]);
         section.checks.push(Check::at_most(
@@ -128,7 +161,7 @@ pub fn undulation(ctx: &Context, base: &Config) -> Result<Section, ExperimentErr
         if mu == 0.0 {
             section.checks.push(Check::at_most(
                 "no friction: largest link-link contact force",
-                max_link_link_force(&run)?,
+                max_link_link_force(run)?,
                 0.0,
                 "N",
             ));
@@ -137,13 +170,9 @@ pub fn undulation(ctx: &Context, base: &Config) -> Result<Section, ExperimentErr
 
     // Anisotropic Coulomb friction: lateral 0.5, axial = 0.5 / ratio.
     let mut speeds = Vec::new();
-    for ratio in [1.0, 2.0, 5.0, 10.0, 20.0] {
-        let mut c = base_cfg.clone();
-        c.ground.model = GroundModel::Anisotropic;
-        c.ground.lateral_friction = 0.5;
-        c.ground.axial_friction = 0.5 / ratio;
-        let run = ctx.sub_run(&format!("undulation-anisotropic-{ratio}"), &c, |_| {})?;
-        let v = mean_velocity(&run, c.snake.n_links, ramp)?;
+    for ratio in ratios {
+        let Some((run, (_, c))) = runs.next() else { break };
+        let v = mean_velocity(run, c.snake.n_links, ramp)?;
         speeds.push((ratio, v[0]));
         rows.push(vec![
             format!("anisotropic, lateral 0.5 / axial {}", sig(0.5 / ratio)),
@@ -300,16 +329,22 @@ fn viscous_section(ctx: &Context, base: &Config) -> Result<Section, ExperimentEr
         ("c_n = c_t, A = 60°", "viscous-isotropic-60", 60.0, 1.0, 1.0, 1.0),
     ];
     let mut rows = Vec::new();
-    for (label, name, amplitude, f_factor, m_factor, c_n) in cases {
-        let mut c = base_cfg.clone();
-        c.gait.sine_wave.amplitude_deg = amplitude;
-        c.gait.sine_wave.frequency_hz = f * f_factor;
-        c.snake.link_mass_kg *= m_factor;
-        c.ground.viscous_normal_n_s_per_m = c_n;
-        c.gait.ramp_secs = ramp / f_factor;
-        c.general.duration_secs = c.gait.ramp_secs + (base_cfg.general.duration_secs - ramp) / f_factor;
-        let run = ctx.sub_run(name, &c, |_| {})?;
-        let v = mean_velocity(&run, c.snake.n_links, c.gait.ramp_secs)?;
+    let configs: Vec<(String, Config)> = cases
+        .iter()
+        .map(|&(_, name, amplitude, f_factor, m_factor, c_n)| {
+            let mut c = base_cfg.clone();
+            c.gait.sine_wave.amplitude_deg = amplitude;
+            c.gait.sine_wave.frequency_hz = f * f_factor;
+            c.snake.link_mass_kg *= m_factor;
+            c.ground.viscous_normal_n_s_per_m = c_n;
+            c.gait.ramp_secs = ramp / f_factor;
+            c.general.duration_secs = c.gait.ramp_secs + (base_cfg.general.duration_secs - ramp) / f_factor;
+            (name.to_string(), c)
+        })
+        .collect();
+    let runs = ctx.sub_runs(&configs, |_, _| {})?;
+    for (((label, _, amplitude, _, _, c_n), run), (_, c)) in cases.into_iter().zip(&runs).zip(&configs) {
+        let v = mean_velocity(run, c.snake.n_links, c.gait.ramp_secs)?;
         let theory = averaged_viscous_speed(
             c.snake.n_links,
             c.snake.link_length_m,
@@ -416,15 +451,22 @@ pub fn oal(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
     // BARE_CYCLES for a steadier mean.
     const PEG_CYCLES: f64 = 2.0;
     const BARE_CYCLES: f64 = 10.0;
-    for (label, kind, cycles) in [
+    let oal_cases = [
         ("bare floor", TerrainKind::None, if ctx.quick { PEG_CYCLES } else { BARE_CYCLES }),
         ("pegs at the bends", TerrainKind::FormClosure, PEG_CYCLES),
-    ] {
-        let mut cc = c.clone();
-        cc.terrain.kind = kind;
-        cc.general.duration_secs = period * (1.0 + cycles);
-        let run = ctx.sub_run(&format!("oal-{}", label.replace(' ', "-")), &cc, |_| {})?;
-        let (forward, sideways) = progress_along_start(&run, cc.snake.n_links, period)?;
+    ];
+    let configs: Vec<(String, Config)> = oal_cases
+        .iter()
+        .map(|&(label, kind, cycles)| {
+            let mut cc = c.clone();
+            cc.terrain.kind = kind;
+            cc.general.duration_secs = period * (1.0 + cycles);
+            (format!("oal-{}", label.replace(' ', "-")), cc)
+        })
+        .collect();
+    let runs = ctx.sub_runs(&configs, |_, _| {})?;
+    for (((label, _, cycles), run), (_, cc)) in oal_cases.into_iter().zip(&runs).zip(&configs) {
+        let (forward, sideways) = progress_along_start(run, cc.snake.n_links, period)?;
         results.push((label, forward, sideways, forward / cycles / body_m * 100.0));
     }
     let mut section = Section {
@@ -477,12 +519,19 @@ pub fn form_closure(ctx: &Context, base: &Config) -> Result<Section, ExperimentE
     c.general.duration_secs = if ctx.quick { 6.0 } else { 12.0 };
     let mut rows = Vec::new();
     let mut outcome = Vec::new();
-    for order in [2u8, 1] {
-        let mut cc = c.clone();
-        cc.terrain.form_closure.order = order;
-        let run = ctx.sub_run(&format!("form-closure-order-{order}"), &cc, |_| {})?;
-        let (dx, dy) = progress_along_start(&run, cc.snake.n_links, 0.0)?;
-        let pegs = model::generate(&cc).map(|g| g.obstacles.len()).unwrap_or(0);
+    let orders = [2u8, 1];
+    let configs: Vec<(String, Config)> = orders
+        .iter()
+        .map(|&order| {
+            let mut cc = c.clone();
+            cc.terrain.form_closure.order = order;
+            (format!("form-closure-order-{order}"), cc)
+        })
+        .collect();
+    let runs = ctx.sub_runs(&configs, |_, _| {})?;
+    for ((order, run), (_, cc)) in orders.into_iter().zip(&runs).zip(&configs) {
+        let (dx, dy) = progress_along_start(run, cc.snake.n_links, 0.0)?;
+        let pegs = model::generate(cc).map(|g| g.obstacles.len()).unwrap_or(0);
         rows.push(vec![format!("order {order}"), pegs.to_string(), sig(dx), sig(dy)]);
         outcome.push((order, dx, dy));
     }
@@ -539,25 +588,31 @@ pub fn configure(ctx: &Context, base: &Config) -> Result<Section, ExperimentErro
     };
     let mut rows = Vec::new();
     let mut pictures = String::new();
-    for (name, n, length, radius, head, rot, rgba) in sets {
-        let mut c = base.clone();
-        c.snake.n_links = n;
-        c.snake.link_mass_kg = 0.3;
-        c.snake.link_length_m = length;
-        c.snake.link_radius_m = radius;
-        c.snake.head_position_m = head;
-        c.snake.head_rotation_deg = rot;
-        c.snake.color_rgba = rgba;
-        c.terrain.kind = TerrainKind::None;
-        c.gait.kind = GaitKind::None;
-        c.general.duration_secs = 1.0;
-        let run = ctx.sub_run(&format!("configure-{name}"), &c, |_| {})?;
+    let configs: Vec<(String, Config)> = sets
+        .iter()
+        .map(|&(name, n, length, radius, head, rot, rgba)| {
+            let mut c = base.clone();
+            c.snake.n_links = n;
+            c.snake.link_mass_kg = 0.3;
+            c.snake.link_length_m = length;
+            c.snake.link_radius_m = radius;
+            c.snake.head_position_m = head;
+            c.snake.head_rotation_deg = rot;
+            c.snake.color_rgba = rgba;
+            c.terrain.kind = TerrainKind::None;
+            c.gait.kind = GaitKind::None;
+            c.general.duration_secs = 1.0;
+            (format!("configure-{name}"), c)
+        })
+        .collect();
+    let runs = ctx.sub_runs(&configs, |_, _| {})?;
+    for ((name, n, length, radius, head, rot, rgba), run) in sets.into_iter().zip(&runs) {
         let links = Table::read(&run.join("links.csv"))?;
         // Rotation of the whole snake (MJCF euler xyz, intrinsic): R = Rx·Ry·Rz.
         let [ax, ay, az] = rot.map(f64::to_radians);
         let r = mat_mul(mat_mul(rot_x(ax), rot_y(ay)), rot_z(az));
         // legacy.geometry = "faithful": the original's head joint point, body along +x.
-        let faithful = c.legacy.geometry == crate::config::LegacyGeometry::Faithful;
+        let faithful = base.legacy.geometry == crate::config::LegacyGeometry::Faithful;
         let (dx, along) = if faithful { (length, 1.0) } else { (0.0, -1.0) };
         let tip = [head[0] + dx, head[1], head[2] + radius];
         let mut worst: f64 = 0.0;

@@ -14,9 +14,9 @@ mod locomotion;
 mod pictures;
 mod report;
 
-pub use collision::{LAUNCH_SPEED_M_PER_S, case_bodies as collision_case_bodies};
+pub use collision::{LAUNCH_SPEED_M_PER_S, case_bodies as collision_case_bodies, impact_study_case};
 pub use data::Table;
-pub use locomotion::averaged_viscous_speed;
+pub use locomotion::{averaged_viscous_speed, undulation_study_cases};
 pub use report::{Check, Report, Section};
 
 use crate::config::Config;
@@ -54,15 +54,68 @@ pub enum ExperimentError {
 /// The experiments, by command name.
 pub const NAMES: [&str; 7] = ["configure", "collision", "undulation", "form-closure", "oal", "estimation", "bounce"];
 
-/// Where an experiment writes and how long its runs are.
+/// How an experiment runs: length of its runs, threads, progress.
+#[derive(Debug, Clone, Default)]
+pub struct ExperimentOptions {
+    /// Shorter runs (for tests): fewer gait cycles, same checks.
+    pub quick: bool,
+    /// Worker threads for the cases (independent runs); 0: all cores.
+    pub threads: usize,
+    /// One line per finished case on stderr (name, wall time, how many are done).
+    pub progress: bool,
+}
+
+/// Where an experiment writes, how long its runs are and where its cases run.
 pub struct Context {
     /// The experiment folder.
     pub folder: PathBuf,
     /// Shorter runs (for tests): fewer gait cycles, same checks.
     pub quick: bool,
+    /// The experiment's name (for progress lines).
+    name: String,
+    /// The threads the cases run on.
+    pool: rayon::ThreadPool,
+    /// Progress lines on stderr.
+    progress: bool,
 }
 
 impl Context {
+    /// Runs the cases `(name, config)` as sub-runs ([`Context::sub_run`]) in parallel on the
+    /// experiment's threads, after `prepare(case index, world)` has set each one's initial
+    /// state; returns the run folders in the order of `cases`. Each case is an independent run
+    /// (its own world, seed and folder), so the results do not depend on the number of threads.
+    /// The first failed case (in the order of `cases`) is the error.
+    pub fn sub_runs(
+        &self,
+        cases: &[(String, Config)],
+        prepare: impl Fn(usize, &mut World) + Sync,
+    ) -> Result<Vec<PathBuf>, ExperimentError> {
+        use rayon::prelude::*;
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let results: Vec<Result<PathBuf, ExperimentError>> = self.pool.install(|| {
+            cases
+                .par_iter()
+                .enumerate()
+                .map(|(i, (name, config))| {
+                    let start = std::time::Instant::now();
+                    let result = self.sub_run(name, config, |w| prepare(i, w));
+                    let n = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
+                    if self.progress {
+                        eprintln!(
+                            "experiment {}: case {name} {} in {:.1} s ({n} of {} done)",
+                            self.name,
+                            if result.is_ok() { "finished" } else { "FAILED" },
+                            start.elapsed().as_secs_f64(),
+                            cases.len()
+                        );
+                    }
+                    result
+                })
+                .collect()
+        });
+        results.into_iter().collect()
+    }
+
     /// Runs `config` as a sub-run named `name` inside the experiment folder, after `prepare` has
     /// changed the initial state (e.g. set a launch velocity). Returns the run folder.
     pub fn sub_run(
@@ -99,6 +152,10 @@ pub struct Outcome {
     pub report: Report,
     /// What the experiment changed in the base config's recording settings (also in the report).
     pub notes: Vec<String>,
+    /// Wall time of the whole experiment (s); not in the report, which stays reproducible.
+    pub wall_secs: f64,
+    /// Threads the cases ran on.
+    pub threads: usize,
 }
 
 /// Sets the recording settings every experiment's analysis needs, whatever the base config says:
@@ -144,16 +201,34 @@ pub fn force_analysis_recording(config: &mut Config) -> Vec<String> {
 }
 
 /// Runs experiment `name` on top of `base` (the user's config: keys the experiment does not set
-/// keep their values) and writes its report.
+/// keep their values) and writes its report; cases in parallel on all cores, no progress lines.
 pub fn run_experiment(name: &str, base: &Config, output_dir: &Path, quick: bool) -> Result<Outcome, ExperimentError> {
+    run_experiment_with(name, base, output_dir, &ExperimentOptions { quick, ..ExperimentOptions::default() })
+}
+
+/// [`run_experiment`] with the number of threads and progress lines chosen. The report's
+/// introduction gives the wall time and the threads.
+pub fn run_experiment_with(
+    name: &str,
+    base: &Config,
+    output_dir: &Path,
+    options: &ExperimentOptions,
+) -> Result<Outcome, ExperimentError> {
     if !NAMES.contains(&name) {
         return Err(ExperimentError::Unknown(name.to_string()));
     }
+    let start = std::time::Instant::now();
+    let quick = options.quick;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(options.threads)
+        .build()
+        .map_err(|e| ExperimentError::Data(format!("cannot start {} worker threads: {e}", options.threads)))?;
+    let threads = pool.current_num_threads();
     let unix_secs =
         std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
     let folder = record::create_run_folder(output_dir, &format!("experiment-{name}"), &record::utc_stamp(unix_secs))
         .map_err(RunError::from)?;
-    let ctx = Context { folder: folder.clone(), quick };
+    let ctx = Context { folder: folder.clone(), quick, name: name.to_string(), pool, progress: options.progress };
     // Every case records what its analysis reads (Context::sub_run forces it); say what changed.
     let notes: Vec<String> = force_analysis_recording(&mut base.clone())
         .into_iter()
@@ -200,5 +275,5 @@ pub fn run_experiment(name: &str, base: &Config, output_dir: &Path, quick: bool)
     let path = folder.join("report.md");
     std::fs::write(&path, report.to_markdown())
         .map_err(|e| RunError::from(record::RecordError::Io { path: path.clone(), source: e }))?;
-    Ok(Outcome { folder, report, notes })
+    Ok(Outcome { folder, report, notes, wall_secs: start.elapsed().as_secs_f64(), threads })
 }

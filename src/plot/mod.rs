@@ -621,6 +621,7 @@ trait AnyArea {
         obstacles: &[Obstacle],
         size: (u32, u32),
     ) -> DrawResult;
+    fn log_log(&self, title: &str, x_label: &str, y_label: &str, series: &[PointSeries]) -> DrawResult;
 }
 
 impl<DB: DrawingBackend> AnyArea for DrawingArea<DB, Shift> {
@@ -650,4 +651,93 @@ impl<DB: DrawingBackend> AnyArea for DrawingArea<DB, Shift> {
         }
         self.present().map_err(|e| e.to_string())
     }
+    fn log_log(&self, title: &str, x_label: &str, y_label: &str, series: &[PointSeries]) -> DrawResult {
+        log_log_chart(self, title, x_label, y_label, series)?;
+        self.present().map_err(|e| e.to_string())
+    }
+}
+
+/// A named series of (x, y) points, drawn as markers joined by a line.
+#[derive(Debug, Clone)]
+pub struct PointSeries {
+    /// Legend text.
+    pub name: String,
+    /// The points (points with a value ≤ 0 or not finite are left out on log axes).
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Range of positive finite values for a log axis, a little wider; never empty.
+fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite() && *v > 0.0) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return (0.1, 10.0);
+    }
+    (lo / 1.5, hi * 1.5)
+}
+
+fn log_log_chart<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[PointSeries],
+) -> DrawResult {
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let ok = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite() && p.0 > 0.0 && p.1 > 0.0;
+    let (x0, x1) = log_range(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
+    let (y0, y1) = log_range(series.iter().flat_map(|s| s.points.iter().filter(ok).map(|p| p.1)));
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, (FAMILY, 22))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+        .map_err(|e| e.to_string())?;
+    chart
+        .configure_mesh()
+        .x_desc(x_label)
+        .y_desc(y_label)
+        .label_style((FAMILY, 14))
+        .axis_desc_style((FAMILY, 16))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    for (i, s) in series.iter().enumerate() {
+        let c = color(i);
+        let points: Vec<(f64, f64)> = s.points.iter().filter(ok).copied().collect();
+        chart
+            .draw_series(LineSeries::new(points.iter().copied(), c.stroke_width(2)))
+            .map_err(|e| e.to_string())?
+            .label(s.name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
+        chart.draw_series(points.iter().map(|&p| Circle::new(p, 4, c.filled()))).map_err(|e| e.to_string())?;
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK.mix(0.3))
+        .label_font((FAMILY, 13))
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+/// Draws a log-log chart of point series into `<dir>/<stem>.png` and `<dir>/<stem>.svg` (the
+/// accuracy study's work-precision plot: cost against error).
+pub fn plot_log_log(
+    dir: &Path,
+    stem: &str,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[PointSeries],
+) -> Result<Vec<PathBuf>, PlotError> {
+    register_font();
+    std::fs::create_dir_all(dir).map_err(|source| PlotError::Folder { path: dir.to_path_buf(), source })?;
+    both(dir, stem, (900, 600), |root: &dyn AnyArea| root.log_log(title, x_label, y_label, series))
 }

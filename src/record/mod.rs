@@ -32,6 +32,8 @@ use crate::config::Recording;
 use crate::sim::{Index, Snapshot};
 use columns::{ContactNames, Layout, TABLES, Wanted};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 
 /// Errors of writing a run folder; they always name the file.
 #[derive(Debug, thiserror::Error)]
@@ -84,13 +86,114 @@ pub fn create_run_folder(output_dir: &Path, run_name: &str, stamp: &str) -> Resu
     }
 }
 
-/// The tables of one run, written as the run goes. Their columns come from the specs in
-/// `columns.rs` (one entry per recorded quantity), resolved once in [`Recorder::create`].
+/// The tables of one run, written as the run goes, on a thread of their own: the step loop
+/// only copies each recorded [`Snapshot`] into a buffer from a fixed pool and hands it over;
+/// the writer thread formats the numbers (CSV) or encodes the columns (Parquet) and writes the
+/// files, in the order the rows came. The files are byte for byte those of writing in the loop.
+///
+/// A write error on the writer thread stops its writing at that row; the loop learns it at its
+/// next [`Recorder::write`] or [`Recorder::flush`] (a few steps later at most) and
+/// [`Recorder::finish`] returns it, with the rows that reached the files.
 pub struct Recorder {
+    /// Rows to the writer thread; `None` once finished.
+    to_writer: Option<std::sync::mpsc::SyncSender<ToWriter>>,
+    /// Written snapshots back from the writer thread, for reuse.
+    free: std::sync::mpsc::Receiver<Box<Snapshot>>,
+    /// The writer thread; it returns the tables.
+    writer: Option<std::thread::JoinHandle<Tables>>,
+    /// The writer thread's first error, for the loop to take.
+    error: Arc<Mutex<Option<RecordError>>>,
+    /// Set by the writer thread when it put an error into `error`.
+    failed: Arc<AtomicBool>,
+}
+
+/// Snapshots in flight between the loop and the writer thread: the loop runs at most this many
+/// rows ahead of the files.
+const POOL: usize = 64;
+
+enum ToWriter {
+    Row(u64, Box<Snapshot>),
+    /// Flush, and answer when done (the error, if any, is in the shared slot).
+    Flush(std::sync::mpsc::SyncSender<()>),
+}
+
+/// The tables themselves, owned by the writer thread.
+struct Tables {
     /// The tables the run writes, in manifest order (`links`, `joints`, `sensors`, `contacts`),
     /// each with its resolved columns.
     tables: Vec<(Layout, Table)>,
     names: ContactNames,
+}
+
+impl Tables {
+    fn write(&mut self, step: u64, s: &Snapshot) -> Result<(), RecordError> {
+        for (layout, table) in &mut self.tables {
+            // Paths are only copied on error: a recorded step allocates nothing.
+            layout
+                .write(table, s, step, &self.names)
+                .map_err(|source| RecordError::Io { path: table.path().to_path_buf(), source })?;
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self) -> Result<(), RecordError> {
+        for (_, table) in &mut self.tables {
+            table.flush().map_err(|(path, source)| RecordError::Io { path, source })?;
+        }
+        Ok(())
+    }
+
+    fn finish(self) -> (Vec<(String, u64)>, Result<(), RecordError>) {
+        let mut out = Vec::new();
+        let mut first_error = Ok(());
+        for (_, table) in self.tables {
+            let (files, error) = table.finish();
+            out.extend(files);
+            if let (Some((path, source)), Ok(())) = (error, &first_error) {
+                first_error = Err(RecordError::Io { path, source });
+            }
+        }
+        (out, first_error)
+    }
+
+    /// The writer thread: rows in order until the loop hangs up; after the first error, rows
+    /// are only handed back.
+    fn serve(
+        mut self,
+        rows: std::sync::mpsc::Receiver<ToWriter>,
+        free: std::sync::mpsc::SyncSender<Box<Snapshot>>,
+        error: &Mutex<Option<RecordError>>,
+        failed: &AtomicBool,
+    ) -> Self {
+        let fail = |e: RecordError| {
+            if let Ok(mut slot) = error.lock() {
+                slot.get_or_insert(e);
+            }
+            failed.store(true, Ordering::Release);
+        };
+        for message in rows {
+            match message {
+                ToWriter::Row(step, snapshot) => {
+                    if !failed.load(Ordering::Acquire)
+                        && let Err(e) = self.write(step, &snapshot)
+                    {
+                        fail(e);
+                    }
+                    // The pool holds exactly the snapshots allocated: this never blocks.
+                    let _ = free.try_send(snapshot);
+                }
+                ToWriter::Flush(answer) => {
+                    if !failed.load(Ordering::Acquire)
+                        && let Err(e) = self.flush()
+                    {
+                        fail(e);
+                    }
+                    let _ = answer.send(());
+                }
+            }
+        }
+        self
+    }
 }
 
 impl Recorder {
@@ -124,43 +227,81 @@ impl Recorder {
             }
         }
         let names = ContactNames { geoms: index.geom_names.clone(), bodies: index.body_names.clone() };
-        Ok(Self { tables, names })
+        let tables = Tables { tables, names };
+        let (to_writer, rows) = std::sync::mpsc::sync_channel(POOL);
+        let (give_back, free) = std::sync::mpsc::sync_channel(POOL);
+        // The whole pool now: a recorded step allocates nothing (but more contacts than ever).
+        for _ in 0..POOL {
+            let _ = give_back.try_send(Box::new(Snapshot::new(index.links.len(), index.joints.len())));
+        }
+        let error = Arc::new(Mutex::new(None));
+        let failed = Arc::new(AtomicBool::new(false));
+        let (slot, flag) = (error.clone(), failed.clone());
+        let writer = std::thread::Builder::new()
+            .name("simserpent-recorder".into())
+            .spawn(move || tables.serve(rows, give_back, &slot, &flag))
+            .map_err(io_err(folder))?;
+        Ok(Self { to_writer: Some(to_writer), free, writer: Some(writer), error, failed })
     }
 
-    /// Appends one snapshot (step number `step`).
+    /// The writer thread's first error, once it has one (taken: the loop stops with it).
+    fn writer_error(&mut self) -> Result<(), RecordError> {
+        if !self.failed.load(Ordering::Acquire) {
+            return Ok(());
+        }
+        match self.error.lock().ok().and_then(|mut slot| slot.take()) {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    /// The writer thread ended unexpectedly (it panicked).
+    fn writer_gone(&self) -> RecordError {
+        RecordError::Io { path: PathBuf::from("tables"), source: std::io::Error::other("the recording thread stopped") }
+    }
+
+    /// Appends one snapshot (step number `step`): copies it into a buffer of the pool (no
+    /// allocation, except for more contacts than ever before) and hands it to the writer
+    /// thread; waits only when the writer is [`POOL`] rows behind.
     pub fn write(&mut self, step: u64, s: &Snapshot) -> Result<(), RecordError> {
-        for (layout, table) in &mut self.tables {
-            // Paths are only copied on error: a recorded step allocates nothing.
-            layout
-                .write(table, s, step, &self.names)
-                .map_err(|source| RecordError::Io { path: table.path().to_path_buf(), source })?;
+        self.writer_error()?;
+        let Ok(mut buffer) = self.free.recv() else { return Err(self.writer_gone()) };
+        buffer.copy_from(s);
+        match self.to_writer.as_ref().map(|t| t.send(ToWriter::Row(step, buffer))) {
+            Some(Ok(())) => Ok(()),
+            _ => Err(self.writer_gone()),
         }
-        Ok(())
     }
 
-    /// Flushes all tables (whole rows reach the files).
+    /// Flushes all tables (whole rows reach the files): waits for the writer thread.
     pub fn flush(&mut self) -> Result<(), RecordError> {
-        for (_, table) in &mut self.tables {
-            table.flush().map_err(|(path, source)| RecordError::Io { path, source })?;
+        let (answer, reply) = std::sync::mpsc::sync_channel(1);
+        let Some(sender) = self.to_writer.as_ref() else { return Ok(()) };
+        if sender.send(ToWriter::Flush(answer)).is_err() || reply.recv().is_err() {
+            return Err(self.writer_gone());
         }
-        Ok(())
+        self.writer_error()
     }
 
     /// Flushes and closes all tables, each even when another fails. Returns (file name, rows)
     /// per table file, for the manifest, and the first error. The rows are the whole rows each
     /// file holds, also after a failure: a CSV file is cut back to its last whole row, and a
     /// Parquet part that cannot be closed is deleted (see [`CsvTable::close`]).
-    pub fn finish(self) -> (Vec<(String, u64)>, Result<(), RecordError>) {
-        let mut out = Vec::new();
-        let mut first_error = Ok(());
-        for (_, table) in self.tables {
-            let (files, error) = table.finish();
-            out.extend(files);
-            if let (Some((path, source)), Ok(())) = (error, &first_error) {
-                first_error = Err(RecordError::Io { path, source });
+    pub fn finish(mut self) -> (Vec<(String, u64)>, Result<(), RecordError>) {
+        // Hanging up ends the writer thread after the rows in flight.
+        drop(self.to_writer.take());
+        let Some(writer) = self.writer.take() else {
+            return (Vec::new(), Err(self.writer_gone()));
+        };
+        match writer.join() {
+            Ok(tables) => {
+                // An error the loop has not taken yet (a failed last row) comes first.
+                let pending = self.error.lock().ok().and_then(|mut slot| slot.take());
+                let (files, closed) = tables.finish();
+                (files, pending.map_or(closed, Err))
             }
+            Err(_) => (Vec::new(), Err(self.writer_gone())),
         }
-        (out, first_error)
     }
 }
 

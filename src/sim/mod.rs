@@ -452,6 +452,46 @@ impl World {
         self.data.step();
     }
 
+    /// The rest of one `mj_step` after [`World::forward`] ran at the current state and controls
+    /// (and nothing changed since): MuJoCo's acceleration check, the forward/inverse comparison
+    /// when enabled, and the configured integrator (`mj_Euler`, `mj_RungeKutta`, `mj_implicit`)
+    /// — what `mj_step` does after its own forward pass, which would repeat the one already
+    /// done. The result is bit for bit that of `mj_step` (`mj_forward` is a pure function of
+    /// the state, controls and applied forces; tests/it `step_loop` compares).
+    ///
+    /// `mj_step` checks positions and velocities *before* its forward pass and resets a bad
+    /// state (NaN or larger than 1e10); when that would happen, this runs `mj_step` itself, so
+    /// a diverging run ends exactly as before.
+    pub fn step_after_forward(&mut self) {
+        /// MuJoCo's `mjMAXVAL`: `mju_isBad` is NaN or a magnitude above it.
+        const MJ_MAX_VAL: f64 = 1e10;
+        let bad = |x: &f64| x.is_nan() || x.abs() > MJ_MAX_VAL;
+        if self.data.qpos().iter().any(bad) || self.data.qvel().iter().any(bad) {
+            self.step();
+            return;
+        }
+        let opt = self.data.model().opt();
+        let (integrator, enable_flags) = (opt.integrator, opt.enableflags);
+        let integrate: fn(&mut MjData<Box<MjModel>>) = match integrator {
+            i if i == MjtIntegrator::mjINT_EULER as i32 => MjData::euler,
+            i if i == MjtIntegrator::mjINT_RK4 as i32 => |d| d.runge_kutta(4),
+            i if i == MjtIntegrator::mjINT_IMPLICIT as i32 || i == MjtIntegrator::mjINT_IMPLICITFAST as i32 => {
+                MjData::implicit
+            }
+            // An integrator this code does not know: MuJoCo's own step (one forward pass more).
+            _ => {
+                self.step();
+                return;
+            }
+        };
+        self.sensor_time_secs = self.data.time();
+        self.data.check_acc();
+        if enable_flags & (MjtEnableBit::mjENBL_FWDINV as i32) != 0 {
+            self.data.compare_fwd_inv();
+        }
+        integrate(&mut self.data);
+    }
+
     /// The compiled model.
     pub fn model(&self) -> &MjModel {
         self.data.model()

@@ -9,8 +9,11 @@
 //! 3. **record** (every `plan.record_every_n_steps`-th instant and the last): a forward pass
 //!    at x_k with the new controls, read into the [`Snapshot`]; [`Observer::on_record`];
 //! 4. [`Observer::on_step`];
-//! 5. unless k is the last instant: **step** (`mj_step`), then the divergence check and the
-//!    runaway-energy guard.
+//! 5. unless k is the last instant: **step**, then the divergence check and the runaway-energy
+//!    guard. After a recorded instant the step starts from the recording's forward pass
+//!    ([`World::step_after_forward`]: MuJoCo's checks and the integrator), otherwise it is
+//!    `mj_step`; both give the same state bit for bit, so a recorded step costs one forward
+//!    pass, not two.
 //!
 //! Observers see the world read-only, through a [`StepView`]; they cannot change the
 //! trajectory. Nothing in the loop allocates (observers are a slice the caller owns; the
@@ -280,8 +283,18 @@ impl<C: Controller> Simulation<C> {
     /// Advances the physics by one timestep with the controls already written, then checks
     /// for divergence and runaway energy. Step 5 of the loop.
     pub fn advance(&mut self) -> Result<(), SimError> {
+        self.advance_from(false)
+    }
+
+    /// [`Simulation::advance`]; with `forward_done`, the forward pass at the current state and
+    /// controls has run already (a recorded instant) and is not repeated.
+    fn advance_from(&mut self, forward_done: bool) -> Result<(), SimError> {
         let reached_secs = self.world.time_secs() + self.world.timestep_secs();
-        self.world.step();
+        if forward_done {
+            self.world.step_after_forward();
+        } else {
+            self.world.step();
+        }
         self.steps += 1;
         self.world.check_finite(self.steps, reached_secs)?;
         self.energy_guard.check(&mut self.world, self.steps, reached_secs)
@@ -344,7 +357,8 @@ impl<C: Controller> Simulation<C> {
         }
         loop {
             self.control();
-            if plan.records(*k) {
+            let recorded = plan.records(*k);
+            if recorded {
                 read_instant(&mut self.world, &self.ground, &self.obs_true, &self.obs, &mut self.snapshot);
                 let view = self.view(*k, plan);
                 for o in observers.iter_mut() {
@@ -360,7 +374,8 @@ impl<C: Controller> Simulation<C> {
             if *k >= plan.steps {
                 return Ok(());
             }
-            self.advance()?;
+            // Observers only read: the recording's forward pass still describes x_k.
+            self.advance_from(recorded)?;
             *k += 1;
         }
     }

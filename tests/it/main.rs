@@ -26,6 +26,7 @@ mod render;
 mod robustness;
 mod sensors;
 mod sliding_contact;
+mod step_loop;
 mod surfaces;
 mod surprises;
 mod sweep;

@@ -139,6 +139,71 @@ fn add_to(acc: &mut [f64; 3], v: [f64; 3], sign: f64) {
 }
 
 impl Snapshot {
+    /// Copies every value of `other` (a snapshot of the same robot) into this one; allocates only
+    /// when `other` has more contacts than this one ever held (the recording thread's copies).
+    pub fn copy_from(&mut self, other: &Snapshot) {
+        // Destructured without `..`: a new field is a compile error here until it is copied.
+        let Snapshot {
+            time_secs,
+            link_mass_kg,
+            link_position_m,
+            link_quat,
+            link_velocity_m_per_s,
+            link_angular_velocity_rad_per_s,
+            link_acceleration_m_per_s2,
+            link_angular_acceleration_rad_per_s2,
+            link_contact_force_n,
+            link_contact_torque_nm,
+            link_floor_force_n,
+            link_floor_torque_nm,
+            link_obstacle_force_n,
+            link_obstacle_torque_nm,
+            link_obstacle_point_m,
+            link_other_contact_force_n,
+            link_origin_m,
+            link_region,
+            joint_angle_rad,
+            joint_velocity_rad_per_s,
+            joint_actuator_torque_nm,
+            actuator_force_nm,
+            joint_force_n,
+            joint_torque_nm,
+            observation_true,
+            observation_measured,
+            link_velocimeter_m_per_s,
+            contacts,
+            obstacle_weight,
+        } = other;
+        self.time_secs = *time_secs;
+        self.link_mass_kg.clone_from(link_mass_kg);
+        self.link_position_m.clone_from(link_position_m);
+        self.link_quat.clone_from(link_quat);
+        self.link_velocity_m_per_s.clone_from(link_velocity_m_per_s);
+        self.link_angular_velocity_rad_per_s.clone_from(link_angular_velocity_rad_per_s);
+        self.link_acceleration_m_per_s2.clone_from(link_acceleration_m_per_s2);
+        self.link_angular_acceleration_rad_per_s2.clone_from(link_angular_acceleration_rad_per_s2);
+        self.link_contact_force_n.clone_from(link_contact_force_n);
+        self.link_contact_torque_nm.clone_from(link_contact_torque_nm);
+        self.link_floor_force_n.clone_from(link_floor_force_n);
+        self.link_floor_torque_nm.clone_from(link_floor_torque_nm);
+        self.link_obstacle_force_n.clone_from(link_obstacle_force_n);
+        self.link_obstacle_torque_nm.clone_from(link_obstacle_torque_nm);
+        self.link_obstacle_point_m.clone_from(link_obstacle_point_m);
+        self.link_other_contact_force_n.clone_from(link_other_contact_force_n);
+        self.link_origin_m.clone_from(link_origin_m);
+        self.link_region.clone_from(link_region);
+        self.joint_angle_rad.clone_from(joint_angle_rad);
+        self.joint_velocity_rad_per_s.clone_from(joint_velocity_rad_per_s);
+        self.joint_actuator_torque_nm.clone_from(joint_actuator_torque_nm);
+        self.actuator_force_nm.clone_from(actuator_force_nm);
+        self.joint_force_n.clone_from(joint_force_n);
+        self.joint_torque_nm.clone_from(joint_torque_nm);
+        self.observation_true.copy_from(observation_true);
+        self.observation_measured.copy_from(observation_measured);
+        self.link_velocimeter_m_per_s.clone_from(link_velocimeter_m_per_s);
+        self.contacts.clone_from(contacts);
+        self.obstacle_weight.clone_from(obstacle_weight);
+    }
     /// A snapshot sized for `n_links` links and `n_joints` joints.
     pub fn new(n_links: usize, n_joints: usize) -> Self {
         Self {
