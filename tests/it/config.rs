@@ -617,6 +617,12 @@ fn all_fields_expected() -> Config {
         reward_energy_weight: 0.5,
         reward_contact_force_weight: 0.001,
         terminate_contact_force_n: 500.0,
+        reward_ctrl_cost_weight: 0.01,
+        reset_noise_scale: 0.05,
+        reset_heading_noise_rad: 0.3,
+        exclude_current_positions_from_observation: false,
+        normalize_action: false,
+        preset: EnvPreset::Fast,
     };
     c
 }

@@ -1,0 +1,203 @@
+"""RL throughput and the accuracy of the physics presets (issue 19).
+
+    python python/bench/bench_rl.py throughput [--seconds 3] [--repeats 3] [--json out.json]
+    python python/bench/bench_rl.py accuracy [--secs 10] [--candidates default,fast,...] [--json out.json]
+
+throughput: env steps per second, one core unless stated, of
+  - ``gym.make("SimSerpent-v0")`` (the 10-link default snake, random actions in [-1, 1]) with
+    the default physics and with ``env.preset = "fast"``, each with ``physics.floor_friction``
+    "mujoco" and "stick_slip";
+  - the Rust vector env (``SimSerpentVectorEnv``, 8 envs) on 1 and 2 threads (default and fast);
+  - Gymnasium's ``Swimmer-v5`` (``gymnasium[mujoco]`` on the same ``mujoco`` wheel).
+  Variants are measured round-robin, best of ``--repeats`` (the machine may be shared).
+
+accuracy: a reference gait (the config's sine wave, 30 deg, 0.5 Hz, 40 deg lag; through the
+  environment as normalised actions, ``simserpent.Gait.action``) for ``--secs`` seconds with the
+  default physics and with each candidate physics (``integrator@timestep_ms``, e.g.
+  ``implicitfast@2``; ``fast`` = the preset); per candidate: forward speed (m/s, centre of mass
+  along x after the 1 s ramp), heading of travel (rad), mean of the per-action peak contact
+  force (N), and env steps/s; the differences to the default physics in %.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import time
+
+import gymnasium as gym
+import numpy as np
+
+import simserpent
+from simserpent.envs import SimSerpentVectorEnv
+
+QUIET = {"env.reset_noise_scale": 0.0, "env.reset_heading_noise_rad": 0.0}
+
+
+def timed(step, reset, seconds):
+    reset()
+    n, t0 = 0, time.perf_counter()
+    while True:
+        for _ in range(50):
+            if step():
+                reset()
+            n += 1
+        dt = time.perf_counter() - t0
+        if dt >= seconds:
+            return n / dt
+
+
+def single(overrides, actions, seconds):
+    env = gym.make("SimSerpent-v0", overrides={**overrides, "env.max_episode_secs": 1000.0})
+    k = [0]
+
+    def step():
+        k[0] += 1
+        _, _, te, tr, _ = env.step(actions[k[0] % len(actions)])
+        return te or tr
+
+    return lambda: timed(step, lambda: env.reset(seed=0), seconds)
+
+
+def vector(overrides, actions, seconds, threads):
+    vec = SimSerpentVectorEnv(num_envs=8, overrides={**overrides, "env.max_episode_secs": 1000.0}, threads=threads)
+    batches = actions[: (len(actions) // 8) * 8].reshape(-1, 8, actions.shape[1])
+    k = [0]
+
+    def step():
+        k[0] += 1
+        vec.step(batches[k[0] % len(batches)])
+        return False
+
+    return lambda: 8 * timed(step, lambda: vec.reset(seed=0), seconds)
+
+
+def swimmer(seconds):
+    env = gym.make("Swimmer-v5")
+    rng = np.random.default_rng(0)
+    acts = rng.uniform(-1, 1, size=(4096, 2)).astype(np.float32)
+    k = [0]
+
+    def step():
+        k[0] += 1
+        _, _, te, tr, _ = env.step(acts[k[0] % 4096])
+        return te or tr
+
+    return lambda: timed(step, lambda: env.reset(seed=0), seconds)
+
+
+def throughput(a):
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, size=(4096, 9)).astype(np.float32)
+    variants = []
+    for floor in ["mujoco", "stick_slip"]:
+        for preset in ["default", "fast"]:
+            o = {"physics.floor_friction": floor, "env.preset": preset}
+            variants.append((f"SimSerpent-v0 {preset} physics, floor {floor}", single(o, actions, a.seconds)))
+    for preset in ["default", "fast"]:
+        for threads in (1, 2):
+            o = {"physics.floor_friction": "stick_slip", "env.preset": preset}
+            variants.append(
+                (f"vector env 8 envs, {threads} thread(s), {preset}, stick_slip", vector(o, actions, a.seconds, threads))
+            )
+    try:
+        variants.append(("Gymnasium Swimmer-v5", swimmer(a.seconds)))
+    except Exception as e:  # pragma: no cover - gymnasium[mujoco] extras
+        print(f"Swimmer-v5 not available: {e}")
+    results: dict[str, float] = {}
+    for _ in range(a.repeats):
+        for name, fn in variants:
+            results[name] = max(results.get(name, 0.0), fn())
+    for name, _ in variants:
+        print(f"{name:<55s} {results[name]:10.1f} env steps/s", flush=True)
+    return results
+
+
+def reference_gait(overrides, secs):
+    """Forward speed, heading of travel, mean per-action peak contact force, env steps/s."""
+    cfg = simserpent.load_config(overrides={**QUIET, **overrides, "env.max_episode_secs": secs})
+    env = simserpent.envs.SimSerpentEnv(cfg)
+    gait = simserpent.Gait(cfg)
+    env.reset(seed=0)
+    dt = env.dt
+    n = int(round(secs / dt))
+    xs, ys, peaks = [], [], []
+    t0 = time.perf_counter()
+    for k in range(n):
+        _, _, term, trunc, info = env.step(gait.action(k * dt))
+        if term:
+            return {"error": info.get("error", "terminated")}
+        xs.append(info["x_position"])
+        ys.append(info["y_position"])
+        peaks.append(info["peak_contact_force_n"])
+    wall = time.perf_counter() - t0
+    start = int(round(1.0 / dt))  # after the ramp
+    dx, dy = xs[-1] - xs[start], ys[-1] - ys[start]
+    return {
+        "forward_speed_m_per_s": dx / ((n - 1 - start) * dt),
+        "heading_rad": math.atan2(dy, dx),
+        "mean_peak_contact_force_n": float(np.mean(peaks[start:])),
+        "env_steps_per_s": n / wall,
+    }
+
+
+def candidate_overrides(name):
+    if name == "default":
+        return {}
+    if name == "fast":
+        return {"env.preset": "fast"}
+    integrator, ms = name.split("@")
+    dt = float(ms) / 1000.0
+    return {
+        "general.integrator": integrator,
+        "general.timestep_secs": dt,
+        "physics.floor_stick_time_constant_secs": max(0.005, 5 * dt),
+    }
+
+
+def accuracy(a):
+    out = {}
+    for floor in a.floors.split(","):
+        base = {"physics.floor_friction": floor}
+        ref = reference_gait(base, a.secs)
+        out[floor] = {"default": ref}
+        print(f"floor {floor}: default physics: {ref}")
+        for name in a.candidates.split(","):
+            if name == "default":
+                continue
+            r = reference_gait({**base, **candidate_overrides(name)}, a.secs)
+            if "error" not in r:
+                r["speed_diff_percent"] = 100 * (r["forward_speed_m_per_s"] / ref["forward_speed_m_per_s"] - 1)
+                r["heading_diff_rad"] = r["heading_rad"] - ref["heading_rad"]
+                r["force_diff_percent"] = 100 * (r["mean_peak_contact_force_n"] / ref["mean_peak_contact_force_n"] - 1)
+            out[floor][name] = r
+            print(f"floor {floor}: {name}: {r}", flush=True)
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("what", choices=["throughput", "accuracy"])
+    ap.add_argument("--seconds", type=float, default=3.0)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--secs", type=float, default=10.0)
+    ap.add_argument("--floors", default="stick_slip,mujoco")
+    ap.add_argument(
+        "--candidates",
+        default="fast,RK4@2,implicitfast@1,implicitfast@2,implicitfast@4,Euler@1,Euler@2",
+    )
+    ap.add_argument("--json")
+    a = ap.parse_args()
+    results = throughput(a) if a.what == "throughput" else accuracy(a)
+    results = {"results": results, "setup": {"cpus": os.cpu_count(), "python": platform.python_version(),
+                                            "fast_preset": simserpent.ENV_FAST_PRESET}}
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(results, f, indent=2)
+
+
+if __name__ == "__main__":
+    main()
