@@ -151,6 +151,20 @@ def _socket_inodes(pid: int) -> set[int]:
     return inodes
 
 
+def _is_loopback(address_port: str) -> bool:
+    import ipaddress
+
+    ip = ipaddress.ip_address(address_port.rsplit(":", 1)[0])
+    mapped = getattr(ip, "ipv4_mapped", None)  # ::ffff:127.0.0.1 (an IPv6 socket bound to IPv4 loopback)
+    return ip.is_loopback or (mapped is not None and mapped.is_loopback)
+
+
+def test_loopback_predicate():
+    assert _is_loopback("127.0.0.1:80") and _is_loopback("::1:80") and _is_loopback("::ffff:127.0.0.1:80")
+    assert not _is_loopback("0.0.0.0:80") and not _is_loopback(":::80") and not _is_loopback("10.0.0.5:80")
+    assert not _is_loopback("::ffff:10.0.0.5:80")
+
+
 def test_local_cluster_listens_only_on_loopback(ray_local):
     """Every TCP socket that the local cluster (this driver, the GCS, the raylet, the workers
     and agents it started) listens on is bound to 127.0.0.1 or ::1 while it runs."""
@@ -177,5 +191,5 @@ def test_local_cluster_listens_only_on_loopback(ray_local):
         except OSError:
             names[addr] = "?"
     assert len(mine) >= 3, f"expected the GCS, raylet and workers to listen: {names}"
-    wide = {a: n for a, n in names.items() if not (a.startswith("127.") or a.startswith("::1:"))}
+    wide = {a: n for a, n in names.items() if not _is_loopback(a)}
     assert not wide, f"listening beyond the loopback interface: {wide} (all: {names})"
