@@ -617,7 +617,7 @@ mod tests {
         let mut env = EnvCore::new(&c).expect("env");
         let mut obs = vec![0.0; env.observation_size()];
         env.reset(1, &mut obs).expect("reset");
-        let (mut total_progress, mut total_energy) = (0.0, 0.0);
+        let (mut total_progress, mut total_energy, mut total_peak) = (0.0, 0.0, 0.0);
         let mut t = 0.0;
         for k in 0..env.max_episode_steps() {
             t += 0.02;
@@ -628,12 +628,16 @@ mod tests {
             // Rates: velocity (m/s) and mean power (W) over the 0.02 s control period.
             let expected = out.terms.forward_progress_m / 0.02 - 0.1 * out.terms.energy_j / 0.02;
             assert!((out.reward - expected).abs() < 1e-9);
-            assert!(out.terms.peak_contact_force_n > 0.0, "resting on the floor: contact forces carry the weight");
+            // Computed at every step (0 only when no contact is active: MuJoCo's soft floor lets
+            // an undulating snake hop, see ARCHITECTURE.md).
+            assert!(out.terms.peak_contact_force_n >= 0.0);
+            total_peak += out.terms.peak_contact_force_n;
             assert_eq!(out.truncated, k + 1 == env.max_episode_steps());
             assert!(!out.terminated);
         }
         assert!(total_progress > 0.01, "progress {total_progress}");
         assert!(total_energy > 0.0);
+        assert!(total_peak > 0.0, "on the floor: contact forces carry the weight");
         assert!((env.time_secs() - 3.0).abs() < 1e-9);
         // A time limit does not end the physics: stepping on stays truncated, not terminated.
         let after = env.step(&[0.0; 4], &mut obs);

@@ -278,7 +278,9 @@ impl Controller for PyController {
             if let (Err(e), Ok(mut slot)) = (result, self.error.lock()) {
                 *slot = Some(e);
             }
-            for block in [&mut cmd.position_rad, &mut cmd.velocity_rad_per_s, &mut cmd.intvelocity_rad_per_s, &mut cmd.torque_nm] {
+            for block in
+                [&mut cmd.position_rad, &mut cmd.velocity_rad_per_s, &mut cmd.intvelocity_rad_per_s, &mut cmd.torque_nm]
+            {
                 block.fill(f64::NAN);
             }
         }
@@ -298,7 +300,10 @@ fn run<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let options = RunOptions {
         config_source: config.source.clone(),
-        command_line: vec![if controller.is_some() { "python: simserpent.run(controller=...)" } else { "python: simserpent.run" }.into()],
+        command_line: vec![
+            if controller.is_some() { "python: simserpent.run(controller=...)" } else { "python: simserpent.run" }
+                .into(),
+        ],
         run_folder,
         ..RunOptions::default()
     };
@@ -313,7 +318,9 @@ fn run<'py>(
     };
     if let Some(e) = error.lock().ok().and_then(|mut e| e.take()) {
         let folder = match &result {
-            Err(RunError::Sim(SimError::Diverged { time_secs, .. })) => format!(" (the run stopped at t = {time_secs} s)"),
+            Err(RunError::Sim(SimError::Diverged { time_secs, .. })) => {
+                format!(" (the run stopped at t = {time_secs} s)")
+            }
             _ => String::new(),
         };
         let wrapped = SimSerpentError::new_err(format!("the Python controller raised an exception{folder}"));
@@ -650,8 +657,20 @@ struct VecEnv {
 }
 
 fn step_slot(s: Slot<'_>, same_step: bool) {
-    let Slot { env, obs, final_obs, action, reward, terms, terminated, truncated, error, needs_reset, was_reset, next_seed } =
-        s;
+    let Slot {
+        env,
+        obs,
+        final_obs,
+        action,
+        reward,
+        terms,
+        terminated,
+        truncated,
+        error,
+        needs_reset,
+        was_reset,
+        next_seed,
+    } = s;
     *was_reset = false;
     if *needs_reset {
         // NEXT_STEP: this step only resets.
@@ -800,8 +819,9 @@ impl VecEnv {
             )));
         }
         self.next_seeds.copy_from_slice(&next_seeds);
-        let bad_shape =
-            |shape: &[usize]| pyo3::exceptions::PyValueError::new_err(format!("actions have shape {shape:?}; expected ({n}, {na})"));
+        let bad_shape = |shape: &[usize]| {
+            pyo3::exceptions::PyValueError::new_err(format!("actions have shape {shape:?}; expected ({n}, {na})"))
+        };
         if let Ok(a) = actions.extract::<PyReadonlyArray2<'_, f64>>() {
             if a.shape() != [n, na] {
                 return Err(bad_shape(a.shape()));
@@ -850,7 +870,19 @@ impl VecEnv {
                 .zip(was_reset.iter_mut())
                 .zip(next_seeds.iter())
                 .map(
-                    |(((((((((((env, obs), final_obs), action), reward), terms), terminated), truncated), error), needs_reset), was_reset), next_seed)| Slot {
+                    |(
+                        (
+                            (
+                                (
+                                    (((((((env, obs), final_obs), action), reward), terms), terminated), truncated),
+                                    error,
+                                ),
+                                needs_reset,
+                            ),
+                            was_reset,
+                        ),
+                        next_seed,
+                    )| Slot {
                         env,
                         obs,
                         final_obs,

@@ -480,10 +480,7 @@ impl World {
     /// values and warm start the next step reads, and the contact-pair friction): restoring it
     /// with [`World::restore_state`] continues bit for bit as from here.
     pub fn save_state(&self) -> WorldState {
-        WorldState {
-            data: self.data.clone(),
-            sensor_time_secs: self.sensor_time_secs,
-        }
+        WorldState { data: self.data.clone(), sensor_time_secs: self.sensor_time_secs }
     }
 
     /// Goes back to a state saved from this world by [`World::save_state`].
