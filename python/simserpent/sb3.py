@@ -86,7 +86,7 @@ class SB3VecEnv(_Base):
         self.reset_infos = [{"seed": int(info["seed"][i])} for i in range(self.num_envs)]
         self._reset_seeds()
         self._reset_options()
-        return obs.astype(np.float32)
+        return obs  # float64, as the observation space
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = np.asarray(actions).reshape(self.num_envs, -1)
@@ -101,9 +101,9 @@ class SB3VecEnv(_Base):
                 d["error"] = infos["error"][i]
             d["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
             if dones[i]:
-                d["terminal_observation"] = infos["final_obs"][i].astype(np.float32)
+                d["terminal_observation"] = infos["final_obs"][i]
             out.append(d)
-        return obs.astype(np.float32), rewards.astype(np.float32), dones, out
+        return obs, rewards.astype(np.float32), dones, out
 
     def close(self) -> None:
         self.venv.close()

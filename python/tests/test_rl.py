@@ -319,10 +319,10 @@ def test_sb3_adapter_protocol():
     venv = SB3VecEnv(num_envs=2, overrides=NOISY, threads=1)
     venv.seed(3)
     obs = venv.reset()
-    assert obs.shape == (2, venv.observation_space.shape[0]) and obs.dtype == np.float32
+    assert obs.shape == (2, venv.observation_space.shape[0]) and obs.dtype == venv.observation_space.dtype
     singles = [SimSerpentEnv(overrides=NOISY) for _ in range(2)]
     for i, s in enumerate(singles):
-        np.testing.assert_array_equal(obs[i], s.reset(seed=3 + i)[0].astype(np.float32))
+        np.testing.assert_array_equal(obs[i], s.reset(seed=3 + i)[0])
     for k in range(10):
         a = np.stack([wave(0.02 * k + i) for i in range(2)])
         obs, rewards, dones, infos = venv.step(a)
@@ -330,9 +330,9 @@ def test_sb3_adapter_protocol():
     for i, s in enumerate(singles):
         for k in range(10):
             last = s.step(wave(0.02 * k + i))[0]
-        np.testing.assert_array_equal(infos[i]["terminal_observation"], last.astype(np.float32))
+        np.testing.assert_array_equal(infos[i]["terminal_observation"], last)
         assert infos[i]["TimeLimit.truncated"]
-        np.testing.assert_array_equal(obs[i], s.reset()[0].astype(np.float32))
+        np.testing.assert_array_equal(obs[i], s.reset()[0])
 
 
 # ---------------------------------------------------------------- ergonomics
