@@ -770,9 +770,9 @@ impl VecEnv {
                 mask.len()
             )));
         }
-        for i in 0..n {
-            if mask[i] {
-                self.needs_reset[i] = false;
+        for (needs_reset, reset) in self.needs_reset.iter_mut().zip(&mask) {
+            if *reset {
+                *needs_reset = false;
             }
         }
         let (envs, obs, pool) = (&mut self.envs, &mut self.obs, &self.pool);
