@@ -828,16 +828,15 @@ pub enum EnvPreset {
 }
 
 /// The overrides `env.preset = "fast"` applies on top of the config (keys as `--set`),
-/// chosen from measurements (BENCHMARKS.md, "Python and RL"): implicitfast at 5 ms (4 physics
+/// chosen from measurements (BENCHMARKS.md, "Python and RL"): implicitfast at 4 ms (5 physics
 /// steps per 20 ms action instead of 20 RK4 steps), the stick spring-damper of
-/// `floor_friction = "stick_slip"` at its stability bound of 5 timesteps. The reference gait's
-/// speed, heading and contact forces stay within 5 % of the default physics; 10 ms was as
-/// accurate for that gait but puts the default contact time constant (20 ms) at MuJoCo's
-/// 2-timestep limit, so it is not the preset.
+/// `floor_friction = "stick_slip"` at its stability bound of 5 timesteps. Over 16 starts the
+/// reference gait's mean speed, heading and peak contact force stay within 5 % of the default
+/// physics; 5 ms and 10 ms (faster) moved the mean peak contact force by 9 %.
 pub const ENV_FAST_PRESET: &[&str] = &[
     "general.integrator=\"implicitfast\"",
-    "general.timestep_secs=0.005",
-    "physics.floor_stick_time_constant_secs=0.025",
+    "general.timestep_secs=0.004",
+    "physics.floor_stick_time_constant_secs=0.02",
 ];
 
 /// What an action of the environment is (`env.action`).
