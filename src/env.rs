@@ -14,33 +14,100 @@
 //! Reward per action: `forward_weight · progress − energy_weight · energy −
 //! contact_force_weight · peak force` (see [`RewardTerms`]).
 
-use crate::config::{Config, ControlMethod, EnvAction};
+use crate::config::{self, Config, ConfigError, ConfigSource, ControlMethod, EnvAction, EnvPreset};
 use crate::control::{Command, HeldCommand};
-use crate::sim::{LoopPlan, Observer, SimError, Simulation, StepView, World};
+use crate::sim::{LoopPlan, Observer, SimError, Simulation, SimulationState, StepView, World};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
 
-/// The reward terms of one action, before weighting.
+/// The random stream of the reset noise (the sensor models use streams below 3,000,000 of the
+/// same seed).
+const RESET_NOISE_STREAM: u64 = 3_000_000;
+
+/// The reward terms and read-outs of one action.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct RewardTerms {
-    /// Displacement of the centre of mass along the head's heading at reset (m).
+    /// Displacement of the centre of mass during the action along the forward direction (the
+    /// head's heading in the model before the reset noise) (m).
     pub forward_progress_m: f64,
+    /// `forward_progress_m / control_period_secs` (m/s).
+    pub forward_velocity_m_per_s: f64,
+    /// Centre of mass after the action (m, world frame).
+    pub x_position_m: f64,
+    /// Centre of mass after the action (m, world frame).
+    pub y_position_m: f64,
+    /// Velocity of the centre of mass over the action (m/s, world frame).
+    pub x_velocity_m_per_s: f64,
+    /// Velocity of the centre of mass over the action (m/s, world frame).
+    pub y_velocity_m_per_s: f64,
     /// Actuator energy: Σ over the physics steps of Σ_joints |τ·q̇|·dt (J), with τ and q̇
     /// read after each step.
     pub energy_j: f64,
-    /// Largest contact normal force after the action's last physics step (N); 0 when its
-    /// weight is 0 and no contact-force termination is configured (not computed then).
+    /// Largest contact normal force after the action's last physics step (N); NaN when the
+    /// simulation diverged (no force to read).
     pub peak_contact_force_n: f64,
+    /// Σ action² of the clipped action, in the action's units (normalised when
+    /// `env.normalize_action`).
+    pub ctrl_sum_sq: f64,
+    /// `reward_forward_weight · forward velocity`.
+    pub reward_forward: f64,
+    /// `−reward_energy_weight · energy / control period` (mean power).
+    pub reward_energy: f64,
+    /// `−reward_contact_force_weight · peak force`.
+    pub reward_contact_force: f64,
+    /// `−reward_ctrl_cost_weight · Σ action²`.
+    pub reward_ctrl: f64,
+}
+
+impl RewardTerms {
+    /// The names of [`RewardTerms::values`], in order (the Python `info` keys).
+    pub const NAMES: [&'static str; 13] = [
+        "forward_progress_m",
+        "forward_velocity_m_per_s",
+        "x_position",
+        "y_position",
+        "x_velocity",
+        "y_velocity",
+        "energy_j",
+        "peak_contact_force_n",
+        "ctrl_sum_sq",
+        "reward_forward",
+        "reward_energy",
+        "reward_contact_force",
+        "reward_ctrl",
+    ];
+
+    /// Every term, in the order of [`RewardTerms::NAMES`].
+    pub fn values(&self) -> [f64; 13] {
+        [
+            self.forward_progress_m,
+            self.forward_velocity_m_per_s,
+            self.x_position_m,
+            self.y_position_m,
+            self.x_velocity_m_per_s,
+            self.y_velocity_m_per_s,
+            self.energy_j,
+            self.peak_contact_force_n,
+            self.ctrl_sum_sq,
+            self.reward_forward,
+            self.reward_energy,
+            self.reward_contact_force,
+            self.reward_ctrl,
+        ]
+    }
 }
 
 /// What one action did.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct StepOutcome {
-    /// The weighted reward.
+    /// The weighted reward (the sum of the `reward_*` terms).
     pub reward: f64,
     /// Its terms.
     pub terms: RewardTerms,
     /// The episode ended (divergence, or the contact force bound).
     pub terminated: bool,
-    /// The episode reached `env.max_episode_secs`.
+    /// The episode has reached `env.max_episode_secs` (also on every step after it).
     pub truncated: bool,
     /// Why it terminated, if it did.
     pub error: Option<String>,
@@ -56,10 +123,32 @@ pub struct EnvCore {
     steps: u64,
     max_steps: u64,
     com: [f64; 3],
-    heading: [f64; 2],
+    /// The forward direction of the reward: the head's heading in the model's initial pose.
+    forward_xy: [f64; 2],
+    /// Physical action bounds (rad or N·m).
     lo: Vec<f64>,
     hi: Vec<f64>,
-    done: bool,
+    /// The action space's bounds ([-1, 1] when normalised, else the physical ones).
+    action_lo: Vec<f64>,
+    action_hi: Vec<f64>,
+    terminated: bool,
+}
+
+/// A saved state of an [`EnvCore`] ([`EnvCore::save_state`]): the simulation (engine state,
+/// held action, sensor-noise streams, ground model) and the episode's bookkeeping.
+#[derive(Clone)]
+pub struct EnvState {
+    sim: SimulationState<HeldCommand>,
+    steps: u64,
+    com: [f64; 3],
+    terminated: bool,
+}
+
+impl EnvState {
+    /// The saved engine state (`qpos`, `qvel`, `time`, …).
+    pub fn world(&self) -> &crate::sim::WorldState {
+        self.sim.world()
+    }
 }
 
 /// Adds up the actuator energy of an action: the power after each physics step (MuJoCo's
@@ -78,11 +167,29 @@ impl Observer<SimError> for EnergyMeter {
     }
 }
 
-/// The model of an environment: `config` with `control.method` taken from `env.action`.
-pub fn env_model_config(config: &Config) -> Config {
-    let mut config = config.clone();
+/// The model of an environment: `config` with the physics of `env.preset` (the overrides of
+/// [`config::ENV_FAST_PRESET`] for `"fast"`) and `control.method` taken from `env.action`.
+///
+/// # Errors
+/// The preset's overrides make the config invalid (cannot happen for a valid config).
+pub fn env_model_config(config: &Config) -> Result<Config, ConfigError> {
+    let mut config = match config.env.preset {
+        EnvPreset::Default => config.clone(),
+        EnvPreset::Fast => {
+            let sets: Vec<String> = config::ENV_FAST_PRESET.iter().map(|s| (*s).to_string()).collect();
+            config::load_config_str(&config.to_toml_string(), ConfigSource::Toml, &sets)?
+        }
+    };
     config.control.method = config.env.action.control_method();
-    config
+    Ok(config)
+}
+
+/// Rotates the unit quaternion `q` (w, x, y, z) by `angle_rad` about the world's vertical.
+fn turn_about_vertical(q: [f64; 4], angle_rad: f64) -> [f64; 4] {
+    let (s, c) = (0.5 * angle_rad).sin_cos();
+    let [w, x, y, z] = q;
+    // (c, 0, 0, s) ⊗ (w, x, y, z)
+    [c * w - s * z, c * x - s * y, c * y + s * x, c * z + s * w]
 }
 
 impl EnvCore {
@@ -93,7 +200,8 @@ impl EnvCore {
     /// MuJoCo rejects.
     pub fn new(config: &Config) -> Result<Self, SimError> {
         config.validate_env_use()?;
-        let config = env_model_config(config);
+        let config = env_model_config(config)?;
+        config.validate_env_use()?;
         let world = World::from_config(&config)?;
         let nj = world.n_joints();
         let substeps = (config.env.control_period_secs / config.general.timestep_secs).round().max(1.0) as u64;
@@ -108,6 +216,9 @@ impl EnvCore {
                 (vec![a; nj], vec![b; nj])
             }
         };
+        let (action_lo, action_hi) =
+            if config.env.normalize_action { (vec![-1.0; nj], vec![1.0; nj]) } else { (lo.clone(), hi.clone()) };
+        let forward_xy = world.head_heading_xy();
         let held = HeldCommand { command: Command::new(nj) };
         let mut env = Self {
             sim: Simulation::with_typed_controller(&config, world, held),
@@ -115,17 +226,20 @@ impl EnvCore {
             steps: 0,
             max_steps,
             com: [0.0; 3],
-            heading: [1.0, 0.0],
+            forward_xy,
             lo,
             hi,
-            done: false,
+            action_lo,
+            action_hi,
+            terminated: false,
             config,
         };
         env.reset_state(env.config.general.seed)?;
         Ok(env)
     }
 
-    /// The config the environment runs (with `control.method` from `env.action`).
+    /// The config the environment runs (with the preset applied and `control.method` from
+    /// `env.action`).
     pub fn config(&self) -> &Config {
         &self.config
     }
@@ -145,8 +259,14 @@ impl EnvCore {
         self.sim.world().n_joints()
     }
 
-    /// Action bounds (lower, upper) per joint; actions are clipped to them.
+    /// The action space's bounds (lower, upper) per joint: [-1, 1] with
+    /// `env.normalize_action`, else the physical bounds. Actions are clipped to them.
     pub fn action_bounds(&self) -> (&[f64], &[f64]) {
+        (&self.action_lo, &self.action_hi)
+    }
+
+    /// The physical bounds (rad or N·m) an action maps onto.
+    pub fn physical_action_bounds(&self) -> (&[f64], &[f64]) {
         (&self.lo, &self.hi)
     }
 
@@ -185,8 +305,14 @@ impl EnvCore {
         self.sim.world().centre_of_mass_m()
     }
 
-    /// Starts a new episode from the initial pose; `seed` seeds the sensor noise. Writes the
-    /// first observation into `obs_out` (length [`EnvCore::observation_size`]).
+    /// The forward direction of the reward (unit vector in the xy-plane).
+    pub fn forward_xy(&self) -> [f64; 2] {
+        self.forward_xy
+    }
+
+    /// Starts a new episode from the initial pose with the reset noise of `env` drawn from
+    /// `seed`, which also seeds the sensor noise. Writes the first observation into `obs_out`
+    /// (length [`EnvCore::observation_size`]).
     ///
     /// # Errors
     /// The world cannot be reset (a model without a usable keyframe).
@@ -202,27 +328,75 @@ impl EnvCore {
     fn reset_state(&mut self, seed: u64) -> Result<(), SimError> {
         // No command until the first action.
         self.sim.controller_mut().command = Command::new(self.sim.world().n_joints());
-        self.sim.reset(seed)?;
+        let (scale, heading) = (self.config.env.reset_noise_scale, self.config.env.reset_heading_noise_rad);
+        self.sim.reset_with(seed, |world| {
+            if scale == 0.0 && heading == 0.0 {
+                return;
+            }
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            rng.set_stream(RESET_NOISE_STREAM);
+            // Always the same draws in the same order, whichever parts are switched off.
+            let joints: Vec<(usize, usize)> = world.index.joints.iter().map(|j| (j.qpos_adr, j.dof_adr)).collect();
+            let angle_noise: Vec<f64> = joints.iter().map(|_| rng.random_range(-1.0..=1.0) * scale).collect();
+            let velocity_noise: Vec<f64> =
+                joints.iter().map(|_| scale * rng.sample::<f64, _>(StandardNormal)).collect();
+            let turn = rng.random_range(-1.0..=1.0) * heading;
+            let qpos = world.qpos_mut();
+            for ((q, _), n) in joints.iter().zip(&angle_noise) {
+                qpos[*q] += n;
+            }
+            if let Some(adr) = world.index.head_free_qpos_adr {
+                let qpos = world.qpos_mut();
+                let q = [qpos[adr + 3], qpos[adr + 4], qpos[adr + 5], qpos[adr + 6]];
+                let turned = turn_about_vertical(q, turn);
+                qpos[adr + 3..adr + 7].copy_from_slice(&turned);
+            }
+            let qvel = world.qvel_mut();
+            for ((_, d), n) in joints.iter().zip(&velocity_noise) {
+                qvel[*d] += n;
+            }
+        })?;
         self.steps = 0;
-        self.done = false;
+        self.terminated = false;
         self.com = self.centre_of_mass();
-        self.heading = self.sim.world().head_heading_xy();
         Ok(())
     }
 
-    /// Holds `action` (clipped to [`EnvCore::action_bounds`]) for one control period and
-    /// writes the observation after it into `obs_out`. After a terminated or truncated step,
-    /// further steps do nothing but repeat the last observation (with `terminated`/`truncated`
-    /// set again) until [`EnvCore::reset`].
+    /// A copy of the whole state (engine, held action, sensor-noise streams, ground model,
+    /// episode bookkeeping): [`EnvCore::restore_state`] continues bit for bit from here.
+    pub fn save_state(&self) -> EnvState {
+        EnvState { sim: self.sim.save(), steps: self.steps, com: self.com, terminated: self.terminated }
+    }
+
+    /// Goes back to a state saved from this environment, or from another environment of the
+    /// same config.
+    ///
+    /// # Errors
+    /// The state belongs to a world of another model.
+    pub fn restore_state(&mut self, state: &EnvState) -> Result<(), SimError> {
+        self.sim.restore(&state.sim)?;
+        self.steps = state.steps;
+        self.com = state.com;
+        self.terminated = state.terminated;
+        Ok(())
+    }
+
+    /// Holds `action` (clipped to [`EnvCore::action_bounds`], mapped onto the physical bounds
+    /// when normalised) for one control period and writes the observation after it into
+    /// `obs_out`. After a terminated step, further steps do nothing but repeat the last
+    /// observation (with `terminated` set again) until [`EnvCore::reset`]; after truncation
+    /// (a time limit, the state is still valid) the episode goes on, each step again
+    /// `truncated`, as Gymnasium's MuJoCo environments do.
     ///
     /// # Panics
     /// If `action` or `obs_out` has the wrong length.
     pub fn step(&mut self, action: &[f64], obs_out: &mut [f64]) -> StepOutcome {
         assert_eq!(action.len(), self.action_size(), "action length");
-        if self.done {
+        if self.terminated {
             self.write_observation(obs_out);
             return StepOutcome {
                 terminated: true,
+                terms: RewardTerms { peak_contact_force_n: f64::NAN, ..RewardTerms::default() },
                 error: Some("the episode has ended: call reset".into()),
                 ..StepOutcome::default()
             };
@@ -233,10 +407,17 @@ impl EnvCore {
             EnvAction::Torque => &mut held.torque_nm,
         };
         let gear = self.config.control.torque_gear;
+        let mut ctrl_sum_sq = 0.0;
         for (j, a) in action.iter().enumerate() {
             // NaN stays NaN (MuJoCo then reports a bad control, which terminates the episode).
-            let clipped = a.max(self.lo[j]).min(self.hi[j]);
-            block[j] = if self.config.control.method == ControlMethod::Torque { clipped / gear } else { clipped };
+            let clipped = a.max(self.action_lo[j]).min(self.action_hi[j]);
+            ctrl_sum_sq += clipped * clipped;
+            let physical = if self.config.env.normalize_action {
+                self.lo[j] + 0.5 * (clipped + 1.0) * (self.hi[j] - self.lo[j])
+            } else {
+                clipped
+            };
+            block[j] = if self.config.control.method == ControlMethod::Torque { physical / gear } else { physical };
             if a.is_nan() {
                 block[j] = f64::NAN;
             }
@@ -247,15 +428,32 @@ impl EnvCore {
         let energy_j = meter.energy_j;
         self.steps += 1;
         let e = &self.config.env;
+        let period = e.control_period_secs;
         let com = self.centre_of_mass();
-        let progress = (com[0] - self.com[0]) * self.heading[0] + (com[1] - self.com[1]) * self.heading[1];
+        let (dx, dy) = (com[0] - self.com[0], com[1] - self.com[1]);
+        let progress = dx * self.forward_xy[0] + dy * self.forward_xy[1];
         self.com = com;
-        let want_force = e.reward_contact_force_weight > 0.0 || e.terminate_contact_force_n > 0.0;
-        let peak = if want_force && error.is_none() { self.sim.world().peak_contact_force_n() } else { 0.0 };
-        let terms = RewardTerms { forward_progress_m: progress, energy_j, peak_contact_force_n: peak };
-        let mut reward = e.reward_forward_weight * progress
-            - e.reward_energy_weight * energy_j
-            - e.reward_contact_force_weight * peak;
+        let peak = if error.is_none() { self.sim.world().peak_contact_force_n() } else { f64::NAN };
+        let mut terms = RewardTerms {
+            forward_progress_m: progress,
+            forward_velocity_m_per_s: progress / period,
+            x_position_m: com[0],
+            y_position_m: com[1],
+            x_velocity_m_per_s: dx / period,
+            y_velocity_m_per_s: dy / period,
+            energy_j,
+            peak_contact_force_n: peak,
+            ctrl_sum_sq,
+            reward_forward: e.reward_forward_weight * progress / period,
+            reward_energy: -e.reward_energy_weight * energy_j / period,
+            reward_contact_force: if e.reward_contact_force_weight > 0.0 {
+                -e.reward_contact_force_weight * peak
+            } else {
+                0.0
+            },
+            reward_ctrl: -e.reward_ctrl_cost_weight * ctrl_sum_sq,
+        };
+        let mut reward = terms.reward_forward + terms.reward_energy + terms.reward_contact_force + terms.reward_ctrl;
         if error.is_none() && e.terminate_contact_force_n > 0.0 && peak > e.terminate_contact_force_n {
             error = Some(format!(
                 "contact normal force {peak:.3} N exceeds env.terminate_contact_force_n = {} N at t = {:.6} s",
@@ -266,9 +464,10 @@ impl EnvCore {
         let terminated = error.is_some();
         if terminated && !reward.is_finite() {
             reward = 0.0;
+            terms.reward_contact_force = 0.0;
         }
         let truncated = !terminated && self.steps >= self.max_steps;
-        self.done = terminated || truncated;
+        self.terminated = terminated;
         if error.is_none() {
             self.sim.sense();
         }
@@ -287,7 +486,11 @@ impl EnvCore {
         };
         o.joint_angle_rad.iter().for_each(|x| put(*x));
         o.joint_velocity_rad_per_s.iter().for_each(|x| put(*x));
-        o.head_position_m.iter().for_each(|x| put(*x));
+        if self.config.env.exclude_current_positions_from_observation {
+            put(o.head_position_m[2]);
+        } else {
+            o.head_position_m.iter().for_each(|x| put(*x));
+        }
         o.head_quat.iter().for_each(|x| put(*x));
         o.head_velocity_m_per_s.iter().for_each(|x| put(*x));
         if self.config.env.observe_imu {
@@ -308,7 +511,11 @@ pub fn observation_names(config: &Config, n_links: usize, n_joints: usize) -> Ve
     let joint = |j: usize| format!("joint_{:02}", j + 1);
     names.extend((0..n_joints).map(|j| format!("{}_angle_rad", joint(j))));
     names.extend((0..n_joints).map(|j| format!("{}_velocity_rad_per_s", joint(j))));
-    names.extend(["x", "y", "z"].map(|a| format!("head_position_{a}_m")));
+    if config.env.exclude_current_positions_from_observation {
+        names.push("head_position_z_m".into());
+    } else {
+        names.extend(["x", "y", "z"].map(|a| format!("head_position_{a}_m")));
+    }
     names.extend(["w", "x", "y", "z"].map(|a| format!("head_quat_{a}")));
     names.extend(["x", "y", "z"].map(|a| format!("head_velocity_{a}_m_per_s")));
     if config.env.observe_imu {
@@ -366,7 +573,8 @@ mod tests {
         let c = config(&["env.observe_imu=true", "env.observe_joint_force_torque=true"]);
         let env = EnvCore::new(&c).expect("env");
         let (nl, nj) = (5, 4);
-        assert_eq!(env.observation_size(), 2 * nj + 10 + 6 * nl + 6 * nj);
+        // Head z (x and y left out by default), quaternion, velocity.
+        assert_eq!(env.observation_size(), 2 * nj + 8 + 6 * nl + 6 * nj);
         assert_eq!(env.action_size(), nj);
         assert_eq!(env.substeps(), 20);
         assert_eq!(env.max_episode_steps(), 500);
@@ -400,11 +608,16 @@ mod tests {
 
     #[test]
     fn travelling_wave_moves_forward_and_truncates() {
-        let c = config(&["env.max_episode_secs=3.0", "env.reward_energy_weight=0.1"]);
+        let c = config(&[
+            "env.max_episode_secs=3.0",
+            "env.reward_energy_weight=0.1",
+            "env.normalize_action=false",
+            "env.reward_ctrl_cost_weight=0.0",
+        ]);
         let mut env = EnvCore::new(&c).expect("env");
         let mut obs = vec![0.0; env.observation_size()];
         env.reset(1, &mut obs).expect("reset");
-        let (mut total_progress, mut total_energy) = (0.0, 0.0);
+        let (mut total_progress, mut total_energy, mut total_peak) = (0.0, 0.0, 0.0);
         let mut t = 0.0;
         for k in 0..env.max_episode_steps() {
             t += 0.02;
@@ -412,21 +625,134 @@ mod tests {
             let out = env.step(&a, &mut obs);
             total_progress += out.terms.forward_progress_m;
             total_energy += out.terms.energy_j;
-            let expected = out.terms.forward_progress_m - 0.1 * out.terms.energy_j;
-            assert!((out.reward - expected).abs() < 1e-12);
+            // Rates: velocity (m/s) and mean power (W) over the 0.02 s control period.
+            let expected = out.terms.forward_progress_m / 0.02 - 0.1 * out.terms.energy_j / 0.02;
+            assert!((out.reward - expected).abs() < 1e-9);
+            // Computed at every step (0 only when no contact is active: MuJoCo's soft floor lets
+            // an undulating snake hop, see ARCHITECTURE.md).
+            assert!(out.terms.peak_contact_force_n >= 0.0);
+            total_peak += out.terms.peak_contact_force_n;
             assert_eq!(out.truncated, k + 1 == env.max_episode_steps());
             assert!(!out.terminated);
         }
         assert!(total_progress > 0.01, "progress {total_progress}");
         assert!(total_energy > 0.0);
+        assert!(total_peak > 0.0, "on the floor: contact forces carry the weight");
         assert!((env.time_secs() - 3.0).abs() < 1e-9);
+        // A time limit does not end the physics: stepping on stays truncated, not terminated.
         let after = env.step(&[0.0; 4], &mut obs);
-        assert!(after.terminated);
+        assert!(after.truncated && !after.terminated, "{after:?}");
+    }
+
+    #[test]
+    fn reset_noise_depends_on_the_seed_only() {
+        let c = config(&[]);
+        assert!(c.env.reset_noise_scale > 0.0 && c.env.reset_heading_noise_rad > 0.0);
+        let mut env = EnvCore::new(&c).expect("env");
+        let mut a = vec![0.0; env.observation_size()];
+        let mut b = a.clone();
+        env.reset(7, &mut a).expect("reset");
+        let q7 = env.world().data().qpos().to_vec();
+        env.reset(8, &mut b).expect("reset");
+        assert_ne!(a, b);
+        env.reset(7, &mut b).expect("reset");
+        assert_eq!(a, b);
+        assert_eq!(env.world().data().qpos(), &q7[..]);
+        // The joint angles move by at most the scale from the keyframe (0 for the default pose).
+        let joints: Vec<usize> = env.world().index.joints.iter().map(|j| j.qpos_adr).collect();
+        let initial = &env.world().initial_joint_angles_rad;
+        for (k, q) in joints.iter().enumerate() {
+            assert!((q7[*q] - initial[k]).abs() <= c.env.reset_noise_scale, "joint {k}");
+        }
+        // Without noise every seed starts from the same state.
+        let quiet = config(&["env.reset_noise_scale=0.0", "env.reset_heading_noise_rad=0.0"]);
+        let mut env = EnvCore::new(&quiet).expect("env");
+        env.reset(7, &mut a).expect("reset");
+        env.reset(8, &mut b).expect("reset");
+        assert_eq!(a, b);
+    }
+
+    #[test]
+    fn saved_state_continues_bit_for_bit() {
+        for floor in ["mujoco", "stick_slip"] {
+            let c = config(&[
+                "sensors.noise_enabled=true",
+                "sensors.joint_angle.std=0.01",
+                &format!("physics.floor_friction=\"{floor}\""),
+            ]);
+            let mut env = EnvCore::new(&c).expect("env");
+            let mut obs = vec![0.0; env.observation_size()];
+            env.reset(5, &mut obs).expect("reset");
+            let act = |k: usize| -> Vec<f64> { (0..4).map(|j| (0.3 * (k + j) as f64).sin()).collect() };
+            for k in 0..5 {
+                env.step(&act(k), &mut obs);
+            }
+            let saved = env.save_state();
+            let mut first = Vec::new();
+            for k in 5..15 {
+                let out = env.step(&act(k), &mut obs);
+                first.extend_from_slice(&obs);
+                first.push(out.reward);
+            }
+            // Another branch, then back.
+            env.step(&[1.0, -1.0, 1.0, -1.0], &mut obs);
+            env.restore_state(&saved).expect("restore");
+            let mut second = Vec::new();
+            for k in 5..15 {
+                let out = env.step(&act(k), &mut obs);
+                second.extend_from_slice(&obs);
+                second.push(out.reward);
+            }
+            assert_eq!(first, second, "{floor}");
+            // Into a second environment of the same config.
+            let mut other = EnvCore::new(&c).expect("env");
+            other.restore_state(&saved).expect("restore");
+            let mut third = Vec::new();
+            for k in 5..15 {
+                let out = other.step(&act(k), &mut obs);
+                third.extend_from_slice(&obs);
+                third.push(out.reward);
+            }
+            assert_eq!(first, third, "{floor}");
+        }
+    }
+
+    #[test]
+    fn normalised_actions_map_onto_the_joint_range() {
+        let c = config(&["env.reset_noise_scale=0.0", "env.reset_heading_noise_rad=0.0"]);
+        let mut env = EnvCore::new(&c).expect("env");
+        assert_eq!(env.action_bounds().0, &[-1.0; 4]);
+        let r = c.joint_range_rad();
+        let mut obs = vec![0.0; env.observation_size()];
+        env.reset(0, &mut obs).expect("reset");
+        let out = env.step(&[1.0, -1.0, 0.5, 3.0], &mut obs);
+        let held = &env.sim.controller().command.position_rad;
+        for (got, want) in held.iter().zip([r, -r, 0.5 * r, r]) {
+            assert!((got - want).abs() < 1e-15, "{got} vs {want}");
+        }
+        // Σ a² of the clipped action, weighted by the default 1e-4.
+        assert!((out.terms.ctrl_sum_sq - 3.25).abs() < 1e-12);
+        assert!((out.terms.reward_ctrl + 3.25e-4).abs() < 1e-15);
+        let names = env.observation_names();
+        assert!(!names.iter().any(|n| n == "head_position_x_m" || n == "head_position_y_m"));
+        assert!(names.iter().any(|n| n == "head_position_z_m"));
+    }
+
+    #[test]
+    fn fast_preset_changes_only_the_listed_physics() {
+        let c = config(&["env.preset=\"fast\""]);
+        let env = EnvCore::new(&c).expect("env");
+        let default = EnvCore::new(&config(&[])).expect("env");
+        let preset = config(crate::config::ENV_FAST_PRESET);
+        assert_eq!(env.config().general, preset.general);
+        assert_eq!(env.config().physics, preset.physics);
+        assert_eq!(env.config().snake, default.config().snake);
+        assert!(env.substeps() < default.substeps());
     }
 
     #[test]
     fn torque_actions_are_clipped_and_nan_terminates() {
-        let c = config(&["env.action=\"torque\""]);
+        let c = config(&["env.action=\"torque\"", "env.normalize_action=false"]);
         let mut env = EnvCore::new(&c).expect("env");
         let (lo, hi) = env.action_bounds();
         assert_eq!(hi[0], c.snake.torque_range_nm[1]);

@@ -109,12 +109,14 @@ class PyMujocoEnv:
         com = self._com()
         progress = float((com[:2] - self.com[:2]) @ self.heading)
         self.com = com
+        # The peak contact force is always computed (SimSerpent's info always has it).
         peak = 0.0
-        if self.w[2] > 0.0:
-            for c in range(d.ncon):
-                mujoco.mj_contactForce(m, d, c, self.force6)
-                peak = max(peak, abs(self.force6[0]))
-        reward = self.w[0] * progress - self.w[1] * energy - self.w[2] * peak
+        for c in range(d.ncon):
+            mujoco.mj_contactForce(m, d, c, self.force6)
+            peak = max(peak, abs(self.force6[0]))
+        period = self.substeps * dt
+        # Rates, as SimSerpent's [env] reward: forward velocity, mean power.
+        reward = self.w[0] * progress / period - self.w[1] * energy / period - self.w[2] * peak
         terminated = error is not None
         truncated = not terminated and self.steps >= self.max_steps
         return self._obs(), reward, terminated, truncated, {"energy_j": energy}
@@ -159,6 +161,13 @@ def main():
         "sensors.noise_enabled": True,
         "sensors.joint_angle.std": 0.001,
         "sensors.joint_velocity.std": 0.01,
+        # The layout and action units of PyMujocoEnv (issue 9's conventions): x/y observed,
+        # physical actions, no reset noise, no control cost.
+        "env.exclude_current_positions_from_observation": False,
+        "env.normalize_action": False,
+        "env.reset_noise_scale": 0.0,
+        "env.reset_heading_noise_rad": 0.0,
+        "env.reward_ctrl_cost_weight": 0.0,
     }
     cfg = simserpent.load_config(overrides=overrides)
     cfg_dict = json.loads(cfg.to_json())

@@ -20,8 +20,9 @@ OVERRIDES = {
 
 
 def scripted(t: float, n_joints: int) -> np.ndarray:
-    """Lateral undulation: a sine wave travelling from head to tail."""
-    return 0.5 * np.sin(2 * np.pi * 1.0 * t - 0.8 * np.arange(n_joints))
+    """Lateral undulation: a sine wave travelling from head to tail, as a normalised action
+    (1 = snake.joint_range_deg, 90 deg by default: amplitude 0.35 is about 0.55 rad)."""
+    return (0.35 * np.sin(2 * np.pi * 1.0 * t - 0.8 * np.arange(n_joints))).astype(np.float32)
 
 
 # One environment, the Gymnasium way.
@@ -48,5 +49,5 @@ for k in range(200):  # 4 s per episode at 0.02 s per action
     actions = np.stack([scripted(t, n_joints) * (0.5 + 0.25 * i) for i in range(4)])
     obs, rewards, terminated, truncated, infos = vec.step(actions)
     returns += rewards
-print("vector env, amplitude 0.25/0.375/0.5/0.625 rad: returns", np.round(returns, 4))
+print("vector env, amplitude 0.175/0.26/0.35/0.44 (normalised): returns", np.round(returns, 4))
 vec.close()

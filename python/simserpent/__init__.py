@@ -7,7 +7,9 @@ the Python conveniences:
   dict, or the embedded default, with overrides like the CLI's ``--set``;
 - :class:`World` -- the snake world stepped by actions (``reset(seed)``, ``step(action)``;
   observations as numpy arrays);
-- :func:`run` -- a whole configured run, as ``simserpent run`` does, returning its summary;
+- :func:`run` -- a whole configured run, as ``simserpent run`` does, returning its summary
+  (optionally with a Python controller instead of the configured gait);
+- :class:`Gait` -- the config's gait as a function of time (a base policy for RL);
 - :func:`open_run` -- a run folder's tables as pandas DataFrames;
 - :mod:`simserpent.envs` -- the Gymnasium environment ``SimSerpent-v0`` (registered on import)
   and a vector environment stepped in Rust on all cores;
@@ -42,9 +44,27 @@ from ._core import (
 __version__ = _core.__version__
 
 #: The snake world stepped by actions: ``World(config)``, ``reset(seed) -> obs``,
-#: ``step(action) -> (obs, reward, terminated, truncated, info)``, plus its sizes, bounds,
-#: observation names, ``mjcf`` and ``centre_of_mass``. (The core of :class:`envs.SimSerpentEnv`.)
+#: ``step(action) -> (obs, reward, terminated, truncated, info)`` (``action``: a float64 or
+#: float32 array or a list), plus its sizes, bounds, observation names, ``mjcf`` and
+#: ``centre_of_mass``; the true state ``time``, ``qpos``, ``qvel``, ``act``, ``ctrl``,
+#: ``integration_state()`` (MuJoCo's ``mjSTATE_INTEGRATION``, for ``mujoco.mj_setState``); and
+#: ``get_state() -> WorldState`` / ``set_state(state)`` for branching rollouts (bit for bit).
+#: (The core of :class:`envs.SimSerpentEnv`.)
 World = _core.Env
+WorldState = _core.WorldState
+
+#: The overrides ``[env] preset = "fast"`` applies (``--set`` syntax).
+ENV_FAST_PRESET: list[str] = list(_core.ENV_FAST_PRESET)
+
+#: The joints' sign convention (checked by tests/test_envs.py::test_joint_sign_convention).
+JOINT_SIGN_CONVENTION = (
+    "Joint i connects link i-1 (towards the head) and link i; its angle is the rotation of link i "
+    "relative to link i-1 about the joint's +z axis (yaw joints; right-hand rule). Seen from above "
+    "with the head ahead, a positive angle swings the links behind the joint to the right, i.e. the "
+    "head turns left relative to the tail. A positive gait offset (gait.*.offset_deg) bends the body "
+    "that way on average and the snake turns right (clockwise seen from above; 10 links, bare floor, "
+    "+15 deg: the head's yaw fell by 4.7 rad in 8 s, -15 deg: rose by 6.0 rad)."
+)
 
 ConfigLike = Union[str, "os.PathLike[str]", Mapping[str, Any], Config, None]
 Overrides = Union[Iterable[str], Mapping[str, Any], None]
@@ -59,6 +79,10 @@ __all__ = [
     "SimulationError",
     "SweepError",
     "World",
+    "WorldState",
+    "Gait",
+    "ENV_FAST_PRESET",
+    "JOINT_SIGN_CONVENTION",
     "default_config_toml",
     "load_config",
     "make_world",
@@ -143,6 +167,7 @@ def run(
     config: ConfigLike = None,
     overrides: Overrides = None,
     run_folder: Union[str, "os.PathLike[str]", None] = None,
+    controller: Any = None,
 ) -> dict[str, Any]:
     """Runs a whole configured simulation, as ``simserpent run`` does (the GIL is released
     while it runs). Returns the summary dict (``run_folder``, ``distance_m``,
@@ -150,9 +175,50 @@ def run(
 
     ``run_folder``: record into exactly this folder instead of a new
     ``<general.output_dir>/<run_name>-<UTC time>/``.
+
+    ``controller``: a Python callable replacing the configured gait, recorded into the same run
+    folder and tables as the built-in controller. It is called at every physics step with the
+    measured observation, a dict (``time_secs``, ``joint_angle_rad``,
+    ``joint_velocity_rad_per_s``, ``actuator_torque_nm``, ``head_position_m``, ``head_quat``,
+    ``head_velocity_m_per_s``; numpy arrays), and returns one command per joint for the
+    actuators of ``control.method`` (e.g. target angles in rad for ``"position"``), or a dict
+    of blocks (``{"position_rad": ..., "torque_nm": ...}``). An exception in it stops the run
+    (the run folder is marked failed) and is raised as the cause of a :class:`SimSerpentError`.
     """
     cfg = load_config(config, overrides)
-    return _core.run(cfg, os.fspath(run_folder) if run_folder is not None else None)
+    if controller is not None and not callable(controller):
+        raise TypeError(f"controller must be callable (obs dict -> command), got {type(controller).__name__}")
+    return _core.run(cfg, os.fspath(run_folder) if run_folder is not None else None, controller)
+
+
+class Gait:
+    """The config's gait (``[gait]``) as a function of time, e.g. a base policy for RL:
+    ``Gait(config).targets(t_secs) -> (angles_rad, velocities_rad_per_s)`` are the joint
+    targets the built-in controller follows; ``action(t_secs)`` the same target angles as an
+    action of the environment of this config (normalised to [-1, 1] by
+    ``snake.joint_range_deg`` when ``env.normalize_action``, clipped)."""
+
+    def __init__(self, config: ConfigLike = None, overrides: Overrides = None):
+        self.config = load_config(config, overrides)
+        self._core = _core.Gait(self.config)
+        cfg = json.loads(self.config.to_json())
+        self._range_rad = math.radians(cfg["snake"]["joint_range_deg"])
+        self._normalised = bool(cfg["env"]["normalize_action"])
+        self.n_joints: int = self._core.n_joints
+
+    def targets(self, t_secs: float):
+        return self._core.targets(float(t_secs))
+
+    def __call__(self, t_secs: float):
+        return self.targets(t_secs)[0]
+
+    def action(self, t_secs: float):
+        import numpy as np
+
+        angles = np.clip(self.targets(t_secs)[0], -self._range_rad, self._range_rad)
+        if self._normalised:
+            return (angles / self._range_rad).astype(np.float32)
+        return angles
 
 
 class Run:

@@ -1,23 +1,40 @@
 """Gymnasium environments: ``SimSerpent-v0`` and a vector environment stepped in Rust.
 
 The observation, actions, reward and episode end are set by the config's ``[env]`` section
-(see ``default_config_toml()``):
+(see ``default_config_toml()``), following Gymnasium's MuJoCo suite (Swimmer-v5) by default:
 
 - observation (version ``env.observation_version`` = 1): measured joint angles and velocities,
-  head position, quaternion (w, x, y, z) and linear velocity, optionally per link IMU
-  (``env.observe_imu``) and per joint force/torque sensors (``env.observe_joint_force_torque``),
-  with the ``[sensors]`` noise, seeded by ``reset(seed=...)``; ``env.observation_names`` names
-  every element;
-- action: joint target angles (``env.action = "position"``) or joint torques (``"torque"``),
-  one per joint, held for ``env.control_period_secs``;
-- reward: ``reward_forward_weight`` x forward progress - ``reward_energy_weight`` x actuator
-  energy - ``reward_contact_force_weight`` x largest contact force (the terms are in ``info``);
+  head position (only z by default: ``env.exclude_current_positions_from_observation``),
+  quaternion (w, x, y, z) and linear velocity, optionally per link IMU (``env.observe_imu``) and
+  per joint force/torque sensors (``env.observe_joint_force_torque``), with the ``[sensors]``
+  noise, seeded by ``reset(seed=...)``; ``env.observation_names`` names every element;
+- action: a float32 box in [-1, 1] (``env.normalize_action``) mapped onto the joint target
+  angles (``env.action = "position"``, +-``snake.joint_range_deg``) or joint torques
+  (``"torque"``, ``snake.torque_range_nm``), one per joint, held for ``env.control_period_secs``
+  (= ``env.dt``). Sign convention: see ``JOINT_SIGN_CONVENTION``;
+- reset noise: uniform joint angles, normal joint velocities (``env.reset_noise_scale``) and a
+  uniform heading (``env.reset_heading_noise_rad``), drawn from the episode's seed;
+- reward (rates): ``reward_forward_weight`` x forward velocity - ``reward_energy_weight`` x mean
+  actuator power - ``reward_contact_force_weight`` x largest contact force -
+  ``reward_ctrl_cost_weight`` x sum(action^2); ``info`` has every weighted term
+  (``reward_forward``, ``reward_ctrl``, ...) and ``x_position``, ``y_position``, ``x_velocity``,
+  ``y_velocity``, ``distance_from_origin``, ``peak_contact_force_n`` (absent, never a fake 0,
+  when the step diverged);
 - terminated: the simulation diverged (``info["error"]`` says why) or a contact force exceeded
-  ``env.terminate_contact_force_n``; truncated: ``env.max_episode_secs`` reached.
+  ``env.terminate_contact_force_n``; truncated: ``env.max_episode_secs`` reached (the physics
+  goes on if you keep stepping, each step again ``truncated``; ``spec.max_episode_steps``
+  says when).
+
+Rendering (``render_mode`` ``"rgb_array"``, ``"depth_array"``, ``"human"``) draws the env's own
+model at its true state with the official :class:`mujoco.Renderer` (offscreen; without a
+display and without ``MUJOCO_GL`` set, ``MUJOCO_GL=egl`` is set if ``mujoco`` was not imported
+yet) or :mod:`mujoco.viewer` (``"human"``, needs a display).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import os
 from typing import Any
 
 import gymnasium as gym
@@ -32,6 +49,11 @@ ENV_ID = "SimSerpent-v0"
 
 _SEED_MAX = 2**63 - 1
 
+#: The reward terms and read-outs in ``info`` (in the vector env: one array each).
+TERM_NAMES: list[str] = list(_core.TERM_NAMES)
+
+RENDER_MODES = ["human", "rgb_array", "depth_array"]
+
 
 def _config(config, overrides):
     from . import load_config
@@ -42,105 +64,399 @@ def _config(config, overrides):
 def _spaces(core) -> tuple[spaces.Box, spaces.Box]:
     n = core.observation_size
     observation_space = spaces.Box(-np.inf, np.inf, shape=(n,), dtype=np.float64)
-    action_space = spaces.Box(core.action_low, core.action_high, dtype=np.float64)
+    if core.normalize_action:
+        action_space = spaces.Box(-1.0, 1.0, shape=(core.action_size,), dtype=np.float32)
+    else:
+        action_space = spaces.Box(core.action_low, core.action_high, dtype=np.float64)
     return observation_space, action_space
 
 
+def episode_seeds(seed: int | None, count: int) -> list[int]:
+    """The sensor- and reset-noise seeds of the first ``count`` episodes of an environment
+    reset with ``seed`` and then reset without a seed (what :class:`SimSerpentEnv` and the
+    vector env draw): the one seed -> noise mapping of every vectorisation mode."""
+    rng, _ = gym.utils.seeding.np_random(seed)
+    return [int(rng.integers(0, _SEED_MAX)) for _ in range(count)]
+
+
+def has_display() -> bool:
+    """Whether a window can be opened (an X11 or Wayland display is set)."""
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+class MujocoRendering:
+    """Draws a :class:`simserpent.World` with the official MuJoCo renderer: the world's own
+    MJCF compiled by the ``mujoco`` package (the same libmujoco), its true state copied in
+    (MuJoCo's integration state: time, qpos, qvel, act, ...) and a forward pass; a camera
+    that follows the snake's centre of mass from above at an angle (or a camera of the model
+    by name or id). The model is compiled at the first ``render()``."""
+
+    def __init__(self, world, render_mode: str, width: int = 480, height: int = 480,
+                 camera: str | int | None = None, distance_m: float | None = None, quality: str = "fast"):
+        if quality not in ("fast", "full"):
+            raise ValueError(f"render quality {quality!r}: allowed 'fast' (no shadows, reflections, MSAA) or 'full'")
+        self.quality = quality
+        self.world = world
+        self.render_mode = render_mode
+        self.width, self.height = int(width), int(height)
+        if self.width < 1 or self.height < 1:
+            raise ValueError(f"render width and height must be at least 1, got {width} x {height}")
+        self._camera_arg = camera
+        self._distance_m = distance_m
+        self.model = None
+        self.data = None
+        self._renderer = None
+        self._viewer = None
+
+    def _setup(self) -> None:
+        import sys
+
+        if "mujoco" not in sys.modules and not has_display() and self.render_mode != "human":
+            # Offscreen without a display: EGL (MuJoCo reads MUJOCO_GL when it is imported).
+            os.environ.setdefault("MUJOCO_GL", "egl")
+        import mujoco
+
+        self._mujoco = mujoco
+        try:
+            self.model = mujoco.MjModel.from_xml_string(self.world.mjcf)
+        except ValueError as e:  # a model with terrain files: they are not beside the text
+            raise _core.ModelError(
+                f"cannot compile the environment's MJCF for rendering ({e}); rendering needs a model "
+                "without third-party terrain files"
+            ) from None
+        # The offscreen buffer must hold the picture.
+        self.model.vis.global_.offwidth = max(self.model.vis.global_.offwidth, self.width)
+        self.model.vis.global_.offheight = max(self.model.vis.global_.offheight, self.height)
+        if self.quality == "fast":
+            # SimSerpent's render.quality = "fast": no MSAA (shadows and reflections are
+            # switched off in the scene below); ~10x faster on a software rasteriser.
+            self.model.vis.quality.offsamples = 0
+        self.data = mujoco.MjData(self.model)
+        self._spec = mujoco.mjtState.mjSTATE_INTEGRATION
+        self.camera = mujoco.MjvCamera()
+        camera = self._camera_arg
+        if camera is None:
+            mujoco.mjv_defaultFreeCamera(self.model, self.camera)
+            extent = self.model.stat.extent
+            self.camera.distance = self._distance_m if self._distance_m is not None else max(1.0, 1.2 * extent)
+            self.camera.elevation = -45.0
+            self.camera.azimuth = 90.0
+            self._follow = True
+        else:
+            if isinstance(camera, int):
+                cam_id = camera
+            else:
+                cam_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
+            if cam_id < 0 or cam_id >= self.model.ncam:
+                raise ValueError(f"render camera {camera!r}: the model has no such camera ({self.model.ncam} cameras)")
+            self.camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
+            self.camera.fixedcamid = cam_id
+            self._follow = False
+
+    def sync(self) -> None:
+        """Copies the world's true state into the renderer's data and runs a forward pass."""
+        if self.model is None:
+            self._setup()
+        mujoco = self._mujoco
+        mujoco.mj_setState(self.model, self.data, self.world.integration_state(), self._spec)
+        mujoco.mj_forward(self.model, self.data)
+        if self._follow:
+            self.camera.lookat[:] = self.world.centre_of_mass
+
+    def render(self):
+        self.sync()
+        mujoco = self._mujoco
+        if self.render_mode == "human":
+            if self._viewer is None:
+                import mujoco.viewer
+
+                self._viewer = mujoco.viewer.launch_passive(self.model, self.data)
+            self._viewer.sync()
+            return None
+        if self._renderer is None:
+            self._renderer = mujoco.Renderer(self.model, self.height, self.width)
+            if self.render_mode == "depth_array":
+                self._renderer.enable_depth_rendering()
+            if self.quality == "fast":
+                self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = False
+                self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
+        r = self._renderer
+        r.update_scene(self.data, camera=self.camera)
+        return r.render()
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        if self._viewer is not None:
+            self._viewer.close()
+            self._viewer = None
+
+
 class SimSerpentEnv(gym.Env):
-    """One snake. ``SimSerpentEnv(config=None, overrides=None)``: ``config`` as for
-    :func:`simserpent.load_config` (a path, a dict, a :class:`simserpent.Config` or ``None``).
+    """One snake. ``SimSerpentEnv(config=None, overrides=None, render_mode=None, width=480,
+    height=480, camera=None, render_quality="fast")`` (``"fast"``: no shadows, reflections or
+    MSAA, as the CLI's ``render.quality`` default; ``"full"``: MuJoCo's defaults): ``config`` as for :func:`simserpent.load_config` (a path, a
+    dict, a :class:`simserpent.Config` or ``None``).
+
+    ``unwrapped.world`` is the :class:`simserpent.World` (true state ``qpos``, ``qvel``,
+    ``time``; ``get_state()``/``set_state()`` for branching rollouts).
     """
 
-    metadata = {"render_modes": []}
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 50}
 
-    def __init__(self, config=None, overrides=None, render_mode: str | None = None):
-        if render_mode is not None:
+    def __init__(self, config=None, overrides=None, render_mode: str | None = None,
+                 width: int = 480, height: int = 480, camera: str | int | None = None,
+                 render_quality: str = "fast"):
+        if render_mode is not None and render_mode not in RENDER_MODES:
+            raise ValueError(f"render_mode {render_mode!r} is not supported; allowed: {RENDER_MODES} or None")
+        if render_mode == "human" and not has_display():
             raise ValueError(
-                "SimSerpentEnv has no render modes; record a run (simserpent.run with video.enabled) "
-                "or open the MJCF (env.unwrapped.mjcf) in `python -m mujoco.viewer`"
+                "render_mode='human' needs a display (DISPLAY or WAYLAND_DISPLAY is not set); "
+                "use render_mode='rgb_array' (with MUJOCO_GL=egl) and gymnasium.wrappers.RecordVideo"
             )
-        self.render_mode = None
         self.config = _config(config, overrides)
         self.core = _core.Env(self.config)
+        self.world = self.core
         self.observation_space, self.action_space = _spaces(self.core)
         self.observation_names: list[str] = list(self.core.observation_names)
         self.observation_version: int = self.core.observation_version
+        self.metadata = {**type(self).metadata, "render_fps": int(round(1.0 / self.dt))}
+        self.render_mode = render_mode
+        self._renderer = (
+            MujocoRendering(self.core, render_mode, width, height, camera, quality=render_quality)
+            if render_mode
+            else None
+        )
+        self._start_xy = np.zeros(2)
+        self._spec = None
+
+    # gym.make sets the spec after construction; fill in the env's own episode length so that
+    # spec.max_episode_steps says when it truncates (no TimeLimit wrapper is needed).
+    @property
+    def spec(self):
+        return self._spec
+
+    @spec.setter
+    def spec(self, value):
+        if value is not None and value.max_episode_steps is None:
+            value = dataclasses.replace(value, max_episode_steps=int(self.core.max_episode_steps))
+        self._spec = value
+
+    @property
+    def dt(self) -> float:
+        """Time between two actions (s): ``env.control_period_secs``."""
+        return float(self.core.control_period_secs)
+
+    @property
+    def max_episode_steps(self) -> int:
+        return int(self.core.max_episode_steps)
 
     @property
     def mjcf(self) -> str:
         """The MJCF of the world (``control.method`` set from ``env.action``)."""
         return self.core.mjcf
 
+    def _xy_info(self) -> dict[str, float]:
+        x, y, _ = self.core.centre_of_mass
+        return {
+            "x_position": x,
+            "y_position": y,
+            "distance_from_origin": float(np.hypot(x - self._start_xy[0], y - self._start_xy[1])),
+        }
+
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        # The sensor-noise seed comes from the env's generator: the same seed, the same episode.
+        # The noise seed comes from the env's generator: the same seed, the same episode.
         episode_seed = int(self.np_random.integers(0, _SEED_MAX))
         obs = self.core.reset(episode_seed)
-        return obs, {"time_secs": self.core.time_secs, "seed": episode_seed}
+        self._start_xy = np.array(self.core.centre_of_mass[:2])
+        info = {"time_secs": self.core.time_secs, "seed": episode_seed, **self._xy_info()}
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
 
     def step(self, action):
-        a = np.ascontiguousarray(action, dtype=np.float64).reshape(-1)
+        a = action if isinstance(action, np.ndarray) and action.ndim == 1 else np.asarray(action).reshape(-1)
         obs, reward, terminated, truncated, info = self.core.step(a)
+        info["distance_from_origin"] = float(
+            np.hypot(info["x_position"] - self._start_xy[0], info["y_position"] - self._start_xy[1])
+        )
+        if self.render_mode == "human":
+            self.render()
         return obs, float(reward), bool(terminated), bool(truncated), info
+
+    def render(self):
+        if self._renderer is None:
+            gym.logger.warn(
+                "render() called without a render_mode; make the env with render_mode='rgb_array' "
+                "(or 'depth_array', 'human')"
+            )
+            return None
+        return self._renderer.render()
+
+    def get_state(self):
+        """The whole state (see :meth:`simserpent.World.get_state`)."""
+        return self.core.get_state()
+
+    def set_state(self, state) -> None:
+        """Back to a state from :meth:`get_state`: the same actions give the same trajectory."""
+        self.core.set_state(state)
+
+    def close(self):
+        if self._renderer is not None:
+            self._renderer.close()
+        super().close()
+
+
+def _reset_mask(options: dict[str, Any] | None, n: int) -> np.ndarray:
+    mask = None if options is None else options.get("reset_mask")
+    if mask is None:
+        return np.ones(n, dtype=bool)
+    mask = np.asarray(mask)
+    if mask.shape != (n,) or mask.dtype != np.bool_:
+        raise ValueError(f"options['reset_mask'] must be a bool array of shape ({n},), got {mask.dtype} {mask.shape}")
+    return mask
+
+
+def _seed_list(seed, n: int) -> list[int | None]:
+    """Per-environment seeds as Gymnasium's SyncVectorEnv takes them: an int s gives s, s+1, ...;
+    a list gives one per environment; None gives none."""
+    if seed is None:
+        return [None] * n
+    if isinstance(seed, (int, np.integer)):
+        return [int(seed) + i for i in range(n)]
+    seeds = list(seed)
+    if len(seeds) != n:
+        raise ValueError(f"reset got {len(seeds)} seeds for {n} environments")
+    return [None if s is None else int(s) for s in seeds]
+
+
+def _autoreset_mode(mode) -> AutoresetMode:
+    """An AutoresetMode, or its value ("NextStep") or name ("next_step", "SAME_STEP")."""
+    if isinstance(mode, str):
+        by_name = {m.name.lower(): m for m in AutoresetMode}
+        mode = by_name.get(mode.lower()) or next((m for m in AutoresetMode if m.value == mode), mode)
+    if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+        raise ValueError(
+            f"autoreset_mode {mode!r} is not supported; allowed: AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP"
+        )
+    return mode
 
 
 class SimSerpentVectorEnv(VectorEnv):
     """``num_envs`` snakes stepped together in Rust on a rayon pool of ``threads`` threads
-    (0: all cores), with the GIL released. Autoreset mode ``NEXT_STEP``: the step after an
-    episode ends returns that environment's first observation of a new episode (reward 0).
+    (0: all cores), with the GIL released.
 
-    ``reset(seed=s)`` seeds environment i with ``s + i``; its k-th automatic reset gets
-    ``s + i + k * num_envs``. So a vector of N equals N single :class:`SimSerpentEnv` whose
-    ``core.reset`` got those seeds.
+    ``autoreset_mode``: ``AutoresetMode.NEXT_STEP`` (default: the step after an episode ends
+    returns that environment's first observation of a new episode, reward 0) or
+    ``AutoresetMode.SAME_STEP`` (the step that ends an episode returns the new episode's first
+    observation; the last one is in ``info["final_obs"]``, its info in ``info["final_info"]``).
+
+    Seeding is Gymnasium's SyncVectorEnv's: ``reset(seed=s)`` seeds environment i with
+    ``s + i``, ``reset(seed=[...])`` one seed per environment; each environment draws the
+    noise seed of every episode from its own generator exactly as :class:`SimSerpentEnv`
+    does, so a vector of N equals N single environments (also in ``sync`` and ``async``
+    modes). ``reset(options={"reset_mask": mask})`` resets only the masked environments.
     """
 
-    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": [], "render_fps": 50}
 
-    def __init__(self, num_envs: int = 8, config=None, overrides=None, threads: int = 0, render_mode=None):
+    def __init__(self, num_envs: int = 8, config=None, overrides=None, threads: int = 0, render_mode=None,
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP):
+        mode = _autoreset_mode(autoreset_mode)
         if render_mode is not None:
-            raise ValueError("SimSerpentVectorEnv has no render modes")
-        self.render_mode = None
+            raise ValueError(
+                f"SimSerpentVectorEnv render_mode {render_mode!r}: the Rust vector env does not render; "
+                "use gym.make_vec(..., vectorization_mode='sync', render_mode='rgb_array')"
+            )
         self.config = _config(config, overrides)
-        self.core = _core.VecEnv(self.config, int(num_envs), int(threads))
+        rust_mode = "same_step" if mode == AutoresetMode.SAME_STEP else "next_step"
+        self.core = _core.VecEnv(self.config, int(num_envs), int(threads), rust_mode)
         self.num_envs = int(num_envs)
-        single = _core.Env(self.config)
-        self.single_observation_space, self.single_action_space = _spaces(single)
-        self.observation_names: list[str] = list(single.observation_names)
-        del single
+        self._single = _core.Env(self.config)
+        self.single_observation_space, self.single_action_space = _spaces(self._single)
+        self.observation_names: list[str] = list(self._single.observation_names)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.dt = float(self._single.control_period_secs)
+        self.metadata = {**type(self).metadata, "autoreset_mode": mode, "render_fps": int(round(1.0 / self.dt))}
+        self.render_mode = render_mode
         self._np_random_seed = None
+        self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
+        self._next_seeds = np.zeros(self.num_envs, dtype=np.uint64)
 
     @property
     def threads(self) -> int:
         return self.core.threads
 
+    @property
+    def max_episode_steps(self) -> int:
+        return int(self.core.max_episode_steps)
+
+    def _draw(self, i: int) -> int:
+        return int(self._rngs[i].integers(0, _SEED_MAX))
+
     def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None):
-        if isinstance(seed, (list, tuple)):
-            seed = seed[0]
-        if seed is not None:
-            self._np_random, self._np_random_seed = gym.utils.seeding.np_random(seed)
-        first = int(self.np_random.integers(0, _SEED_MAX)) if seed is None else int(seed)
-        obs = self.core.reset(first)
-        return obs, {"seed": np.arange(self.num_envs, dtype=np.int64) + first}
+        n = self.num_envs
+        mask = _reset_mask(options, n)
+        seeds = _seed_list(seed, n)
+        if isinstance(seed, (int, np.integer)):
+            self._np_random, self._np_random_seed = gym.utils.seeding.np_random(int(seed))
+        episode = np.zeros(n, dtype=np.uint64)
+        for i in range(n):
+            if not mask[i]:
+                continue
+            if seeds[i] is not None or self._rngs[i] is None:
+                self._rngs[i], _ = gym.utils.seeding.np_random(seeds[i])
+            episode[i] = self._draw(i)
+            self._next_seeds[i] = self._draw(i)
+        obs = self.core.reset(episode.tolist(), mask.tolist())
+        info: dict[str, Any] = {}
+        seed_values = np.array([s if s is not None else -1 for s in seeds], dtype=np.int64)
+        info["seed"] = episode.astype(np.uint64)
+        info["_seed"] = mask.copy()
+        info["env_seed"] = seed_values
+        info["_env_seed"] = mask & (seed_values >= 0)
+        return obs, info
 
     def step(self, actions):
-        a = np.ascontiguousarray(actions, dtype=np.float64).reshape(self.num_envs, -1)
-        obs, rewards, terminated, truncated, terms, errors = self.core.step(a)
-        mask = np.ones(self.num_envs, dtype=bool)
-        infos: dict[str, Any] = {
-            "forward_progress_m": terms[:, 0],
-            "_forward_progress_m": mask,
-            "energy_j": terms[:, 1],
-            "_energy_j": mask,
-            "peak_contact_force_n": terms[:, 2],
-            "_peak_contact_force_n": mask,
-        }
+        a = actions if isinstance(actions, np.ndarray) and actions.ndim == 2 else np.asarray(actions).reshape(
+            self.num_envs, -1
+        )
+        if a.dtype not in (np.float64, np.float32):
+            a = a.astype(np.float64)
+        obs, rewards, terminated, truncated, terms, errors, was_reset, final_obs = self.core.step(
+            a, self._next_seeds.tolist()
+        )
+        # Each environment that was reset draws the seed of its next episode from its generator.
+        for i in np.flatnonzero(was_reset):
+            self._next_seeds[i] = self._draw(i)
+        n = self.num_envs
+        stepped = ~was_reset if self.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP else np.ones(n, dtype=bool)
+        infos: dict[str, Any] = {}
+        for k, name in enumerate(TERM_NAMES):
+            values = terms[:, k]
+            infos[name] = values
+            infos["_" + name] = stepped & np.isfinite(values)
         failed = np.array([e is not None for e in errors])
         if failed.any():
             infos["error"] = np.array([e or "" for e in errors], dtype=object)
             infos["_error"] = failed
+        if self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP and was_reset.any():
+            fo = np.empty(n, dtype=object)
+            for i in np.flatnonzero(was_reset):
+                fo[i] = final_obs[i].copy()
+            infos["final_obs"] = fo
+            infos["_final_obs"] = was_reset.copy()
+            final_info = {name: infos[name].copy() for name in TERM_NAMES}
+            final_info.update({"_" + name: was_reset & infos["_" + name] for name in TERM_NAMES})
+            infos["final_info"] = final_info
+            infos["_final_info"] = was_reset.copy()
         return obs, rewards, terminated, truncated, infos
+
+    def close_extras(self, **kwargs):
+        pass
 
 
 def register_envs() -> None:
@@ -151,7 +467,8 @@ def register_envs() -> None:
         id=ENV_ID,
         entry_point="simserpent.envs:SimSerpentEnv",
         vector_entry_point="simserpent.envs:SimSerpentVectorEnv",
-        # The environment truncates itself at env.max_episode_secs.
+        # The environment truncates itself at env.max_episode_secs; its spec says when
+        # (SimSerpentEnv.spec fills in max_episode_steps from the config).
         max_episode_steps=None,
     )
 

@@ -28,11 +28,38 @@ from . import _core, load_config, toml_literal
 METRICS = tuple(_core.SWEEP_METRICS)
 
 
+#: Set in the environment before Ray is imported: on Linux, Ray otherwise replaces
+#: ``_node_ip_address="127.0.0.1"`` by the machine's reachable address and its GCS, raylet,
+#: workers and driver listen on every interface (``*``), the runtime-env agent on the external
+#: address. With this variable 0 every listener binds to 127.0.0.1 (checked by
+#: ``tests/test_ray.py::test_local_cluster_listens_only_on_loopback``).
+LOOPBACK_ENV = {"RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER": "0"}
+
+
+def _loopback_environment() -> None:
+    """Makes a new local cluster bind to 127.0.0.1: the variable for the processes Ray starts
+    (they inherit it) and, when Ray was imported already (it reads the variable once, on
+    import), its constant in this process."""
+    import sys
+
+    os.environ.update(LOOPBACK_ENV)
+    constants = sys.modules.get("ray._private.ray_constants")
+    if constants is not None:
+        constants.ENABLE_RAY_CLUSTER = False
+
+
+# Before anything imports Ray through this module.
+os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+
+
 def init_ray(address: str | None = None, num_cpus: int | None = None, **kwargs: Any) -> None:
     """Connects to Ray once per process: ``address`` (an existing cluster: ``"auto"``, a GCS
     address ``"host:port"`` or ``"ray://host:port"``) or, by default, a new local cluster of
-    this process with ``num_cpus`` CPUs (default: all cores) on the loopback interface."""
+    this process with ``num_cpus`` CPUs (default: all cores) listening only on the loopback
+    interface (127.0.0.1; see :data:`LOOPBACK_ENV`)."""
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    if address is None:
+        _loopback_environment()
     import ray
 
     if ray.is_initialized():

@@ -13,11 +13,13 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use rayon::prelude::*;
 use simserpent::config::{self, Config, ConfigError as LibConfigError, ConfigSource};
-use simserpent::env::{EnvCore, StepOutcome};
+use simserpent::control::{Command, Controller, JointTrajectory, Observation};
+use simserpent::env::{EnvCore, EnvState, RewardTerms, StepOutcome};
 use simserpent::run::{RunError, RunOptions, RunSummary};
 use simserpent::sim::SimError;
 use simserpent::sweep::{self, SampleMode, SummaryTable, SweepError as LibSweepError, SweepSpec, Variation};
 use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
 
 create_exception!(_core, SimSerpentError, PyException, "Any SimSerpent error; the message is the CLI's.");
 create_exception!(_core, ConfigError, SimSerpentError, "A bad config: names the key, the value and what is allowed.");
@@ -111,13 +113,39 @@ impl PyConfig {
 
     /// The MJCF an environment of this config runs (`control.method` taken from `env.action`).
     fn env_mjcf(&self) -> PyResult<String> {
-        let c = simserpent::env::env_model_config(&self.inner);
+        let c = simserpent::env::env_model_config(&self.inner).map_err(|e| config_err(&self.source, &e))?;
         simserpent::model::generate(&c).map(|g| g.xml).map_err(|e| sim_err(&self.source, &SimError::from(e)))
     }
 
     fn __repr__(&self) -> String {
         format!("simserpent.Config(source={:?})", self.source)
     }
+
+    /// Pickling (deepcopy, spawn-context processes, Ray tasks): the resolved TOML and the
+    /// source, rebuilt by `simserpent._core._config_from_toml`.
+    fn __reduce__<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyAny>, (String, String))> {
+        let f = py.import("simserpent._core")?.getattr("_config_from_toml")?;
+        Ok((f, (self.inner.to_toml_string(), self.source.clone())))
+    }
+
+    fn __copy__(&self) -> Self {
+        self.clone()
+    }
+
+    fn __deepcopy__(&self, _memo: &Bound<'_, PyAny>) -> Self {
+        self.clone()
+    }
+
+    fn __eq__(&self, other: &Self) -> bool {
+        self.inner == other.inner
+    }
+}
+
+/// A pickled config back (the TOML of a resolved config loads to the same config).
+#[pyfunction]
+fn _config_from_toml(toml_text: &str, source: String) -> PyResult<PyConfig> {
+    let inner = config::load_config_str(toml_text, ConfigSource::Toml, &[]).map_err(|e| config_err(&source, &e))?;
+    Ok(PyConfig { inner, source })
 }
 
 /// `load_config(path=None, json=None, overrides=[])`: from a file (`.toml` or the original
@@ -176,35 +204,243 @@ fn summary_dict<'py>(py: Python<'py>, s: &RunSummary) -> PyResult<Bound<'py, PyD
     Ok(d)
 }
 
+/// A Python callable as the run's controller: called at every physics step with the measured
+/// observation (a dict), it returns the joint command of `control.method` (a sequence of one
+/// value per joint) or a dict of command blocks (`position_rad`, `velocity_rad_per_s`,
+/// `intvelocity_rad_per_s`, `torque_nm`). Its first exception is kept and stops the run (the
+/// command becomes NaN, which MuJoCo rejects at once).
+struct PyController {
+    callable: Py<PyAny>,
+    method: config::ControlMethod,
+    error: Arc<Mutex<Option<PyErr>>>,
+}
+
+impl PyController {
+    fn call(&self, py: Python<'_>, obs: &Observation, cmd: &mut Command) -> PyResult<()> {
+        let d = PyDict::new(py);
+        d.set_item("time_secs", obs.time_secs)?;
+        d.set_item("joint_angle_rad", PyArray1::from_slice(py, &obs.joint_angle_rad))?;
+        d.set_item("joint_velocity_rad_per_s", PyArray1::from_slice(py, &obs.joint_velocity_rad_per_s))?;
+        d.set_item("actuator_torque_nm", PyArray1::from_slice(py, &obs.actuator_torque_nm))?;
+        d.set_item("head_position_m", PyArray1::from_slice(py, &obs.head_position_m))?;
+        d.set_item("head_quat", PyArray1::from_slice(py, &obs.head_quat))?;
+        d.set_item("head_velocity_m_per_s", PyArray1::from_slice(py, &obs.head_velocity_m_per_s))?;
+        let out = self.callable.bind(py).call1((d,))?;
+        let nj = obs.n_joints();
+        let put = |name: &str, value: &Bound<'_, PyAny>, block: &mut Vec<f64>| -> PyResult<()> {
+            let v: Vec<f64> = value.extract().map_err(|_| {
+                pyo3::exceptions::PyTypeError::new_err(format!(
+                    "the controller's {name} must be a sequence of {nj} numbers (one per joint)"
+                ))
+            })?;
+            if v.len() != nj {
+                return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                    "the controller returned {} values for {name}; this snake has {nj} joints",
+                    v.len()
+                )));
+            }
+            block.copy_from_slice(&v);
+            Ok(())
+        };
+        if let Ok(blocks) = out.cast::<PyDict>() {
+            for (k, v) in blocks.iter() {
+                let key: String = k.extract()?;
+                match key.as_str() {
+                    "position_rad" => put(&key, &v, &mut cmd.position_rad)?,
+                    "velocity_rad_per_s" => put(&key, &v, &mut cmd.velocity_rad_per_s)?,
+                    "intvelocity_rad_per_s" => put(&key, &v, &mut cmd.intvelocity_rad_per_s)?,
+                    "torque_nm" => put(&key, &v, &mut cmd.torque_nm)?,
+                    other => {
+                        return Err(pyo3::exceptions::PyKeyError::new_err(format!(
+                            "the controller returned the command block {other:?}; allowed: position_rad, \
+                             velocity_rad_per_s, intvelocity_rad_per_s, torque_nm"
+                        )));
+                    }
+                }
+            }
+            return Ok(());
+        }
+        let block = match self.method {
+            config::ControlMethod::Position => &mut cmd.position_rad,
+            config::ControlMethod::Velocity => &mut cmd.velocity_rad_per_s,
+            config::ControlMethod::Intvelocity => &mut cmd.intvelocity_rad_per_s,
+            config::ControlMethod::Torque => &mut cmd.torque_nm,
+        };
+        put("command", &out, block)
+    }
+}
+
+impl Controller for PyController {
+    fn update(&mut self, obs: &Observation, cmd: &mut Command) {
+        let failed = self.error.lock().map(|e| e.is_some()).unwrap_or(true);
+        let result = if failed { Ok(()) } else { Python::attach(|py| self.call(py, obs, cmd)) };
+        if failed || result.is_err() {
+            if let (Err(e), Ok(mut slot)) = (result, self.error.lock()) {
+                *slot = Some(e);
+            }
+            for block in
+                [&mut cmd.position_rad, &mut cmd.velocity_rad_per_s, &mut cmd.intvelocity_rad_per_s, &mut cmd.torque_nm]
+            {
+                block.fill(f64::NAN);
+            }
+        }
+    }
+}
+
 /// Runs a whole configured simulation (the CLI's `simserpent run`) with the GIL released;
-/// returns the summary (with `run_folder`).
+/// returns the summary (with `run_folder`). With `controller` (a Python callable, see
+/// `PyController`) it replaces the configured gait.
 #[pyfunction]
-#[pyo3(signature = (config, run_folder=None))]
-fn run<'py>(py: Python<'py>, config: &PyConfig, run_folder: Option<PathBuf>) -> PyResult<Bound<'py, PyDict>> {
+#[pyo3(signature = (config, run_folder=None, controller=None))]
+fn run<'py>(
+    py: Python<'py>,
+    config: &PyConfig,
+    run_folder: Option<PathBuf>,
+    controller: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
     let options = RunOptions {
         config_source: config.source.clone(),
-        command_line: vec!["python: simserpent.run".into()],
+        command_line: vec![
+            if controller.is_some() { "python: simserpent.run(controller=...)" } else { "python: simserpent.run" }
+                .into(),
+        ],
         run_folder,
         ..RunOptions::default()
     };
     let c = config.inner.clone();
-    let result = py.detach(move || simserpent::run::run(&c, &options));
+    let error = Arc::new(Mutex::new(None));
+    let result = match controller {
+        None => py.detach(move || simserpent::run::run(&c, &options)),
+        Some(callable) => {
+            let controller = PyController { callable, method: c.control.method, error: Arc::clone(&error) };
+            py.detach(move || simserpent::run::run_with_controller(&c, &options, Box::new(controller)))
+        }
+    };
+    if let Some(e) = error.lock().ok().and_then(|mut e| e.take()) {
+        let folder = match &result {
+            Err(RunError::Sim(SimError::Diverged { time_secs, .. })) => {
+                format!(" (the run stopped at t = {time_secs} s)")
+            }
+            _ => String::new(),
+        };
+        let wrapped = SimSerpentError::new_err(format!("the Python controller raised an exception{folder}"));
+        wrapped.set_cause(py, Some(e));
+        return Err(wrapped);
+    }
     match result {
         Ok(summary) => summary_dict(py, &summary),
         Err(e) => Err(run_err(&config.source, &e)),
     }
 }
 
+/// The config's gait (`[gait]`) as a function of time: `targets(t_secs)` gives the joint
+/// target angles (rad) and velocities (rad/s) the built-in controller follows.
+#[pyclass(module = "simserpent._core", frozen)]
+struct Gait {
+    /// Behind a mutex because Python may share the object between threads (the trajectories
+    /// are `Send`, not `Sync`).
+    trajectory: Mutex<Box<dyn JointTrajectory>>,
+    n_joints: usize,
+}
+
+#[pymethods]
+impl Gait {
+    #[new]
+    fn new(config: &PyConfig) -> Self {
+        let n_joints = config.inner.snake.n_links.saturating_sub(1);
+        Gait { trajectory: Mutex::new(simserpent::control::trajectory_from_config(&config.inner)), n_joints }
+    }
+
+    /// Joint target angles (rad) and velocities (rad/s) at `t_secs`.
+    #[allow(clippy::type_complexity)]
+    fn targets<'py>(&self, py: Python<'py>, t_secs: f64) -> (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<f64>>) {
+        let mut a = vec![0.0; self.n_joints];
+        let mut v = vec![0.0; self.n_joints];
+        if let Ok(trajectory) = self.trajectory.lock() {
+            trajectory.targets(t_secs, &mut a, &mut v);
+        }
+        (PyArray1::from_vec(py, a), PyArray1::from_vec(py, v))
+    }
+
+    #[getter]
+    fn n_joints(&self) -> usize {
+        self.n_joints
+    }
+}
+
 fn step_info<'py>(py: Python<'py>, out: &StepOutcome, time_secs: f64) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
-    d.set_item("forward_progress_m", out.terms.forward_progress_m)?;
-    d.set_item("energy_j", out.terms.energy_j)?;
-    d.set_item("peak_contact_force_n", out.terms.peak_contact_force_n)?;
+    for (name, value) in RewardTerms::NAMES.iter().zip(out.terms.values()) {
+        // The peak force is left out when there is none to read (a diverged step): never a fake 0.
+        if value.is_finite() {
+            d.set_item(*name, value)?;
+        }
+    }
     d.set_item("time_secs", time_secs)?;
     if let Some(e) = &out.error {
         d.set_item("error", e)?;
     }
     Ok(d)
+}
+
+/// Copies an action (a float64 or float32 numpy array, a list or any sequence of numbers) of
+/// exactly `out.len()` values into `out`.
+fn read_action(action: &Bound<'_, PyAny>, out: &mut [f64]) -> PyResult<()> {
+    let n = out.len();
+    let wrong = |got: usize| {
+        pyo3::exceptions::PyValueError::new_err(format!("action has {got} values; this snake has {n} joints"))
+    };
+    if let Ok(a) = action.extract::<PyReadonlyArray1<'_, f64>>() {
+        let a = a.as_array();
+        if a.len() != n {
+            return Err(wrong(a.len()));
+        }
+        out.iter_mut().zip(a.iter()).for_each(|(o, x)| *o = *x);
+    } else if let Ok(a) = action.extract::<PyReadonlyArray1<'_, f32>>() {
+        let a = a.as_array();
+        if a.len() != n {
+            return Err(wrong(a.len()));
+        }
+        out.iter_mut().zip(a.iter()).for_each(|(o, x)| *o = f64::from(*x));
+    } else {
+        let v: Vec<f64> = action.extract().map_err(|_| {
+            pyo3::exceptions::PyTypeError::new_err(format!(
+                "an action must be a 1-D array or sequence of {n} numbers (float64 or float32), got {}",
+                action.get_type().name().map(|s| s.to_string()).unwrap_or_default()
+            ))
+        })?;
+        if v.len() != n {
+            return Err(wrong(v.len()));
+        }
+        out.copy_from_slice(&v);
+    }
+    Ok(())
+}
+
+/// A saved state of a `World` (`World.get_state()`): everything that decides the rest of the
+/// trajectory; `World.set_state(state)` continues bit for bit from it.
+#[pyclass(name = "WorldState", module = "simserpent._core", frozen)]
+struct PyEnvState {
+    inner: EnvState,
+}
+
+#[pymethods]
+impl PyEnvState {
+    /// Simulated time (s).
+    #[getter]
+    fn time(&self) -> f64 {
+        self.inner.world().data().time()
+    }
+    /// MuJoCo's joint positions (the head's free joint first: x, y, z, quaternion w x y z).
+    #[getter]
+    fn qpos<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.inner.world().data().qpos())
+    }
+    /// MuJoCo's joint velocities.
+    #[getter]
+    fn qvel<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.inner.world().data().qvel())
+    }
 }
 
 /// One environment (the core of `simserpent.SimSerpentEnv`).
@@ -238,17 +474,9 @@ impl Env {
     fn step<'py>(
         &mut self,
         py: Python<'py>,
-        action: PyReadonlyArray1<'py, f64>,
+        action: &Bound<'py, PyAny>,
     ) -> PyResult<(Bound<'py, PyArray1<f64>>, f64, bool, bool, Bound<'py, PyDict>)> {
-        let action = action.as_slice()?;
-        if action.len() != self.core.action_size() {
-            return Err(pyo3::exceptions::PyValueError::new_err(format!(
-                "action has {} values; this snake has {} joints",
-                action.len(),
-                self.core.action_size()
-            )));
-        }
-        self.action.copy_from_slice(action);
+        read_action(action, &mut self.action)?;
         // The physics runs without the GIL: other Python threads (e.g. one env per thread) go on.
         let Self { core, obs, action, .. } = self;
         let out = py.detach(|| core.step(action, obs));
@@ -316,56 +544,184 @@ impl Env {
     fn centre_of_mass(&self) -> [f64; 3] {
         self.core.centre_of_mass()
     }
+    /// The forward direction of the reward (x, y).
+    #[getter]
+    fn forward_xy(&self) -> [f64; 2] {
+        self.core.forward_xy()
+    }
+    /// The physical bounds (rad or N m) a normalised action maps onto.
+    #[getter]
+    fn physical_action_low<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.core.physical_action_bounds().0)
+    }
+    #[getter]
+    fn physical_action_high<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.core.physical_action_bounds().1)
+    }
+    /// Whether actions are normalised to [-1, 1].
+    #[getter]
+    fn normalize_action(&self) -> bool {
+        self.core.config().env.normalize_action
+    }
+    /// The true state: simulated time (s) (MuJoCo's `data.time`).
+    #[getter]
+    fn time(&self) -> f64 {
+        self.core.world().data().time()
+    }
+    /// The true state: MuJoCo's `qpos` (a copy; the head's free joint first).
+    #[getter]
+    fn qpos<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.core.world().data().qpos())
+    }
+    /// The true state: MuJoCo's `qvel` (a copy).
+    #[getter]
+    fn qvel<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.core.world().data().qvel())
+    }
+    /// The true state: MuJoCo's `act` (actuator activations; empty for the snake's actuators).
+    #[getter]
+    fn act<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.core.world().data().act())
+    }
+    /// MuJoCo's `ctrl` of the last step (a copy).
+    #[getter]
+    fn ctrl<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.core.world().data().ctrl())
+    }
+    /// MuJoCo's `qacc_warmstart` (part of the integration state).
+    #[getter]
+    fn qacc_warmstart<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, self.core.world().data().qacc_warmstart())
+    }
+    /// Every element of MuJoCo's `mjSTATE_INTEGRATION` state (time, qpos, qvel, act,
+    /// warm start, ctrl, applied forces, …) in MuJoCo's order: what `mujoco.mj_setState`
+    /// takes.
+    fn integration_state<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let spec = mujoco_rs::mujoco_c::mjtState::mjSTATE_INTEGRATION as u32;
+        PyArray1::from_slice(py, &self.core.world().data().state(spec))
+    }
+    /// A copy of the whole state (engine, held action, sensor-noise streams, ground model,
+    /// episode bookkeeping).
+    fn get_state(&self) -> PyEnvState {
+        PyEnvState { inner: self.core.save_state() }
+    }
+    /// Goes back to a state from `get_state` (of this world or one of the same config): the
+    /// same actions then give the same trajectory bit for bit.
+    fn set_state(&mut self, state: &PyEnvState) -> PyResult<()> {
+        self.core.restore_state(&state.inner).map_err(|e| sim_err(&self.source, &e))
+    }
 }
 
-/// One environment's slice of the vector environment's buffers, as the step loop sees it.
-type Slot<'a> = (
-    (
-        (
-            (
-                (
-                    (((((&'a mut EnvCore, &'a mut [f64]), &'a [f64]), &'a mut f64), &'a mut [f64]), &'a mut bool),
-                    &'a mut bool,
-                ),
-                &'a mut Option<String>,
-            ),
-            &'a mut bool,
-        ),
-        &'a mut u64,
-    ),
-    &'a u64,
-);
+/// Number of reward terms per environment in the vector environment's terms array.
+const N_TERMS: usize = RewardTerms::NAMES.len();
+
+/// One environment's buffers in the vector environment's step.
+struct Slot<'a> {
+    env: &'a mut EnvCore,
+    obs: &'a mut [f64],
+    final_obs: &'a mut [f64],
+    action: &'a [f64],
+    reward: &'a mut f64,
+    terms: &'a mut [f64],
+    terminated: &'a mut bool,
+    truncated: &'a mut bool,
+    error: &'a mut Option<String>,
+    needs_reset: &'a mut bool,
+    was_reset: &'a mut bool,
+    next_seed: u64,
+}
 
 /// Many environments stepped together in Rust on a rayon pool, with the GIL released
-/// (the core of `simserpent.SimSerpentVectorEnv`). Automatic reset on the next step after an
-/// episode ends (Gymnasium's `NEXT_STEP` mode).
+/// (the core of `simserpent.SimSerpentVectorEnv`). Automatic reset: `same_step` (an
+/// environment whose episode ends is reset in the same step; its last observation goes to
+/// the final-observation buffer) or next step (Gymnasium's `NEXT_STEP`: the step after an
+/// episode ends resets it instead of stepping). The seed of an automatic reset is given by
+/// the caller with every step, so seeds follow the caller's per-environment generators.
 #[pyclass(module = "simserpent._core")]
 struct VecEnv {
     envs: Vec<EnvCore>,
     pool: rayon::ThreadPool,
+    same_step: bool,
     obs: Vec<f64>,
+    final_obs: Vec<f64>,
     rewards: Vec<f64>,
     terms: Vec<f64>,
     terminated: Vec<bool>,
     truncated: Vec<bool>,
     errors: Vec<Option<String>>,
     needs_reset: Vec<bool>,
-    seeds: Vec<u64>,
-    episodes: Vec<u64>,
+    was_reset: Vec<bool>,
     actions: Vec<f64>,
+    next_seeds: Vec<u64>,
     source: String,
+}
+
+fn step_slot(s: Slot<'_>, same_step: bool) {
+    let Slot {
+        env,
+        obs,
+        final_obs,
+        action,
+        reward,
+        terms,
+        terminated,
+        truncated,
+        error,
+        needs_reset,
+        was_reset,
+        next_seed,
+    } = s;
+    *was_reset = false;
+    if *needs_reset {
+        // NEXT_STEP: this step only resets.
+        *error = env.reset(next_seed, obs).err().map(|e| e.to_string());
+        *reward = 0.0;
+        terms.fill(0.0);
+        terms[RewardTerms::NAMES.iter().position(|n| *n == "peak_contact_force_n").unwrap_or(0)] = f64::NAN;
+        *terminated = error.is_some();
+        *truncated = false;
+        *needs_reset = *terminated;
+        *was_reset = true;
+        return;
+    }
+    let out = env.step(action, obs);
+    *reward = out.reward;
+    terms.copy_from_slice(&out.terms.values());
+    *terminated = out.terminated;
+    *truncated = out.truncated;
+    *error = out.error;
+    let done = out.terminated || out.truncated;
+    if done && same_step {
+        final_obs.copy_from_slice(obs);
+        if let Err(e) = env.reset(next_seed, obs) {
+            *error = Some(e.to_string());
+            *needs_reset = true;
+        }
+        *was_reset = true;
+    } else {
+        *needs_reset = done;
+    }
 }
 
 #[pymethods]
 impl VecEnv {
     /// `num_envs` copies of the environment of `config`, stepped on `threads` threads (0: all
-    /// cores).
+    /// cores); `autoreset_mode` `"next_step"` or `"same_step"`.
     #[new]
-    #[pyo3(signature = (config, num_envs, threads=0))]
-    fn new(py: Python<'_>, config: &PyConfig, num_envs: usize, threads: usize) -> PyResult<Self> {
+    #[pyo3(signature = (config, num_envs, threads=0, autoreset_mode="next_step"))]
+    fn new(py: Python<'_>, config: &PyConfig, num_envs: usize, threads: usize, autoreset_mode: &str) -> PyResult<Self> {
         if num_envs == 0 {
             return Err(pyo3::exceptions::PyValueError::new_err("num_envs must be at least 1"));
         }
+        let same_step = match autoreset_mode {
+            "next_step" => false,
+            "same_step" => true,
+            other => {
+                return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                    "autoreset_mode {other:?} is not supported; allowed: \"next_step\", \"same_step\""
+                )));
+            }
+        };
         let c = config.inner.clone();
         let envs: Result<Vec<EnvCore>, SimError> =
             py.detach(move || (0..num_envs).into_par_iter().map(|_| EnvCore::new(&c)).collect());
@@ -378,53 +734,71 @@ impl VecEnv {
         let (n, no) = (num_envs, envs[0].observation_size());
         Ok(Self {
             pool,
+            same_step,
             obs: vec![0.0; n * no],
+            final_obs: vec![0.0; n * no],
             rewards: vec![0.0; n],
-            terms: vec![0.0; n * 3],
+            terms: vec![0.0; n * N_TERMS],
             terminated: vec![false; n],
             truncated: vec![false; n],
             errors: vec![None; n],
             needs_reset: vec![false; n],
-            seeds: (0..n as u64).collect(),
-            episodes: vec![0; n],
+            was_reset: vec![false; n],
             actions: vec![0.0; n * envs[0].action_size()],
+            next_seeds: vec![0; n],
             envs,
             source: config.source.clone(),
         })
     }
 
-    /// Resets every environment: environment i gets seed `seed + i`; later automatic resets
-    /// of it get `seed + i + k * num_envs` for its k-th episode. Returns the observations.
-    fn reset<'py>(&mut self, py: Python<'py>, seed: u64) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    /// Resets environment i with `seeds[i]` where `mask[i]` (every environment without a
+    /// mask); the others keep their state and observation. Returns all observations.
+    #[pyo3(signature = (seeds, mask=None))]
+    fn reset<'py>(
+        &mut self,
+        py: Python<'py>,
+        seeds: Vec<u64>,
+        mask: Option<Vec<bool>>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let n = self.envs.len();
         let no = self.obs.len() / n;
-        for i in 0..n {
-            self.seeds[i] = seed.wrapping_add(i as u64);
-            self.episodes[i] = 0;
-            self.needs_reset[i] = false;
+        let mask = mask.unwrap_or_else(|| vec![true; n]);
+        if seeds.len() != n || mask.len() != n {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "reset got {} seeds and {} mask values; expected {n} of each",
+                seeds.len(),
+                mask.len()
+            )));
         }
-        let (envs, obs, seeds, pool) = (&mut self.envs, &mut self.obs, &self.seeds, &self.pool);
+        for (needs_reset, reset) in self.needs_reset.iter_mut().zip(&mask) {
+            if *reset {
+                *needs_reset = false;
+            }
+        }
+        let (envs, obs, pool) = (&mut self.envs, &mut self.obs, &self.pool);
         let result: Result<(), SimError> = py.detach(|| {
             pool.install(|| {
                 envs.par_iter_mut()
                     .zip(obs.par_chunks_mut(no))
-                    .zip(seeds.par_iter())
-                    .try_for_each(|((env, o), s)| env.reset(*s, o))
+                    .zip(seeds.par_iter().zip(mask.par_iter()))
+                    .try_for_each(|((env, o), (s, m))| if *m { env.reset(*s, o) } else { Ok(()) })
             })
         });
         result.map_err(|e| sim_err(&self.source, &e))?;
         PyArray1::from_slice(py, &self.obs).reshape([n, no])
     }
 
-    /// Steps every environment with its row of `actions` (num_envs x action_size):
-    /// (observations, rewards, terminated, truncated, reward terms (num_envs x 3: progress,
-    /// energy, peak force), errors). An environment whose episode ended at the previous step
-    /// is reset instead (its row: the new first observation, reward 0, not done).
+    /// Steps every environment with its row of `actions` (num_envs x action_size, float64 or
+    /// float32); `next_seeds[i]` seeds environment i if it is reset automatically in this step.
+    /// Returns (observations, rewards, terminated, truncated, reward terms (num_envs x
+    /// len(TERM_NAMES)), errors, reset mask, final observations (same_step mode; the rows of
+    /// the reset environments hold their episode's last observation)).
     #[allow(clippy::type_complexity)]
     fn step<'py>(
         &mut self,
         py: Python<'py>,
-        actions: PyReadonlyArray2<'py, f64>,
+        actions: &Bound<'py, PyAny>,
+        next_seeds: Vec<u64>,
     ) -> PyResult<(
         Bound<'py, PyArray2<f64>>,
         Bound<'py, PyArray1<f64>>,
@@ -432,97 +806,105 @@ impl VecEnv {
         Bound<'py, PyArray1<bool>>,
         Bound<'py, PyArray2<f64>>,
         Bound<'py, PyList>,
+        Bound<'py, PyArray1<bool>>,
+        Bound<'py, PyArray2<f64>>,
     )> {
         let n = self.envs.len();
         let na = self.envs[0].action_size();
         let no = self.obs.len() / n;
-        let shape = actions.shape();
-        if shape != [n, na] {
+        if next_seeds.len() != n {
             return Err(pyo3::exceptions::PyValueError::new_err(format!(
-                "actions have shape {shape:?}; expected ({n}, {na})"
+                "next_seeds has {} values; expected {n}",
+                next_seeds.len()
             )));
         }
-        match actions.as_slice() {
-            Ok(s) => self.actions.copy_from_slice(s),
-            Err(_) => {
-                let a = actions.as_array();
-                for (dst, src) in self.actions.iter_mut().zip(a.iter()) {
-                    *dst = *src;
-                }
+        self.next_seeds.copy_from_slice(&next_seeds);
+        let bad_shape = |shape: &[usize]| {
+            pyo3::exceptions::PyValueError::new_err(format!("actions have shape {shape:?}; expected ({n}, {na})"))
+        };
+        if let Ok(a) = actions.extract::<PyReadonlyArray2<'_, f64>>() {
+            if a.shape() != [n, na] {
+                return Err(bad_shape(a.shape()));
             }
+            self.actions.iter_mut().zip(a.as_array().iter()).for_each(|(d, x)| *d = *x);
+        } else if let Ok(a) = actions.extract::<PyReadonlyArray2<'_, f32>>() {
+            if a.shape() != [n, na] {
+                return Err(bad_shape(a.shape()));
+            }
+            self.actions.iter_mut().zip(a.as_array().iter()).for_each(|(d, x)| *d = f64::from(*x));
+        } else {
+            return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+                "actions must be a 2-D float64 or float32 numpy array of shape ({n}, {na})"
+            )));
         }
-        let nenv = n as u64;
         let sequential = self.pool.current_num_threads() == 1;
+        let same_step = self.same_step;
         let Self {
             envs,
             pool,
             obs,
+            final_obs,
             rewards,
             terms,
             terminated,
             truncated,
             errors,
             needs_reset,
-            seeds,
-            episodes,
+            was_reset,
             actions,
+            next_seeds,
             ..
         } = self;
-        let one = |((((((((((env, o), a), r), t), term), trunc), err), reset), episode), seed): Slot<'_>| {
-            if *reset {
-                *episode += 1;
-                let s = seed.wrapping_add(*episode * nenv);
-                *err = env.reset(s, o).err().map(|e| e.to_string());
-                *r = 0.0;
-                t.fill(0.0);
-                *term = err.is_some();
-                *trunc = false;
-                *reset = *term;
-                return;
-            }
-            let out = env.step(a, o);
-            *r = out.reward;
-            t[0] = out.terms.forward_progress_m;
-            t[1] = out.terms.energy_j;
-            t[2] = out.terms.peak_contact_force_n;
-            *term = out.terminated;
-            *trunc = out.truncated;
-            *reset = out.terminated || out.truncated;
-            *err = out.error;
-        };
         py.detach(|| {
+            let all: Vec<Slot<'_>> = envs
+                .iter_mut()
+                .zip(obs.chunks_mut(no))
+                .zip(final_obs.chunks_mut(no))
+                .zip(actions.chunks(na))
+                .zip(rewards.iter_mut())
+                .zip(terms.chunks_mut(N_TERMS))
+                .zip(terminated.iter_mut())
+                .zip(truncated.iter_mut())
+                .zip(errors.iter_mut())
+                .zip(needs_reset.iter_mut())
+                .zip(was_reset.iter_mut())
+                .zip(next_seeds.iter())
+                .map(
+                    |(
+                        (
+                            (
+                                (
+                                    (((((((env, obs), final_obs), action), reward), terms), terminated), truncated),
+                                    error,
+                                ),
+                                needs_reset,
+                            ),
+                            was_reset,
+                        ),
+                        next_seed,
+                    )| Slot {
+                        env,
+                        obs,
+                        final_obs,
+                        action,
+                        reward,
+                        terms,
+                        terminated,
+                        truncated,
+                        error,
+                        needs_reset,
+                        was_reset,
+                        next_seed: *next_seed,
+                    },
+                )
+                .collect();
             if sequential {
                 // One thread: step in this thread, no hand-over to the pool.
-                envs.iter_mut()
-                    .zip(obs.chunks_mut(no))
-                    .zip(actions.chunks(na))
-                    .zip(rewards.iter_mut())
-                    .zip(terms.chunks_mut(3))
-                    .zip(terminated.iter_mut())
-                    .zip(truncated.iter_mut())
-                    .zip(errors.iter_mut())
-                    .zip(needs_reset.iter_mut())
-                    .zip(episodes.iter_mut())
-                    .zip(seeds.iter())
-                    .for_each(one);
+                all.into_iter().for_each(|s| step_slot(s, same_step));
             } else {
                 // One rayon task per environment: an idle thread takes over the environments of
                 // a thread that the OS preempted (the step waits for the slowest thread).
-                pool.install(|| {
-                    envs.par_iter_mut()
-                        .with_max_len(1)
-                        .zip(obs.par_chunks_mut(no))
-                        .zip(actions.par_chunks(na))
-                        .zip(rewards.par_iter_mut())
-                        .zip(terms.par_chunks_mut(3))
-                        .zip(terminated.par_iter_mut())
-                        .zip(truncated.par_iter_mut())
-                        .zip(errors.par_iter_mut())
-                        .zip(needs_reset.par_iter_mut())
-                        .zip(episodes.par_iter_mut())
-                        .zip(seeds.par_iter())
-                        .for_each(one);
-                })
+                pool.install(|| all.into_par_iter().with_max_len(1).for_each(|s| step_slot(s, same_step)));
             }
         });
         let errors = PyList::new(py, self.errors.iter().cloned())?;
@@ -531,8 +913,10 @@ impl VecEnv {
             PyArray1::from_slice(py, &self.rewards),
             PyArray1::from_slice(py, &self.terminated),
             PyArray1::from_slice(py, &self.truncated),
-            PyArray1::from_slice(py, &self.terms).reshape([n, 3])?,
+            PyArray1::from_slice(py, &self.terms).reshape([n, N_TERMS])?,
             errors,
+            PyArray1::from_slice(py, &self.was_reset),
+            PyArray1::from_slice(py, &self.final_obs).reshape([n, no])?,
         ))
     }
 
@@ -543,6 +927,10 @@ impl VecEnv {
     #[getter]
     fn threads(&self) -> usize {
         self.pool.current_num_threads()
+    }
+    #[getter]
+    fn autoreset_mode(&self) -> &'static str {
+        if self.same_step { "same_step" } else { "next_step" }
     }
     #[getter]
     fn observation_size(&self) -> usize {
@@ -695,6 +1083,11 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Env>()?;
     m.add_class::<VecEnv>()?;
     m.add_class::<Sweep>()?;
+    m.add_class::<Gait>()?;
+    m.add_class::<PyEnvState>()?;
+    m.add_function(wrap_pyfunction!(_config_from_toml, m)?)?;
+    m.add("TERM_NAMES", RewardTerms::NAMES.to_vec())?;
+    m.add("ENV_FAST_PRESET", config::ENV_FAST_PRESET.to_vec())?;
     m.add_function(wrap_pyfunction!(load_config, m)?)?;
     m.add_function(wrap_pyfunction!(default_config_toml, m)?)?;
     m.add_function(wrap_pyfunction!(mujoco_version, m)?)?;

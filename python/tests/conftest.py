@@ -6,6 +6,9 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 
 os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+# Offscreen rendering without a display (MuJoCo reads MUJOCO_GL when it is imported).
+if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+    os.environ.setdefault("MUJOCO_GL", "egl")
 
 #: A small, fast snake for the tests: 5 links, no obstacles.
 SMALL = {"snake.n_links": 5, "terrain.kind": "none"}

@@ -37,7 +37,8 @@ def test_check_env_with_imu_force_torque_and_torque_actions():
             "sensors.accelerometer.std": 0.1,
         }
     )
-    assert env.observation_space.shape == (2 * 4 + 10 + 6 * 5 + 6 * 4,)
+    # Head x and y are left out by default (Swimmer's exclude_current_positions_from_observation).
+    assert env.observation_space.shape == (2 * 4 + 8 + 6 * 5 + 6 * 4,)
     assert env.observation_names[-1] == "joint_04_torque_z_nm"
     assert env.observation_version == 1
     check_env(env, skip_render_check=True)
@@ -95,10 +96,21 @@ def test_reward_terms_follow_the_weights():
         overrides={**NOISY, "env.reward_energy_weight": 2.0, "env.reward_contact_force_weight": 0.01}
     )
     env.reset(seed=0)
-    _, r, _, _, info = env.step(gait(0.1, 4))
-    expected = info["forward_progress_m"] - 2.0 * info["energy_j"] - 0.01 * info["peak_contact_force_n"]
-    assert r == pytest.approx(expected, abs=1e-12)
+    a = np.linspace(-0.5, 0.5, 4).astype(np.float32)
+    _, r, _, _, info = env.step(a)
+    dt = env.unwrapped.dt
+    assert dt == 0.02
+    # Rates (Swimmer-v5): forward velocity, mean power; the control cost of the normalised action.
+    assert info["reward_forward"] == pytest.approx(info["forward_progress_m"] / dt, abs=1e-12)
+    assert info["reward_energy"] == pytest.approx(-2.0 * info["energy_j"] / dt, abs=1e-12)
+    assert info["reward_contact_force"] == pytest.approx(-0.01 * info["peak_contact_force_n"], abs=1e-12)
+    assert info["reward_ctrl"] == pytest.approx(-1e-4 * float(np.sum(a.astype(np.float64) ** 2)), abs=1e-15)
+    total = info["reward_forward"] + info["reward_energy"] + info["reward_contact_force"] + info["reward_ctrl"]
+    assert r == pytest.approx(total, abs=1e-12)
     assert info["energy_j"] > 0 and info["peak_contact_force_n"] > 0
+    assert info["x_velocity"] == pytest.approx(
+        (info["x_position"] - env.unwrapped._start_xy[0]) / dt, abs=1e-9
+    )
 
 
 def test_nan_action_terminates_with_the_reason():
@@ -115,22 +127,27 @@ def test_vector_env_equals_single_envs(threads):
     n, seed, steps = 3, 11, 14  # 14 steps: every env autoresets once (10 steps per episode)
     vec = SimSerpentVectorEnv(num_envs=n, overrides=NOISY, threads=threads)
     assert vec.threads == threads
-    singles = [simserpent.World(simserpent.load_config(overrides=NOISY)) for _ in range(n)]
+    singles = [SimSerpentEnv(overrides=NOISY) for _ in range(n)]
     obs, info = vec.reset(seed=seed)
-    np.testing.assert_array_equal(info["seed"], seed + np.arange(n))
-    expected = np.stack([s.reset(seed + i) for i, s in enumerate(singles)])
-    np.testing.assert_array_equal(obs, expected)
+    expected = []
+    for i, s in enumerate(singles):
+        o, inf = s.reset(seed=seed + i)
+        expected.append(o)
+        assert info["seed"][i] == inf["seed"]
+    np.testing.assert_array_equal(obs, np.stack(expected))
+    assert info["_seed"].all()
     done = [False] * n
     episode = [0] * n
     for k in range(steps):
-        actions = np.stack([gait(k * 0.02 + i, 4) for i in range(n)])
+        actions = np.stack([gait(k * 0.02 + i, 4) for i in range(n)]).astype(np.float32)
         obs, rewards, term, trunc, infos = vec.step(actions)
         for i, s in enumerate(singles):
             if done[i]:
                 episode[i] += 1
-                o = s.reset(seed + i + episode[i] * n)
+                o, _ = s.reset()  # no seed: the env's own generator, as SyncVectorEnv's autoreset
                 np.testing.assert_array_equal(obs[i], o)
                 assert rewards[i] == 0.0 and not term[i] and not trunc[i]
+                assert not infos["_energy_j"][i]
                 done[i] = False
                 continue
             o, r, te, tr, inf = s.step(actions[i])
@@ -146,7 +163,9 @@ def test_vector_env_shape_errors():
     vec = SimSerpentVectorEnv(num_envs=2, overrides=NOISY, threads=1)
     vec.reset(seed=0)
     with pytest.raises(ValueError, match="expected"):
-        vec.core.step(np.zeros((3, 4)))
+        vec.core.step(np.zeros((3, 4)), [0, 0])
+    with pytest.raises(ValueError, match="reset_mask"):
+        vec.reset(options={"reset_mask": np.array([1, 0])})
 
 
 def longest_pause_of_this_thread(step) -> tuple[float, float]:
@@ -179,7 +198,7 @@ def test_steps_release_the_gil():
     long_step = {**NOISY, "env.control_period_secs": 0.5, "env.max_episode_secs": 10.0}
     vec = SimSerpentVectorEnv(num_envs=4, overrides=long_step, threads=1)
     vec.reset(seed=0)
-    duration, pause = longest_pause_of_this_thread(lambda: vec.step(np.zeros((4, 4))))
+    duration, pause = longest_pause_of_this_thread(lambda: vec.step(np.zeros((4, 4), dtype=np.float32)))
     assert duration > 0.05, "the step was too short to tell"
     assert pause < 0.5 * duration, (pause, duration)
     # One env does a quarter of the vector's work per step: hold each action four times longer.

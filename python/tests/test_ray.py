@@ -91,3 +91,105 @@ def test_sweep_on_an_existing_cluster_by_address(ray_local, tmp_path):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.strip().splitlines()[-1] == "complete,complete"
+
+
+def _listening_sockets() -> dict[int, str]:
+    """inode -> "address:port" of every TCP socket in LISTEN state (IPv4 and IPv6)."""
+    import socket
+    import struct
+
+    found = {}
+    for name, family in [("/proc/net/tcp", socket.AF_INET), ("/proc/net/tcp6", socket.AF_INET6)]:
+        try:
+            lines = Path(name).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            fields = line.split()
+            local, state, inode = fields[1], fields[3], int(fields[9])
+            if state != "0A":  # TCP_LISTEN
+                continue
+            addr_hex, port_hex = local.split(":")
+            raw = bytes.fromhex(addr_hex)
+            # /proc writes the address as 32-bit words in host byte order.
+            raw = b"".join(struct.pack("@I", struct.unpack(">I", raw[i : i + 4])[0]) for i in range(0, len(raw), 4))
+            found[inode] = f"{socket.inet_ntop(family, raw)}:{int(port_hex, 16)}"
+    return found
+
+
+def _process_tree(root: int) -> set[int]:
+    parents = {}
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                stat = (d / "stat").read_text()
+            except OSError:
+                continue
+            parents[int(d.name)] = int(stat.rsplit(")", 1)[1].split()[1])
+    tree, grew = {root}, True
+    while grew:
+        grew = False
+        for pid, ppid in parents.items():
+            if ppid in tree and pid not in tree:
+                tree.add(pid)
+                grew = True
+    return tree
+
+
+def _socket_inodes(pid: int) -> set[int]:
+    inodes = set()
+    try:
+        for fd in Path(f"/proc/{pid}/fd").iterdir():
+            try:
+                target = os.readlink(fd)
+            except OSError:
+                continue
+            if target.startswith("socket:["):
+                inodes.add(int(target[8:-1]))
+    except OSError:
+        pass
+    return inodes
+
+
+def _is_loopback(address_port: str) -> bool:
+    import ipaddress
+
+    ip = ipaddress.ip_address(address_port.rsplit(":", 1)[0])
+    mapped = getattr(ip, "ipv4_mapped", None)  # ::ffff:127.0.0.1 (an IPv6 socket bound to IPv4 loopback)
+    return ip.is_loopback or (mapped is not None and mapped.is_loopback)
+
+
+def test_loopback_predicate():
+    assert _is_loopback("127.0.0.1:80") and _is_loopback("::1:80") and _is_loopback("::ffff:127.0.0.1:80")
+    assert not _is_loopback("0.0.0.0:80") and not _is_loopback(":::80") and not _is_loopback("10.0.0.5:80")
+    assert not _is_loopback("::ffff:10.0.0.5:80")
+
+
+def test_local_cluster_listens_only_on_loopback(ray_local):
+    """Every TCP socket that the local cluster (this driver, the GCS, the raylet, the workers
+    and agents it started) listens on is bound to 127.0.0.1 or ::1 while it runs."""
+    # Make sure workers exist (they listen too).
+    ray = ray_local
+
+    @ray.remote
+    def pid():
+        return os.getpid()
+
+    worker_pids = set(ray.get([pid.remote() for _ in range(2)]))
+    listening = _listening_sockets()
+    tree = _process_tree(os.getpid())
+    assert worker_pids <= tree
+    mine = {}
+    for p in tree:
+        for inode in _socket_inodes(p):
+            if inode in listening:
+                mine[listening[inode]] = p
+    names = {}
+    for addr, p in mine.items():
+        try:
+            names[addr] = Path(f"/proc/{p}/comm").read_text().strip()
+        except OSError:
+            names[addr] = "?"
+    assert len(mine) >= 3, f"expected the GCS, raylet and workers to listen: {names}"
+    wide = {a: n for a, n in names.items() if not _is_loopback(a)}
+    assert not wide, f"listening beyond the loopback interface: {wide} (all: {names})"

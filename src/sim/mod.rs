@@ -20,7 +20,7 @@ pub use ground::Ground;
 pub use index::{Index, JointIndex, LinkIndex};
 pub use noise::SensorNoise;
 pub use safety::EnergyGuard;
-pub use step_loop::{Every, LoopPlan, Observer, Simulation, StepView};
+pub use step_loop::{Every, LoopPlan, Observer, Simulation, SimulationState, StepView};
 
 use crate::config::{Config, ControlMethod};
 use crate::control::{Command, Observation};
@@ -228,6 +228,20 @@ impl From<model::ModelError> for SimError {
 /// The deepest a robot may start inside the floor, an obstacle or the terrain (m): resting
 /// contact at the start is fine, a placement error is not (see [`World::check_start_clear`]).
 pub const START_PENETRATION_TOLERANCE_M: f64 = 0.5e-3;
+
+/// A saved engine state of a [`World`] ([`World::save_state`]).
+#[derive(Clone)]
+pub struct WorldState {
+    data: MjData<Box<MjModel>>,
+    sensor_time_secs: f64,
+}
+
+impl WorldState {
+    /// The engine state (`qpos`, `qvel`, `act`, `time`, …), read-only.
+    pub fn data(&self) -> &MjData<Box<MjModel>> {
+        &self.data
+    }
+}
 
 /// A compiled world: model, engine state and the index of the robot in it.
 ///
@@ -583,6 +597,29 @@ impl World {
             }
             None => false,
         }
+    }
+
+    /// A copy of the whole engine state (MuJoCo's `mjData`, so also the contacts, sensor
+    /// values and warm start the next step reads, and the contact-pair friction): restoring it
+    /// with [`World::restore_state`] continues bit for bit as from here.
+    pub fn save_state(&self) -> WorldState {
+        WorldState { data: self.data.clone(), sensor_time_secs: self.sensor_time_secs }
+    }
+
+    /// Goes back to a state saved from this world by [`World::save_state`].
+    ///
+    /// # Errors
+    /// The state was saved from a world of another model.
+    pub fn restore_state(&mut self, state: &WorldState) -> Result<(), SimError> {
+        state
+            .data
+            .copy_to(&mut self.data)
+            .map_err(|e| SimError::Model(format!("the state belongs to another model: {e}")))?;
+        for (pair, friction) in state.data.model().pair_friction().iter().enumerate() {
+            self.set_pair_friction(pair, *friction);
+        }
+        self.sensor_time_secs = state.sensor_time_secs;
+        Ok(())
     }
 
     /// Number of links and joints.

@@ -35,6 +35,7 @@ fn stream(seed: u64, number: u64) -> ChaCha8Rng {
 }
 
 /// The model of one sensor kind, with its state for every sensor of that kind.
+#[derive(Clone)]
 struct Kind {
     model: SensorModel,
     /// Values per sensor (1 for scalars, 3 for vectors).
@@ -120,6 +121,7 @@ impl Kind {
 }
 
 /// Measures a true observation with the configured sensor models.
+#[derive(Clone)]
 pub struct SensorNoise {
     enabled: bool,
     joint_angle: Kind,

@@ -19,7 +19,7 @@
 //! trajectory. Nothing in the loop allocates (observers are a slice the caller owns; the
 //! snapshot is sized once).
 
-use super::{EnergyGuard, Ground, SensorNoise, SimError, World};
+use super::{EnergyGuard, Ground, SensorNoise, SimError, World, WorldState};
 use crate::config::{Config, Sensors};
 use crate::control::{Command, Controller, Observation, TrajectoryController};
 use crate::state::Snapshot;
@@ -129,6 +129,27 @@ impl<E, O: Observer<E>> Observer<E> for Every<O> {
     }
 }
 
+/// A saved state of a [`Simulation`] ([`Simulation::save`]).
+#[derive(Clone)]
+pub struct SimulationState<C> {
+    world: WorldState,
+    controller: C,
+    noise: SensorNoise,
+    obs_true: Observation,
+    obs: Observation,
+    cmd: Command,
+    steps: u64,
+    ground: Ground,
+    energy_guard: EnergyGuard,
+}
+
+impl<C> SimulationState<C> {
+    /// The saved world.
+    pub fn world(&self) -> &WorldState {
+        &self.world
+    }
+}
+
 /// A world with its controller, sensor models and ground model: the step loop.
 ///
 /// `C` is the controller; the default, a boxed trait object, takes any controller chosen at
@@ -195,7 +216,15 @@ impl<C: Controller> Simulation<C> {
     /// the ground model, the controller, and the sensor models seeded with `seed`; then the
     /// sensors are read at the initial state.
     pub fn reset(&mut self, seed: u64) -> Result<(), SimError> {
+        self.reset_with(seed, |_| {})
+    }
+
+    /// [`Simulation::reset`], with `perturb` changing the world's initial state (the reset
+    /// noise of an RL environment: write `qpos`/`qvel`) before the forward pass and the first
+    /// sensor reading.
+    pub fn reset_with(&mut self, seed: u64, perturb: impl FnOnce(&mut World)) -> Result<(), SimError> {
         self.world.reset()?;
+        perturb(&mut self.world);
         self.world.ctrl_mut().fill(0.0);
         self.world.forward();
         self.ground.clone_from(&self.initial_ground);
@@ -203,6 +232,46 @@ impl<C: Controller> Simulation<C> {
         self.noise = SensorNoise::new(&self.sensors, seed, self.world.n_links(), self.world.n_joints());
         self.steps = 0;
         self.sense();
+        Ok(())
+    }
+
+    /// A copy of everything that decides the rest of the trajectory: the engine state, the
+    /// controller, the sensor models (their random streams), the ground model, the energy
+    /// guard and the latest observations. [`Simulation::restore`] continues bit for bit.
+    pub fn save(&self) -> SimulationState<C>
+    where
+        C: Clone,
+    {
+        SimulationState {
+            world: self.world.save_state(),
+            controller: self.controller.clone(),
+            noise: self.noise.clone(),
+            obs_true: self.obs_true.clone(),
+            obs: self.obs.clone(),
+            cmd: self.cmd.clone(),
+            steps: self.steps,
+            ground: self.ground.clone(),
+            energy_guard: self.energy_guard,
+        }
+    }
+
+    /// Goes back to a state saved from this simulation by [`Simulation::save`].
+    ///
+    /// # Errors
+    /// The state was saved from a simulation of another model.
+    pub fn restore(&mut self, state: &SimulationState<C>) -> Result<(), SimError>
+    where
+        C: Clone,
+    {
+        self.world.restore_state(&state.world)?;
+        self.controller.clone_from(&state.controller);
+        self.noise.clone_from(&state.noise);
+        self.obs_true.clone_from(&state.obs_true);
+        self.obs.clone_from(&state.obs);
+        self.cmd.clone_from(&state.cmd);
+        self.steps = state.steps;
+        self.ground.clone_from(&state.ground);
+        self.energy_guard = state.energy_guard;
         Ok(())
     }
 

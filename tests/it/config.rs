@@ -385,6 +385,12 @@ reward_forward_weight = 2.0
 reward_energy_weight = 0.5
 reward_contact_force_weight = 0.001
 terminate_contact_force_n = 500.0
+reward_ctrl_cost_weight = 0.01
+reset_noise_scale = 0.05
+reset_heading_noise_rad = 0.3
+exclude_current_positions_from_observation = false
+normalize_action = false
+preset = "fast"
 
 [legacy]
 geometry = "faithful"
@@ -650,6 +656,12 @@ fn all_fields_expected() -> Config {
         reward_energy_weight: 0.5,
         reward_contact_force_weight: 0.001,
         terminate_contact_force_n: 500.0,
+        reward_ctrl_cost_weight: 0.01,
+        reset_noise_scale: 0.05,
+        reset_heading_noise_rad: 0.3,
+        exclude_current_positions_from_observation: false,
+        normalize_action: false,
+        preset: EnvPreset::Fast,
     };
     c.legacy.geometry = LegacyGeometry::Faithful;
     c
@@ -866,6 +878,9 @@ const RULES: &[(&[&str], &str)] = &[
     (&["env.reward_energy_weight=-0.1"], "env.reward_energy_weight"),
     (&["env.reward_contact_force_weight=-1"], "env.reward_contact_force_weight"),
     (&["env.terminate_contact_force_n=-5"], "env.terminate_contact_force_n"),
+    (&["env.reward_ctrl_cost_weight=-1e-4"], "env.reward_ctrl_cost_weight"),
+    (&["env.reset_noise_scale=-0.1"], "env.reset_noise_scale"),
+    (&["env.reset_heading_noise_rad=4.0"], "env.reset_heading_noise_rad"),
     (&["env.action=\"velocity\""], "env.action"),
 ];
 

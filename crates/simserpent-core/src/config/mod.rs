@@ -881,7 +881,44 @@ pub struct Env {
     pub reward_contact_force_weight: f64,
     /// Terminate when a contact normal force exceeds this (N); 0 = never.
     pub terminate_contact_force_n: f64,
+    /// Weight of the control cost Σ action² (per action unit², of the normalised action when
+    /// `normalize_action`), as Gymnasium's MuJoCo suite.
+    pub reward_ctrl_cost_weight: f64,
+    /// Reset noise of the joint angles (uniform in ±scale, rad) and joint velocities
+    /// (scale · standard normal, rad/s), as Gymnasium's `reset_noise_scale`; 0 = none.
+    pub reset_noise_scale: f64,
+    /// Reset noise of the snake's heading (uniform in ± this, rad, about the vertical); 0 = none.
+    pub reset_heading_noise_rad: f64,
+    /// Leave the head's absolute x and y out of the observation (Gymnasium's
+    /// `exclude_current_positions_from_observation`).
+    pub exclude_current_positions_from_observation: bool,
+    /// Actions in [-1, 1] (float32 in Python), mapped linearly onto the physical bounds.
+    pub normalize_action: bool,
+    /// Physics settings of the environment: the config's own, or a measured faster set.
+    pub preset: EnvPreset,
 }
+
+/// Physics settings of an environment (`env.preset`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EnvPreset {
+    /// The config's `[general]` and `[physics]` as written.
+    Default,
+    /// Faster physics for reinforcement learning (see `ENV_FAST_PRESET`).
+    Fast,
+}
+
+/// The overrides `env.preset = "fast"` applies on top of the config (keys as `--set`),
+/// chosen from measurements (BENCHMARKS.md, "Python and RL"): implicitfast at 4 ms (5 physics
+/// steps per 20 ms action instead of 20 RK4 steps), the stick spring-damper of
+/// `floor_friction = "stick_slip"` at its stability bound of 5 timesteps. Over 16 starts the
+/// reference gait's mean speed, heading and peak contact force stay within 5 % of the default
+/// physics; 5 ms and 10 ms (faster) moved the mean peak contact force by 9 %.
+pub const ENV_FAST_PRESET: &[&str] = &[
+    "general.integrator=\"implicitfast\"",
+    "general.timestep_secs=0.004",
+    "physics.floor_stick_time_constant_secs=0.02",
+];
 
 /// What an action of the environment is (`env.action`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -969,7 +969,16 @@ impl Config {
         finite("env.reward_forward_weight", e.reward_forward_weight)?;
         non_negative("env.reward_energy_weight", e.reward_energy_weight)?;
         non_negative("env.reward_contact_force_weight", e.reward_contact_force_weight)?;
-        non_negative("env.terminate_contact_force_n", e.terminate_contact_force_n)
+        non_negative("env.terminate_contact_force_n", e.terminate_contact_force_n)?;
+        non_negative("env.reward_ctrl_cost_weight", e.reward_ctrl_cost_weight)?;
+        non_negative("env.reset_noise_scale", e.reset_noise_scale)?;
+        non_negative("env.reset_heading_noise_rad", e.reset_heading_noise_rad)?;
+        ensure(
+            e.reset_heading_noise_rad <= std::f64::consts::PI,
+            "env.reset_heading_noise_rad",
+            fmt_f(e.reset_heading_noise_rad),
+            "at most pi (a uniform heading in ±pi is every heading)",
+        )
     }
 
     /// The `[env]` rules that involve other sections, checked when an environment is built

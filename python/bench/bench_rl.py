@@ -1,0 +1,232 @@
+"""RL throughput and the accuracy of the physics presets (issue 19).
+
+    python python/bench/bench_rl.py throughput [--seconds 3] [--repeats 3] [--json out.json]
+    python python/bench/bench_rl.py accuracy [--secs 10] [--candidates default,fast,...] [--json out.json]
+
+throughput: env steps per second, one core unless stated, of
+  - ``gym.make("SimSerpent-v0")`` (the 10-link default snake, random actions in [-1, 1]) with
+    the default physics and with ``env.preset = "fast"``, each with ``physics.floor_friction``
+    "mujoco" and "stick_slip";
+  - the Rust vector env (``SimSerpentVectorEnv``, 8 envs) on 1 and 2 threads (default and fast);
+  - Gymnasium's ``Swimmer-v5`` (``gymnasium[mujoco]`` on the same ``mujoco`` wheel).
+  Variants are measured round-robin, best of ``--repeats`` (the machine may be shared).
+
+accuracy: a reference gait (the config's sine wave, 30 deg, 0.5 Hz, 40 deg lag; through the
+  environment as normalised actions, ``simserpent.Gait.action``) for ``--secs`` seconds from
+  ``--episodes`` starts (the default reset noise, seeds 0, 1, ...) with the default physics and
+  with each candidate physics (``integrator@timestep_ms``, e.g. ``implicitfast@2``; ``fast`` =
+  the preset; ``perturbed`` = the default physics with 1e-6 rad reset noise, a single start's
+  sensitivity): means over the starts (with standard errors) of the speed of travel (m/s), the
+  heading of travel (rad) and the mean per-action peak contact force (N), and env steps/s of the
+  vector env (all cores); the differences to the default physics. Why an ensemble: the
+  undulating snake is chaotic -- a 1e-6 rad change of the start moves one 20 s trajectory's
+  speed by ~5 % and its heading by ~0.15 rad -- so single trajectories cannot be compared.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import time
+
+import gymnasium as gym
+import numpy as np
+
+import simserpent
+from simserpent.envs import SimSerpentVectorEnv
+
+QUIET = {"env.reset_noise_scale": 0.0, "env.reset_heading_noise_rad": 0.0}
+
+
+def timed(step, reset, seconds):
+    """(env steps per wall second, env steps per CPU second of this process): on a shared,
+    loaded machine the second is the one-core figure (a vector env on k threads uses up to k
+    CPUs, so its CPU figure is per core)."""
+    reset()
+    n, t0, c0 = 0, time.perf_counter(), time.process_time()
+    while True:
+        for _ in range(50):
+            if step():
+                reset()
+            n += 1
+        dt = time.perf_counter() - t0
+        if dt >= seconds:
+            return np.array([n / dt, n / max(time.process_time() - c0, 1e-9)])
+
+
+def single(overrides, actions, seconds):
+    env = gym.make("SimSerpent-v0", overrides={**overrides, "env.max_episode_secs": 1000.0})
+    k = [0]
+
+    def step():
+        k[0] += 1
+        _, _, te, tr, _ = env.step(actions[k[0] % len(actions)])
+        return te or tr
+
+    return lambda: timed(step, lambda: env.reset(seed=0), seconds)
+
+
+def vector(overrides, actions, seconds, threads):
+    vec = SimSerpentVectorEnv(num_envs=8, overrides={**overrides, "env.max_episode_secs": 1000.0}, threads=threads)
+    batches = actions[: (len(actions) // 8) * 8].reshape(-1, 8, actions.shape[1])
+    k = [0]
+
+    def step():
+        k[0] += 1
+        vec.step(batches[k[0] % len(batches)])
+        return False
+
+    return lambda: 8 * timed(step, lambda: vec.reset(seed=0), seconds)
+
+
+def swimmer(seconds):
+    env = gym.make("Swimmer-v5")
+    rng = np.random.default_rng(0)
+    acts = rng.uniform(-1, 1, size=(4096, 2)).astype(np.float32)
+    k = [0]
+
+    def step():
+        k[0] += 1
+        _, _, te, tr, _ = env.step(acts[k[0] % 4096])
+        return te or tr
+
+    return lambda: timed(step, lambda: env.reset(seed=0), seconds)
+
+
+def throughput(a):
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, size=(4096, 9)).astype(np.float32)
+    variants = []
+    for floor in ["mujoco", "stick_slip"]:
+        for preset in ["default", "fast"]:
+            o = {"physics.floor_friction": floor, "env.preset": preset}
+            variants.append((f"SimSerpent-v0 {preset} physics, floor {floor}", single(o, actions, a.seconds)))
+    for preset in ["default", "fast"]:
+        for threads in (1, 2):
+            o = {"physics.floor_friction": "stick_slip", "env.preset": preset}
+            variants.append(
+                (f"vector env 8 envs, {threads} thread(s), {preset}, stick_slip", vector(o, actions, a.seconds, threads))
+            )
+    try:
+        variants.append(("Gymnasium Swimmer-v5", swimmer(a.seconds)))
+    except Exception as e:  # pragma: no cover - gymnasium[mujoco] extras
+        print(f"Swimmer-v5 not available: {e}")
+    results: dict[str, list[float]] = {}
+    for _ in range(a.repeats):
+        for name, fn in variants:
+            results[name] = np.maximum(results.get(name, np.zeros(2)), fn()).tolist()
+    for name, _ in variants:
+        wall, cpu = results[name]
+        print(f"{name:<55s} {wall:10.1f} env steps/s wall {cpu:10.1f} per CPU-second", flush=True)
+    return results
+
+
+def reference_gait(overrides, secs, episodes=8):
+    """The reference gait from ``episodes`` starts (the default [env] reset noise, seeds 0, 1,
+    ...; one snake each in a vector env): per start the speed of travel (|displacement of the
+    centre of mass| after the 1 s ramp / time), the heading of travel (rad) and the mean of the
+    per-action peak contact force (N); their means over the starts with standard errors, and
+    env steps/s."""
+    cfg = simserpent.load_config(overrides={**overrides, "env.max_episode_secs": secs})
+    vec = SimSerpentVectorEnv(num_envs=episodes, config=cfg, threads=0)
+    gait = simserpent.Gait(cfg)
+    vec.reset(seed=list(range(episodes)))
+    dt = vec.dt
+    n = int(round(secs / dt))
+    start = int(round(1.0 / dt))  # after the ramp
+    xy0 = None
+    peaks = []
+    t0 = time.perf_counter()
+    for k in range(n):
+        a = np.tile(gait.action(k * dt), (episodes, 1))
+        _, _, term, _, info = vec.step(a)
+        if term.any():
+            return {"error": str(info.get("error"))}
+        if k == start:
+            xy0 = np.stack([info["x_position"], info["y_position"]], axis=1)
+        if k >= start:
+            peaks.append(info["peak_contact_force_n"])
+    wall = time.perf_counter() - t0
+    xy1 = np.stack([info["x_position"], info["y_position"]], axis=1)
+    d = xy1 - xy0
+    span = (n - 1 - start) * dt
+    speed = np.hypot(d[:, 0], d[:, 1]) / span
+    heading = np.arctan2(d[:, 1], d[:, 0])
+    force = np.mean(peaks, axis=0)
+
+    def stat(x):
+        return float(np.mean(x)), float(np.std(x, ddof=1) / np.sqrt(len(x)))
+
+    (s, s_se), (h, h_se), (f, f_se) = stat(speed), stat(heading), stat(force)
+    return {
+        "speed_m_per_s": s, "speed_se": s_se,
+        "heading_rad": h, "heading_se": h_se,
+        "mean_peak_contact_force_n": f, "force_se": f_se,
+        "env_steps_per_s_vector": episodes * n / wall,
+    }
+
+
+def candidate_overrides(name):
+    if name == "default":
+        return {}
+    if name == "fast":
+        return {"env.preset": "fast"}
+    if name.startswith("perturbed"):
+        # The default physics from a start perturbed by 1e-6 rad: the noise floor of the metrics.
+        return {"env.reset_noise_scale": 1e-6}
+    integrator, ms = name.split("@")
+    dt = float(ms) / 1000.0
+    return {
+        "general.integrator": integrator,
+        "general.timestep_secs": dt,
+        "physics.floor_stick_time_constant_secs": max(0.005, 5 * dt),
+    }
+
+
+def accuracy(a):
+    out = {}
+    for floor in a.floors.split(","):
+        base = {"physics.floor_friction": floor}
+        ref = reference_gait(base, a.secs, a.episodes)
+        out[floor] = {"default": ref}
+        print(f"floor {floor}: default physics: {ref}")
+        for name in a.candidates.split(","):
+            if name == "default":
+                continue
+            r = reference_gait({**base, **candidate_overrides(name)}, a.secs, a.episodes)
+            if "error" not in r:
+                r["speed_diff_percent"] = 100 * (r["speed_m_per_s"] / ref["speed_m_per_s"] - 1)
+                r["heading_diff_rad"] = r["heading_rad"] - ref["heading_rad"]
+                r["force_diff_percent"] = 100 * (r["mean_peak_contact_force_n"] / ref["mean_peak_contact_force_n"] - 1)
+            out[floor][name] = r
+            print(f"floor {floor}: {name}: {r}", flush=True)
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("what", choices=["throughput", "accuracy"])
+    ap.add_argument("--seconds", type=float, default=3.0)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--secs", type=float, default=10.0)
+    ap.add_argument("--floors", default="stick_slip,mujoco")
+    ap.add_argument("--episodes", type=int, default=8, help="starts per physics (accuracy)")
+    ap.add_argument(
+        "--candidates",
+        default="fast,RK4@2,implicitfast@2,implicitfast@4,Euler@2,implicitfast@5",
+    )
+    ap.add_argument("--json")
+    a = ap.parse_args()
+    results = throughput(a) if a.what == "throughput" else accuracy(a)
+    results = {"results": results, "setup": {"cpus": os.cpu_count(), "python": platform.python_version(),
+                                            "fast_preset": simserpent.ENV_FAST_PRESET}}
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(results, f, indent=2)
+
+
+if __name__ == "__main__":
+    main()
