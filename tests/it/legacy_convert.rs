@@ -357,7 +357,7 @@ fn experiments_record_what_their_analysis_reads_whatever_the_base_config_says() 
     let all = text(&o);
     assert!(o.status.success(), "{all}");
     assert!(all.contains("note: recording.enabled = false -> true"), "{all}");
-    assert!(all.contains("3 of 3 checks passed"), "{all}");
+    assert!(all.contains("6 of 6 checks passed"), "{all}"); // placement and picture of each set
     // `configure` keeps the original capsules (the other experiments use SimSerpent's links and
     // say so in a note).
     assert!(!all.contains("legacy.geometry = \"faithful\" -> \"no_overlap\""), "{all}");
