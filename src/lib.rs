@@ -21,6 +21,7 @@ pub mod experiments;
 pub mod interrupt;
 pub mod plot;
 pub mod record;
+pub mod ros2;
 pub mod render;
 pub mod run;
 pub mod setup_progress;
