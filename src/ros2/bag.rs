@@ -74,8 +74,12 @@ impl Out {
     fn put<T: serde::Serialize>(&mut self, channel: u16, nanos: u64, message: &T) -> Result<(), RecordError> {
         msgs::encode(&mut self.buf, message).map_err(encode_err(&self.path))?;
         let Some(writer) = self.writer.as_mut() else { return Ok(()) };
-        let header =
-            mcap::records::MessageHeader { channel_id: channel, sequence: self.sequence, log_time: nanos, publish_time: nanos };
+        let header = mcap::records::MessageHeader {
+            channel_id: channel,
+            sequence: self.sequence,
+            log_time: nanos,
+            publish_time: nanos,
+        };
         self.sequence = self.sequence.wrapping_add(1);
         writer.write_to_known_channel(&header, &self.buf).map_err(bag_err(&self.path))
     }
@@ -118,7 +122,10 @@ impl BagRecorder {
         let options = mcap::WriteOptions::new()
             .profile("ros2")
             .library(format!("simserpent {}", env!("CARGO_PKG_VERSION")))
-            .compression(Some(mcap::Compression::Zstd));
+            .compression(Some(mcap::Compression::Zstd))
+            // Compress on the simulating thread: the mcap crate would otherwise start one zstd
+            // worker per physical CPU for every run (and a sweep runs one per core already).
+            .compression_threads(0);
         let mut writer = options.create(BufWriter::new(file)).map_err(bag_err(&path))?;
         let ros = &config.ros2;
         let no_metadata = BTreeMap::new();
@@ -248,8 +255,10 @@ impl BagRecorder {
             };
             out.put(ch.wrench[j], nanos, &wrench)?;
         }
-        let command =
-            Float64MultiArray { layout: MultiArrayLayout { dim: &[], data_offset: 0 }, data: command.block(self.method) };
+        let command = Float64MultiArray {
+            layout: MultiArrayLayout { dim: &[], data_offset: 0 },
+            data: command.block(self.method),
+        };
         out.put(ch.command, nanos, &command)?;
         let markers =
             ContactMarkers { stamp, frame_id: WORLD_FRAME, contacts: &s.contacts, arrow_m_per_n: self.arrow_m_per_n };
@@ -258,9 +267,11 @@ impl BagRecorder {
         Ok(())
     }
 
-    /// Finishes the bag (chunk, indexes, summary). Returns (file name, recorded instants) for
-    /// the manifest, and the error if the file could not be completed. After a failure the
-    /// chunks written so far stay readable (MCAP readers scan files without a summary).
+    /// Finishes the bag (last chunk, indexes, summary, footer) and syncs it. Returns (file name,
+    /// recorded instants) for the manifest, and the error if the file could not be completed.
+    /// A bag that was never finished (the process was killed) lacks its summary and footer;
+    /// `mcap recover run.mcap -o fixed.mcap` (Foxglove's `mcap` CLI) rebuilds it from the
+    /// chunks written so far.
     pub fn finish(mut self) -> (Vec<(String, u64)>, Result<(), RecordError>) {
         let mut result = Ok(());
         let path = &self.out.path;

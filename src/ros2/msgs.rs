@@ -7,8 +7,8 @@
 //! order and types follow the definitions below, which are those of ROS 2 Jazzy's
 //! `common_interfaces` (comments and constants left out; they do not change the wire format).
 
-use serde::ser::{SerializeStruct, Serializer};
 use serde::Serialize;
+use serde::ser::{SerializeStruct, Serializer};
 
 /// `builtin_interfaces/Time` (and `Duration`, same fields): seconds and nanoseconds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Default)]

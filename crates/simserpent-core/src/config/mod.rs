@@ -16,8 +16,8 @@ mod ros2;
 pub mod surfaces;
 mod validate;
 
-pub use ros2::Ros2;
 pub use load::{ConfigSource, load_config, load_config_str, parse_override};
+pub use ros2::Ros2;
 pub use surfaces::{ExplicitFriction, FrictionSource, PRESETS, Preset, Surface, SurfaceFriction, SurfaceShape};
 
 use serde::{Deserialize, Serialize};
@@ -684,8 +684,7 @@ impl TableFormat {
 
     /// The names a config may use, in the order they are written back.
     const NAMES: [&'static str; 3] = ["csv", "parquet", "mcap"];
-    const EXPECTED: &'static str =
-        "one of \"csv\", \"parquet\", \"both\" (CSV and Parquet), \"mcap\" (a ROS 2 bag), or a list of them such as [\"csv\", \"mcap\"]";
+    const EXPECTED: &'static str = "one of \"csv\", \"parquet\", \"both\" (CSV and Parquet), \"mcap\" (a ROS 2 bag), or a list of them such as [\"csv\", \"mcap\"]";
 
     /// Whether CSV files are written.
     pub fn csv(self) -> bool {
@@ -755,17 +754,30 @@ impl<'de> Deserialize<'de> for TableFormat {
             }
             fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<TableFormat, E> {
                 let mut format = TableFormat { csv: false, parquet: false, mcap: false };
-                if format.add(v) {
-                    Ok(format)
-                } else {
-                    Err(E::invalid_value(serde::de::Unexpected::Str(v), &self))
-                }
+                if format.add(v) { Ok(format) } else { Err(E::invalid_value(serde::de::Unexpected::Str(v), &self)) }
             }
             fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<TableFormat, A::Error> {
                 use serde::de::Error;
                 let mut format = TableFormat { csv: false, parquet: false, mcap: false };
                 let mut seen = Vec::new();
-                while let Some(name) = seq.next_element::<String>()? {
+                /// One name in the list: its error says which names there are.
+                struct Name(String);
+                impl<'de> Deserialize<'de> for Name {
+                    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+                        struct NameVisitor;
+                        impl serde::de::Visitor<'_> for NameVisitor {
+                            type Value = Name;
+                            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                                f.write_str("a format name: \"csv\", \"parquet\", \"both\" or \"mcap\"")
+                            }
+                            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Name, E> {
+                                Ok(Name(v.to_string()))
+                            }
+                        }
+                        deserializer.deserialize_str(NameVisitor)
+                    }
+                }
+                while let Some(Name(name)) = seq.next_element::<Name>()? {
                     if !format.add(&name) {
                         return Err(A::Error::invalid_value(serde::de::Unexpected::Str(&name), &self));
                     }
