@@ -371,6 +371,10 @@ reward_forward_weight = 2.0
 reward_energy_weight = 0.5
 reward_contact_force_weight = 0.001
 terminate_contact_force_n = 500.0
+
+[ros2]
+namespace = "lab/snake_1"
+contact_arrow_m_per_n = 0.02
 "#;
 
 fn all_fields_expected() -> Config {
@@ -618,6 +622,7 @@ fn all_fields_expected() -> Config {
         reward_contact_force_weight: 0.001,
         terminate_contact_force_n: 500.0,
     };
+    c.ros2 = Ros2 { namespace: "lab/snake_1".into(), contact_arrow_m_per_n: 0.02 };
     c
 }
 
