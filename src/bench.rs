@@ -8,7 +8,8 @@
 //!   same motion and contacts as the full run, with nothing else;
 //! - **full (CSV)**: `run::run` — controller, sensor noise model, read-out, CSV recording of
 //!   every table at the configured interval, run folder and manifest;
-//! - **full (Parquet)**: the same, recording Parquet tables instead (feature `parquet`).
+//! - **full (Parquet)**: the same, recording Parquet tables instead (feature `parquet`);
+//! - **full (MCAP)**: the same, writing only the ROS 2 bag (`run.mcap`) instead.
 //!
 //! "Bare, gait" is the fair baseline: the same motion and contacts, so the same work for MuJoCo.
 //!
@@ -61,6 +62,7 @@ pub fn modes() -> Vec<&'static str> {
     if cfg!(feature = "parquet") {
         m.push(FULL_PARQUET);
     }
+    m.push(FULL_MCAP);
     m
 }
 
@@ -72,6 +74,8 @@ pub const BARE_GAIT: &str = "bare, gait";
 pub const FULL_CSV: &str = "full pipeline (CSV)";
 /// `run::run` recording Parquet tables (c).
 pub const FULL_PARQUET: &str = "full pipeline (Parquet)";
+/// `run::run` writing only the ROS 2 bag (`run.mcap`, README "ROS 2").
+pub const FULL_MCAP: &str = "full pipeline (MCAP)";
 
 fn measure(config: &Config, mode: &str, steps: u64) -> Result<f64, RunError> {
     match mode {
@@ -79,7 +83,11 @@ fn measure(config: &Config, mode: &str, steps: u64) -> Result<f64, RunError> {
         BARE_GAIT => Ok(bare(config, steps, true)?),
         _ => {
             let mut config = config.clone();
-            config.recording.format = if mode == FULL_PARQUET { TableFormat::Parquet } else { TableFormat::Csv };
+            config.recording.format = match mode {
+                FULL_PARQUET => TableFormat::Parquet,
+                FULL_MCAP => TableFormat::Mcap,
+                _ => TableFormat::Csv,
+            };
             let options = RunOptions { config_source: "bench".into(), ..RunOptions::default() };
             let summary = run::run(&config, &options)?;
             // Only the last folder of each mode is kept: benches should not fill the disk.

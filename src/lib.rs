@@ -22,6 +22,7 @@ pub mod interrupt;
 pub mod plot;
 pub mod record;
 pub mod render;
+pub mod ros2;
 pub mod run;
 pub mod setup_progress;
 pub mod sim;

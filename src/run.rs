@@ -242,16 +242,23 @@ fn run_simulation_tracked<C: Controller>(
     };
     let mut reserve = open_run_folder(&folder, created, &mut manifest)?;
     let set_up = write_run_files(config, &folder, sim.world()).and_then(|()| {
-        let recorder = if config.recording.enabled {
+        let format = config.recording.format;
+        let recorder = if config.recording.enabled && (format.csv() || format.parquet()) {
             let surfaces = !sim.ground().surfaces().is_empty();
             Some(Recorder::create(&folder, &config.recording, &sim.world().index, surfaces)?)
         } else {
             None
         };
+        // The ROS 2 bag (README "ROS 2").
+        let bag = if config.recording.enabled && format.mcap() {
+            Some(crate::ros2::BagRecorder::create(&folder, config, &sim.world().index)?)
+        } else {
+            None
+        };
         let visuals = crate::render::RunVisuals::create(config, &folder, sim.world().data(), options.viewer)?;
-        Ok((recorder, visuals))
+        Ok((recorder, bag, visuals))
     });
-    let (mut recorder, mut visuals) = match set_up {
+    let (mut recorder, mut bag, mut visuals) = match set_up {
         Ok(parts) => parts,
         Err(e) => return Err(end_unfinished(&folder, &mut manifest, &mut reserve, e)),
     };
@@ -268,6 +275,9 @@ fn run_simulation_tracked<C: Controller>(
         }
         if let Some(r) = recorder.as_mut() {
             observers.push(r);
+        }
+        if let Some(b) = bag.as_mut() {
+            observers.push(b);
         }
         if let Some(v) = visuals.as_mut() {
             observers.push(v);
@@ -302,10 +312,15 @@ fn run_simulation_tracked<C: Controller>(
     manifest.simulated_secs = sim.world().time_secs();
     manifest.mujoco_warnings = sim.world().warning_counts();
     // Every table is closed and listed with the whole rows it holds, also after a failure.
-    let (tables, tables_done) = match recorder {
+    let (mut tables, mut tables_done) = match recorder {
         Some(r) => r.finish(),
         None => (Vec::new(), Ok(())),
     };
+    if let Some(b) = bag {
+        let (files, done) = b.finish();
+        tables.extend(files);
+        tables_done = tables_done.and(done);
+    }
     manifest.tables = tables;
     let result = match (outcome, tables_done) {
         (Ok(summary), Ok(())) => Ok(summary),
@@ -436,6 +451,12 @@ impl Observer<RunError> for Totals {
 impl Observer<RunError> for Recorder {
     fn on_record(&mut self, view: &StepView<'_>, snapshot: &Snapshot) -> Result<(), RunError> {
         Ok(self.write(view.k, snapshot)?)
+    }
+}
+
+impl Observer<RunError> for crate::ros2::BagRecorder {
+    fn on_record(&mut self, view: &StepView<'_>, snapshot: &Snapshot) -> Result<(), RunError> {
+        Ok(self.write(snapshot, view.command)?)
     }
 }
 

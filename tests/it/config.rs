@@ -394,6 +394,10 @@ preset = "fast"
 
 [legacy]
 geometry = "faithful"
+
+[ros2]
+namespace = "lab/snake_1"
+contact_arrow_m_per_n = 0.02
 "#;
 
 fn all_fields_expected() -> Config {
@@ -664,6 +668,7 @@ fn all_fields_expected() -> Config {
         preset: EnvPreset::Fast,
     };
     c.legacy.geometry = LegacyGeometry::Faithful;
+    c.ros2 = Ros2 { namespace: "lab/snake_1".into(), contact_arrow_m_per_n: 0.02 };
     c
 }
 

@@ -24,6 +24,7 @@ mod plot;
 #[cfg(feature = "render")]
 mod render;
 mod robustness;
+mod ros2_bag;
 mod sensors;
 mod sliding_contact;
 mod step_loop;

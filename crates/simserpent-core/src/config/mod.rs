@@ -13,6 +13,7 @@ mod floor;
 mod legacy;
 mod load;
 pub mod presets;
+mod ros2;
 pub mod surfaces;
 mod validate;
 
@@ -25,6 +26,7 @@ pub use load::{
     ConfigSource, convert_legacy_file, convert_legacy_text, load_config, load_config_str, load_config_with_notes,
     parse_override,
 };
+pub use ros2::Ros2;
 pub use surfaces::{ExplicitFriction, FrictionSource, PRESETS, Preset, Surface, SurfaceFriction, SurfaceShape};
 
 use serde::{Deserialize, Serialize};
@@ -179,6 +181,7 @@ pub struct Config {
     pub video: Video,
     pub env: Env,
     pub legacy: Legacy,
+    pub ros2: Ros2,
 }
 
 /// How the original tool's geometry is reproduced (`[legacy]`; README "The original tool").
@@ -738,27 +741,139 @@ pub struct Recording {
     pub contacts: bool,
 }
 
-/// File format of the recorded tables (`recording.format`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum TableFormat {
-    /// CSV only.
-    Csv,
-    /// Parquet only (needs the `parquet` cargo feature).
-    Parquet,
-    /// CSV and Parquet, same columns.
-    Both,
+/// File formats of the recording (`recording.format`): CSV tables, Parquet tables and/or one
+/// ROS 2 bag (MCAP). Written in the config as one name (`"csv"`, `"parquet"`, `"both"` = CSV and
+/// Parquet, `"mcap"`) or a list of names (`["csv", "mcap"]`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TableFormat {
+    csv: bool,
+    parquet: bool,
+    mcap: bool,
 }
 
+// The single-format values keep the names they had as enum variants.
+#[allow(non_upper_case_globals)]
 impl TableFormat {
+    /// CSV only.
+    pub const Csv: Self = Self { csv: true, parquet: false, mcap: false };
+    /// Parquet only (needs the `parquet` cargo feature).
+    pub const Parquet: Self = Self { csv: false, parquet: true, mcap: false };
+    /// CSV and Parquet, same columns.
+    pub const Both: Self = Self { csv: true, parquet: true, mcap: false };
+    /// A ROS 2 bag (MCAP) only.
+    pub const Mcap: Self = Self { csv: false, parquet: false, mcap: true };
+
+    /// The names a config may use, in the order they are written back.
+    const NAMES: [&'static str; 3] = ["csv", "parquet", "mcap"];
+    const EXPECTED: &'static str = "one of \"csv\", \"parquet\", \"both\" (CSV and Parquet), \"mcap\" (a ROS 2 bag), or a list of them such as [\"csv\", \"mcap\"]";
+
     /// Whether CSV files are written.
     pub fn csv(self) -> bool {
-        matches!(self, Self::Csv | Self::Both)
+        self.csv
     }
 
     /// Whether Parquet files are written.
     pub fn parquet(self) -> bool {
-        matches!(self, Self::Parquet | Self::Both)
+        self.parquet
+    }
+
+    /// Whether a ROS 2 bag (`run.mcap`) is written.
+    pub fn mcap(self) -> bool {
+        self.mcap
+    }
+
+    /// The same formats, and a ROS 2 bag besides.
+    pub fn with_mcap(self) -> Self {
+        Self { mcap: true, ..self }
+    }
+
+    fn flags(self) -> [bool; 3] {
+        [self.csv, self.parquet, self.mcap]
+    }
+
+    fn add(&mut self, name: &str) -> bool {
+        match name {
+            "csv" => self.csv = true,
+            "parquet" => self.parquet = true,
+            "both" => (self.csv, self.parquet) = (true, true),
+            "mcap" => self.mcap = true,
+            _ => return false,
+        }
+        true
+    }
+}
+
+impl std::fmt::Display for TableFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let names: Vec<&str> = Self::NAMES.iter().zip(self.flags()).filter(|(_, on)| *on).map(|(n, _)| *n).collect();
+        match names.as_slice() {
+            [one] => write!(f, "{one}"),
+            ["csv", "parquet"] => write!(f, "both"),
+            many => write!(f, "[{}]", many.iter().map(|n| format!("\"{n}\"")).collect::<Vec<_>>().join(", ")),
+        }
+    }
+}
+
+impl Serialize for TableFormat {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let names: Vec<&str> = Self::NAMES.iter().zip(self.flags()).filter(|(_, on)| *on).map(|(n, _)| *n).collect();
+        match names.as_slice() {
+            [one] => serializer.serialize_str(one),
+            ["csv", "parquet"] => serializer.serialize_str("both"),
+            many => many.serialize(serializer),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for TableFormat {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = TableFormat;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(TableFormat::EXPECTED)
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<TableFormat, E> {
+                let mut format = TableFormat { csv: false, parquet: false, mcap: false };
+                if format.add(v) { Ok(format) } else { Err(E::invalid_value(serde::de::Unexpected::Str(v), &self)) }
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<TableFormat, A::Error> {
+                use serde::de::Error;
+                let mut format = TableFormat { csv: false, parquet: false, mcap: false };
+                let mut seen = Vec::new();
+                /// One name in the list: its error says which names there are.
+                struct Name(String);
+                impl<'de> Deserialize<'de> for Name {
+                    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+                        struct NameVisitor;
+                        impl serde::de::Visitor<'_> for NameVisitor {
+                            type Value = Name;
+                            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                                f.write_str("a format name: \"csv\", \"parquet\", \"both\" or \"mcap\"")
+                            }
+                            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Name, E> {
+                                Ok(Name(v.to_string()))
+                            }
+                        }
+                        deserializer.deserialize_str(NameVisitor)
+                    }
+                }
+                while let Some(Name(name)) = seq.next_element::<Name>()? {
+                    if !format.add(&name) {
+                        return Err(A::Error::invalid_value(serde::de::Unexpected::Str(&name), &self));
+                    }
+                    if seen.contains(&name) {
+                        return Err(A::Error::custom(format!("\"{name}\" is listed twice")));
+                    }
+                    seen.push(name);
+                }
+                if seen.is_empty() {
+                    return Err(A::Error::invalid_length(0, &self));
+                }
+                Ok(format)
+            }
+        }
+        deserializer.deserialize_any(Visitor)
     }
 }
 

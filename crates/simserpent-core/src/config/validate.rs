@@ -216,6 +216,7 @@ impl Config {
         self.validate_terrain()?;
         self.validate_recording()?;
         self.validate_pictures()?;
+        self.ros2.validate()?;
         self.validate_env()
     }
 
@@ -889,7 +890,7 @@ impl Config {
         if r.format.parquet() && !cfg!(feature = "parquet") {
             fail(
                 "recording.format",
-                format!("{:?}", r.format).to_lowercase(),
+                r.format.to_string(),
                 "this build of SimSerpent has no Parquet support (cargo feature `parquet` is off); \
                  use \"csv\" or rebuild with `--features parquet`",
             )?;

@@ -1,0 +1,289 @@
+//! The ROS 2 bag of a run (`recording.format` with `"mcap"`): `run.mcap` in the run folder, one
+//! MCAP file of ROS 2 CDR messages with their `ros2msg` schemas embedded, written at every
+//! recorded instant (the rows of the CSV tables), stamped with simulated time.
+//!
+//! Topics (README "ROS 2"; `<ns>` is `ros2.namespace`, `snake` by default):
+//!
+//! | topic | type | frame | what |
+//! |---|---|---|---|
+//! | `/clock` | rosgraph_msgs/Clock | — | simulated time |
+//! | `/joint_states` | sensor_msgs/JointState | — | measured: encoder angle, velocity, actuator torque (sensor models applied) |
+//! | `/<ns>/ground_truth/joint_states` | sensor_msgs/JointState | — | the same, true values |
+//! | `/tf` | tf2_msgs/TFMessage | `world` → `link_NN` | every link's frame (true pose), the head `link_00` first |
+//! | `/<ns>/joint_NN/wrench` | geometry_msgs/WrenchStamped | `link_NN` (child link) | measured joint force/torque sensor |
+//! | `/<ns>/link_NN/imu` | sensor_msgs/Imu | `link_NN` | measured gyro and accelerometer, covariances from `[sensors]` |
+//! | `/<ns>/link_NN/contact_wrench` | geometry_msgs/WrenchStamped | `world` | true contact force on the link, torque about its centre of mass |
+//! | `/<ns>/contacts` | visualization_msgs/MarkerArray | `world` | one arrow per contact (force on its second geom) |
+//! | `/<ns>/forward_<kind>_controller/commands` | std_msgs/Float64MultiArray | — | the command of the step that starts at the instant |
+
+use super::msgs::{self, ContactMarkers, Float64MultiArray, Header, Imu, JointState, MultiArrayLayout, Quaternion};
+use super::msgs::{Clock, TfMessage, Time, Wrench, WrenchStamped};
+use crate::config::{Config, ControlMethod};
+use crate::control::Command;
+use crate::record::RecordError;
+use crate::sim::{Index, Snapshot};
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+/// The bag's file name in the run folder.
+pub const FILE_NAME: &str = "run.mcap";
+/// The fixed frame of the world (REP 105's `world`: z up, x/y of the MuJoCo world).
+pub const WORLD_FRAME: &str = "world";
+
+/// ros2_control's forward command controller that takes a command of this kind
+/// (`forward_position_controller`, `forward_velocity_controller`, `forward_effort_controller`).
+pub fn controller_name(method: ControlMethod) -> &'static str {
+    match method {
+        ControlMethod::Position => "forward_position_controller",
+        ControlMethod::Velocity | ControlMethod::Intvelocity => "forward_velocity_controller",
+        ControlMethod::Torque => "forward_effort_controller",
+    }
+}
+
+/// The frame of joint `j`'s force/torque sensor: the child link's frame (the sensor sits at the
+/// joint, which is the origin of the child link). For the generated snake `joint_NN` → `link_NN`;
+/// a joint whose name does not follow that scheme is its own frame.
+pub fn joint_frame(joint: &str, links: &[String]) -> String {
+    let link = joint.replacen("joint_", "link_", 1);
+    if links.contains(&link) { link } else { joint.to_string() }
+}
+
+struct Channels {
+    clock: u16,
+    joint_states: u16,
+    joint_states_true: u16,
+    tf: u16,
+    command: u16,
+    contacts: u16,
+    wrench: Vec<u16>,
+    imu: Vec<u16>,
+    contact_wrench: Vec<u16>,
+}
+
+/// Where the messages go: the MCAP writer and the one buffer every message is encoded into.
+struct Out {
+    path: PathBuf,
+    writer: Option<mcap::Writer<BufWriter<File>>>,
+    buf: Vec<u8>,
+    sequence: u32,
+}
+
+impl Out {
+    fn put<T: serde::Serialize>(&mut self, channel: u16, nanos: u64, message: &T) -> Result<(), RecordError> {
+        msgs::encode(&mut self.buf, message).map_err(encode_err(&self.path))?;
+        let Some(writer) = self.writer.as_mut() else { return Ok(()) };
+        let header = mcap::records::MessageHeader {
+            channel_id: channel,
+            sequence: self.sequence,
+            log_time: nanos,
+            publish_time: nanos,
+        };
+        self.sequence = self.sequence.wrapping_add(1);
+        writer.write_to_known_channel(&header, &self.buf).map_err(bag_err(&self.path))
+    }
+}
+
+/// Writes the bag of a run (see the module doc). Sized once; a recorded instant reuses one
+/// buffer for every message and allocates nothing of its own.
+pub struct BagRecorder {
+    out: Out,
+    channels: Channels,
+    instants: u64,
+    links: Vec<String>,
+    joints: Vec<String>,
+    joint_frames: Vec<String>,
+    method: ControlMethod,
+    gyro_covariance: [f64; 9],
+    accel_covariance: [f64; 9],
+    arrow_m_per_n: f64,
+}
+
+fn bag_err(path: &Path) -> impl FnOnce(mcap::McapError) -> RecordError + '_ {
+    move |e| {
+        let source = match e {
+            mcap::McapError::Io(e) => e,
+            other => std::io::Error::other(other),
+        };
+        RecordError::Io { path: path.to_path_buf(), source }
+    }
+}
+
+fn encode_err(path: &Path) -> impl FnOnce(cdr_encoding::Error) -> RecordError + '_ {
+    move |e| RecordError::Io { path: path.to_path_buf(), source: std::io::Error::other(e) }
+}
+
+impl BagRecorder {
+    /// Creates `run.mcap` in `folder` with a channel per topic for the robot of `index`.
+    pub fn create(folder: &Path, config: &Config, index: &Index) -> Result<Self, RecordError> {
+        let path = folder.join(FILE_NAME);
+        let file = File::create(&path).map_err(crate::record::io_err(&path))?;
+        let options = mcap::WriteOptions::new()
+            .profile("ros2")
+            .library(format!("simserpent {}", env!("CARGO_PKG_VERSION")))
+            .compression(Some(mcap::Compression::Zstd))
+            // Compress on the simulating thread: the mcap crate would otherwise start one zstd
+            // worker per physical CPU for every run (and a sweep runs one per core already).
+            .compression_threads(0);
+        let mut writer = options.create(BufWriter::new(file)).map_err(bag_err(&path))?;
+        let ros = &config.ros2;
+        let no_metadata = BTreeMap::new();
+        let mut schemas: BTreeMap<&str, u16> = BTreeMap::new();
+        let mut channel = |writer: &mut mcap::Writer<BufWriter<File>>, topic: &str, ty: &'static str| {
+            let schema = match schemas.get(ty) {
+                Some(id) => *id,
+                None => {
+                    let text = msgs::schema(ty).unwrap_or_default();
+                    let id = writer.add_schema(&msgs::ros2_type_name(ty), "ros2msg", text.as_bytes())?;
+                    schemas.insert(ty, id);
+                    id
+                }
+            };
+            writer.add_channel(schema, topic, "cdr", &no_metadata)
+        };
+        let links: Vec<String> = index.links.iter().map(|l| l.name.clone()).collect();
+        let joints: Vec<String> = index.joints.iter().map(|j| j.name.clone()).collect();
+        let method = config.control.method;
+        let channels = (|| -> Result<Channels, mcap::McapError> {
+            let w = &mut writer;
+            Ok(Channels {
+                clock: channel(w, "/clock", "rosgraph_msgs/Clock")?,
+                joint_states: channel(w, "/joint_states", "sensor_msgs/JointState")?,
+                joint_states_true: channel(w, &ros.topic("ground_truth/joint_states"), "sensor_msgs/JointState")?,
+                tf: channel(w, "/tf", "tf2_msgs/TFMessage")?,
+                command: channel(
+                    w,
+                    &ros.topic(&format!("{}/commands", controller_name(method))),
+                    "std_msgs/Float64MultiArray",
+                )?,
+                contacts: channel(w, &ros.topic("contacts"), "visualization_msgs/MarkerArray")?,
+                wrench: joints
+                    .iter()
+                    .map(|j| channel(w, &ros.topic(&format!("{j}/wrench")), "geometry_msgs/WrenchStamped"))
+                    .collect::<Result<_, _>>()?,
+                imu: links
+                    .iter()
+                    .map(|l| channel(w, &ros.topic(&format!("{l}/imu")), "sensor_msgs/Imu"))
+                    .collect::<Result<_, _>>()?,
+                contact_wrench: links
+                    .iter()
+                    .map(|l| channel(w, &ros.topic(&format!("{l}/contact_wrench")), "geometry_msgs/WrenchStamped"))
+                    .collect::<Result<_, _>>()?,
+            })
+        })()
+        .map_err(bag_err(&path))?;
+        let s = &config.sensors;
+        let variance = |std: f64| if s.noise_enabled { std * std } else { 0.0 };
+        let joint_frames = joints.iter().map(|j| joint_frame(j, &links)).collect();
+        Ok(Self {
+            out: Out { path, writer: Some(writer), buf: Vec::with_capacity(64 * 1024), sequence: 0 },
+            channels,
+            instants: 0,
+            links,
+            joints,
+            joint_frames,
+            method,
+            gyro_covariance: msgs::diagonal_covariance(variance(s.gyro.std)),
+            accel_covariance: msgs::diagonal_covariance(variance(s.accelerometer.std)),
+            arrow_m_per_n: config.ros2.contact_arrow_m_per_n,
+        })
+    }
+
+    /// The bag's path.
+    pub fn path(&self) -> &Path {
+        &self.out.path
+    }
+
+    /// Writes every topic of one recorded instant.
+    pub fn write(&mut self, s: &Snapshot, command: &Command) -> Result<(), RecordError> {
+        let nanos = msgs::nanos(s.time_secs);
+        let stamp = Time::from_nanos(nanos);
+        let ch = &self.channels;
+        let out = &mut self.out;
+        out.put(ch.clock, nanos, &Clock { clock: stamp })?;
+        let no_frame = Header { stamp, frame_id: "" };
+        let m = &s.observation_measured;
+        let measured = JointState {
+            header: no_frame,
+            name: &self.joints,
+            position: &m.joint_angle_rad,
+            velocity: &m.joint_velocity_rad_per_s,
+            effort: &m.actuator_torque_nm,
+        };
+        out.put(ch.joint_states, nanos, &measured)?;
+        let truth = JointState {
+            header: no_frame,
+            name: &self.joints,
+            position: &s.joint_angle_rad,
+            velocity: &s.joint_velocity_rad_per_s,
+            effort: &s.joint_actuator_torque_nm,
+        };
+        out.put(ch.joint_states_true, nanos, &truth)?;
+        let tf = TfMessage {
+            stamp,
+            parent: WORLD_FRAME,
+            children: &self.links,
+            position_m: &s.link_origin_m,
+            quat_wxyz: &s.link_quat,
+        };
+        out.put(ch.tf, nanos, &tf)?;
+        // No orientation estimate: element 0 of its covariance is −1 (sensor_msgs/Imu's rule).
+        let mut orientation_covariance = [0.0; 9];
+        orientation_covariance[0] = -1.0;
+        for (i, frame) in self.links.iter().enumerate() {
+            let imu = Imu {
+                header: Header { stamp, frame_id: frame },
+                orientation: Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
+                orientation_covariance,
+                angular_velocity: m.imu_gyro_rad_per_s[i].into(),
+                angular_velocity_covariance: self.gyro_covariance,
+                linear_acceleration: m.imu_accel_m_per_s2[i].into(),
+                linear_acceleration_covariance: self.accel_covariance,
+            };
+            out.put(ch.imu[i], nanos, &imu)?;
+            let wrench = WrenchStamped {
+                header: Header { stamp, frame_id: WORLD_FRAME },
+                wrench: Wrench { force: s.link_contact_force_n[i].into(), torque: s.link_contact_torque_nm[i].into() },
+            };
+            out.put(ch.contact_wrench[i], nanos, &wrench)?;
+        }
+        for (j, frame) in self.joint_frames.iter().enumerate() {
+            let wrench = WrenchStamped {
+                header: Header { stamp, frame_id: frame },
+                wrench: Wrench { force: m.joint_force_n[j].into(), torque: m.joint_torque_nm[j].into() },
+            };
+            out.put(ch.wrench[j], nanos, &wrench)?;
+        }
+        let command = Float64MultiArray {
+            layout: MultiArrayLayout { dim: &[], data_offset: 0 },
+            data: command.block(self.method),
+        };
+        out.put(ch.command, nanos, &command)?;
+        let markers =
+            ContactMarkers { stamp, frame_id: WORLD_FRAME, contacts: &s.contacts, arrow_m_per_n: self.arrow_m_per_n };
+        out.put(ch.contacts, nanos, &markers)?;
+        self.instants += 1;
+        Ok(())
+    }
+
+    /// Finishes the bag (last chunk, indexes, summary, footer) and syncs it. Returns (file name,
+    /// recorded instants) for the manifest, and the error if the file could not be completed.
+    /// A bag that was never finished (the process was killed) lacks its summary and footer;
+    /// `mcap recover run.mcap -o fixed.mcap` (Foxglove's `mcap` CLI) rebuilds it from the
+    /// chunks written so far.
+    pub fn finish(mut self) -> (Vec<(String, u64)>, Result<(), RecordError>) {
+        let mut result = Ok(());
+        let path = &self.out.path;
+        if let Some(mut writer) = self.out.writer.take() {
+            result = writer.finish().map(|_| ()).map_err(bag_err(path));
+            if result.is_ok() {
+                let mut inner = writer.into_inner();
+                result = std::io::Write::flush(&mut inner)
+                    .and_then(|()| inner.get_ref().sync_all())
+                    .map_err(crate::record::io_err(path));
+            }
+        }
+        (vec![(FILE_NAME.to_string(), self.instants)], result)
+    }
+}
