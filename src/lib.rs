@@ -25,4 +25,5 @@ pub mod render;
 pub mod run;
 pub mod setup_progress;
 pub mod sim;
+pub mod study;
 pub mod sweep;

@@ -193,6 +193,31 @@ enum Command {
         #[arg(long, default_value_t = 1)]
         repeats: usize,
     },
+    /// Accuracy study (issue 20): every case with RK4, implicitfast and Euler at 0.25 to 10 ms
+    /// against RK4 at 0.1 ms; errors, cost, work-precision plots and a recommendation
+    /// (README, "Accuracy study"). Writes accuracy.md, accuracy.csv and PNG/SVG plots.
+    Study {
+        /// Which study: `accuracy`.
+        #[arg(value_parser = ["accuracy"])]
+        what: String,
+        #[command(flatten)]
+        config: ConfigArgs,
+        /// Two short cases (3 s bare-floor default job, the floor impact) instead of all.
+        #[arg(long)]
+        quick: bool,
+        /// Only these cases (repeatable; names as in the report, e.g. default-bare-floor).
+        #[arg(long = "case")]
+        cases: Vec<String>,
+        /// Where the report, table and plots go.
+        #[arg(long, default_value = "runs/study-accuracy")]
+        out: PathBuf,
+        /// Timed runs per setting (the fastest counts).
+        #[arg(long, default_value_t = 1)]
+        repeats: usize,
+        /// Threads for the recorded runs (the timed runs run one at a time); 0 = all cores.
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+    },
     /// Run a parameter sweep in parallel: a grid or random/Latin-hypercube samples of config
     /// keys, one run folder per parameter set, a summary table (see README, "Sweeps").
     Sweep {
@@ -449,6 +474,33 @@ fn experiment(name: &str, args: &ConfigArgs, quick: bool) -> Result<(), Failure>
     }
 }
 
+fn study(
+    args: &ConfigArgs,
+    quick: bool,
+    names: &[String],
+    out_dir: PathBuf,
+    repeats: usize,
+    threads: usize,
+) -> Result<(), Failure> {
+    use simserpent::study;
+    let (config, _) = load(args)?;
+    let mut cases = study::cases(&config, quick);
+    if !names.is_empty() {
+        let known: Vec<String> = cases.iter().map(|c| c.name.clone()).collect();
+        if let Some(bad) = names.iter().find(|n| !known.contains(n)) {
+            return Err(bad_input(anyhow::anyhow!("--case {bad}: no such case; the cases are {}", known.join(", "))));
+        }
+        cases.retain(|c| names.contains(&c.name));
+    }
+    let options =
+        study::StudyOptions { settings: study::all_settings(), reference: study::Setting::REFERENCE, repeats, out_dir };
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+    let result = pool.install(|| study::run_study(cases, &options)).map_err(failure)?;
+    outln!("{}", result.report);
+    outln!("written: {}", result.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>().join(", "));
+    Ok(())
+}
+
 fn init(path: &Path, force: bool) -> Result<(), Failure> {
     if path.exists() && !force {
         return Err(bad_input(anyhow::anyhow!("{} exists already; use --force to overwrite it", path.display())));
@@ -660,6 +712,9 @@ fn main() -> ExitCode {
             sweep(&config, &vary, sample, samples, seed, sweep_dir, threads, shard, quiet)
         }
         Some(Command::SweepMerge { sweep_dir }) => sweep_merge(&sweep_dir),
+        Some(Command::Study { what: _, config, quick, cases, out, repeats, threads }) => {
+            study(&config, quick, &cases, out, repeats, threads)
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

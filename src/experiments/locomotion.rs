@@ -83,7 +83,7 @@ fn sine_wave_by_position(c: &mut Config, amplitude_deg: f64, frequency_hz: f64, 
 
 /// Thesis table 7: 10 links, 0.3 kg, 0.2 m (0.10 m half length), radius 0.08 m, position
 /// control of a sine wave (A = 30°, f = 0.5 Hz, δ = 40°).
-fn undulation_config(base: &Config, ctx: &Context) -> Config {
+pub(crate) fn undulation_config(base: &Config, ctx: &Context) -> Config {
     let mut c = snake_on_floor(base, 10, 0.08, 0.5);
     c.terrain.kind = TerrainKind::None;
     sine_wave_by_position(&mut c, 30.0, 0.5, 2.0);

@@ -25,6 +25,7 @@ mod render;
 mod robustness;
 mod sensors;
 mod sliding_contact;
+mod study;
 mod surfaces;
 mod sweep;
 mod sweep_interrupt;
