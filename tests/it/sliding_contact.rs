@@ -548,8 +548,8 @@ fn contact_rows_carry_the_applied_friction() {
         for row in &s.contacts {
             // The sign that turns the force on geom 2 into the force on the link (body 0: the world).
             let sign = if row.body[1] != 0 { 1.0 } else { -1.0 };
-            for k in 0..3 {
-                sum[k] += sign * row.force_on_geom2_n[k];
+            for (total, f) in sum.iter_mut().zip(row.force_on_geom2_n) {
+                *total += sign * f;
             }
             let friction = row.friction_force_n[0].hypot(row.friction_force_n[1]);
             let mu_n = c.snake.ground_friction[0] * row.normal_force_n;
