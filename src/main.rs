@@ -220,18 +220,28 @@ enum Command {
         #[arg(long, value_name = "RATIO")]
         min_ratio: Option<f64>,
     },
-    /// Studies that run many configurations: `accuracy` compares RK4, implicitfast and Euler at
-    /// 0.25-10 ms against RK4 at 0.1 ms on the default job, the undulation experiment and an
-    /// impact (errors, cost, work-precision plots; see BENCHMARKS.md, "Accuracy study").
+    /// Accuracy study (issue 20): every case with RK4, implicitfast and Euler at 0.25 to 10 ms
+    /// against RK4 at 0.1 ms; errors, cost, work-precision plots and a recommendation
+    /// (README, "Accuracy study"). Writes accuracy.md, accuracy.csv and PNG/SVG plots.
     Study {
         /// Which study: `accuracy`.
-        name: String,
+        #[arg(value_parser = ["accuracy"])]
+        what: String,
         #[command(flatten)]
         config: ConfigArgs,
-        /// 2 s runs instead of 10 s (a first look; the impact stays 0.5 s).
+        /// Two short cases (3 s bare-floor default job, the floor impact) instead of all.
         #[arg(long)]
         quick: bool,
-        /// Worker threads for the accuracy runs (default: all cores); cost runs one at a time.
+        /// Only these cases (repeatable; names as in the report, e.g. default-bare-floor).
+        #[arg(long = "case")]
+        cases: Vec<String>,
+        /// Where the report, table and plots go.
+        #[arg(long, default_value = "runs/study-accuracy")]
+        out: PathBuf,
+        /// Timed runs per setting (the fastest counts).
+        #[arg(long, default_value_t = 1)]
+        repeats: usize,
+        /// Threads for the recorded runs (the timed runs run one at a time); 0 = all cores.
         #[arg(long, default_value_t = 0)]
         threads: usize,
     },
@@ -560,6 +570,33 @@ fn experiment(name: &str, args: &ConfigArgs, quick: bool, threads: usize) -> Res
     }
 }
 
+fn study(
+    args: &ConfigArgs,
+    quick: bool,
+    names: &[String],
+    out_dir: PathBuf,
+    repeats: usize,
+    threads: usize,
+) -> Result<(), Failure> {
+    use simserpent::study;
+    let (config, _) = load(args)?;
+    let mut cases = study::cases(&config, quick);
+    if !names.is_empty() {
+        let known: Vec<String> = cases.iter().map(|c| c.name.clone()).collect();
+        if let Some(bad) = names.iter().find(|n| !known.contains(n)) {
+            return Err(bad_input(anyhow::anyhow!("--case {bad}: no such case; the cases are {}", known.join(", "))));
+        }
+        cases.retain(|c| names.contains(&c.name));
+    }
+    let options =
+        study::StudyOptions { settings: study::all_settings(), reference: study::Setting::REFERENCE, repeats, out_dir };
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+    let result = pool.install(|| study::run_study(cases, &options)).map_err(failure)?;
+    outln!("{}", result.report);
+    outln!("written: {}", result.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>().join(", "));
+    Ok(())
+}
+
 fn init(path: &Path, force: bool, preset: Option<&str>) -> Result<(), Failure> {
     use simserpent::config::presets;
     let text = match preset {
@@ -652,43 +689,6 @@ fn model(args: &ConfigArgs, output: Option<&Path>, scene_dir: Option<&Path>) -> 
     Ok(())
 }
 
-fn study(name: &str, args: &ConfigArgs, quick: bool, threads: usize) -> Result<(), Failure> {
-    if name != "accuracy" {
-        return Err(bad_input(anyhow::anyhow!("unknown study `{name}`; available: accuracy")));
-    }
-    let (config, source) = load(args)?;
-    let scenarios = simserpent::study::scenarios(&config, quick);
-    let unix_secs =
-        std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
-    let folder = simserpent::record::create_run_folder(
-        Path::new(&config.general.output_dir),
-        "study-accuracy",
-        &simserpent::record::utc_stamp(unix_secs),
-    )
-    .map_err(|e| Failure { code: 1, error: e.into() })?;
-    let start = std::time::Instant::now();
-    let rows =
-        simserpent::study::run_study(&scenarios, threads, true).map_err(|e| Failure { code: 1, error: e.into() })?;
-    let header = format!(
-        "# Accuracy study\n\nSimSerpent {}, MuJoCo {}; config: {source}; physics.floor_friction = {:?}; quick: {quick}; \
-         {} scenarios; wall time {:.0} s. Errors against RK4 at 0.1 ms; ✓: every quantity within {} % (heading \
-         within {} deg). Cost: recording off, one run at a time.",
-        env!("CARGO_PKG_VERSION"),
-        simserpent::sim::engine_version(),
-        config.physics.floor_friction,
-        scenarios.len(),
-        start.elapsed().as_secs_f64(),
-        simserpent::study::SAME_ANSWER_PERCENT,
-        simserpent::study::HEADING_BOUND_DEG,
-    );
-    let files =
-        simserpent::study::write_outputs(&folder, &rows, &header).map_err(|e| Failure { code: 1, error: e.into() })?;
-    outln!("{}", simserpent::study::to_markdown(&rows));
-    outln!("written: {}", files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>().join(", "));
-    Ok(())
-}
-
-#[allow(clippy::too_many_arguments)]
 fn bench(
     args: &ConfigArgs,
     links: &[usize],
@@ -881,7 +881,9 @@ fn main() -> ExitCode {
             sweep(&config, &vary, sample, samples, seed, sweep_dir, threads, shard, quiet)
         }
         Some(Command::SweepMerge { sweep_dir }) => sweep_merge(&sweep_dir),
-        Some(Command::Study { name, config, quick, threads }) => study(&name, &config, quick, threads),
+        Some(Command::Study { what: _, config, quick, cases, out, repeats, threads }) => {
+            study(&config, quick, &cases, out, repeats, threads)
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

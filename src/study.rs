@@ -1,471 +1,906 @@
-//! `simserpent study accuracy`: the cheapest physics that is still right.
+//! `simserpent study accuracy`: the cheapest physics that is still right (issue 20, item 2).
 //!
-//! Every scenario (the default job, cases of the undulation experiment, an impact) is run with
-//! RK4 at 0.1 ms as the reference, and with RK4, implicitfast and Euler at 0.25, 0.5, 1, 2, 5
-//! and 10 ms. For each combination the study measures the error of the quantities a user reads
-//! off a run, against the reference:
+//! Every case is run with every [`Setting`] (integrator × timestep) and with the reference
+//! (RK4 at 0.1 ms), and compared with the reference:
 //!
 //! | quantity | error |
 //! |---|---|
-//! | centre-of-mass path | distance between the final centres of mass / the reference's path length (%) |
-//! | mean forward speed | relative (%), centre of mass along the start heading (+x) over the run |
-//! | heading | final heading of the head, absolute (deg) |
-//! | joint angles | RMS over a 10 ms grid and all joints / RMS of the reference's angles (%) |
-//! | peak contact force | relative (%), largest single contact normal force of the run |
-//! | mean contact force | relative (%), time mean of the total contact normal force |
-//! | penetration | relative (%), deepest penetration of the run |
+//! | centre-of-mass path | distance between the centres of mass at the end (10 s) / the reference's net displacement |
+//! | mean forward speed | relative error of the mean speed of the centre of mass along the starting direction (after the ramp-in) |
+//! | heading | angle between the directions of travel (after the ramp-in), in rad: a heading error θ puts the end point θ × distance sideways, so 0.02 rad counts as 2 % |
+//! | joint angles | RMS over time (10 ms samples) and joints of (q − q_ref) / RMS of q_ref |
+//! | peak contact force | relative error of the largest contact normal force of the run (every step) |
+//! | mean contact force | relative error of the time average of the largest contact normal force at each step |
+//! | penetration | relative error of the largest penetration of the run (every step) |
+//! | rebound speed (impacts) | relative error of the largest speed of the centre of mass away from the surface after the impact |
 //!
-//! and its cost: steps per wall second and simulated seconds per wall second (a separate run
-//! with recording off, one at a time). With `physics.floor_friction = "stick_slip"` the stick time
-//! constant must be at least 5 steps; at longer steps the study raises it to 5 steps (what a
-//! user must do) and notes it in the row. A combination that the config rejects (e.g. a contact
-//! time constant shorter than 2 steps) is reported as *invalid* with the reason; one that
-//! blows up as *diverged* with SimSerpent's divergence message. Neither is hidden.
+//! A quantity that does not apply to a case (no joints, no travel) is left out ("-").
+//! The worst of a row's errors decides whether a setting "gives the same answers" (≤ 2 %).
+//!
+//! Cost is measured in a second, unrecorded run of each setting (recording off: only the step
+//! loop, controller and ground model): steps per wall second and simulated seconds per wall
+//! second. Runs that diverge (NaN/inf, MuJoCo's warnings, runaway energy) or that the config
+//! rejects are reported as such, with the error, and take no part in the choice.
 
-use crate::config::{AutoSecs, Config, ConfigError, FloorFriction, Integrator};
-use crate::plot::{self, PointSeries};
-use crate::sim::{LoopPlan, Observer, SimError, Simulation, Snapshot, StepView, World};
+use crate::config::{AutoSecs, Config, GroundModel, Integrator, TerrainKind};
+use crate::run::RunError;
+use crate::sim::{Observer, SimError, Simulation, StepView, World};
+use crate::state::Snapshot;
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// The reference: RK4 at this step (s).
-pub const REFERENCE_TIMESTEP_SECS: f64 = 1e-4;
-/// The steps compared (s).
-pub const TIMESTEPS_SECS: [f64; 6] = [0.00025, 0.0005, 0.001, 0.002, 0.005, 0.01];
-/// The integrators compared.
+/// Simulated time between two samples of the paths and joint angles (s): a whole number of
+/// steps at every timestep of the study.
+pub const SAMPLE_PERIOD_SECS: f64 = 0.01;
+
+/// The timesteps of the study (s).
+pub const TIMESTEPS_SECS: [f64; 6] = [0.000_25, 0.000_5, 0.001, 0.002, 0.005, 0.01];
+
+/// The integrators of the study.
 pub const INTEGRATORS: [Integrator; 3] = [Integrator::RK4, Integrator::ImplicitFast, Integrator::Euler];
-/// Sample period of the joint-angle and path comparison (s): a multiple of every step.
-const SAMPLE_SECS: f64 = 0.01;
-/// The bound the issue sets for "the same answers".
-pub const SAME_ANSWER_PERCENT: f64 = 2.0;
-/// A heading error counts as within 2 % when it is at most 2 % of a right angle (deg).
-pub const HEADING_BOUND_DEG: f64 = 1.8;
 
-/// Errors of the study.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum StudyError {
-    /// The reference run of a scenario failed: no comparison is possible.
-    #[error("scenario {scenario}: the reference run (RK4, 0.1 ms) failed: {message}")]
-    Reference {
-        /// The scenario.
-        scenario: String,
-        /// Why.
-        message: String,
+/// "The same answers": every quantity within 2 % of the reference.
+pub const SAME_ANSWERS: f64 = 0.02;
+
+/// The RL preset's tolerance: every quantity within 5 %.
+pub const RL_TOLERANCE: f64 = 0.05;
+
+/// An integrator and a timestep.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Setting {
+    /// The integrator.
+    pub integrator: Integrator,
+    /// The timestep (s).
+    pub timestep_secs: f64,
+}
+
+impl Setting {
+    /// The reference: RK4 at 0.1 ms.
+    pub const REFERENCE: Setting = Setting { integrator: Integrator::RK4, timestep_secs: 0.0001 };
+
+    /// "RK4 1 ms".
+    pub fn label(&self) -> String {
+        format!("{} {} ms", self.integrator.mjcf_name(), self.timestep_secs * 1e3)
+    }
+}
+
+/// Every setting of the study: [`INTEGRATORS`] × [`TIMESTEPS_SECS`].
+pub fn all_settings() -> Vec<Setting> {
+    INTEGRATORS
+        .iter()
+        .flat_map(|&integrator| TIMESTEPS_SECS.iter().map(move |&timestep_secs| Setting { integrator, timestep_secs }))
+        .collect()
+}
+
+/// What a case measures.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CaseKind {
+    /// A gait: paths, speed, heading and joint angles after `from_secs` (the ramp-in), and the contacts.
+    Locomotion {
+        /// Start of the measured part (s).
+        from_secs: f64,
     },
-    /// A file could not be written.
-    #[error("cannot write {}", path.display())]
-    Write {
-        /// The file.
-        path: PathBuf,
-        /// The OS error.
-        #[source]
-        source: std::io::Error,
-    },
-    /// The plot could not be drawn.
-    #[error(transparent)]
-    Plot(#[from] plot::PlotError),
-    /// The worker threads could not be started.
-    #[error("cannot start {threads} worker threads: {message}")]
-    Threads {
-        /// Threads asked for.
-        threads: usize,
-        /// Why.
-        message: String,
+    /// One body launched at `speed_m_per_s` along world axis `axis` (2: downward).
+    Impact {
+        /// 0 = +x, 1 = +y, 2 = −z.
+        axis: usize,
+        /// Launch speed (m/s).
+        speed_m_per_s: f64,
     },
 }
 
-/// One situation the integrators are compared on.
+/// One case of the study.
 #[derive(Debug, Clone)]
-pub struct Scenario {
-    /// Short name (table rows, file names).
+pub struct Case {
+    /// Short name (file names).
     pub name: String,
-    /// The config (its integrator and timestep are replaced per combination).
+    /// One line for the report.
+    pub description: String,
+    /// The config (its integrator and timestep are replaced by each setting's).
     pub config: Config,
-    /// Initial velocity along x or y of the free joint (m/s), for an impact.
-    pub launch: Option<(usize, f64)>,
+    /// What it measures.
+    pub kind: CaseKind,
 }
 
-/// The scenarios: the default job (10 s), two cases of the undulation experiment (isotropic
-/// Coulomb friction 0.5 and anisotropic friction ratio 10, 10 s each) and the 10-link impact of
-/// the collision experiment (0.5 s), all on top of `base` (the user's config: e.g.
-/// `physics.floor_friction`). `quick` shortens every run to 2 s (the impact stays 0.5 s).
-pub fn scenarios(base: &Config, quick: bool) -> Vec<Scenario> {
-    let secs = if quick { 2.0 } else { 10.0 };
-    let mut default_job = base.clone();
-    default_job.general.duration_secs = secs;
-    let mut out = vec![Scenario { name: "default job".into(), config: default_job, launch: None }];
-    for (name, config) in crate::experiments::undulation_study_cases(base) {
-        let mut config = config;
-        config.general.duration_secs = secs;
-        out.push(Scenario { name, config, launch: None });
-    }
-    let (config, axis, speed) = crate::experiments::impact_study_case(base);
-    out.push(Scenario { name: "impact (10 links along x)".into(), config, launch: Some((axis, speed)) });
-    out
+/// The sampled outcome of one run.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Trajectory {
+    /// Sample times (s), every [`SAMPLE_PERIOD_SECS`].
+    pub time_secs: Vec<f64>,
+    /// Centre of mass (x, y) at each sample (m).
+    pub com_m: Vec<[f64; 2]>,
+    /// Joint angles at each sample (rad).
+    pub joint_angle_rad: Vec<Vec<f64>>,
+    /// Unit vector (x, y) from the tail link's centre to the head link's at t = 0.
+    pub start_direction: [f64; 2],
+    /// Largest contact normal force of the run (N).
+    pub peak_force_n: f64,
+    /// Time average over the steps of the largest contact normal force at each (N).
+    pub mean_force_n: f64,
+    /// Largest penetration of the run (m).
+    pub max_penetration_m: f64,
+    /// Largest speed of the centre of mass against the launch direction (m/s; impacts).
+    pub rebound_speed_m_per_s: f64,
 }
 
-/// What one run measured.
-#[derive(Debug, Clone, Default)]
-struct Trace {
-    /// Centre of mass (x, y) on the sample grid (m).
-    com_xy: Vec<[f64; 2]>,
-    /// Joint angles on the sample grid (rad).
-    joints: Vec<Vec<f64>>,
-    /// Heading of the head at the end (rad).
-    heading_end_rad: f64,
-    /// Largest single contact normal force (N).
-    peak_force_n: f64,
-    /// Sum over recorded instants of the total contact normal force (N), and their count.
-    force_sum_n: f64,
-    instants: u64,
-    /// Deepest penetration (m).
-    penetration_m: f64,
-    /// Steps between samples.
-    sample_every: u64,
+/// Errors of one setting against the reference (fractions; `None`: does not apply).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Errors {
+    /// Centre-of-mass end point distance / the reference's net displacement.
+    pub com_path: Option<f64>,
+    /// Mean forward speed, relative.
+    pub forward_speed: Option<f64>,
+    /// Direction of travel (rad).
+    pub heading_rad: Option<f64>,
+    /// RMS joint-angle difference / RMS joint angle.
+    pub joint_angles: Option<f64>,
+    /// Peak contact force, relative.
+    pub peak_force: Option<f64>,
+    /// Mean contact force, relative.
+    pub mean_force: Option<f64>,
+    /// Largest penetration, relative.
+    pub penetration: Option<f64>,
+    /// Rebound speed, relative.
+    pub rebound_speed: Option<f64>,
 }
 
-impl Observer<SimError> for Trace {
-    fn on_record(&mut self, view: &StepView<'_>, s: &Snapshot) -> Result<(), SimError> {
-        let (mut total, mut peak, mut deepest) = (0.0f64, 0.0f64, 0.0f64);
-        for c in &s.contacts {
-            total += c.normal_force_n.max(0.0);
-            peak = peak.max(c.normal_force_n);
-            deepest = deepest.max(-c.distance_m);
-        }
-        self.force_sum_n += total;
-        self.instants += 1;
-        self.peak_force_n = self.peak_force_n.max(peak);
-        self.penetration_m = self.penetration_m.max(deepest);
-        if view.k.is_multiple_of(self.sample_every) {
-            let com = s.centre_of_mass_m();
-            self.com_xy.push([com[0], com[1]]);
-            self.joints.push(s.joint_angle_rad.clone());
-        }
-        if view.is_last() {
-            let h = crate::state::heading_xy(s.link_quat[0]);
-            self.heading_end_rad = h[1].atan2(h[0]);
-        }
-        Ok(())
-    }
-}
+impl Errors {
+    /// The names of the quantities, in the order of [`Errors::values`].
+    pub const NAMES: [&'static str; 8] = [
+        "CoM path",
+        "forward speed",
+        "heading",
+        "joint angles",
+        "peak contact force",
+        "mean contact force",
+        "penetration",
+        "rebound speed",
+    ];
 
-/// The result of one combination.
-#[derive(Debug, Clone)]
-pub enum Outcome {
-    /// Ran to the end.
-    Done(Measured),
-    /// The config is rejected at this step (the reason).
-    Invalid(String),
-    /// The run blew up (SimSerpent's divergence message).
-    Diverged(String),
-}
-
-/// Errors and cost of one combination that ran.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Measured {
-    /// Centre-of-mass end point error / reference path length (%).
-    pub com_path_percent: f64,
-    /// Mean forward speed, relative error (%).
-    pub forward_speed_percent: f64,
-    /// Heading at the end, absolute error (deg).
-    pub heading_deg: f64,
-    /// Joint-angle RMS error / RMS of the reference's joint angles (%).
-    pub joint_rms_percent: f64,
-    /// Peak contact force, relative error (%).
-    pub peak_force_percent: f64,
-    /// Mean contact force, relative error (%).
-    pub mean_force_percent: f64,
-    /// Deepest penetration, relative error (%).
-    pub penetration_percent: f64,
-    /// Mean forward speed of this run (m/s).
-    pub forward_speed_m_per_s: f64,
-    /// Steps per wall second (recording off).
-    pub steps_per_sec: f64,
-    /// Simulated seconds per wall second (recording off).
-    pub real_time_factor: f64,
-}
-
-impl Measured {
-    /// The largest relative error (%), the heading counted as a share of [`HEADING_BOUND_DEG`]
-    /// scaled to [`SAME_ANSWER_PERCENT`].
-    pub fn worst_percent(&self) -> f64 {
+    /// The errors in the order of [`Errors::NAMES`] (absolute values).
+    pub fn values(&self) -> [Option<f64>; 8] {
         [
-            self.com_path_percent,
-            self.forward_speed_percent,
-            self.heading_deg / HEADING_BOUND_DEG * SAME_ANSWER_PERCENT,
-            self.joint_rms_percent,
-            self.peak_force_percent,
-            self.mean_force_percent,
-            self.penetration_percent,
+            self.com_path,
+            self.forward_speed,
+            self.heading_rad,
+            self.joint_angles,
+            self.peak_force,
+            self.mean_force,
+            self.penetration,
+            self.rebound_speed,
         ]
-        .into_iter()
-        .fold(0.0, f64::max)
+        .map(|v| v.map(f64::abs))
     }
+
+    /// The largest error and its quantity's name (NaN counts as infinitely wrong).
+    pub fn worst(&self) -> (f64, &'static str) {
+        let mut worst = (0.0, "-");
+        for (v, name) in self.values().into_iter().zip(Self::NAMES) {
+            if let Some(v) = v {
+                let v = if v.is_nan() { f64::INFINITY } else { v };
+                if v > worst.0 {
+                    worst = (v, name);
+                }
+            }
+        }
+        worst
+    }
+}
+
+/// Relative error `(value − reference) / |reference|`; `None` when the reference is (nearly) 0
+/// against `scale` (the quantity does not apply, e.g. a contact force where nothing touches).
+pub fn relative_error(value: f64, reference: f64, scale: f64) -> Option<f64> {
+    (reference.abs() > 1e-9 * scale.abs().max(1e-300)).then(|| (value - reference) / reference.abs())
+}
+
+/// RMS of `a − b` over all samples and entries, divided by the RMS of `b`; `None` when `b` is all
+/// zeros or the lengths differ.
+pub fn rms_relative_difference(a: &[Vec<f64>], b: &[Vec<f64>]) -> Option<f64> {
+    if a.len() != b.len() || a.iter().zip(b).any(|(x, y)| x.len() != y.len()) {
+        return None;
+    }
+    let (mut diff, mut norm) = (0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        for (p, q) in x.iter().zip(y) {
+            diff += (p - q) * (p - q);
+            norm += q * q;
+        }
+    }
+    (norm > 0.0).then(|| (diff / norm).sqrt())
+}
+
+/// Angle between two directions in the plane (rad, 0 ..= π); `None` if either is zero.
+pub fn angle_between(a: [f64; 2], b: [f64; 2]) -> Option<f64> {
+    let (na, nb) = (a[0].hypot(a[1]), b[0].hypot(b[1]));
+    if na == 0.0 || nb == 0.0 {
+        return None;
+    }
+    let cross = a[0] * b[1] - a[1] * b[0];
+    let dot = a[0] * b[0] + a[1] * b[1];
+    Some(cross.atan2(dot).abs())
+}
+
+/// Index of the first sample at or after `t_secs`.
+fn sample_at(time_secs: &[f64], t_secs: f64) -> usize {
+    time_secs.iter().position(|t| *t >= t_secs - 1e-9).unwrap_or(0)
+}
+
+/// Displacement of the centre of mass from `from_secs` to the end (m).
+fn displacement(t: &Trajectory, from_secs: f64) -> [f64; 2] {
+    let (Some(end), start) = (t.com_m.last(), sample_at(&t.time_secs, from_secs)) else { return [0.0; 2] };
+    [end[0] - t.com_m[start][0], end[1] - t.com_m[start][1]]
+}
+
+/// Mean speed of the centre of mass along the starting direction from `from_secs` to the end (m/s).
+pub fn forward_speed_m_per_s(t: &Trajectory, from_secs: f64) -> f64 {
+    let d = displacement(t, from_secs);
+    let start = sample_at(&t.time_secs, from_secs);
+    let span = t.time_secs.last().map_or(0.0, |end| end - t.time_secs[start]);
+    if span <= 0.0 {
+        return 0.0;
+    }
+    (d[0] * t.start_direction[0] + d[1] * t.start_direction[1]) / span
+}
+
+/// Errors of `run` against `reference` for a case of `kind`.
+pub fn errors(kind: CaseKind, run: &Trajectory, reference: &Trajectory) -> Errors {
+    let force_scale = reference.peak_force_n.max(1.0);
+    let mut e = Errors {
+        peak_force: relative_error(run.peak_force_n, reference.peak_force_n, force_scale),
+        mean_force: relative_error(run.mean_force_n, reference.mean_force_n, force_scale),
+        penetration: relative_error(run.max_penetration_m, reference.max_penetration_m, 1.0),
+        ..Errors::default()
+    };
+    match kind {
+        CaseKind::Locomotion { from_secs } => {
+            let (Some(a), Some(b), Some(r0)) = (run.com_m.last(), reference.com_m.last(), reference.com_m.first())
+            else {
+                return e;
+            };
+            let travelled_m = (b[0] - r0[0]).hypot(b[1] - r0[1]);
+            // Below 1 mm of travel the path is not a quantity to compare.
+            if travelled_m > 1e-3 {
+                e.com_path = Some((a[0] - b[0]).hypot(a[1] - b[1]) / travelled_m);
+                e.heading_rad = angle_between(displacement(run, from_secs), displacement(reference, from_secs));
+                e.forward_speed = relative_error(
+                    forward_speed_m_per_s(run, from_secs),
+                    forward_speed_m_per_s(reference, from_secs),
+                    1e-3,
+                );
+            }
+            e.joint_angles = rms_relative_difference(&run.joint_angle_rad, &reference.joint_angle_rad);
+        }
+        CaseKind::Impact { .. } => {
+            e.rebound_speed = relative_error(run.rebound_speed_m_per_s, reference.rebound_speed_m_per_s, 1.0);
+        }
+    }
+    e
+}
+
+/// Whether a trajectory that the engine accepted has blown up anyway: a non-finite sample or
+/// force, or the centre of mass moving faster than `max_speed_m_per_s` between two samples.
+/// Returns what is wrong.
+pub fn divergence(t: &Trajectory, max_speed_m_per_s: f64) -> Option<String> {
+    let scalars = [t.peak_force_n, t.mean_force_n, t.max_penetration_m, t.rebound_speed_m_per_s];
+    if scalars.iter().any(|v| !v.is_finite()) {
+        return Some("a non-finite contact force, penetration or speed".into());
+    }
+    for (k, (c, q)) in t.com_m.iter().zip(&t.joint_angle_rad).enumerate() {
+        if c.iter().chain(q).any(|v| !v.is_finite()) {
+            return Some(format!("a non-finite position at t = {} s", t.time_secs[k]));
+        }
+    }
+    for k in 1..t.com_m.len().min(t.time_secs.len()) {
+        let (a, b) = (t.com_m[k - 1], t.com_m[k]);
+        let dt = t.time_secs[k] - t.time_secs[k - 1];
+        let speed = (b[0] - a[0]).hypot(b[1] - a[1]) / dt;
+        if dt > 0.0 && speed > max_speed_m_per_s {
+            return Some(format!(
+                "the centre of mass moved at {speed:.3e} m/s at t = {} s (bound {max_speed_m_per_s} m/s)",
+                t.time_secs[k]
+            ));
+        }
+    }
+    None
+}
+
+/// Centre-of-mass speed bound of [`divergence`] (m/s): the runaway-energy guard's RMS speed.
+pub const MAX_COM_SPEED_M_PER_S: f64 = 100.0;
+
+/// How one setting ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Status {
+    /// Ran to the end.
+    Ok,
+    /// Diverged: the engine's error or [`divergence`]'s finding.
+    Diverged(String),
+    /// The config was rejected for this setting (e.g. a contact time constant below its minimum).
+    Rejected(String),
 }
 
 /// One row of the study.
 #[derive(Debug, Clone)]
 pub struct Row {
-    /// Scenario name.
-    pub scenario: String,
-    /// Integrator.
-    pub integrator: Integrator,
-    /// Step (s).
-    pub timestep_secs: f64,
-    /// What happened.
-    pub outcome: Outcome,
-    /// A setting the study had to change for this step (the stick time constant), if any.
-    pub note: Option<String>,
+    /// The case's name.
+    pub case: String,
+    /// The setting.
+    pub setting: Setting,
+    /// How it ended.
+    pub status: Status,
+    /// Errors against the reference (when it ran).
+    pub errors: Errors,
+    /// Steps per wall second of the unrecorded run.
+    pub steps_per_sec: f64,
+    /// Simulated seconds per wall second of the unrecorded run.
+    pub realtime_factor: f64,
 }
 
-/// The scenario's config at this integrator and step. With `physics.floor_friction =
-/// "stick_slip"`, a stick time constant below its stability bound of 5 steps is raised to 5
-/// steps (what a user must do at that step); the second value says so.
-fn with_step(scenario: &Scenario, integrator: Integrator, dt: f64) -> Result<(Config, Option<String>), ConfigError> {
-    let mut c = scenario.config.clone();
-    c.general.integrator = integrator;
-    c.general.timestep_secs = dt;
+/// The config of `case` with `setting`.
+fn with_setting(case: &Case, setting: Setting) -> Config {
+    let mut c = case.config.clone();
+    c.general.integrator = setting.integrator;
+    c.general.timestep_secs = setting.timestep_secs;
     c.recording.enabled = false;
-    let mut note = None;
-    if c.physics.floor_friction == FloorFriction::StickSlip {
-        match c.physics.floor_stick_time_constant_secs {
-            AutoSecs::Secs(tau) if tau < 5.0 * dt => {
-                c.physics.floor_stick_time_constant_secs = AutoSecs::Secs(5.0 * dt);
-                note = Some(format!("stick τ {} ms", 5.0 * dt * 1e3));
-            }
-            // "auto" is max(5 ms, 5 steps): say when the step made it longer than 5 ms.
-            AutoSecs::Auto if 5.0 * dt > 0.005 => note = Some(format!("stick τ auto = {} ms", 5.0 * dt * 1e3)),
-            _ => {}
-        }
-    }
-    c.validate()?;
-    Ok((c, note))
+    c
 }
 
-fn build(config: &Config, launch: Option<(usize, f64)>) -> Result<Simulation, SimError> {
+/// Builds the simulation of a case (with its launch velocity).
+fn build(case: &Case, config: &Config) -> Result<Simulation, SimError> {
     let mut world = World::from_config(config)?;
-    if let Some((axis, speed)) = launch {
-        world.qvel_mut()[axis] = speed;
+    if let CaseKind::Impact { axis, speed_m_per_s } = case.kind {
+        world.qvel_mut()[axis] = if axis == 2 { -speed_m_per_s } else { speed_m_per_s };
     }
     world.forward();
     Ok(Simulation::new(config, world))
 }
 
+/// Collects a [`Trajectory`] from every step's snapshot.
+struct Collector {
+    trajectory: Trajectory,
+    sample_every: u64,
+    steps: u64,
+    force_sum: f64,
+    rebound_axis: Option<(usize, f64)>,
+}
+
+impl Observer<SimError> for Collector {
+    fn on_record(&mut self, view: &StepView<'_>, s: &Snapshot) -> Result<(), SimError> {
+        let t = &mut self.trajectory;
+        let peak = s.peak_contact_force_n();
+        t.peak_force_n = t.peak_force_n.max(peak);
+        self.force_sum += peak;
+        self.steps += 1;
+        t.max_penetration_m = t.max_penetration_m.max(s.max_penetration_m());
+        if view.k == 0 && s.link_position_m.len() > 1 {
+            let (h, l) = (s.link_position_m[0], s.link_position_m[s.link_position_m.len() - 1]);
+            let n = (h[0] - l[0]).hypot(h[1] - l[1]).max(1e-12);
+            t.start_direction = [(h[0] - l[0]) / n, (h[1] - l[1]) / n];
+        }
+        if let Some((axis, sign)) = self.rebound_axis {
+            let mass: f64 = s.link_mass_kg.iter().sum();
+            let p: f64 = s.link_mass_kg.iter().zip(&s.link_velocity_m_per_s).map(|(m, v)| m * v[axis]).sum();
+            t.rebound_speed_m_per_s = t.rebound_speed_m_per_s.max(sign * p / mass.max(1e-300));
+        }
+        if view.k.is_multiple_of(self.sample_every) {
+            let c = s.centre_of_mass_m();
+            t.time_secs.push(s.time_secs);
+            t.com_m.push([c[0], c[1]]);
+            t.joint_angle_rad.push(s.joint_angle_rad.clone());
+        }
+        Ok(())
+    }
+
+    fn on_end(&mut self, _view: &StepView<'_>, _completed: bool) -> Result<(), SimError> {
+        self.trajectory.mean_force_n = self.force_sum / self.steps.max(1) as f64;
+        Ok(())
+    }
+}
+
+/// Steps of `config`'s duration at its timestep.
 fn steps_of(config: &Config) -> u64 {
     (config.general.duration_secs / config.general.timestep_secs).round() as u64
 }
 
-/// Runs one combination with every instant read out. `Err` is the outcome that is not a trace.
-fn trace(scenario: &Scenario, integrator: Integrator, dt: f64) -> Result<Trace, Outcome> {
-    let (config, _) = with_step(scenario, integrator, dt).map_err(|e| Outcome::Invalid(e.to_string()))?;
-    let mut sim = build(&config, scenario.launch).map_err(|e| Outcome::Invalid(e.to_string()))?;
-    let mut t = Trace { sample_every: (SAMPLE_SECS / dt).round().max(1.0) as u64, ..Trace::default() };
-    let plan = LoopPlan { steps: steps_of(&config), record_every_n_steps: 1 };
-    sim.run::<SimError>(plan, &mut [&mut t]).map_err(|e| Outcome::Diverged(e.to_string()))?;
-    Ok(t)
-}
-
-/// Steps per wall second of one combination with recording off.
-fn cost(scenario: &Scenario, integrator: Integrator, dt: f64) -> Result<f64, SimError> {
-    let (config, _) = with_step(scenario, integrator, dt)?;
-    let mut sim = build(&config, scenario.launch)?;
-    let plan = LoopPlan { steps: steps_of(&config), record_every_n_steps: 0 };
-    let start = Instant::now();
-    sim.run::<SimError>(plan, &mut [])?;
-    Ok(plan.steps as f64 / start.elapsed().as_secs_f64())
-}
-
-fn relative_percent(x: f64, reference: f64) -> f64 {
-    if reference.abs() < 1e-12 {
-        if x.abs() < 1e-12 { 0.0 } else { f64::INFINITY }
-    } else {
-        100.0 * ((x - reference) / reference).abs()
-    }
-}
-
-fn forward_speed(t: &Trace, duration_secs: f64) -> f64 {
-    match (t.com_xy.first(), t.com_xy.last()) {
-        (Some(a), Some(b)) => (b[0] - a[0]) / duration_secs,
-        _ => 0.0,
-    }
-}
-
-fn compare(t: &Trace, r: &Trace, duration_secs: f64) -> Measured {
-    let path_len: f64 = r.com_xy.windows(2).map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1])).sum();
-    let end_error = match (t.com_xy.last(), r.com_xy.last()) {
-        (Some(a), Some(b)) => (a[0] - b[0]).hypot(a[1] - b[1]),
-        _ => f64::INFINITY,
+/// Runs `case` with `setting`, recording every step; the trajectory, or how it ended.
+pub fn trajectory(case: &Case, setting: Setting) -> Result<Trajectory, Status> {
+    let config = with_setting(case, setting);
+    config.validate().map_err(|e| Status::Rejected(e.to_string()))?;
+    let mut sim = build(case, &config).map_err(|e| match e {
+        SimError::Config(_) | SimError::ModelRejected { .. } => Status::Rejected(e.to_string()),
+        other => Status::Diverged(other.to_string()),
+    })?;
+    let sample_every = ((SAMPLE_PERIOD_SECS / setting.timestep_secs).round() as u64).max(1);
+    let rebound_axis = match case.kind {
+        CaseKind::Impact { axis, .. } => Some((axis, if axis == 2 { 1.0 } else { -1.0 })),
+        CaseKind::Locomotion { .. } => None,
     };
-    let (mut sq_err, mut sq_ref, mut n) = (0.0, 0.0, 0usize);
-    for (a, b) in t.joints.iter().zip(&r.joints) {
-        for (x, y) in a.iter().zip(b) {
-            sq_err += (x - y) * (x - y);
-            sq_ref += y * y;
-            n += 1;
-        }
-    }
-    let joint_rms_percent = if n == 0 || sq_ref == 0.0 {
-        if sq_err == 0.0 { 0.0 } else { f64::INFINITY }
-    } else {
-        100.0 * (sq_err / sq_ref).sqrt()
-    };
-    let mut dh = (t.heading_end_rad - r.heading_end_rad).to_degrees().abs() % 360.0;
-    if dh > 180.0 {
-        dh = 360.0 - dh;
-    }
-    let mean = |x: &Trace| x.force_sum_n / x.instants.max(1) as f64;
-    let v = forward_speed(t, duration_secs);
-    Measured {
-        com_path_percent: if path_len > 0.0 { 100.0 * end_error / path_len } else { f64::INFINITY },
-        forward_speed_percent: relative_percent(v, forward_speed(r, duration_secs)),
-        heading_deg: dh,
-        joint_rms_percent,
-        peak_force_percent: relative_percent(t.peak_force_n, r.peak_force_n),
-        mean_force_percent: relative_percent(mean(t), mean(r)),
-        penetration_percent: relative_percent(t.penetration_m, r.penetration_m),
-        forward_speed_m_per_s: v,
-        steps_per_sec: 0.0,
-        real_time_factor: 0.0,
+    let mut collector =
+        Collector { trajectory: Trajectory::default(), sample_every, steps: 0, force_sum: 0.0, rebound_axis };
+    let plan = crate::sim::LoopPlan { steps: steps_of(&config), record_every_n_steps: 1 };
+    sim.run::<SimError>(plan, &mut [&mut collector]).map_err(|e| Status::Diverged(e.to_string()))?;
+    match divergence(&collector.trajectory, MAX_COM_SPEED_M_PER_S) {
+        Some(what) => Err(Status::Diverged(what)),
+        None => Ok(collector.trajectory),
     }
 }
 
-/// The whole study: every scenario × integrator × step, the accuracy runs in parallel on
-/// `threads` threads (0: all cores), then the cost runs one at a time. `progress`: a line per
-/// finished scenario on stderr.
-pub fn run_study(scenarios: &[Scenario], threads: usize, progress: bool) -> Result<Vec<Row>, StudyError> {
-    use rayon::prelude::*;
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| StudyError::Threads { threads, message: e.to_string() })?;
-    let combos: Vec<(Integrator, f64)> =
-        INTEGRATORS.iter().flat_map(|&i| TIMESTEPS_SECS.iter().map(move |&dt| (i, dt))).collect();
-    let mut rows = Vec::new();
-    for scenario in scenarios {
+/// Wall-clock cost of `case` with `setting`, recording off: (steps per second, simulated seconds
+/// per wall second), the best of `repeats` runs. Model compilation is not counted.
+pub fn cost(case: &Case, setting: Setting, repeats: usize) -> Result<(f64, f64), Status> {
+    let config = with_setting(case, setting);
+    let steps = steps_of(&config);
+    let mut best = 0.0f64;
+    for _ in 0..repeats.max(1) {
+        let mut sim = build(case, &config).map_err(|e| Status::Rejected(e.to_string()))?;
+        let plan = crate::sim::LoopPlan { steps, record_every_n_steps: 0 };
         let start = Instant::now();
-        let duration = scenario.config.general.duration_secs;
-        // Reference first in the same parallel batch as the others.
-        let mut jobs = vec![(Integrator::RK4, REFERENCE_TIMESTEP_SECS)];
-        jobs.extend(combos.iter().copied());
-        let traces: Vec<Result<Trace, Outcome>> =
-            pool.install(|| jobs.par_iter().map(|&(i, dt)| trace(scenario, i, dt)).collect());
-        let reference = match &traces[0] {
-            Ok(t) => t.clone(),
-            Err(Outcome::Invalid(m) | Outcome::Diverged(m)) => {
-                return Err(StudyError::Reference { scenario: scenario.name.clone(), message: m.clone() });
-            }
-            Err(Outcome::Done(_)) => unreachable!("a failed trace is never Done"),
-        };
-        for (&(integrator, dt), t) in combos.iter().zip(&traces[1..]) {
-            let outcome = match t {
-                Ok(t) => {
-                    let mut m = compare(t, &reference, duration);
-                    match cost(scenario, integrator, dt) {
-                        Ok(steps_per_sec) => {
-                            m.steps_per_sec = steps_per_sec;
-                            m.real_time_factor = steps_per_sec * dt;
-                            Outcome::Done(m)
-                        }
-                        Err(e) => Outcome::Diverged(e.to_string()),
-                    }
-                }
-                Err(o) => o.clone(),
-            };
-            let note = with_step(scenario, integrator, dt).ok().and_then(|(_, note)| note);
-            rows.push(Row { scenario: scenario.name.clone(), integrator, timestep_secs: dt, outcome, note });
-        }
-        if progress {
-            eprintln!("study accuracy: scenario {} done in {:.1} s", scenario.name, start.elapsed().as_secs_f64());
+        // A diverging run is timed up to where it stopped.
+        let _ = sim.run::<SimError>(plan, &mut []);
+        let secs = start.elapsed().as_secs_f64().max(1e-9);
+        best = best.max(sim.steps() as f64 / secs);
+    }
+    Ok((best, best * setting.timestep_secs))
+}
+
+/// The study's cases. Full: the default job (as shipped: cylinder path), the default job on a
+/// bare floor, the same with fixed contact time constants (stick 50 ms, environment 20 ms, the
+/// values "auto" gives at 10 ms), experiment III's isotropic and anisotropic (ratio 2 and 10)
+/// cases, and two impacts of one link at 5 m/s (onto the floor, into a peg). Quick: the default
+/// job on a bare floor for 3 s and the floor impact.
+pub fn cases(base: &Config, quick: bool) -> Vec<Case> {
+    let duration_secs = if quick { 3.0 } else { 10.0 };
+    let mut out = Vec::new();
+    let mut job = base.clone();
+    job.general.duration_secs = duration_secs;
+    let ramp = job.gait.ramp_secs.min(duration_secs / 2.0);
+    let locomotion = CaseKind::Locomotion { from_secs: ramp };
+    if !quick {
+        out.push(Case {
+            name: "default-job".into(),
+            description: "the default job as shipped (10 links, sine wave, cylinder path, stick_slip floor)".into(),
+            config: job.clone(),
+            kind: locomotion,
+        });
+    }
+    let mut bare = job.clone();
+    bare.terrain.kind = TerrainKind::None;
+    out.push(Case {
+        name: "default-bare-floor".into(),
+        description: "the default job on a bare floor (terrain none)".into(),
+        config: bare.clone(),
+        kind: locomotion,
+    });
+    if !quick {
+        let mut fixed = bare.clone();
+        fixed.physics.floor_stick_time_constant_secs = AutoSecs::Secs(0.05);
+        fixed.physics.environment_contact_time_constant_secs = AutoSecs::Secs(0.02);
+        out.push(Case {
+            name: "default-bare-floor-fixed-contacts".into(),
+            description: "the default job on a bare floor with fixed contact time constants (stick 50 ms, \
+                          environment 20 ms: \"auto\" at 10 ms), the reference too"
+                .into(),
+            config: fixed,
+            kind: locomotion,
+        });
+        let mut u = crate::experiments::locomotion_undulation_config(base, true);
+        u.general.duration_secs = duration_secs;
+        let from_secs = u.gait.ramp_secs;
+        let kind = CaseKind::Locomotion { from_secs };
+        out.push(Case {
+            name: "undulation-isotropic".into(),
+            description: "experiment III, isotropic friction 0.5".into(),
+            config: u.clone(),
+            kind,
+        });
+        for ratio in [2.0, 10.0] {
+            let mut c = u.clone();
+            c.ground.model = GroundModel::Anisotropic;
+            c.ground.lateral_friction = 0.5;
+            c.ground.axial_friction = 0.5 / ratio;
+            out.push(Case {
+                name: format!("undulation-anisotropic-{ratio}"),
+                description: format!("experiment III, anisotropic friction, lateral/axial = {ratio}"),
+                config: c,
+                kind,
+            });
         }
     }
-    Ok(rows)
-}
-
-fn integrator_name(i: Integrator) -> &'static str {
-    i.mjcf_name()
-}
-
-fn pct(x: f64) -> String {
-    if x.is_finite() { format!("{x:.2}") } else { "∞".into() }
-}
-
-/// The study's table (Markdown), one row per scenario, integrator and step.
-pub fn to_markdown(rows: &[Row]) -> String {
-    let mut out = String::from(
-        "| scenario | integrator | step (ms) | CoM path (%) | forward speed (%) | heading (deg) | joint RMS (%) | \
-         peak force (%) | mean force (%) | penetration (%) | worst (%) | steps/s | real-time factor |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
-    );
-    for r in rows {
-        let note = r.note.as_ref().map_or(String::new(), |n| format!(" ({n})"));
-        let head = format!("| {} | {} | {}{note} |", r.scenario, integrator_name(r.integrator), r.timestep_secs * 1e3);
-        let line = match &r.outcome {
-            Outcome::Done(m) => format!(
-                "{head} {} | {} | {} | {} | {} | {} | {} | {}{} | {:.0} | {:.1} |",
-                pct(m.com_path_percent),
-                pct(m.forward_speed_percent),
-                pct(m.heading_deg),
-                pct(m.joint_rms_percent),
-                pct(m.peak_force_percent),
-                pct(m.mean_force_percent),
-                pct(m.penetration_percent),
-                pct(m.worst_percent()),
-                if m.worst_percent() <= SAME_ANSWER_PERCENT { " ✓" } else { "" },
-                m.steps_per_sec,
-                m.real_time_factor
+    let impacts: &[(usize, &str)] = if quick { &[(2, "floor")] } else { &[(2, "floor"), (0, "peg")] };
+    for &(axis, what) in impacts {
+        let mut c = crate::experiments::collision_case_bodies(base, 1);
+        c.general.duration_secs = 0.2;
+        if axis == 2 {
+            c.snake.head_position_m[2] = 0.02;
+        }
+        out.push(Case {
+            name: format!("impact-{what}"),
+            description: format!(
+                "one link (0.3 kg, radius 0.08 m) at {} m/s {}, 0.2 s",
+                crate::experiments::LAUNCH_SPEED_M_PER_S,
+                if axis == 2 { "onto the floor from 2 cm" } else { "into a peg of radius 0.2 m 0.3 m ahead" }
             ),
-            Outcome::Invalid(why) => {
-                format!("{head} invalid: {} | | | | | | | | | |", why.replace('|', "/").replace('\n', " "))
-            }
-            Outcome::Diverged(why) => {
-                format!("{head} **diverged**: {} | | | | | | | | | |", why.replace('|', "/").replace('\n', " "))
-            }
-        };
-        out.push_str(&line);
-        out.push('\n');
+            config: c,
+            kind: CaseKind::Impact { axis, speed_m_per_s: crate::experiments::LAUNCH_SPEED_M_PER_S },
+        });
     }
     out
 }
 
-/// Writes `accuracy.md` (the table) and the work-precision plots (`work_precision_<n>.png` and
-/// `.svg`, one per scenario: real-time factor against the worst error, a line per integrator)
-/// into `dir`. Returns the files written.
-pub fn write_outputs(dir: &Path, rows: &[Row], header: &str) -> Result<Vec<PathBuf>, StudyError> {
-    std::fs::create_dir_all(dir).map_err(|source| StudyError::Write { path: dir.to_path_buf(), source })?;
-    let table = dir.join("accuracy.md");
-    let text = format!("{header}\n\n{}", to_markdown(rows));
-    std::fs::write(&table, text).map_err(|source| StudyError::Write { path: table.clone(), source })?;
-    let mut files = vec![table];
-    let mut scenarios: Vec<&str> = Vec::new();
+/// The study's options.
+#[derive(Debug, Clone)]
+pub struct StudyOptions {
+    /// Settings compared with the reference.
+    pub settings: Vec<Setting>,
+    /// The reference setting.
+    pub reference: Setting,
+    /// Timed runs per setting (the fastest counts).
+    pub repeats: usize,
+    /// Where the report, table and plots go.
+    pub out_dir: PathBuf,
+}
+
+/// The study's result.
+#[derive(Debug, Clone)]
+pub struct Study {
+    /// The cases.
+    pub cases: Vec<Case>,
+    /// One row per case and setting, the reference's first for each case.
+    pub rows: Vec<Row>,
+    /// The files written.
+    pub files: Vec<PathBuf>,
+    /// The report (Markdown).
+    pub report: String,
+}
+
+/// Runs the study: every case with the reference and every setting (the recorded runs in
+/// parallel, on rayon's pool), then the timed runs one after another; writes `accuracy.md`,
+/// `accuracy.csv` and the work-precision plots into `options.out_dir`.
+pub fn run_study(cases: Vec<Case>, options: &StudyOptions) -> Result<Study, RunError> {
+    use rayon::prelude::*;
+    let mut jobs: Vec<(usize, Setting)> = Vec::new();
+    for c in 0..cases.len() {
+        jobs.push((c, options.reference));
+        jobs.extend(options.settings.iter().map(|s| (c, *s)));
+    }
+    let trajectories: Vec<Result<Trajectory, Status>> = jobs
+        .par_iter()
+        .map(|&(c, s)| {
+            let t = trajectory(&cases[c], s);
+            eprintln!("study: {} {} recorded", cases[c].name, s.label());
+            t
+        })
+        .collect();
+    let mut rows = Vec::new();
+    for (k, &(c, setting)) in jobs.iter().enumerate() {
+        let case = &cases[c];
+        let reference = trajectories[jobs.iter().position(|&(cc, _)| cc == c).unwrap_or(0)].as_ref().ok();
+        let (status, errors) = match (&trajectories[k], reference) {
+            (Ok(t), Some(r)) => (Status::Ok, errors(case.kind, t, r)),
+            (Ok(_), None) => (Status::Rejected("the reference run failed".into()), Errors::default()),
+            (Err(s), _) => (s.clone(), Errors::default()),
+        };
+        let (steps_per_sec, realtime_factor) = match &status {
+            Status::Rejected(_) => (0.0, 0.0),
+            _ => cost(case, setting, options.repeats).unwrap_or((0.0, 0.0)),
+        };
+        eprintln!("study: {} {} timed: {realtime_factor:.1} x real time", case.name, setting.label());
+        rows.push(Row { case: case.name.clone(), setting, status, errors, steps_per_sec, realtime_factor });
+    }
+    std::fs::create_dir_all(&options.out_dir).map_err(|source| io_error(&options.out_dir, source))?;
+    let mut files = Vec::new();
+    let csv = options.out_dir.join("accuracy.csv");
+    std::fs::write(&csv, csv_text(&rows)).map_err(|source| io_error(&csv, source))?;
+    files.push(csv);
+    for case in &cases {
+        files.extend(plot_case(&options.out_dir, case, &rows, options.reference)?);
+    }
+    let report = report_text(&cases, &rows, options);
+    let md = options.out_dir.join("accuracy.md");
+    std::fs::write(&md, &report).map_err(|source| io_error(&md, source))?;
+    files.push(md);
+    Ok(Study { cases, rows, files, report })
+}
+
+fn io_error(path: &Path, source: std::io::Error) -> RunError {
+    RunError::Record(crate::record::RecordError::Io { path: path.to_path_buf(), source })
+}
+
+fn fmt_error(v: Option<f64>, degrees: bool) -> String {
+    match v {
+        None => "-".into(),
+        Some(v) if degrees => format!("{:.2}°", v.to_degrees()),
+        Some(v) => format!("{:+.2} %", 100.0 * v),
+    }
+}
+
+fn status_text(s: &Status) -> String {
+    match s {
+        Status::Ok => "ok".into(),
+        Status::Diverged(m) => format!("DIVERGED: {}", m.replace('|', "/").replace('\n', " ")),
+        Status::Rejected(m) => format!("rejected: {}", m.replace('|', "/").replace('\n', " ")),
+    }
+}
+
+/// The rows as CSV (one line per case and setting).
+pub fn csv_text(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "case,integrator,timestep_s,status,com_path_err,forward_speed_err,heading_err_rad,joint_angle_err,\
+         peak_force_err,mean_force_err,penetration_err,rebound_speed_err,worst_err,steps_per_s,realtime_factor\n",
+    );
     for r in rows {
-        if !scenarios.contains(&r.scenario.as_str()) {
-            scenarios.push(&r.scenario);
+        let v = r.errors.values();
+        let cell = |x: Option<f64>| x.map_or(String::new(), |x| format!("{x:.6e}"));
+        let status = match &r.status {
+            Status::Ok => "ok",
+            Status::Diverged(_) => "diverged",
+            Status::Rejected(_) => "rejected",
+        };
+        let worst = if r.status == Status::Ok { format!("{:.6e}", r.errors.worst().0) } else { String::new() };
+        let _ = writeln!(
+            s,
+            "{},{},{},{status},{},{worst},{:.1},{:.3}",
+            r.case,
+            r.setting.integrator.mjcf_name(),
+            r.setting.timestep_secs,
+            v.iter().map(|x| cell(*x)).collect::<Vec<_>>().join(","),
+            r.steps_per_sec,
+            r.realtime_factor
+        );
+    }
+    s
+}
+
+/// The recommendation: the cheapest setting whose worst error over every case is within
+/// `tolerance`, by the summed wall time of the cases' timed runs. `None` if none qualifies.
+pub fn cheapest_within(rows: &[Row], settings: &[Setting], tolerance: f64) -> Option<(Setting, f64, f64)> {
+    let mut best: Option<(Setting, f64, f64)> = None;
+    for s in settings {
+        let mine: Vec<&Row> = rows.iter().filter(|r| r.setting == *s).collect();
+        if mine.is_empty() || mine.iter().any(|r| r.status != Status::Ok || r.realtime_factor <= 0.0) {
+            continue;
+        }
+        let worst = mine.iter().map(|r| r.errors.worst().0).fold(0.0, f64::max);
+        if worst > tolerance {
+            continue;
+        }
+        // Wall seconds per simulated second, summed over the cases.
+        let wall: f64 = mine.iter().map(|r| 1.0 / r.realtime_factor).sum();
+        if best.is_none_or(|(_, w, _)| wall < w) {
+            best = Some((*s, wall, worst));
         }
     }
-    for (n, scenario) in scenarios.iter().enumerate() {
-        let series: Vec<PointSeries> = INTEGRATORS
+    best
+}
+
+fn report_text(cases: &[Case], rows: &[Row], options: &StudyOptions) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# Accuracy study\n\nSimSerpent {}, MuJoCo {}. Reference: {}. Errors against the reference \
+         (see `simserpent::study`); cost from unrecorded runs (best of {}), wall clock on this machine.\n",
+        env!("CARGO_PKG_VERSION"),
+        crate::sim::engine_version(),
+        options.reference.label(),
+        options.repeats
+    );
+    for case in cases {
+        let _ = writeln!(
+            s,
+            "## {}\n\n{}; {} s simulated.\n",
+            case.name, case.description, case.config.general.duration_secs
+        );
+        let _ = writeln!(
+            s,
+            "| setting | CoM path | fwd speed | heading | joint angles | peak force | mean force | penetration | \
+             rebound | worst | steps/s | real-time factor | status |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+        for r in rows.iter().filter(|r| r.case == case.name) {
+            let v = r.errors.values();
+            let ok = r.status == Status::Ok;
+            let cells: Vec<String> = if ok {
+                v.iter().enumerate().map(|(i, x)| fmt_error(*x, i == 2)).collect()
+            } else {
+                vec!["-".into(); 8]
+            };
+            let worst =
+                if ok { format!("{:.2} % ({})", 100.0 * r.errors.worst().0, r.errors.worst().1) } else { "-".into() };
+            let _ = writeln!(
+                s,
+                "| {}{} | {} | {worst} | {:.0} | {:.1} | {} |",
+                r.setting.label(),
+                if r.setting == options.reference { " (reference)" } else { "" },
+                cells.join(" | "),
+                r.steps_per_sec,
+                r.realtime_factor,
+                status_text(&r.status)
+            );
+        }
+        s.push('\n');
+    }
+    let _ = writeln!(s, "## Recommendation\n");
+    for (tolerance, what) in
+        [(SAME_ANSWERS, "same answers (every quantity within 2 %)"), (RL_TOLERANCE, "RL (within 5 %)")]
+    {
+        match cheapest_within(rows, &options.settings, tolerance) {
+            Some((setting, wall, worst)) => {
+                let _ = writeln!(
+                    s,
+                    "- {what}: **{}** — worst error {:.2} % over all cases, {:.3} wall s per simulated s summed over \
+                     the cases",
+                    setting.label(),
+                    100.0 * worst,
+                    wall
+                );
+            }
+            None => {
+                let _ = writeln!(s, "- {what}: no setting of the study qualifies");
+            }
+        }
+    }
+    s
+}
+
+fn plot_case(dir: &Path, case: &Case, rows: &[Row], reference: Setting) -> Result<Vec<PathBuf>, RunError> {
+    let mut series = Vec::new();
+    for integrator in INTEGRATORS {
+        let points: Vec<(f64, f64, String)> = rows
             .iter()
-            .map(|&i| PointSeries {
-                name: integrator_name(i).to_string(),
-                points: rows
-                    .iter()
-                    .filter(|r| r.scenario == *scenario && r.integrator == i)
-                    .filter_map(|r| match &r.outcome {
-                        Outcome::Done(m) => Some((m.real_time_factor, m.worst_percent().max(1e-3))),
-                        _ => None,
-                    })
-                    .collect(),
+            .filter(|r| {
+                r.case == case.name
+                    && r.setting.integrator == integrator
+                    && r.setting != reference
+                    && r.status == Status::Ok
+                    && r.realtime_factor > 0.0
+            })
+            .map(|r| {
+                (1.0 / r.realtime_factor, r.errors.worst().0.max(1e-5), format!("{} ms", r.setting.timestep_secs * 1e3))
             })
             .collect();
-        files.extend(plot::plot_log_log(
-            dir,
-            &format!("work_precision_{n}"),
-            &format!("work-precision: {scenario}"),
-            "simulated seconds per wall second",
-            "largest error against RK4 0.1 ms (%)",
-            &series,
-        )?);
+        series.push((integrator.mjcf_name().to_string(), points));
     }
-    Ok(files)
+    let failed: Vec<String> =
+        rows.iter().filter(|r| r.case == case.name && r.status != Status::Ok).map(|r| r.setting.label()).collect();
+    let title = if failed.is_empty() {
+        format!("{}: worst error vs cost", case.name)
+    } else {
+        format!("{}: worst error vs cost (diverged/rejected: {})", case.name, failed.join(", "))
+    };
+    Ok(crate::plot::plot_work_precision(
+        dir,
+        &format!("work_precision_{}", case.name),
+        &title,
+        "wall seconds per simulated second",
+        "worst error vs RK4 0.1 ms (fraction)",
+        &series,
+        &[SAME_ANSWERS, RL_TOLERANCE],
+    )?)
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn straight(speed: f64, direction: [f64; 2]) -> Trajectory {
+        let time_secs: Vec<f64> = (0..=100).map(|k| k as f64 * 0.1).collect();
+        Trajectory {
+            com_m: time_secs.iter().map(|t| [speed * t * direction[0], speed * t * direction[1]]).collect(),
+            joint_angle_rad: time_secs.iter().map(|t| vec![t.sin(), (2.0 * t).cos()]).collect(),
+            time_secs,
+            start_direction: [1.0, 0.0],
+            peak_force_n: 10.0,
+            mean_force_n: 3.0,
+            max_penetration_m: 0.002,
+            rebound_speed_m_per_s: 1.0,
+        }
+    }
+
+    #[test]
+    fn relative_error_is_signed_and_none_at_a_zero_reference() {
+        assert_eq!(relative_error(1.02, 1.0, 1.0), Some(0.020000000000000018));
+        assert!((relative_error(-0.98, -1.0, 1.0).unwrap() - 0.02).abs() < 1e-15);
+        assert_eq!(relative_error(5.0, 0.0, 1.0), None);
+    }
+
+    #[test]
+    fn rms_relative_difference_of_known_signals() {
+        // b = (3, 4): RMS 5/√2; a − b = (0.3, 0.4): RMS 0.5/√2 → 0.1.
+        let a = vec![vec![3.3, 4.4]];
+        let b = vec![vec![3.0, 4.0]];
+        assert!((rms_relative_difference(&a, &b).unwrap() - 0.1).abs() < 1e-12);
+        assert_eq!(rms_relative_difference(&a, &[vec![0.0, 0.0]]), None);
+        assert_eq!(rms_relative_difference(&a, &[]), None);
+    }
+
+    #[test]
+    fn angle_between_known_directions() {
+        assert!((angle_between([1.0, 0.0], [0.0, 2.0]).unwrap() - std::f64::consts::FRAC_PI_2).abs() < 1e-15);
+        assert!((angle_between([1.0, 0.0], [-1.0, -1e-300]).unwrap() - std::f64::consts::PI).abs() < 1e-12);
+        assert_eq!(angle_between([0.0, 0.0], [1.0, 0.0]), None);
+    }
+
+    #[test]
+    fn errors_of_a_slower_turned_run() {
+        let reference = straight(0.5, [1.0, 0.0]);
+        // 1 % slower, heading 0.01 rad to the left.
+        let run = Trajectory { peak_force_n: 11.0, ..straight(0.495, [0.01f64.cos(), 0.01f64.sin()]) };
+        let e = errors(CaseKind::Locomotion { from_secs: 0.0 }, &run, &reference);
+        assert!((e.heading_rad.unwrap() - 0.01).abs() < 1e-12);
+        // Speed along the start direction: 0.495·cos(0.01).
+        assert!((e.forward_speed.unwrap() - (0.99 * 0.01f64.cos() - 1.0)).abs() < 1e-12);
+        // End points 5 m and 4.95 m away at 0.01 rad apart, over 5 m travelled.
+        let (a, b) = (4.95, 5.0);
+        let gap = (a * a + b * b - 2.0 * a * b * 0.01f64.cos()).sqrt();
+        assert!((e.com_path.unwrap() - gap / 5.0).abs() < 1e-12);
+        assert_eq!(e.joint_angles, Some(0.0));
+        assert!((e.peak_force.unwrap() - 0.1).abs() < 1e-12);
+        assert_eq!(e.mean_force, Some(0.0));
+        assert_eq!(e.rebound_speed, None);
+        assert!((e.worst().0 - 0.1).abs() < 1e-12);
+        assert_eq!(e.worst().1, "peak contact force");
+    }
+
+    #[test]
+    fn an_impact_compares_the_rebound_and_not_the_path() {
+        let reference = straight(0.0, [1.0, 0.0]);
+        let run = Trajectory { rebound_speed_m_per_s: 0.97, ..reference.clone() };
+        let e = errors(CaseKind::Impact { axis: 2, speed_m_per_s: 5.0 }, &run, &reference);
+        assert!((e.rebound_speed.unwrap() + 0.03).abs() < 1e-12);
+        assert_eq!((e.com_path, e.forward_speed, e.heading_rad, e.joint_angles), (None, None, None, None));
+    }
+
+    #[test]
+    fn divergence_finds_non_finite_values_and_runaway_speed() {
+        let fine = straight(0.5, [1.0, 0.0]);
+        assert_eq!(divergence(&fine, MAX_COM_SPEED_M_PER_S), None);
+        let mut nan = fine.clone();
+        nan.joint_angle_rad[7][1] = f64::NAN;
+        assert!(divergence(&nan, MAX_COM_SPEED_M_PER_S).unwrap().contains("t = 0.7"));
+        let mut inf = fine.clone();
+        inf.peak_force_n = f64::INFINITY;
+        assert!(divergence(&inf, MAX_COM_SPEED_M_PER_S).is_some());
+        // A jump of 20 m within 0.1 s: 200 m/s.
+        let mut jump = fine.clone();
+        jump.com_m[50][0] += 20.0;
+        assert!(divergence(&jump, MAX_COM_SPEED_M_PER_S).unwrap().contains("t = 5"));
+        // NaN errors count as the worst.
+        let e = Errors { peak_force: Some(f64::NAN), mean_force: Some(0.5), ..Errors::default() };
+        assert_eq!(e.worst(), (f64::INFINITY, "peak contact force"));
+    }
+
+    #[test]
+    fn cheapest_within_skips_diverged_and_inaccurate_settings() {
+        let s = |i, dt| Setting { integrator: i, timestep_secs: dt };
+        let (a, b, c) = (s(Integrator::RK4, 0.001), s(Integrator::Euler, 0.002), s(Integrator::Euler, 0.01));
+        let row = |setting, err: f64, rtf, status| Row {
+            case: "x".into(),
+            setting,
+            status,
+            errors: Errors { penetration: Some(err), ..Errors::default() },
+            steps_per_sec: rtf / setting.timestep_secs,
+            realtime_factor: rtf,
+        };
+        let rows = vec![
+            row(a, 0.001, 5.0, Status::Ok),
+            row(b, 0.015, 40.0, Status::Ok),
+            row(c, 0.0, 0.0, Status::Diverged("nan".into())),
+        ];
+        let (best, wall, worst) = cheapest_within(&rows, &[a, b, c], 0.02).unwrap();
+        assert_eq!(best, b);
+        assert!((wall - 1.0 / 40.0).abs() < 1e-15 && (worst - 0.015).abs() < 1e-15);
+        assert_eq!(cheapest_within(&rows, &[a, b, c], 0.01).unwrap().0, a);
+        assert_eq!(cheapest_within(&rows, &[c], 0.5), None);
+    }
+
+    #[test]
+    fn the_study_has_every_integrator_at_every_step() {
+        let all = all_settings();
+        assert_eq!(all.len(), 18);
+        for dt in TIMESTEPS_SECS {
+            let per_sample = SAMPLE_PERIOD_SECS / dt;
+            assert!((per_sample - per_sample.round()).abs() < 1e-9, "{dt} s does not divide the sample period");
+        }
+    }
 }

@@ -263,9 +263,3 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
     ));
     Ok(section)
 }
-
-/// The 10-link launch along x for the accuracy study (`crate::study`): its config, the free
-/// joint's velocity component and the launch speed (m/s).
-pub fn impact_study_case(base: &Config) -> (Config, usize, f64) {
-    (case_config(base, 10), 0, LAUNCH_SPEED_M_PER_S)
-}

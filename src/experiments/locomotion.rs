@@ -83,29 +83,12 @@ fn sine_wave_by_position(c: &mut Config, amplitude_deg: f64, frequency_hz: f64, 
 
 /// Thesis table 7: 10 links, 0.3 kg, 0.2 m (0.10 m half length), radius 0.08 m, position
 /// control of a sine wave (A = 30°, f = 0.5 Hz, δ = 40°).
-fn undulation_config(base: &Config, ctx: &Context) -> Config {
+pub(crate) fn undulation_config(base: &Config, quick: bool) -> Config {
     let mut c = snake_on_floor(base, 10, 0.08, 0.5);
     c.terrain.kind = TerrainKind::None;
     sine_wave_by_position(&mut c, 30.0, 0.5, 2.0);
-    c.general.duration_secs = c.gait.ramp_secs + cycles(ctx, 20.0, 8.0);
+    c.general.duration_secs = c.gait.ramp_secs + if quick { 8.0 } else { 20.0 };
     c
-}
-
-/// Two cases of experiment III for the accuracy study (`crate::study`): isotropic Coulomb
-/// friction 0.5, and anisotropic friction lateral 0.5 / axial 0.05 (ratio 10).
-pub fn undulation_study_cases(base: &Config) -> Vec<(String, Config)> {
-    let mut c = snake_on_floor(base, 10, 0.08, 0.5);
-    c.terrain.kind = TerrainKind::None;
-    sine_wave_by_position(&mut c, 30.0, 0.5, 2.0);
-    let mut iso = c.clone();
-    iso.ground.model = GroundModel::Isotropic;
-    iso.snake.ground_friction = [0.5, 0.0, 0.0];
-    iso.snake.link_friction = [0.5, 0.0, 0.0];
-    let mut aniso = c;
-    aniso.ground.model = GroundModel::Anisotropic;
-    aniso.ground.lateral_friction = 0.5;
-    aniso.ground.axial_friction = 0.05;
-    vec![("undulation, isotropic 0.5".into(), iso), ("undulation, anisotropic ratio 10".into(), aniso)]
 }
 
 /// Experiment III (thesis 7.3, table 7) plus anisotropic and viscous friction.
@@ -119,7 +102,7 @@ pub fn undulation(ctx: &Context, base: &Config) -> Result<Section, ExperimentErr
             .into(),
         ..Section::default()
     };
-    let base_cfg = undulation_config(base, ctx);
+    let base_cfg = undulation_config(base, ctx.quick);
     let body_m = base_cfg.snake.n_links as f64 * base_cfg.snake.link_length_m;
     let period = 1.0 / base_cfg.gait.sine_wave.frequency_hz;
     let ramp = base_cfg.gait.ramp_secs;

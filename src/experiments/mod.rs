@@ -14,9 +14,10 @@ mod locomotion;
 mod pictures;
 mod report;
 
-pub use collision::{LAUNCH_SPEED_M_PER_S, case_bodies as collision_case_bodies, impact_study_case};
+pub use collision::{LAUNCH_SPEED_M_PER_S, case_bodies as collision_case_bodies};
 pub use data::Table;
-pub use locomotion::{averaged_viscous_speed, undulation_study_cases};
+pub use locomotion::averaged_viscous_speed;
+pub(crate) use locomotion::undulation_config as locomotion_undulation_config;
 pub use report::{Check, Report, Section};
 
 use crate::config::Config;

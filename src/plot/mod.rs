@@ -621,10 +621,27 @@ trait AnyArea {
         obstacles: &[Obstacle],
         size: (u32, u32),
     ) -> DrawResult;
-    fn log_log(&self, title: &str, x_label: &str, y_label: &str, series: &[PointSeries]) -> DrawResult;
+    fn work_precision(
+        &self,
+        title: &str,
+        x_label: &str,
+        y_label: &str,
+        series: &[WorkPrecisionSeries],
+        levels: &[f64],
+    ) -> DrawResult;
 }
 
 impl<DB: DrawingBackend> AnyArea for DrawingArea<DB, Shift> {
+    fn work_precision(
+        &self,
+        title: &str,
+        x_label: &str,
+        y_label: &str,
+        series: &[WorkPrecisionSeries],
+        levels: &[f64],
+    ) -> DrawResult {
+        work_precision_chart(self, title, x_label, y_label, series, levels)
+    }
     fn line(&self, title: &str, y_label: &str, series: &[Series<'_>]) -> DrawResult {
         line_chart(self, title, y_label, series)?;
         self.present().map_err(|e| e.to_string())
@@ -651,22 +668,30 @@ impl<DB: DrawingBackend> AnyArea for DrawingArea<DB, Shift> {
         }
         self.present().map_err(|e| e.to_string())
     }
-    fn log_log(&self, title: &str, x_label: &str, y_label: &str, series: &[PointSeries]) -> DrawResult {
-        log_log_chart(self, title, x_label, y_label, series)?;
-        self.present().map_err(|e| e.to_string())
-    }
 }
 
-/// A named series of (x, y) points, drawn as markers joined by a line.
-#[derive(Debug, Clone)]
-pub struct PointSeries {
-    /// Legend text.
-    pub name: String,
-    /// The points (points with a value ≤ 0 or not finite are left out on log axes).
-    pub points: Vec<(f64, f64)>,
+/// One series of a work-precision chart: its name and its points (cost, error, label).
+pub type WorkPrecisionSeries = (String, Vec<(f64, f64, String)>);
+
+/// Draws a work-precision chart (log–log: cost on x, error on y; one line with labelled points
+/// per series, dashed horizontal lines at `levels`) into `<dir>/<stem>.png` and `.svg`
+/// (the accuracy study, `simserpent study accuracy`).
+pub fn plot_work_precision(
+    dir: &Path,
+    stem: &str,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    series: &[WorkPrecisionSeries],
+    levels: &[f64],
+) -> Result<Vec<PathBuf>, PlotError> {
+    register_font();
+    std::fs::create_dir_all(dir).map_err(|source| PlotError::Folder { path: dir.to_path_buf(), source })?;
+    let size = (1000, 650);
+    both(dir, stem, size, |root: &dyn AnyArea| root.work_precision(title, x_label, y_label, series, levels))
 }
 
-/// Range of positive finite values for a log axis, a little wider; never empty.
+/// Log range of the positive finite values, widened to whole decades (never empty).
 fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in values.filter(|v| v.is_finite() && *v > 0.0) {
@@ -676,25 +701,26 @@ fn log_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     if !lo.is_finite() {
         return (0.1, 10.0);
     }
-    (lo / 1.5, hi * 1.5)
+    let (lo, hi) = (10f64.powf(lo.log10().floor()), 10f64.powf(hi.log10().ceil()));
+    if hi > lo { (lo, hi) } else { (lo / 10.0, hi * 10.0) }
 }
 
-fn log_log_chart<DB: DrawingBackend>(
+fn work_precision_chart<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     title: &str,
     x_label: &str,
     y_label: &str,
-    series: &[PointSeries],
+    series: &[WorkPrecisionSeries],
+    levels: &[f64],
 ) -> DrawResult {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
-    let ok = |p: &&(f64, f64)| p.0.is_finite() && p.1.is_finite() && p.0 > 0.0 && p.1 > 0.0;
-    let (x0, x1) = log_range(series.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
-    let (y0, y1) = log_range(series.iter().flat_map(|s| s.points.iter().filter(ok).map(|p| p.1)));
+    let (x0, x1) = log_range(series.iter().flat_map(|s| s.1.iter().map(|p| p.0)));
+    let (y0, y1) = log_range(series.iter().flat_map(|s| s.1.iter().map(|p| p.1)).chain(levels.iter().copied()));
     let mut chart = ChartBuilder::on(root)
-        .caption(title, (FAMILY, 22))
+        .caption(title, (FAMILY, 18))
         .margin(12)
         .x_label_area_size(45)
-        .y_label_area_size(70)
+        .y_label_area_size(75)
         .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
         .map_err(|e| e.to_string())?;
     chart
@@ -706,15 +732,32 @@ fn log_log_chart<DB: DrawingBackend>(
         .light_line_style(RGBColor(235, 235, 235))
         .draw()
         .map_err(|e| e.to_string())?;
-    for (i, s) in series.iter().enumerate() {
-        let c = color(i);
-        let points: Vec<(f64, f64)> = s.points.iter().filter(ok).copied().collect();
+    for level in levels {
         chart
-            .draw_series(LineSeries::new(points.iter().copied(), c.stroke_width(2)))
+            .draw_series(DashedLineSeries::new(
+                [(x0, *level), (x1, *level)],
+                6,
+                4,
+                RGBColor(150, 150, 150).stroke_width(1),
+            ))
+            .map_err(|e| e.to_string())?;
+        chart
+            .draw_series([Text::new(format!("{} %", level * 100.0), (x0 * 1.05, *level * 1.08), (FAMILY, 13))])
+            .map_err(|e| e.to_string())?;
+    }
+    for (i, (name, points)) in series.iter().enumerate() {
+        let c = color(i);
+        let valid: Vec<&(f64, f64, String)> =
+            points.iter().filter(|p| p.0.is_finite() && p.1.is_finite() && p.0 > 0.0 && p.1 > 0.0).collect();
+        chart
+            .draw_series(LineSeries::new(valid.iter().map(|p| (p.0, p.1)), c.stroke_width(2)))
             .map_err(|e| e.to_string())?
-            .label(s.name.clone())
+            .label(name.clone())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
-        chart.draw_series(points.iter().map(|&p| Circle::new(p, 4, c.filled()))).map_err(|e| e.to_string())?;
+        chart.draw_series(valid.iter().map(|p| Circle::new((p.0, p.1), 4, c.filled()))).map_err(|e| e.to_string())?;
+        chart
+            .draw_series(valid.iter().map(|p| Text::new(p.2.clone(), (p.0 * 1.04, p.1 * 1.1), (FAMILY, 12))))
+            .map_err(|e| e.to_string())?;
     }
     chart
         .configure_series_labels()
@@ -724,20 +767,5 @@ fn log_log_chart<DB: DrawingBackend>(
         .position(SeriesLabelPosition::UpperRight)
         .draw()
         .map_err(|e| e.to_string())?;
-    Ok(())
-}
-
-/// Draws a log-log chart of point series into `<dir>/<stem>.png` and `<dir>/<stem>.svg` (the
-/// accuracy study's work-precision plot: cost against error).
-pub fn plot_log_log(
-    dir: &Path,
-    stem: &str,
-    title: &str,
-    x_label: &str,
-    y_label: &str,
-    series: &[PointSeries],
-) -> Result<Vec<PathBuf>, PlotError> {
-    register_font();
-    std::fs::create_dir_all(dir).map_err(|source| PlotError::Folder { path: dir.to_path_buf(), source })?;
-    both(dir, stem, (900, 600), |root: &dyn AnyArea| root.log_log(title, x_label, y_label, series))
+    root.present().map_err(|e| e.to_string())
 }

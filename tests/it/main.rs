@@ -28,6 +28,7 @@ mod ros2_bag;
 mod sensors;
 mod sliding_contact;
 mod step_loop;
+mod study;
 mod surfaces;
 mod surprises;
 mod sweep;
