@@ -187,7 +187,7 @@ pub fn run_simulation<C: Controller>(
     let set_up = write_run_files(config, &folder, sim.world()).and_then(|()| {
         let recorder = if config.recording.enabled {
             let surfaces = !sim.ground().surfaces().is_empty();
-            Some(Recorder::create(&folder, &config.recording, &sim.world().index, surfaces)?)
+            Some(Recorder::create(&folder, &config.recording, &sim.world().index, surfaces, config.estimation.enabled)?)
         } else {
             None
         };
