@@ -7,8 +7,9 @@
 //! truth: obstacle and floor forces, obstacle contact points), feeds every recorded row to
 //! [`MotionEstimator`] as the step loop would, and writes into `RUN_FOLDER/estimation/`:
 //!
-//! - `estimates.csv`: per row and link the estimates next to the truth (the columns of the
-//!   step loop's `estimates` table);
+//! - `estimates.csv`: per row and link the estimates next to the truth of the instant their
+//!   sensor values describe (`truth_time_s`: the previous row when every step is recorded — the
+//!   sensors are those of the last complete model evaluation, one step old);
 //! - `scores.md` and `scores.csv`: detection, false alarms, obstacle-force RMSE and contact-point
 //!   errors per link and overall ([`MotionScore`]);
 //! - `plots/estimate_link_ii.png/.svg`: estimated against true obstacle force per link.
@@ -272,15 +273,19 @@ pub fn estimate_run_folder(run_folder: &Path, overrides: &[String]) -> Result<Es
         obs.head_velocity_m_per_s = poses.com_velocity_m_per_s[0];
         let true_poses = (config.estimation.orientation == OrientationSource::True).then_some(&poses);
         estimator.update(&obs, true_poses, &mut est);
-        let _ = write!(csv, "{}", time[k]);
+        // The estimate describes the sensors' sample time: score it against the truth of that
+        // row (the previous one when every step is recorded), else of this row.
+        let m =
+            if k > 0 && (time[k - 1] - sensor_time[k]).abs() < (time[k] - sensor_time[k]).abs() { k - 1 } else { k };
+        let _ = write!(csv, "{},{}", time[k], time[m]);
         for (i, lc) in link_cols.iter().enumerate() {
-            let r = crate::estimation::quat_to_matrix(poses.quat[i]);
+            let r = crate::estimation::quat_to_matrix([lc.quat[0][m], lc.quat[1][m], lc.quat[2][m], lc.quat[3][m]]);
             let axis3 = [r[0][0], r[1][0], r[2][0]];
             let h = axis3[0].hypot(axis3[1]).max(1e-12);
-            let c = poses.com_m[i];
-            let obstacle = at(&lc.obstacle, k);
+            let c = at(&lc.position, m);
+            let obstacle = at(&lc.obstacle, m);
             let touching = obstacle.iter().any(|v| *v != 0.0);
-            let point = at(&lc.obstacle_point, k);
+            let point = at(&lc.obstacle_point, m);
             let true_point = touching.then(|| (0..3).map(|a| (point[a] - c[a]) * axis3[a]).sum::<f64>());
             let sample = LinkSample {
                 true_obstacle_n: obstacle,
@@ -297,13 +302,13 @@ pub fn estimate_run_folder(run_folder: &Path, overrides: &[String]) -> Result<Es
                 let _ = write!(csv, ",{v}");
             }
             let _ = write!(csv, ",{},{},{}", u8::from(est.contact[i]), p.unwrap_or(0.0), u8::from(p.is_some()));
-            for v in at(&lc.external, k).iter().chain(&at(&lc.floor, k)).chain(&obstacle) {
+            for v in at(&lc.external, m).iter().chain(&at(&lc.floor, m)).chain(&obstacle) {
                 let _ = write!(csv, ",{v}");
             }
             let _ = write!(csv, ",{}", true_point.unwrap_or(0.0));
             let s = &mut series[i];
             s[0].push(est.obstacle_force_n[i][0]);
-            s[1].push(obstacle[0]);
+            s[1].push(obstacle[0]); // truth at the sensors' time, as plotted
             s[2].push(est.obstacle_force_n[i][1]);
             s[3].push(obstacle[1]);
         }
@@ -335,7 +340,7 @@ pub fn estimate_run_folder(run_folder: &Path, overrides: &[String]) -> Result<Es
             &format!("estimate_link_{i:02}"),
             &format!("link {i}: obstacle force, estimated (from measured sensors) and true"),
             "force (N)",
-            time,
+            sensor_time,
             &named,
         )
         .map_err(|e| EstimateError::Plot { path: plots.clone(), message: e.to_string() })?;
@@ -344,7 +349,8 @@ pub fn estimate_run_folder(run_folder: &Path, overrides: &[String]) -> Result<Es
 }
 
 fn header(nl: usize) -> String {
-    let mut h = String::from("time_s");
+    // truth_time_s: the row whose truth the estimate is compared with (its sensors' sample time).
+    let mut h = String::from("time_s,truth_time_s");
     for i in 0..nl {
         let p = names::link_body(i);
         for stem in ["estimated_external_force", "estimated_floor_force", "estimated_obstacle_force"] {

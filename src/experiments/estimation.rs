@@ -472,33 +472,49 @@ pub fn peg_field_config(base: &Config, ground: GroundModel, seed: u64, noise_sca
     c
 }
 
-/// Scores the step loop's contact estimates (`Observation::contacts`) at every instant.
+/// Scores the step loop's contact estimates (`Observation::contacts`) at every instant against
+/// the truth of the instant their sensor values describe: the sensors are those of the last
+/// complete model evaluation, one step before the instant (`Observation::sensor_time_secs`), so
+/// each estimate is scored against the previous instant's truth (the floor contact forces
+/// change by about 1 N from one step to the next, so a one-step misalignment alone would cost
+/// about 1 N RMS).
 struct MotionScorer {
     score: MotionScore,
+    /// The previous recorded instant's truth: time, and per link the sample without estimate.
+    previous_time_secs: f64,
+    previous: Vec<LinkSample>,
 }
 
 impl Observer<SimError> for MotionScorer {
     fn on_record(&mut self, view: &StepView<'_>, snap: &Snapshot) -> Result<(), SimError> {
         let est = &view.observation.contacts;
-        if !est.active {
-            return Ok(());
+        let n = snap.link_position_m.len();
+        if self.previous.len() != n {
+            self.previous = vec![LinkSample::default(); n];
+            self.previous_time_secs = f64::NAN;
         }
-        for i in 0..snap.link_position_m.len().min(est.n_links()) {
+        let aligned = est.active && (view.observation.sensor_time_secs - self.previous_time_secs).abs() < 1e-9;
+        for i in 0..n {
+            if aligned && i < est.n_links() {
+                let mut sample = self.previous[i];
+                sample.estimated_obstacle_n = est.obstacle_force_n[i];
+                sample.detected = est.contact[i];
+                sample.estimated_point_along_m = est.contact_point_along_m[i];
+                self.score.add(&sample);
+            }
             let [w, x, y, z] = snap.link_quat[i];
             let axis3 = [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)];
             let h = axis3[0].hypot(axis3[1]).max(1e-12);
             let c = snap.link_position_m[i];
-            let true_point_along_m =
-                snap.link_obstacle_point_m[i].map(|p| (0..3).map(|k| (p[k] - c[k]) * axis3[k]).sum::<f64>());
-            self.score.add(&LinkSample {
+            self.previous[i] = LinkSample {
                 true_obstacle_n: snap.link_obstacle_force_n[i],
-                true_point_along_m,
+                true_point_along_m: snap.link_obstacle_point_m[i]
+                    .map(|p| (0..3).map(|k| (p[k] - c[k]) * axis3[k]).sum::<f64>()),
                 axis: [axis3[0] / h, axis3[1] / h, 0.0],
-                estimated_obstacle_n: est.obstacle_force_n[i],
-                detected: est.contact[i],
-                estimated_point_along_m: est.contact_point_along_m[i],
-            });
+                ..LinkSample::default()
+            };
         }
+        self.previous_time_secs = snap.time_secs;
         Ok(())
     }
 }
@@ -510,7 +526,11 @@ pub fn score_in_motion(config: &Config, steps: u64) -> Result<MotionScore, Exper
     config.validate().map_err(|e| RunError::Sim(e.into()))?;
     let world = World::from_config(config).map_err(RunError::Sim)?;
     let mut sim = Simulation::new(config, world);
-    let mut scorer = MotionScorer { score: MotionScore::new(config.estimation.detection_threshold_n, 1.0, 0.01) };
+    let mut scorer = MotionScorer {
+        score: MotionScore::new(config.estimation.detection_threshold_n, 1.0, 0.01),
+        previous_time_secs: f64::NAN,
+        previous: Vec::new(),
+    };
     let plan = LoopPlan { steps, record_every_n_steps: 1 };
     sim.run(plan, &mut [&mut scorer]).map_err(RunError::Sim)?;
     Ok(scorer.score)

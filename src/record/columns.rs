@@ -400,13 +400,24 @@ fn along_axis(s: &Snapshot, i: usize, point: [f64; 3]) -> f64 {
 }
 
 /// `estimates.csv`: one row per recorded step, per link the contact estimates the controller saw
-/// (`estimation::MotionEstimator`, from the measured sensors) next to the ground truth.
+/// (`estimation::MotionEstimator`, from the measured sensors) next to the ground truth. The
+/// estimates describe `sensor_time_s` (the sensors' sample, one step before `time_s`), the true
+/// columns `time_s`: compare an estimate with the truth of the row whose `time_s` is its
+/// `sensor_time_s` (`simserpent estimate` does).
 pub(super) const ESTIMATES: TableSpec = TableSpec {
     name: "estimates",
     on: |w| w.estimation,
     rows: Rows::One,
     sections: &[
-        Section { per: Per::Row, groups: &[TIME] },
+        Section {
+            per: Per::Row,
+            groups: &[
+                TIME,
+                Group::float(always, Names::One("sensor_time_s"), |t, a| {
+                    t.num(a.s.observation_measured.sensor_time_secs)
+                }),
+            ],
+        },
         Section {
             per: Per::Link,
             groups: &[

@@ -37,9 +37,12 @@
 //! The obstacle force is the horizontal residual; a link touches an obstacle when its magnitude
 //! reaches `estimation.detection_threshold_n`. Its contact point along the link: the obstacle's
 //! vertical moment about the centre of mass is the total's minus the sliding friction's,
-//! `M_obs = M_z − Σₖ ((pₖ − c) × Fₖ)_z`, and a horizontal force `f` at `c + s·x̂` has the moment
-//! `s·(x̂ × f)_z`, so `s = M_obs / (x̂ × f)_z`, clamped to the link (|s| ≤ L/2), reported when
-//! the lateral part `|(x̂ × f)_z|` reaches `estimation.min_lateral_force_n`.
+//! `M_obs = M_z − Σₖ ((pₖ − c) × Fₖ)_z`. An obstacle touches the capsule's side, at
+//! `c + s·x̂ + r·n̂` with `n̂ = −sign(f_lat)·ŷ` (the side the push comes from, `ŷ = ẑ × x̂`,
+//! `f_lat = f·ŷ`, `f_a = f·x̂`), so its moment is `s·f_lat + r·sign(f_lat)·f_a` (the second term:
+//! the peg's friction along the link, acting at the radius), and
+//! `s = (M_obs − r·sign(f_lat)·f_a) / f_lat`, clamped to the link (|s| ≤ L/2), reported when
+//! `|f_lat|` reaches `estimation.min_lateral_force_n`.
 //!
 //! Nothing here allocates after construction.
 
@@ -533,7 +536,11 @@ impl MotionEstimator {
             out.contact[i] = touching;
             let lateral = axis[0] * obstacle[1] - axis[1] * obstacle[0];
             let point = (touching && lateral.abs() >= self.min_lateral_force_n).then(|| {
-                let moment = self.out.link_moment_nm[i][2] - friction_moment_z;
+                // The obstacle touches the capsule's side, r from the axis on the side the force
+                // comes from; its axial part (peg friction) has the moment r·sign(f_lat)·f_a there.
+                let axial = axis[0] * obstacle[0] + axis[1] * obstacle[1];
+                let side = self.geometry.link_radius_m * lateral.signum() * axial;
+                let moment = self.out.link_moment_nm[i][2] - friction_moment_z - side;
                 (moment / lateral).clamp(-0.5 * self.geometry.link_length_m, 0.5 * self.geometry.link_length_m)
             });
             out.contact_point_along_m[i] = point;
