@@ -542,7 +542,7 @@ fn pct(x: f64) -> String {
 
 /// The motion section: ground models × noise levels × seeds.
 fn run_motion(ctx: &Context, base: &Config, section: &mut Section) -> Result<(), ExperimentError> {
-    let (duration_secs, seeds) = if ctx.quick { (3.0, 2) } else { (10.0, 10) };
+    let (duration_secs, seeds) = if ctx.quick { (2.0, 1) } else { (10.0, 10) };
     let header: Vec<String> = [
         "floor",
         "noise",

@@ -129,35 +129,3 @@ fn estimates_reach_the_observation_and_the_estimates_table() {
         assert!(outcome.folder.join(f).is_file(), "{f}");
     }
 }
-
-/// The estimator in the loop does not need the simulator's orientations: from the head IMU and
-/// the encoders the link orientations (and so the estimates) agree with the true ones.
-#[test]
-fn imu_chain_orientations_match_the_true_ones() {
-    let mut c = open_floor();
-    c.estimation.enabled = true;
-    c.sensors.noise_enabled = false;
-    let world = World::from_config(&c).unwrap();
-    let mut sim = Simulation::new(&c, world);
-    let mut worst = 0.0f64;
-    for _ in 0..3000 {
-        sim.step().unwrap();
-    }
-    // Sense (and estimate) at this state; the ground model's kinematics then describe it too.
-    sim.control();
-    let obs = sim.observation().clone();
-    let mut c_true = c.clone();
-    c_true.estimation.orientation = OrientationSource::True;
-    let masses = vec![c.snake.link_mass_kg; c.snake.n_links];
-    let mut by_truth = simserpent::estimation::MotionEstimator::from_config(&c_true, &masses);
-    let mut poses = simserpent::estimation::LinkPoses::new(c.snake.n_links);
-    sim.world().read_link_poses(&mut poses);
-    let mut est = simserpent::estimation::ContactEstimates::new(c.snake.n_links);
-    by_truth.update(&obs, Some(&poses), &mut est);
-    for i in 0..c.snake.n_links {
-        for k in 0..3 {
-            worst = worst.max((est.external_force_n[i][k] - obs.contacts.external_force_n[i][k]).abs());
-        }
-    }
-    assert!(worst < 0.02, "largest difference of the external force, IMU chain vs true poses: {worst} N");
-}

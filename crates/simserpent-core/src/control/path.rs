@@ -16,10 +16,12 @@
 //! is
 //!
 //! ```text
-//! φ₀ = clamp(k_θ·(θ_ref − θ̄), ±φ₀,max),   θ_ref = ψ_path − arctan(e / Δ)
+//! φ₀ = clamp(k_θ·(θ̄ − θ_ref), ±φ₀,max),   θ_ref = ψ_path − arctan(e / Δ)
 //! ```
 //!
-//! where θ̄ is the mean of the link headings (θ₀ the head's yaw, θᵢ = θᵢ₋₁ + qᵢ along the chain:
+//! (the sign: a positive offset bends the body into an arc whose headings grow from head to
+//! tail, and moving forward along it the snake turns clockwise, so a heading above the reference
+//! needs a positive offset — checked in `tests/it/closed_loop.rs`), where θ̄ is the mean of the link headings (θ₀ the head's yaw, θᵢ = θᵢ₋₁ + qᵢ along the chain:
 //! our joint angle is the child link's heading minus the parent's, Liljebäck's
 //! φᵢ = θᵢ − θᵢ₊₁ with his links numbered from the tail), ψ_path the direction of the current
 //! path segment, e the cross-track error of the centre of mass (positive to the left of the
@@ -173,8 +175,11 @@ impl PathFollowing {
             let e = ux * (p[1] - a[1]) - uy * (p[0] - a[0]);
             let psi = uy.atan2(ux);
             let theta_ref = psi - (e / self.lookahead_m).atan();
+            // A positive offset bends the body so that the headings grow from head to tail: moving
+            // forward along that arc the snake turns clockwise (θ̄ decreases). So the offset has
+            // the sign of θ̄ − θ_ref.
             let offset =
-                (self.heading_gain * wrap(theta_ref - theta_mean)).clamp(-self.max_offset_rad, self.max_offset_rad);
+                (self.heading_gain * wrap(theta_mean - theta_ref)).clamp(-self.max_offset_rad, self.max_offset_rad);
             return Guidance {
                 centre_of_mass_m: p,
                 cross_track_m: e,
@@ -236,11 +241,12 @@ mod tests {
     #[test]
     fn line_of_sight_aims_back_at_the_path() {
         let mut pf = controller();
-        // 1 m left of the path, heading along it: θ_ref = −atan(1/1) = −45°, offset = 0.5·(−π/4).
+        // 1 m left of the path, heading along it: θ_ref = −atan(1/1) = −45°, offset = 0.5·(0 + π/4)
+        // (positive: turn clockwise, back toward the path).
         let g = pf.guidance([1.0, 1.0], 0.0);
         assert!((g.cross_track_m - 1.0).abs() < 1e-12);
         assert!((g.reference_heading_rad + PI / 4.0).abs() < 1e-12);
-        assert!((g.offset_rad + (0.5 * PI / 4.0).min(20f64.to_radians())).abs() < 1e-12, "{g:?}");
+        assert!((g.offset_rad - (0.5 * PI / 4.0).min(20f64.to_radians())).abs() < 1e-12, "{g:?}");
     }
 
     #[test]

@@ -33,6 +33,11 @@
 //!    direction; anisotropic: axial and lateral; directional: axial toward the tail, backward
 //!    toward the head; viscous: `−c_t·v_t·x̂ − c_n·v_n·ŷ` at the centre of mass, no Coulomb part).
 //!    Floor surfaces with other friction are not modelled (the plain floor's coefficients apply).
+//!    The floor's friction bound comes from a model evaluation other than the one the sensors
+//!    describe (SimSerpent's floor uses the previous evaluation's normal force), and the contact
+//!    forces change from one step to the next, so the sliding friction's support is taken within
+//!    the range of this update's and the previous update's `N`, as the value that explains most of
+//!    the horizontal force (the floor gets the benefit of the doubt).
 //!
 //! The obstacle force is the horizontal residual; a link touches an obstacle when its magnitude
 //! reaches `estimation.detection_threshold_n`. Its contact point along the link: the obstacle's
@@ -324,53 +329,65 @@ impl FloorShare {
 
     /// Splits one link's horizontal external force `f_h` (world, z = 0) into the floor's
     /// friction and the obstacle's share. `axis`: the link's horizontal unit axis; `normal_n`:
-    /// the floor's support; `points`: the two floor contact points relative to the centre of
-    /// mass with their velocities. Returns (floor friction, its vertical moment about the centre
-    /// of mass from the sliding points).
+    /// the range of the floor's support (N) — this instant's and the previous one's: the floor's
+    /// friction bound comes from a model evaluation between them, and the contact forces change
+    /// from step to step, so the floor is given the benefit of the doubt within the range;
+    /// `points`: the two floor contact points relative to the centre of mass with their
+    /// velocities. Returns (floor friction, its vertical moment about the centre of mass from
+    /// the sliding points).
     fn friction(
         &self,
         f_h: [f64; 3],
         axis: [f64; 3],
-        normal_n: f64,
+        normal_n: [f64; 2],
         com_velocity: [f64; 3],
         points: &[([f64; 3], [f64; 3]); 2],
     ) -> ([f64; 3], f64) {
         let lat = [-axis[1], axis[0], 0.0];
         let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1];
-        let mut friction = [0.0; 3];
-        let mut moment_z = 0.0;
+        let mut viscous = [0.0; 3];
         if self.viscous_tangential_n_s_per_m > 0.0 || self.viscous_normal_n_s_per_m > 0.0 {
             let (vt, vn) = (dot(com_velocity, axis), dot(com_velocity, lat));
-            friction = add(
+            viscous = add(
                 scale(axis, -self.viscous_tangential_n_s_per_m * vt),
                 scale(lat, -self.viscous_normal_n_s_per_m * vn),
             );
         }
-        if normal_n <= 0.0 {
-            return (friction, 0.0);
+        let (n_lo, n_hi) = (normal_n[0].min(normal_n[1]).max(0.0), normal_n[0].max(normal_n[1]).max(0.0));
+        if n_hi <= 0.0 {
+            return (viscous, 0.0);
         }
-        let n_point = 0.5 * normal_n;
-        let mut n_stick = 0.0;
+        // Sliding friction per newton of support (each point carries half).
+        let mut unit = [0.0; 3];
+        let mut unit_moment_z = 0.0;
+        let mut stick_share = 0.0;
         for (r, v) in points {
             let (va, vl) = (dot(*v, axis), dot(*v, lat));
             if va.hypot(vl) < self.sliding_speed_m_per_s {
-                n_stick += n_point;
+                stick_share += 0.5;
                 continue;
             }
             // Friction along the axis opposes va: toward the tail (−x) when sliding forward.
             let mu_a = if va > 0.0 { self.mu_forward } else { self.mu_backward };
-            let (a, b) = (mu_a * n_point, self.mu_lateral * n_point);
+            let (a, b) = (mu_a * 0.5, self.mu_lateral * 0.5);
             let d = (a * a * va * va + b * b * vl * vl).sqrt();
             if d <= 0.0 {
                 continue;
             }
             let (fa, fl) = (-a * a * va / d, -b * b * vl / d);
             let f = add(scale(axis, fa), scale(lat, fl));
-            friction = add(friction, f);
-            moment_z += r[0] * f[1] - r[1] * f[0];
+            unit = add(unit, f);
+            unit_moment_z += r[0] * f[1] - r[1] * f[0];
         }
-        if n_stick > 0.0 {
+        // The support within [n_lo, n_hi] that explains most of the horizontal force.
+        let rest_h = [f_h[0] - viscous[0], f_h[1] - viscous[1], 0.0];
+        let unit_sq = dot(unit, unit);
+        let n_slide = if unit_sq > 0.0 { (dot(rest_h, unit) / unit_sq).clamp(n_lo, n_hi) } else { n_hi };
+        let mut friction = add(viscous, scale(unit, n_slide));
+        let moment_z = n_slide * unit_moment_z;
+        if stick_share > 0.0 {
             // The sticking points take what they can of the rest.
+            let n_stick = stick_share * n_hi;
             let rest = [f_h[0] - friction[0], f_h[1] - friction[1], 0.0];
             let (ra, rl) = (dot(rest, axis), dot(rest, lat));
             let mu_a = if ra < 0.0 { self.mu_forward } else { self.mu_backward };
@@ -424,6 +441,8 @@ pub struct MotionEstimator {
     input: EstimatorInput,
     out: EstimateOutput,
     poses: LinkPoses,
+    /// Per link: the floor's support of the previous update (N; NaN before the first).
+    previous_normal_n: Vec<f64>,
 }
 
 impl std::fmt::Debug for MotionEstimator {
@@ -457,6 +476,7 @@ impl MotionEstimator {
             input,
             out: EstimateOutput::new(n),
             poses: LinkPoses::new(n),
+            previous_normal_n: vec![f64::NAN; n],
         }
     }
 
@@ -468,6 +488,7 @@ impl MotionEstimator {
     /// Forgets the attitude filter's state (it restarts at the next update's head pose).
     pub fn reset(&mut self) {
         self.attitude.time_secs = None;
+        self.previous_normal_n.fill(f64::NAN);
     }
 
     /// The link poses of the latest update (estimated or true).
@@ -524,8 +545,10 @@ impl MotionEstimator {
                 (rp, add(v, cross(w, rp)))
             });
             let normal_n = f[2].max(0.0);
+            let previous_n = std::mem::replace(&mut self.previous_normal_n[i], normal_n);
+            let previous_n = if previous_n.is_nan() { normal_n } else { previous_n };
             let f_h = [f[0], f[1], 0.0];
-            let (friction, friction_moment_z) = self.floor.friction(f_h, axis, normal_n, v, &points);
+            let (friction, friction_moment_z) = self.floor.friction(f_h, axis, [normal_n, previous_n], v, &points);
             let floor = [friction[0], friction[1], normal_n];
             let obstacle = [f[0] - friction[0], f[1] - friction[1], 0.0];
             out.external_force_n[i] = f;
@@ -670,14 +693,14 @@ mod tests {
         // Isotropic μ = 0.5, N = 2 N, sliding along +x at both points: F = (−1, 0) N in total.
         let fs = floor(0.5, 0.5, 0.5);
         let pts = [([0.06, 0.0, 0.0], [0.1, 0.0, 0.0]), ([-0.06, 0.0, 0.0], [0.1, 0.0, 0.0])];
-        let (f, m) = fs.friction([0.0; 3], [1.0, 0.0, 0.0], 2.0, [0.1, 0.0, 0.0], &pts);
+        let (f, m) = fs.friction([0.0; 3], [1.0, 0.0, 0.0], [2.0; 2], [0.1, 0.0, 0.0], &pts);
         assert!((f[0] + 1.0).abs() < 1e-12 && f[1].abs() < 1e-12 && m.abs() < 1e-12, "{f:?}");
         // Anisotropic (0.1 along, 1.0 across), sliding at 45°: A = 0.1, B = 1.0 per point (N/2 = 1);
         // F ∝ −(A² v, B² v) / sqrt(A² v² + B² v²), on the ellipse.
         let fs = floor(0.1, 0.1, 1.0);
         let v = [0.1, 0.1, 0.0];
         let pts = [([0.06, 0.0, 0.0], v), ([-0.06, 0.0, 0.0], v)];
-        let (f, _) = fs.friction([0.0; 3], [1.0, 0.0, 0.0], 2.0, v, &pts);
+        let (f, _) = fs.friction([0.0; 3], [1.0, 0.0, 0.0], [2.0; 2], v, &pts);
         let d = (0.01f64 + 1.0).sqrt();
         assert!((f[0] + 2.0 * 0.01 / d).abs() < 1e-12 && (f[1] + 2.0 * 1.0 / d).abs() < 1e-12, "{f:?}");
     }
@@ -687,9 +710,9 @@ mod tests {
         // At rest, μ = 0.5, N = 2 N: the floor holds up to 1 N; a 3 N push leaves 2 N.
         let fs = floor(0.5, 0.5, 0.5);
         let pts = [([0.06, 0.0, 0.0], [0.0; 3]), ([-0.06, 0.0, 0.0], [0.0; 3])];
-        let (f, _) = fs.friction([0.0, 3.0, 0.0], [1.0, 0.0, 0.0], 2.0, [0.0; 3], &pts);
+        let (f, _) = fs.friction([0.0, 3.0, 0.0], [1.0, 0.0, 0.0], [2.0; 2], [0.0; 3], &pts);
         assert!((f[1] - 1.0).abs() < 1e-9 && f[0].abs() < 1e-9, "{f:?}");
-        let (f, _) = fs.friction([0.0, 0.4, 0.0], [1.0, 0.0, 0.0], 2.0, [0.0; 3], &pts);
+        let (f, _) = fs.friction([0.0, 0.4, 0.0], [1.0, 0.0, 0.0], [2.0; 2], [0.0; 3], &pts);
         assert!((f[1] - 0.4).abs() < 1e-12, "inside the limit the floor holds it all: {f:?}");
     }
 
