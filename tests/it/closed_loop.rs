@@ -1,9 +1,7 @@
 //! Contact estimation in the step loop, the `estimate` tool, and the closed-loop controllers
 //! (issue 15).
 
-use simserpent::config::{
-    Config, ControllerKind, FloorFriction, GroundModel, OrientationSource, PegLayout, TerrainKind,
-};
+use simserpent::config::{Config, ControllerKind, FloorFriction, GroundModel, PegLayout, TerrainKind};
 use simserpent::control::PathFollowing;
 use simserpent::sim::{LoopPlan, Observer, SimError, Simulation, StepView, World};
 
