@@ -201,6 +201,7 @@ resolution = 0.0046
 rate_hz = 106.0
 
 [control]
+controller = "path_following"
 method = "intvelocity"
 torque_gear = 2.5
 position_kp_nm_per_rad = 6.0
@@ -371,6 +372,21 @@ reward_forward_weight = 2.0
 reward_energy_weight = 0.5
 reward_contact_force_weight = 0.001
 terminate_contact_force_n = 500.0
+
+[estimation]
+enabled = true
+orientation = "true"
+detection_threshold_n = 0.6
+min_lateral_force_n = 0.7
+sliding_speed_m_per_s = 0.01
+tilt_gain_per_s = 2.0
+
+[path_following]
+waypoints_m = [[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]]
+lookahead_m = 1.5
+heading_gain = 0.7
+max_offset_deg = 15.0
+acceptance_radius_m = 0.4
 "#;
 
 fn all_fields_expected() -> Config {
@@ -617,6 +633,22 @@ fn all_fields_expected() -> Config {
         reward_energy_weight: 0.5,
         reward_contact_force_weight: 0.001,
         terminate_contact_force_n: 500.0,
+    };
+    c.control.controller = ControllerKind::PathFollowing;
+    c.estimation = Estimation {
+        enabled: true,
+        orientation: OrientationSource::True,
+        detection_threshold_n: 0.6,
+        min_lateral_force_n: 0.7,
+        sliding_speed_m_per_s: 0.01,
+        tilt_gain_per_s: 2.0,
+    };
+    c.path_following = PathFollowing {
+        waypoints_m: vec![[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]],
+        lookahead_m: 1.5,
+        heading_gain: 0.7,
+        max_offset_deg: 15.0,
+        acceptance_radius_m: 0.4,
     };
     c
 }

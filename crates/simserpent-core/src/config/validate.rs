@@ -256,14 +256,6 @@ impl Config {
                 "must differ from the point before it (a segment needs a length)",
             )?;
         }
-        if self.control.controller == super::ControllerKind::PathFollowing {
-            ensure(
-                self.gait.kind == super::GaitKind::SineWave,
-                "gait.kind",
-                format!("{:?}", self.gait.kind),
-                "must be \"sine_wave\" with control.controller = \"path_following\"",
-            )?;
-        }
         Ok(())
     }
 
