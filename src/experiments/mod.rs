@@ -106,6 +106,11 @@ pub fn run_experiment(name: &str, base: &Config, output_dir: &Path, quick: bool)
     let folder = record::create_run_folder(output_dir, &format!("experiment-{name}"), &record::utc_stamp(unix_secs))
         .map_err(RunError::from)?;
     let ctx = Context { folder: folder.clone(), quick };
+    // The thesis' experiments study open-loop gaits: the configured gait drives the joints even
+    // when the config selects another controller (the default job's path following).
+    let mut gait_base = base.clone();
+    gait_base.control.controller = crate::config::ControllerKind::Gait;
+    let base = &gait_base;
     let mut report = Report { title: format!("SimSerpent experiment `{name}`"), ..Report::default() };
     let cases = match name {
         "estimation" => "Each case below wrote estimation_<case>.csv and plots/ next to this report.",

@@ -201,7 +201,7 @@ resolution = 0.0046
 rate_hz = 106.0
 
 [control]
-controller = "path_following"
+controller = "gait"
 method = "intvelocity"
 torque_gear = 2.5
 position_kp_nm_per_rad = 6.0
@@ -634,7 +634,7 @@ fn all_fields_expected() -> Config {
         reward_contact_force_weight: 0.001,
         terminate_contact_force_n: 500.0,
     };
-    c.control.controller = ControllerKind::PathFollowing;
+    c.control.controller = ControllerKind::Gait;
     c.estimation = Estimation {
         enabled: true,
         orientation: OrientationSource::True,
