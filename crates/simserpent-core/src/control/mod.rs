@@ -202,11 +202,15 @@ impl Controller for HeldCommand {
 }
 
 /// The controller that `config.control.controller` selects, for `n_joints` joints: the gait
-/// ([`TrajectoryController`]) or path following ([`PathFollowing`]).
+/// ([`TrajectoryController`]) or path following ([`PathFollowing`]). Path following steers the
+/// sine wave; with another `gait.kind` (none, serpenoid, form closure, …) the gait runs open
+/// loop.
 pub fn controller_from_config(config: &Config, n_joints: usize) -> Box<dyn Controller> {
-    match config.control.controller {
-        crate::config::ControllerKind::Gait => Box::new(TrajectoryController::from_config(config, n_joints)),
-        crate::config::ControllerKind::PathFollowing => Box::new(PathFollowing::from_config(config, n_joints)),
+    match (config.control.controller, config.gait.kind) {
+        (crate::config::ControllerKind::PathFollowing, crate::config::GaitKind::SineWave) => {
+            Box::new(PathFollowing::from_config(config, n_joints))
+        }
+        _ => Box::new(TrajectoryController::from_config(config, n_joints)),
     }
 }
 
