@@ -17,6 +17,7 @@ pub use simserpent_core::{config, control, estimation, model, state};
 
 pub mod bench;
 pub mod env;
+pub mod estimate;
 pub mod experiments;
 pub mod interrupt;
 pub mod plot;

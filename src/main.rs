@@ -153,6 +153,16 @@ enum Command {
         #[arg(long, default_value_t = 0)]
         threads: usize,
     },
+    /// Run the contact estimator on a recorded run (its config.toml, sensors.csv and links.csv,
+    /// CSV): writes RUN_FOLDER/estimation/ with estimates.csv (estimates next to the truth),
+    /// scores.md/.csv (detection, false alarms, force RMSE, contact points) and plots/.
+    Estimate {
+        /// The run folder.
+        run_folder: PathBuf,
+        /// Override a key of the run's config.toml, e.g. `--set estimation.orientation="true"`.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        overrides: Vec<String>,
+    },
     /// Write the fully commented default config, or with --preset a robot's config.
     Init {
         /// Where to write it.
@@ -570,6 +580,29 @@ fn experiment(name: &str, args: &ConfigArgs, quick: bool, threads: usize) -> Res
     }
 }
 
+fn estimate_command(run_folder: &Path, overrides: &[String]) -> Result<(), Failure> {
+    use simserpent::estimate::{EstimateError, estimate_run_folder};
+    let outcome = estimate_run_folder(run_folder, overrides).map_err(|e| match e {
+        EstimateError::Io { .. } | EstimateError::Plot { .. } => Failure { code: 1, error: e.into() },
+        _ => bad_input(anyhow::Error::new(e)),
+    })?;
+    let t = &outcome.total;
+    let pct = |x: f64| if x.is_nan() { "n/a".to_string() } else { format!("{:.1} %", 100.0 * x) };
+    outln!(
+        "{} rows: obstacle contacts detected {} of {} link-steps, false alarms {}, force RMSE / RMS {}, contact \
+         points within 1 cm {} of {}",
+        outcome.rows,
+        pct(t.detection_rate()),
+        t.hits + t.misses,
+        pct(t.false_alarm_rate()),
+        pct(t.relative_force_rmse()),
+        pct(t.point_within_rate()),
+        t.points
+    );
+    outln!("estimates, scores and plots: {}", outcome.folder.display());
+    Ok(())
+}
+
 fn study(
     args: &ConfigArgs,
     quick: bool,
@@ -871,6 +904,7 @@ fn main() -> ExitCode {
         Some(Command::View { path, overrides }) => view_command(path.as_deref(), &overrides),
         Some(Command::Init { path, force, preset }) => init(&path, force, preset.as_deref()),
         Some(Command::Experiment { name, config, quick, threads }) => experiment(&name, &config, quick, threads),
+        Some(Command::Estimate { run_folder, overrides }) => estimate_command(&run_folder, &overrides),
         Some(Command::Model { config, output, scene_dir }) => model(&config, output.as_deref(), scene_dir.as_deref()),
         Some(Command::Check { config }) => check(&config),
         Some(Command::Convert { input, output, force }) => convert(&input, output.as_deref(), force),

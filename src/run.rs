@@ -245,7 +245,7 @@ fn run_simulation_tracked<C: Controller>(
         let format = config.recording.format;
         let recorder = if config.recording.enabled && (format.csv() || format.parquet()) {
             let surfaces = !sim.ground().surfaces().is_empty();
-            Some(Recorder::create(&folder, &config.recording, &sim.world().index, surfaces)?)
+            Some(Recorder::create(&folder, &config.recording, &sim.world().index, surfaces, config.estimation.enabled)?)
         } else {
             None
         };

@@ -250,6 +250,11 @@ pub fn run_experiment_with(
     } else {
         base
     };
+    // The thesis' experiments study open-loop gaits: the configured gait drives the joints even
+    // when the config selects another controller (the default job's path following).
+    let mut gait_base = base.clone();
+    gait_base.control.controller = crate::config::ControllerKind::Gait;
+    let base = &gait_base;
     let mut report = Report { title: format!("SimSerpent experiment `{name}`"), ..Report::default() };
     let cases = match name {
         "estimation" => "Each case below wrote estimation_<case>.csv and plots/ next to this report.",

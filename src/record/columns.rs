@@ -19,6 +19,8 @@ pub(super) struct Wanted<'a> {
     pub flags: &'a Recording,
     /// The config has floor surfaces (`links` gets `link_ii_surface`).
     pub surfaces: bool,
+    /// Contact estimation runs in the loop (`[estimation] enabled`): the `estimates` table.
+    pub estimation: bool,
 }
 
 /// What a group of columns repeats over within a row.
@@ -396,8 +398,79 @@ pub(super) const CONTACTS: TableSpec = TableSpec {
     }],
 };
 
+/// A per-link 3-vector of the measured observation's contact estimates (zeros when inactive).
+fn estimate3(v: &[[f64; 3]], i: usize) -> [f64; 3] {
+    v.get(i).copied().unwrap_or([0.0; 3])
+}
+
+/// Signed distance (m) of `point` from the link's centre of mass along its axis (+x).
+fn along_axis(s: &Snapshot, i: usize, point: [f64; 3]) -> f64 {
+    let [w, x, y, z] = s.link_quat[i];
+    let axis = [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)];
+    let c = s.link_position_m[i];
+    (0..3).map(|k| (point[k] - c[k]) * axis[k]).sum()
+}
+
+/// `estimates.csv`: one row per recorded step, per link the contact estimates the controller saw
+/// (`estimation::MotionEstimator`, from the measured sensors) next to the ground truth. The
+/// estimates describe `sensor_time_s` (the sensors' sample, one step before `time_s`), the true
+/// columns `time_s`: compare an estimate with the truth of the row whose `time_s` is its
+/// `sensor_time_s` (`simserpent estimate` does).
+pub(super) const ESTIMATES: TableSpec = TableSpec {
+    name: "estimates",
+    on: |w| w.estimation,
+    rows: Rows::One,
+    sections: &[
+        Section {
+            per: Per::Row,
+            groups: &[
+                TIME,
+                Group::float(always, Names::One("sensor_time_s"), |t, a| {
+                    t.num(a.s.observation_measured.sensor_time_secs)
+                }),
+            ],
+        },
+        Section {
+            per: Per::Link,
+            groups: &[
+                Group::float(always, Names::Xyz("estimated_external_force", "n"), |t, a| {
+                    t.nums(&estimate3(&a.s.observation_measured.contacts.external_force_n, a.i))
+                }),
+                Group::float(always, Names::Xyz("estimated_floor_force", "n"), |t, a| {
+                    t.nums(&estimate3(&a.s.observation_measured.contacts.floor_force_n, a.i))
+                }),
+                Group::float(always, Names::Xyz("estimated_obstacle_force", "n"), |t, a| {
+                    t.nums(&estimate3(&a.s.observation_measured.contacts.obstacle_force_n, a.i))
+                }),
+                // 1 when the estimator flags an obstacle contact, else 0.
+                Group::float(always, Names::One("estimated_contact"), |t, a| {
+                    t.num(f64::from(u8::from(
+                        a.s.observation_measured.contacts.contact.get(a.i).copied().unwrap_or(false),
+                    )))
+                }),
+                // The contact point along the link from its centre (+ toward the head); 0 and
+                // estimated_point_known = 0 when the estimator reports none.
+                Group::float(always, Names::List(&["estimated_point_along_m", "estimated_point_known"]), |t, a| {
+                    let p = a.s.observation_measured.contacts.contact_point_along_m.get(a.i).copied().flatten();
+                    t.nums(&[p.unwrap_or(0.0), f64::from(u8::from(p.is_some()))])
+                }),
+                Group::float(always, Names::Xyz("true_external_force", "n"), |t, a| {
+                    t.nums(&a.s.link_contact_force_n[a.i])
+                }),
+                Group::float(always, Names::Xyz("true_floor_force", "n"), |t, a| t.nums(&a.s.link_floor_force_n[a.i])),
+                Group::float(always, Names::Xyz("true_obstacle_force", "n"), |t, a| {
+                    t.nums(&a.s.link_obstacle_force_n[a.i])
+                }),
+                Group::float(always, Names::One("true_point_along_m"), |t, a| {
+                    t.num(a.s.link_obstacle_point_m[a.i].map_or(0.0, |p| along_axis(a.s, a.i, p)))
+                }),
+            ],
+        },
+    ],
+};
+
 /// Every table, in the order the manifest lists them.
-pub(super) const TABLES: [&TableSpec; 4] = [&LINKS, &JOINTS, &SENSORS, &CONTACTS];
+pub(super) const TABLES: [&TableSpec; 5] = [&LINKS, &JOINTS, &SENSORS, &CONTACTS, &ESTIMATES];
 
 /// A table's columns resolved for one run: the writers of the groups it records, in order.
 pub(super) struct Layout {
@@ -477,13 +550,13 @@ mod tests {
     fn every_row_is_as_wide_as_its_header() {
         let mut flags = Config::default().recording;
         flags.format = TableFormat::Csv;
-        let want = Wanted { flags: &flags, surfaces: true };
+        let want = Wanted { flags: &flags, surfaces: true, estimation: true };
         let dir = tempfile::tempdir().expect("temporary folder");
         let mut s = Snapshot::new(3, 2);
         s.contacts.extend([ContactRow::default(), ContactRow { geom: [1, 0], body: [0, 9], ..ContactRow::default() }]);
         let names = ContactNames { geoms: vec!["floor".into(), "g1".into()], bodies: vec!["world".into()] };
         for spec in TABLES {
-            assert!((spec.on)(want), "{}: the default config records every table", spec.name);
+            assert!((spec.on)(want), "{}: the default config (with estimation) records every table", spec.name);
             for group in spec.sections.iter().flat_map(|section| section.groups) {
                 assert!((group.on)(want), "{}: {:?} is recorded by default", spec.name, group.names);
             }
@@ -512,10 +585,12 @@ mod tests {
     fn names_are_prefixed_and_switched() {
         let mut flags = Config::default().recording;
         flags.link_orientation = false;
-        let (_, header) = Layout::new(&LINKS, Wanted { flags: &flags, surfaces: false }, &["link_00"], &[]);
+        let (_, header) =
+            Layout::new(&LINKS, Wanted { flags: &flags, surfaces: false, estimation: false }, &["link_00"], &[]);
         assert_eq!(&header.names[..3], ["time_s", "link_00_position_x_m", "link_00_position_y_m"]);
         assert!(header.names.iter().all(|n| !n.contains("orientation") && !n.ends_with("surface")));
-        let (_, header) = Layout::new(&CONTACTS, Wanted { flags: &flags, surfaces: false }, &["link_00"], &[]);
+        let (_, header) =
+            Layout::new(&CONTACTS, Wanted { flags: &flags, surfaces: false, estimation: false }, &["link_00"], &[]);
         assert_eq!(&header.names[..6], ["time_s", "step", "geom1", "geom2", "body1", "body2"]);
         assert_eq!(&header.kinds[..3], [ColumnKind::Float, ColumnKind::Int, ColumnKind::Text]);
     }

@@ -6,7 +6,9 @@
 //! - `manifest.json`: versions, seed, status (`incomplete` while running or after an
 //!   interruption, then `complete` or `failed` with the reason), wall time, steps;
 //! - `links.csv`, `joints.csv`, `sensors.csv`: one row per recorded step (wide);
-//! - `contacts.csv`: one row per contact per recorded step (long format).
+//! - `contacts.csv`: one row per contact per recorded step (long format);
+//! - `estimates.csv` (with `[estimation] enabled`): per link the contact estimates the
+//!   controller saw next to the true obstacle and floor forces, one row per recorded step.
 //!
 //! With `recording.format = "parquet"` or `"both"` the tables are (also) written as
 //! `<table>.parquet` with the same columns ([`Table`] fans every value out to both formats).
@@ -202,8 +204,16 @@ impl Recorder {
     /// With `surfaces` (the config has floor surfaces) `links` gets one more column per link,
     /// `link_ii_surface`: the index of the surface under the link's centre in `ground.surfaces`,
     /// or −1 on the plain floor. When a table cannot be created, none is left in `folder`.
-    pub fn create(folder: &Path, flags: &Recording, index: &Index, surfaces: bool) -> Result<Self, RecordError> {
-        let want = Wanted { flags, surfaces };
+    ///
+    /// With `estimation` (contact estimation runs in the loop) the `estimates` table is written.
+    pub fn create(
+        folder: &Path,
+        flags: &Recording,
+        index: &Index,
+        surfaces: bool,
+        estimation: bool,
+    ) -> Result<Self, RecordError> {
+        let want = Wanted { flags, surfaces, estimation };
         let links: Vec<&str> = index.links.iter().map(|l| l.name.as_str()).collect();
         let joints: Vec<&str> = index.joints.iter().map(|j| j.name.as_str()).collect();
         let mut tables = Vec::with_capacity(TABLES.len());

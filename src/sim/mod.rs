@@ -673,6 +673,21 @@ impl World {
         obs.sensor_time_secs = self.sensor_time_secs;
     }
 
+    /// The simulator's link poses and velocities (centre of mass, world frame) of the current
+    /// kinematics, for an estimator's comparison with the true orientations. Does not allocate.
+    pub fn read_link_poses(&self, poses: &mut crate::estimation::LinkPoses) {
+        let d = &self.data;
+        let (xipos, xquat, xpos) = (d.xipos(), d.xquat(), d.xpos());
+        for (i, link) in self.index.links.iter().enumerate().take(poses.quat.len()) {
+            poses.quat[i] = xquat[link.body];
+            poses.com_m[i] = xipos[link.body];
+            poses.origin_m[i] = xpos[link.body];
+            let v = d.object_velocity(MjtObjBase::mjOBJ_BODY, link.body, false);
+            poses.angular_velocity_rad_per_s[i] = [v[0], v[1], v[2]];
+            poses.com_velocity_m_per_s[i] = [v[3], v[4], v[5]];
+        }
+    }
+
     /// Checks the state for NaN or infinite values and MuJoCo's own instability warnings (bad
     /// qacc, qpos, qvel, and bad ctrl: a NaN or huge command from the controller).
     /// `time_secs` is the simulated time the step reached (MuJoCo's own clock restarts when it

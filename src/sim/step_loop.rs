@@ -21,7 +21,8 @@
 
 use super::{EnergyGuard, Ground, SensorNoise, SimError, World, WorldState};
 use crate::config::{Config, Sensors};
-use crate::control::{Command, Controller, Observation, TrajectoryController};
+use crate::control::{Command, Controller, Observation};
+use crate::estimation::{ContactEstimates, LinkPoses, MotionEstimator};
 use crate::state::Snapshot;
 
 /// How many steps one [`Simulation::run`] takes and which instants it records.
@@ -172,12 +173,34 @@ pub struct Simulation<C: Controller = Box<dyn Controller>> {
     initial_ground: Ground,
     /// Runaway-energy check (`[safety]`).
     energy_guard: EnergyGuard,
+    /// Contact estimation on the measured sensors (`[estimation]`), part of sensing.
+    estimation: Option<Estimation>,
+}
+
+/// The estimator of the step loop with its output and, for `orientation = "true"`, the
+/// simulator's link poses (sized once).
+struct Estimation {
+    estimator: MotionEstimator,
+    estimates: ContactEstimates,
+    true_poses: Option<LinkPoses>,
+}
+
+impl Estimation {
+    fn new(config: &Config, world: &World) -> Option<Self> {
+        if !config.estimation.enabled {
+            return None;
+        }
+        let masses: Vec<f64> = world.index.links.iter().map(|l| l.mass_kg).collect();
+        let estimator = MotionEstimator::from_config(config, &masses);
+        let true_poses = estimator.needs_true_poses().then(|| LinkPoses::new(masses.len()));
+        Some(Self { estimator, estimates: ContactEstimates::new(masses.len()), true_poses })
+    }
 }
 
 impl Simulation<Box<dyn Controller>> {
     /// The world with the built-in controller that `config` describes.
     pub fn new(config: &Config, world: World) -> Self {
-        let controller: Box<dyn Controller> = Box::new(TrajectoryController::from_config(config, world.n_joints()));
+        let controller = crate::control::controller_from_config(config, world.n_joints());
         Self::with_typed_controller(config, world, controller)
     }
 
@@ -199,6 +222,7 @@ impl<C: Controller> Simulation<C> {
             initial_ground: ground.clone(),
             ground,
             energy_guard: EnergyGuard::new(config, &world),
+            estimation: Estimation::new(config, &world),
             controller_state,
             snapshot: Snapshot::new(nl, nj),
             sensors: config.sensors.clone(),
@@ -230,6 +254,9 @@ impl<C: Controller> Simulation<C> {
         self.ground.clone_from(&self.initial_ground);
         self.controller.reset();
         self.noise = SensorNoise::new(&self.sensors, seed, self.world.n_links(), self.world.n_joints());
+        if let Some(e) = self.estimation.as_mut() {
+            e.estimator.reset();
+        }
         self.steps = 0;
         self.sense();
         Ok(())
@@ -324,6 +351,15 @@ impl<C: Controller> Simulation<C> {
     pub fn sense(&mut self) {
         self.world.observe_true(&mut self.obs_true);
         self.noise.measure(&self.obs_true, &mut self.obs);
+        if let Some(e) = self.estimation.as_mut() {
+            // Contact estimation is part of sensing: on the measured values, into the
+            // observation the controller gets (no allocation once sized).
+            if let Some(poses) = e.true_poses.as_mut() {
+                self.world.read_link_poses(poses);
+            }
+            e.estimator.update(&self.obs, e.true_poses.as_ref(), &mut e.estimates);
+            self.obs.contacts.copy_from(&e.estimates);
+        }
     }
 
     /// Sense (unless the controller does not read the sensors), run the controller, write the

@@ -215,6 +215,7 @@ resolution = 0.0046
 rate_hz = 106.0
 
 [control]
+controller = "gait"
 method = "intvelocity"
 torque_gear = 2.5
 position_kp_nm_per_rad = 6.0
@@ -398,6 +399,21 @@ geometry = "faithful"
 [ros2]
 namespace = "lab/snake_1"
 contact_arrow_m_per_n = 0.02
+
+[estimation]
+enabled = true
+orientation = "true"
+detection_threshold_n = 0.6
+min_lateral_force_n = 0.7
+sliding_speed_m_per_s = 0.01
+tilt_gain_per_s = 2.0
+
+[path_following]
+waypoints_m = [[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]]
+lookahead_m = 1.5
+heading_gain = 0.7
+max_offset_deg = 15.0
+acceptance_radius_m = 0.4
 "#;
 
 fn all_fields_expected() -> Config {
@@ -669,6 +685,22 @@ fn all_fields_expected() -> Config {
     };
     c.legacy.geometry = LegacyGeometry::Faithful;
     c.ros2 = Ros2 { namespace: "lab/snake_1".into(), contact_arrow_m_per_n: 0.02 };
+    c.control.controller = ControllerKind::Gait;
+    c.estimation = Estimation {
+        enabled: true,
+        orientation: OrientationSource::True,
+        detection_threshold_n: 0.6,
+        min_lateral_force_n: 0.7,
+        sliding_speed_m_per_s: 0.01,
+        tilt_gain_per_s: 2.0,
+    };
+    c.path_following = PathFollowing {
+        waypoints_m: vec![[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]],
+        lookahead_m: 1.5,
+        heading_gain: 0.7,
+        max_offset_deg: 15.0,
+        acceptance_radius_m: 0.4,
+    };
     c
 }
 

@@ -134,6 +134,8 @@ fn undulation_speed(model: GroundModel, axial: f64) -> (f64, f64) {
     c.gait.kind = GaitKind::SineWave;
     c.gait.ramp_secs = 2.0;
     c.control.method = ControlMethod::Position;
+    // The open-loop gait (the default job steers with path following).
+    c.control.controller = simserpent::config::ControllerKind::Gait;
     c.ground.model = model;
     c.snake.ground_friction = [0.5, 0.0, 0.0];
     c.ground.lateral_friction = 0.5;

@@ -8,6 +8,7 @@
 #![allow(clippy::unwrap_used)]
 
 mod cli;
+mod closed_loop;
 mod common;
 mod config;
 mod dying_processes;

@@ -182,6 +182,8 @@ pub struct Config {
     pub env: Env,
     pub legacy: Legacy,
     pub ros2: Ros2,
+    pub estimation: Estimation,
+    pub path_following: PathFollowing,
 }
 
 /// How the original tool's geometry is reproduced (`[legacy]`; README "The original tool").
@@ -448,6 +450,9 @@ pub struct SensorModel {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Control {
+    /// Which controller drives the joints: the configured gait, open loop, or the
+    /// path-following controller of `[path_following]`.
+    pub controller: ControllerKind,
     pub method: ControlMethod,
     pub torque_gear: f64,
     pub position_kp_nm_per_rad: f64,
@@ -457,6 +462,16 @@ pub struct Control {
     pub pid_kp_nm_per_rad: f64,
     pub pid_ki_nm_per_rad_s: f64,
     pub pid_kd_nm_s_per_rad: f64,
+}
+
+/// The controller of a run (`control.controller`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ControllerKind {
+    /// The `[gait]` trajectory, open loop (`control::TrajectoryController`).
+    Gait,
+    /// Line-of-sight path following (`control::PathFollowing`, `[path_following]`).
+    PathFollowing,
 }
 
 /// Which actuator kind the controller drives.
@@ -1082,4 +1097,50 @@ impl Config {
     pub fn joint_range_rad(&self) -> f64 {
         self.snake.joint_range_deg.to_radians()
     }
+}
+
+/// Contact estimation in the step loop (`[estimation]`; `estimation::MotionEstimator`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Estimation {
+    /// Run the estimator at every sensed step: estimates in `Observation::contacts` and the
+    /// `estimates` table.
+    pub enabled: bool,
+    /// Where the link orientations come from: the encoders and the head IMU, or the simulator.
+    pub orientation: OrientationSource,
+    /// Horizontal obstacle force (N) from which a link counts as touching an obstacle.
+    pub detection_threshold_n: f64,
+    /// Smallest lateral obstacle force (N) for which a contact point along the link is reported.
+    pub min_lateral_force_n: f64,
+    /// Below this speed (m/s) a link's floor contact point counts as sticking.
+    pub sliding_speed_m_per_s: f64,
+    /// Gain (1/s) of the head attitude filter's tilt correction from the accelerometer.
+    pub tilt_gain_per_s: f64,
+}
+
+/// `estimation.orientation`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OrientationSource {
+    /// Head attitude from its gyro and accelerometer (measured), the rest from the encoders.
+    Imu,
+    /// The simulator's link orientations and velocities (for comparison).
+    True,
+}
+
+/// The path-following controller (`[path_following]`; `control::PathFollowing`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PathFollowing {
+    /// The path: the points (world x, y, m) it passes through, in order. Two points: a straight
+    /// line through both; more: waypoints joined by straight segments.
+    pub waypoints_m: Vec<[f64; 2]>,
+    /// Look-ahead distance Δ of the line-of-sight guidance (m).
+    pub lookahead_m: f64,
+    /// Heading gain k_θ: joint offset (rad) per radian of heading error.
+    pub heading_gain: f64,
+    /// Largest joint offset (degrees).
+    pub max_offset_deg: f64,
+    /// A waypoint counts as reached within this distance of the centre of mass (m).
+    pub acceptance_radius_m: f64,
 }

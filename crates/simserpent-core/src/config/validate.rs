@@ -217,7 +217,50 @@ impl Config {
         self.validate_recording()?;
         self.validate_pictures()?;
         self.ros2.validate()?;
-        self.validate_env()
+        self.validate_env()?;
+        self.validate_estimation()?;
+        self.validate_path_following()
+    }
+
+    fn validate_estimation(&self) -> Check {
+        let e = &self.estimation;
+        positive("estimation.detection_threshold_n", e.detection_threshold_n)?;
+        positive("estimation.min_lateral_force_n", e.min_lateral_force_n)?;
+        positive("estimation.sliding_speed_m_per_s", e.sliding_speed_m_per_s)?;
+        non_negative("estimation.tilt_gain_per_s", e.tilt_gain_per_s)
+    }
+
+    fn validate_path_following(&self) -> Check {
+        let p = &self.path_following;
+        positive("path_following.lookahead_m", p.lookahead_m)?;
+        positive("path_following.heading_gain", p.heading_gain)?;
+        positive("path_following.acceptance_radius_m", p.acceptance_radius_m)?;
+        positive("path_following.max_offset_deg", p.max_offset_deg)?;
+        ensure(
+            p.max_offset_deg < self.snake.joint_range_deg,
+            "path_following.max_offset_deg",
+            fmt_f(p.max_offset_deg),
+            format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
+        )?;
+        ensure(
+            p.waypoints_m.len() >= 2,
+            "path_following.waypoints_m",
+            format!("{:?}", p.waypoints_m),
+            "needs at least 2 points [x, y]",
+        )?;
+        for (i, w) in p.waypoints_m.iter().enumerate() {
+            all_finite(&format!("path_following.waypoints_m[{i}]"), w)?;
+        }
+        for (i, pair) in p.waypoints_m.windows(2).enumerate() {
+            let d = (pair[1][0] - pair[0][0]).hypot(pair[1][1] - pair[0][1]);
+            ensure(
+                d > 1e-6,
+                &format!("path_following.waypoints_m[{}]", i + 1),
+                format!("{:?}", pair[1]),
+                "must differ from the point before it (a segment needs a length)",
+            )?;
+        }
+        Ok(())
     }
 
     /// The rule of [`number_problem`] on every number of the config.

@@ -5,11 +5,13 @@
 //! the step, with the state at the start of that step (see ARCHITECTURE.md for the exact order).
 
 mod gait;
+mod path;
 mod pid;
 
 pub use gait::{
     FormClosureShift, Hold, JointTrajectory, SineWave, Still, TwoPlaneWave, serpenoid, trajectory_from_config,
 };
+pub use path::{Guidance, PathFollowing};
 pub use pid::Pid;
 
 use crate::config::{Config, ControlMethod};
@@ -44,6 +46,10 @@ pub struct Observation {
     /// Time of the sensor sample above (s): IMU and force/torque values come from the last
     /// complete evaluation of the model, at most one step old (a sensor's latency).
     pub sensor_time_secs: f64,
+    /// Contact estimates from the measured sensors (`[estimation]`, module `estimation`):
+    /// per link external, floor and obstacle force, contact flag and point. Inactive (empty)
+    /// when estimation is off and in the true observation.
+    pub contacts: crate::estimation::ContactEstimates,
 }
 
 impl Observation {
@@ -75,6 +81,7 @@ impl Observation {
         self.joint_force_n.copy_from_slice(&other.joint_force_n);
         self.joint_torque_nm.copy_from_slice(&other.joint_torque_nm);
         self.sensor_time_secs = other.sensor_time_secs;
+        self.contacts.copy_from(&other.contacts);
     }
 
     /// Number of joints.
@@ -193,6 +200,19 @@ impl Controller for HeldCommand {
     }
     fn reads_sensors(&self) -> bool {
         false
+    }
+}
+
+/// The controller that `config.control.controller` selects, for `n_joints` joints: the gait
+/// ([`TrajectoryController`]) or path following ([`PathFollowing`]). Path following steers the
+/// sine wave; with another `gait.kind` (none, serpenoid, form closure, …) the gait runs open
+/// loop.
+pub fn controller_from_config(config: &Config, n_joints: usize) -> Box<dyn Controller> {
+    match (config.control.controller, config.gait.kind) {
+        (crate::config::ControllerKind::PathFollowing, crate::config::GaitKind::SineWave) => {
+            Box::new(PathFollowing::from_config(config, n_joints))
+        }
+        _ => Box::new(TrajectoryController::from_config(config, n_joints)),
     }
 }
 

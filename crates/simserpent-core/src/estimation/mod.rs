@@ -41,6 +41,12 @@
 
 use crate::control::Observation;
 
+mod motion;
+mod score;
+
+pub use motion::{ChainGeometry, ContactEstimates, FloorShare, HeadAttitude, LinkPoses, MotionEstimator};
+pub use score::{LinkSample, MotionScore};
+
 /// What an estimator gets at one instant: per link (`n_links`) and per joint (`n_joints =
 /// n_links − 1`, joint `j` between links `j` and `j+1`). World frame unless the name says
 /// otherwise.
@@ -74,6 +80,10 @@ pub struct EstimateOutput {
     pub total_force_n: [f64; 3],
     /// Per link: estimated point of application on the link axis (m), where the data determine it.
     pub link_contact_point_m: Vec<Option<[f64; 3]>>,
+    /// Per link: moment of the external forces about the centre of mass (N·m, world frame,
+    /// quasi-static). Estimators that do not compute it leave zeros (the floor separation then
+    /// puts the obstacle's contact point at the centre of mass).
+    pub link_moment_nm: Vec<[f64; 3]>,
 }
 
 /// A contact-force estimator. Implement it to score your own estimator the same way as the
@@ -140,6 +150,7 @@ impl EstimateOutput {
             link_force_n: vec![[0.0; 3]; n_links],
             total_force_n: [0.0; 3],
             link_contact_point_m: vec![None; n_links],
+            link_moment_nm: vec![[0.0; 3]; n_links],
         }
     }
 }
@@ -160,7 +171,7 @@ pub fn quat_to_matrix(q: [f64; 4]) -> [[f64; 3]; 3] {
     ]
 }
 
-fn rotate(r: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+pub(crate) fn rotate(r: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
     [
         r[0][0] * v[0] + r[0][1] * v[1] + r[0][2] * v[2],
         r[1][0] * v[0] + r[1][1] * v[1] + r[1][2] * v[2],
@@ -168,11 +179,11 @@ fn rotate(r: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
     ]
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(crate) fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }
 
@@ -239,6 +250,9 @@ impl ContactEstimator for NewtonEulerEstimator {
                 }
             }
             out.link_force_n[i] = f;
+            if let Some(m) = out.link_moment_nm.get_mut(i) {
+                *m = moment;
+            }
             for (total, fk) in out.total_force_n.iter_mut().zip(f) {
                 *total += fk;
             }
