@@ -482,10 +482,12 @@ struct Tracking {
 }
 
 impl Tracking {
-    /// `None` without a moving gait or without joints.
+    /// `None` without a moving gait, without joints, or when the gait is not what the joints
+    /// are commanded (a closed-loop controller such as path following adds its own offsets).
     fn new(config: &Config, world: &World) -> Option<Self> {
         let n = world.n_joints();
-        if config.gait.kind == crate::config::GaitKind::None || n == 0 {
+        let open_loop = config.control.controller == crate::config::ControllerKind::Gait;
+        if config.gait.kind == crate::config::GaitKind::None || n == 0 || !open_loop {
             return None;
         }
         Some(Self {
