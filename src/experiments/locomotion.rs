@@ -632,7 +632,7 @@ pub fn configure(ctx: &Context, base: &Config) -> Result<Section, ExperimentErro
             elevation_deg: -30.0,
         };
         let file = format!("configure-{name}.png");
-        let drawn = super::pictures::picture_at_start(&run, view, &ctx.folder, &file)
+        let drawn = super::pictures::picture_at_start(run, view, &ctx.folder, &file)
             .and_then(|path| super::pictures::pixels_of_colour(&path, [rgba[0], rgba[1], rgba[2]]));
         match drawn {
             Ok(pixels) => {
