@@ -520,6 +520,42 @@ impl TrackingTotals {
     }
 }
 
+/// The point of the friction ellipse (x/a)² + (y/b)² ≤ 1 nearest to (x, y) (Euclidean): (x, y) itself
+/// when inside. Degenerate axes (a or b = 0) give a segment or the origin. One implementation
+/// for SimSerpent's own friction law (`sim::ground`) and the estimator's floor share.
+pub fn project_to_ellipse(x: f64, y: f64, a: f64, b: f64) -> (f64, f64) {
+    if a <= 0.0 && b <= 0.0 {
+        return (0.0, 0.0);
+    }
+    if a <= 0.0 {
+        return (0.0, y.clamp(-b, b));
+    }
+    if b <= 0.0 {
+        return (x.clamp(-a, a), 0.0);
+    }
+    if (x / a).powi(2) + (y / b).powi(2) <= 1.0 {
+        return (x, y);
+    }
+    // Nearest point: (a² x / (a² + t), b² y / (b² + t)) with t ≥ 0 the root of
+    // f(t) = (a x / (a² + t))² + (b y / (b² + t))² − 1, convex and decreasing: Newton from 0
+    // climbs to the root without overshooting.
+    let (a2, b2) = (a * a, b * b);
+    let mut t = 0.0;
+    for _ in 0..50 {
+        let (p, q) = (a * x / (a2 + t), b * y / (b2 + t));
+        let f = p * p + q * q - 1.0;
+        if f <= 1e-12 {
+            break;
+        }
+        let df = -2.0 * (p * p / (a2 + t) + q * q / (b2 + t));
+        t -= f / df;
+    }
+    let (px, py) = (a2 * x / (a2 + t), b2 * y / (b2 + t));
+    // Exactly onto the boundary (the Newton root leaves it a hair outside at most).
+    let s = ((px / a).powi(2) + (py / b).powi(2)).sqrt();
+    if s > 1.0 { (px / s, py / s) } else { (px, py) }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

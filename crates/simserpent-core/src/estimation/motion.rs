@@ -391,41 +391,11 @@ impl FloorShare {
             let rest = [f_h[0] - friction[0], f_h[1] - friction[1], 0.0];
             let (ra, rl) = (dot(rest, axis), dot(rest, lat));
             let mu_a = if ra < 0.0 { self.mu_forward } else { self.mu_backward };
-            let (fa, fl) = project_to_ellipse(ra, rl, mu_a * n_stick, self.mu_lateral * n_stick);
+            let (fa, fl) = crate::state::project_to_ellipse(ra, rl, mu_a * n_stick, self.mu_lateral * n_stick);
             friction = add(friction, add(scale(axis, fa), scale(lat, fl)));
         }
         (friction, moment_z)
     }
-}
-
-/// The point of the ellipse (x/a)² + (y/b)² ≤ 1 nearest to (x, y): (x, y) itself inside.
-/// (Bisection on the Lagrange multiplier; degenerate axes give a segment or the origin.)
-fn project_to_ellipse(x: f64, y: f64, a: f64, b: f64) -> (f64, f64) {
-    if a <= 0.0 && b <= 0.0 {
-        return (0.0, 0.0);
-    }
-    if a <= 0.0 {
-        return (0.0, y.clamp(-b, b));
-    }
-    if b <= 0.0 {
-        return (x.clamp(-a, a), 0.0);
-    }
-    if (x / a).powi(2) + (y / b).powi(2) <= 1.0 {
-        return (x, y);
-    }
-    // p(t) = (a² x / (a² + t), b² y / (b² + t)), t ≥ 0 with (px/a)² + (py/b)² = 1.
-    let g = |t: f64| (a * x / (a * a + t)).powi(2) + (b * y / (b * b + t)).powi(2) - 1.0;
-    let (mut lo, mut hi) = (0.0, (a * x.abs()).max(b * y.abs()));
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if g(mid) > 0.0 {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    let t = 0.5 * (lo + hi);
-    (a * a * x / (a * a + t), b * b * y / (b * b + t))
 }
 
 /// The estimator of the step loop (module documentation). Built once; `update` does not
@@ -748,8 +718,8 @@ mod tests {
 
     #[test]
     fn ellipse_projection_lands_on_the_ellipse() {
-        let (x, y) = project_to_ellipse(3.0, 4.0, 1.0, 2.0);
+        let (x, y) = crate::state::project_to_ellipse(3.0, 4.0, 1.0, 2.0);
         assert!(((x / 1.0).powi(2) + (y / 2.0).powi(2) - 1.0).abs() < 1e-9);
-        assert_eq!(project_to_ellipse(0.1, 0.1, 1.0, 2.0), (0.1, 0.1));
+        assert_eq!(crate::state::project_to_ellipse(0.1, 0.1, 1.0, 2.0), (0.1, 0.1));
     }
 }
