@@ -407,7 +407,7 @@ pub struct MotionEstimator {
     min_lateral_force_n: f64,
     floor: FloorShare,
     attitude: HeadAttitude,
-    estimator: Box<dyn ContactEstimator + Send>,
+    estimator: Box<dyn ContactEstimator + Send + Sync>,
     input: EstimatorInput,
     out: EstimateOutput,
     poses: LinkPoses,
@@ -429,7 +429,7 @@ impl MotionEstimator {
     }
 
     /// The same with your own estimator of the external forces (stage 2).
-    pub fn with_estimator(config: &Config, link_mass_kg: &[f64], estimator: Box<dyn ContactEstimator + Send>) -> Self {
+    pub fn with_estimator(config: &Config, link_mass_kg: &[f64], estimator: Box<dyn ContactEstimator + Send + Sync>) -> Self {
         let e = &config.estimation;
         let geometry = ChainGeometry::from_config(config, link_mass_kg);
         let n = geometry.n_links();
