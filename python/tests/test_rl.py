@@ -370,7 +370,8 @@ def test_gait_is_callable_from_python():
 
 
 def test_run_with_a_python_controller_records_a_normal_run(tmp_path):
-    sets = {"snake.n_links": 4, "terrain.kind": "none", "general.duration_secs": 0.3}
+    # The built-in open-loop gait (the default job's controller is path following).
+    sets = {"snake.n_links": 4, "terrain.kind": "none", "general.duration_secs": 0.3, "control.controller": "gait"}
     gait = simserpent.Gait(overrides=sets)
     calls = []
 
