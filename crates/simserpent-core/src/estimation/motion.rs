@@ -429,7 +429,11 @@ impl MotionEstimator {
     }
 
     /// The same with your own estimator of the external forces (stage 2).
-    pub fn with_estimator(config: &Config, link_mass_kg: &[f64], estimator: Box<dyn ContactEstimator + Send + Sync>) -> Self {
+    pub fn with_estimator(
+        config: &Config,
+        link_mass_kg: &[f64],
+        estimator: Box<dyn ContactEstimator + Send + Sync>,
+    ) -> Self {
         let e = &config.estimation;
         let geometry = ChainGeometry::from_config(config, link_mass_kg);
         let n = geometry.n_links();
