@@ -7,7 +7,8 @@
 //! valgrind --tool=callgrind target/release/examples/estimator_cost 10000   # instructions
 //! ```
 //!
-//! The optional argument is the number of updates per snake size (default 200 000).
+//! The optional argument is the number of updates per snake size (default 200 000); a second
+//! argument `identify` runs it with `estimation.friction = "identify"`.
 
 use simserpent::config::Config;
 use simserpent::control::Observation;
@@ -16,10 +17,14 @@ use std::time::Instant;
 
 fn main() {
     let updates: usize = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(200_000);
+    let identify = std::env::args().nth(2).as_deref() == Some("identify");
     for n_links in [10, 30] {
         let mut config = Config::default();
         config.snake.n_links = n_links;
         config.estimation.enabled = true;
+        if identify {
+            config.estimation.friction = simserpent::config::FloorFrictionSource::Identify;
+        }
         let masses = vec![config.snake.link_mass_kg; n_links];
         let mut estimator = MotionEstimator::from_config(&config, &masses);
         let mut obs = Observation::new(n_links, n_links - 1);

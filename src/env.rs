@@ -219,7 +219,9 @@ impl EnvCore {
         let (action_lo, action_hi) =
             if config.env.normalize_action { (vec![-1.0; nj], vec![1.0; nj]) } else { (lo.clone(), hi.clone()) };
         let forward_xy = world.head_heading_xy();
-        let held = HeldCommand { command: Command::new(nj) };
+        // With contact estimation the sensors are read at every physics step: the estimator's
+        // attitude filter integrates the gyro step by step, as in `simserpent run`.
+        let held = HeldCommand { command: Command::new(nj), sense_every_step: config.estimation.enabled };
         let mut env = Self {
             sim: Simulation::with_typed_controller(&config, world, held),
             substeps,
@@ -381,6 +383,13 @@ impl EnvCore {
         Ok(())
     }
 
+    /// The contact estimates of the latest sensed instant (`[estimation] enabled`; inactive,
+    /// all zero, otherwise): per link external, floor and obstacle force, contact flag and
+    /// contact point. The observation has some of them with `env.observe_contact_estimates`.
+    pub fn contact_estimates(&self) -> &crate::estimation::ContactEstimates {
+        &self.sim.observation().contacts
+    }
+
     /// Holds `action` (clipped to [`EnvCore::action_bounds`], mapped onto the physical bounds
     /// when normalised) for one control period and writes the observation after it into
     /// `obs_out`. After a terminated step, further steps do nothing but repeat the last
@@ -501,6 +510,15 @@ impl EnvCore {
             o.joint_force_n.iter().flatten().for_each(|x| put(*x));
             o.joint_torque_nm.iter().flatten().for_each(|x| put(*x));
         }
+        if self.config.env.observe_contact_estimates {
+            let c = &o.contacts;
+            for i in 0..c.n_links() {
+                put(c.obstacle_force_n[i][0]);
+                put(c.obstacle_force_n[i][1]);
+                put(if c.contact[i] { 1.0 } else { 0.0 });
+                put(c.contact_point_along_m[i].unwrap_or(0.0));
+            }
+        }
         assert_eq!(k, out.len(), "observation length");
     }
 }
@@ -532,6 +550,16 @@ pub fn observation_names(config: &Config, n_links: usize, n_joints: usize) -> Ve
         }
         for j in 0..n_joints {
             names.extend(["x", "y", "z"].map(|a| format!("{}_torque_{a}_nm", joint(j))));
+        }
+    }
+    if config.env.observe_contact_estimates {
+        for i in 0..n_links {
+            names.extend([
+                format!("link_{i:02}_obstacle_force_x_n"),
+                format!("link_{i:02}_obstacle_force_y_n"),
+                format!("link_{i:02}_obstacle_contact"),
+                format!("link_{i:02}_obstacle_contact_point_along_m"),
+            ]);
         }
     }
     names
@@ -578,6 +606,25 @@ mod tests {
         assert_eq!(env.action_size(), nj);
         assert_eq!(env.substeps(), 20);
         assert_eq!(env.max_episode_steps(), 500);
+    }
+
+    #[test]
+    fn contact_estimates_in_the_observation_without_changing_the_physics() {
+        let mut plain = EnvCore::new(&config(&[])).expect("env");
+        let mut est =
+            EnvCore::new(&config(&["estimation.enabled=true", "env.observe_contact_estimates=true"])).expect("env");
+        assert_eq!(est.observation_size(), plain.observation_size() + 4 * 5);
+        let names = est.observation_names();
+        assert_eq!(names[names.len() - 4], "link_04_obstacle_force_x_n");
+        assert_eq!(names[names.len() - 1], "link_04_obstacle_contact_point_along_m");
+        let _ = rollout(&mut plain, 1, 10);
+        let _ = rollout(&mut est, 1, 10);
+        // The estimator reads the sensors at every step; the physics stays the same bit for bit.
+        assert_eq!(plain.world().data().qpos(), est.world().data().qpos());
+        assert!(est.contact_estimates().active);
+        assert!(!plain.contact_estimates().active);
+        let err = EnvCore::new(&config(&["env.observe_contact_estimates=true"])).err().expect("needs estimation");
+        assert!(err.to_string().contains("env.observe_contact_estimates"), "{err}");
     }
 
     #[test]

@@ -320,7 +320,7 @@ pub fn estimate_run_folder(run_folder: &Path, overrides: &[String]) -> Result<Es
     };
     write("estimates.csv", &csv)?;
     write("scores.csv", &scores_csv(&total, &per_link))?;
-    write("scores.md", &scores_markdown(run_folder, &config, rows, &total, &per_link))?;
+    write("scores.md", &scores_markdown(run_folder, &config, rows, &total, &per_link, est.floor_friction))?;
     let plots = out_dir.join("plots");
     std::fs::create_dir_all(&plots).map_err(|source| EstimateError::Io {
         what: "create",
@@ -401,11 +401,25 @@ fn pct(x: f64) -> String {
     if x.is_nan() { "n/a".into() } else { format!("{:.1} %", 100.0 * x) }
 }
 
-fn scores_markdown(run: &Path, config: &Config, rows: usize, total: &MotionScore, per_link: &[MotionScore]) -> String {
+fn scores_markdown(
+    run: &Path,
+    config: &Config,
+    rows: usize,
+    total: &MotionScore,
+    per_link: &[MotionScore],
+    floor_friction: [f64; 3],
+) -> String {
     let e = &config.estimation;
+    let friction = match e.friction {
+        crate::config::FloorFrictionSource::Config => "the [ground] coefficients".to_string(),
+        crate::config::FloorFrictionSource::Identify => format!(
+            "coefficients identified online (prior {}; at the end forward {:.4}, backward {:.4}, lateral {:.4})",
+            e.friction_prior, floor_friction[0], floor_friction[1], floor_friction[2]
+        ),
+    };
     let mut out = format!(
         "# Contact estimation of {}\n\n{rows} recorded rows; estimator: Newton–Euler on the measured sensors, link \
-         orientations from {:?}, floor share with the [ground] coefficients ({:?}), detection threshold {} N. A link-step \
+         orientations from {:?}, floor share with {friction} ({:?} floor), detection threshold {} N. A link-step \
          counts as an obstacle contact when the true horizontal obstacle force reaches the threshold; contact points are \
          scored where the true lateral force exceeds 1 N (tolerance 1 cm).\n\n",
         run.display(),

@@ -58,10 +58,19 @@ macro_rules! errln {
     }};
 }
 
+/// `--version`'s long form: the version and whether the live ROS 2 bridge (feature `ros2`) is
+/// built in (python/tests/test_ros2_live.py looks for it).
+#[cfg(feature = "ros2")]
+const LONG_VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), "\nlive ROS 2 bridge (run --ros2): built in");
+#[cfg(not(feature = "ros2"))]
+const LONG_VERSION: &str =
+    concat!(env!("CARGO_PKG_VERSION"), "\nlive ROS 2 bridge (run --ros2): not built (cargo feature ros2)");
+
 #[derive(Parser, Debug)]
 #[command(
     name = "simserpent",
     version,
+    long_version = LONG_VERSION,
     about = "Physics-based snake-robot simulator on MuJoCo 3.17",
     after_help = "Exit codes: 0 success; 1 the simulation failed (diverged, or the run folder could not be \
                   written; the manifest says why); 2 bad input (config, model or robot file, command line; no run \
@@ -106,6 +115,11 @@ enum Command {
         /// `mujoco.viewer`.
         #[arg(long)]
         viewer: bool,
+        /// Live ROS 2 bridge over DDS: publish the run's topics while it simulates and take the
+        /// joint commands from ROS 2 ([ros2]: domain, QoS, clock "free" or "lockstep"; README
+        /// "ROS 2"). Needs a binary built with `--features ros2`.
+        #[arg(long)]
+        ros2: bool,
     },
     /// Plot a run folder: the standard panels as PNG and SVG into RUN_FOLDER/plots/.
     Plot {
@@ -139,7 +153,8 @@ enum Command {
         overrides: Vec<String>,
     },
     /// Run one of the thesis' experiments with its physics checks: configure, collision,
-    /// undulation, form-closure, oal, estimation, bounce (the project assignment's ball drop). Writes runs/experiment-<name>-<UTC time>/report.md; exits 1
+    /// undulation, form-closure, oal, estimation, bounce (the project assignment's ball drop), hoal (obstacle-aided
+    /// locomotion with force feedback against open-loop waves). Writes runs/experiment-<name>-<UTC time>/report.md; exits 1
     /// if a check fails.
     Experiment {
         /// Which experiment.
@@ -323,6 +338,7 @@ impl ExitCodeOf for RunError {
         match self {
             RunError::Sim(SimError::Config(_) | SimError::RobotFile { .. } | SimError::ModelRejected { .. }) => 2,
             RunError::Render(e) => e.exit_code(),
+            RunError::Ros2(simserpent::ros2::Ros2Error::NotBuilt) => 2,
             RunError::Interrupted { .. }
             | RunError::InterruptedSetUp
             | RunError::Plot(simserpent::plot::PlotError::Interrupted { .. }) => 130,
@@ -436,7 +452,13 @@ fn convert(input: &Path, output: Option<&Path>, force: bool) -> Result<(), Failu
     Ok(())
 }
 
-fn run_command(args: &ConfigArgs, robot: Option<PathBuf>, quiet: bool, viewer: bool) -> Result<(), Failure> {
+fn run_command(
+    args: &ConfigArgs,
+    robot: Option<PathBuf>,
+    quiet: bool,
+    viewer: bool,
+    ros2: bool,
+) -> Result<(), Failure> {
     let (config, source) = load(args)?;
     if viewer {
         // Before anything is written: no display is bad input (exit code 2, no run folder).
@@ -452,6 +474,7 @@ fn run_command(args: &ConfigArgs, robot: Option<PathBuf>, quiet: bool, viewer: b
         command_line: std::env::args().collect(),
         progress: !quiet,
         viewer,
+        ros2,
         ..RunOptions::default()
     };
     let summary = run::run(&config, &options).map_err(|e: RunError| {
@@ -764,19 +787,20 @@ fn bench(
         config.general.integrator,
         duration_secs
     );
-    outln!("| links | mode | steps/s | real-time factor | vs bare still | vs bare gait |");
-    outln!("|---|---|---|---|---|---|");
+    outln!("| links | mode | steps/s | real-time factor | vs bare still | vs bare gait | vs bare gait + ground |");
+    outln!("|---|---|---|---|---|---|---|");
     for chunk in rows.chunks(simserpent::bench::modes().len()) {
-        let (still, gait) = (chunk[0].steps_per_sec, chunk[1].steps_per_sec);
+        let (still, gait, ground) = (chunk[0].steps_per_sec, chunk[1].steps_per_sec, chunk[2].steps_per_sec);
         for r in chunk {
             outln!(
-                "| {} | {} | {:.0} | {:.1} | {:.0}% | {:.0}% |",
+                "| {} | {} | {:.0} | {:.1} | {:.0}% | {:.0}% | {:.0}% |",
                 r.n_links,
                 r.mode,
                 r.steps_per_sec,
                 r.steps_per_sec * config.general.timestep_secs,
                 100.0 * r.steps_per_sec / still,
-                100.0 * r.steps_per_sec / gait
+                100.0 * r.steps_per_sec / gait,
+                100.0 * r.steps_per_sec / ground
             );
         }
     }
@@ -890,12 +914,12 @@ fn main() -> ExitCode {
     }
     let cli = Cli::parse();
     let result = match cli.command {
-        None => run_command(&ConfigArgs::default(), None, false, false),
-        Some(Command::Run { mut config, robot, quiet, video, viewer }) => {
+        None => run_command(&ConfigArgs::default(), None, false, false, false),
+        Some(Command::Run { mut config, robot, quiet, video, viewer, ros2 }) => {
             if video {
                 config.overrides.push("video.enabled=true".into());
             }
-            run_command(&config, robot, quiet, viewer)
+            run_command(&config, robot, quiet, viewer, ros2)
         }
         Some(Command::Plot { run_folder }) => plot_command(&run_folder),
         Some(Command::Render { run_folder, video, images, overrides, quiet }) => {

@@ -27,6 +27,10 @@ pub struct RunOptions {
     /// Record into exactly this folder (created if missing) instead of a new
     /// `<output_dir>/<run_name>-<UTC time>/`; sweeps use it for deterministic run folders.
     pub run_folder: Option<PathBuf>,
+    /// The live ROS 2 bridge (`run --ros2`, cargo feature `ros2`; README "ROS 2"): the run
+    /// publishes its topics over DDS and takes its joint commands from ROS 2 (the built-in
+    /// controller is not used).
+    pub ros2: bool,
 }
 
 /// Errors of a run (the binary maps them to the documented exit codes).
@@ -63,6 +67,10 @@ pub enum RunError {
         "interrupted by a signal (SIGINT or SIGTERM) during set-up, before the run started; no run folder was created"
     )]
     InterruptedSetUp,
+    /// The live ROS 2 bridge failed, or a lockstep peer went silent
+    /// ([`crate::ros2::Ros2Error::PeerTimeout`]: manifest `incomplete`, the tables readable).
+    #[error(transparent)]
+    Ros2(#[from] crate::ros2::Ros2Error),
 }
 
 /// The short summary printed at the end and stored in the manifest.
@@ -124,9 +132,15 @@ pub fn build_world(config: &Config, options: &RunOptions) -> Result<World, SimEr
 /// the gait ([`RunSummary::tracking`]).
 pub fn run(config: &Config, options: &RunOptions) -> Result<RunSummary, RunError> {
     let world = build_world(config, options)?;
+    if options.ros2 {
+        // The live bridge: its commands drive the joints (README "ROS 2").
+        let (mut bridge, source) = crate::ros2::open_bridge(config, &world.index)?;
+        let sim = Simulation::with_controller(config, world, Box::new(source));
+        return run_simulation_tracked(config, options, sim, None, Some(bridge.as_mut()));
+    }
     let sim = Simulation::new(config, world);
     let tracking = Tracking::new(config, sim.world());
-    run_simulation_tracked(config, options, sim, tracking)
+    run_simulation_tracked(config, options, sim, tracking, None)
 }
 
 /// The tracking warning of a summary: which joints missed their command (see
@@ -190,16 +204,18 @@ pub fn run_simulation<C: Controller>(
     options: &RunOptions,
     sim: Simulation<C>,
 ) -> Result<RunSummary, RunError> {
-    run_simulation_tracked(config, options, sim, None)
+    run_simulation_tracked(config, options, sim, None, None)
 }
 
 /// [`run_simulation`], with the joints' tracking of the configured gait measured when `tracking`
-/// is given (only meaningful for the built-in controller, which follows that gait).
+/// is given (only meaningful for the built-in controller, which follows that gait), and the live
+/// ROS 2 bridge as an observer when given (its report goes into the manifest).
 fn run_simulation_tracked<C: Controller>(
     config: &Config,
     options: &RunOptions,
     mut sim: Simulation<C>,
     mut tracking: Option<Tracking>,
+    mut bridge: Option<&mut dyn crate::ros2::LiveBridge>,
 ) -> Result<RunSummary, RunError> {
     if crate::interrupt::requested() {
         return Err(RunError::InterruptedSetUp);
@@ -239,6 +255,7 @@ fn run_simulation_tracked<C: Controller>(
         mujoco_warnings: Vec::new(),
         summary: None,
         plots: None,
+        ros2: None,
     };
     let mut reserve = open_run_folder(&folder, created, &mut manifest)?;
     let set_up = write_run_files(config, &folder, sim.world()).and_then(|()| {
@@ -282,6 +299,9 @@ fn run_simulation_tracked<C: Controller>(
         if let Some(v) = visuals.as_mut() {
             observers.push(v);
         }
+        if let Some(b) = bridge.as_mut() {
+            observers.push(&mut **b);
+        }
         observers.push(&mut interrupt);
         observers.push(&mut progress);
         sim.run(plan, &mut observers)
@@ -311,6 +331,7 @@ fn run_simulation_tracked<C: Controller>(
     manifest.steps = sim.steps();
     manifest.simulated_secs = sim.world().time_secs();
     manifest.mujoco_warnings = sim.world().warning_counts();
+    manifest.ros2 = bridge.as_ref().map(|b| b.report());
     // Every table is closed and listed with the whole rows it holds, also after a failure.
     let (mut tables, mut tables_done) = match recorder {
         Some(r) => r.finish(),
@@ -406,7 +427,14 @@ fn write_run_files(config: &Config, folder: &Path, world: &World) -> Result<(), 
 /// than a manifest that cannot be written (say, on the same full disk): that one is logged.
 fn end_unfinished(folder: &Path, manifest: &mut Manifest, reserve: &mut SpaceReserve, e: RunError) -> RunError {
     reserve.release();
-    manifest.status = if matches!(e, RunError::Interrupted { .. }) { RunStatus::Incomplete } else { RunStatus::Failed };
+    // A stop from outside (a signal, a lockstep peer that went away) leaves an incomplete run
+    // with readable tables, not a failed one.
+    let stopped = matches!(
+        e,
+        RunError::Interrupted { .. }
+            | RunError::Ros2(crate::ros2::Ros2Error::PeerTimeout { .. } | crate::ros2::Ros2Error::NoPeer { .. })
+    );
+    manifest.status = if stopped { RunStatus::Incomplete } else { RunStatus::Failed };
     manifest.error = Some(e.to_string());
     if let Err(m) = manifest.write(folder) {
         log::error!("{m}");

@@ -1,22 +1,25 @@
 """RL throughput and the accuracy of the physics presets (issue 19).
 
     python python/bench/bench_rl.py throughput [--seconds 3] [--repeats 3] [--json out.json]
-    python python/bench/bench_rl.py accuracy [--secs 10] [--candidates default,fast,...] [--json out.json]
+    python python/bench/bench_rl.py accuracy [--secs 10] [--episodes 16] [--first-seed 0]
+        [--floors stick_slip] [--candidates fast,implicitfast@2,implicitfast@4:8,...] [--json out.json]
 
-throughput: env steps per second, one core unless stated, of
-  - ``gym.make("SimSerpent-v0")`` (the 10-link default snake, random actions in [-1, 1]) with
-    the default physics and with ``env.preset = "fast"``, each with ``physics.floor_friction``
-    "mujoco" and "stick_slip";
+throughput: env steps per second (wall, and per CPU-second of this process) of
+  - ``gym.make("SimSerpent-v0")`` (the 10-link default snake and terrain, random actions in
+    [-1, 1]) with the default physics and with ``env.preset = "fast"``;
   - the Rust vector env (``SimSerpentVectorEnv``, 8 envs) on 1 and 2 threads (default and fast);
   - Gymnasium's ``Swimmer-v5`` (``gymnasium[mujoco]`` on the same ``mujoco`` wheel).
-  Variants are measured round-robin, best of ``--repeats`` (the machine may be shared).
+  Variants are measured round-robin, best of ``--repeats`` (the machine may be shared); the
+  output ends with a markdown table (with date, CPU and load average) for BENCHMARKS.md.
 
 accuracy: a reference gait (the config's sine wave, 30 deg, 0.5 Hz, 40 deg lag; through the
   environment as normalised actions, ``simserpent.Gait.action``) for ``--secs`` seconds from
-  ``--episodes`` starts (the default reset noise, seeds 0, 1, ...) with the default physics and
-  with each candidate physics (``integrator@timestep_ms``, e.g. ``implicitfast@2``; ``fast`` =
-  the preset; ``perturbed`` = the default physics with 1e-6 rad reset noise, a single start's
-  sensitivity): means over the starts (with standard errors) of the speed of travel (m/s), the
+  ``--episodes`` starts (the default reset noise, seeds ``--first-seed``, +1, ...) with the
+  default physics and with each candidate physics (``integrator@timestep_ms``, e.g.
+  ``implicitfast@2``; ``fast`` = the preset; ``perturbed`` = the default physics with 1e-6 rad
+  reset noise, a single start's sensitivity; any of them with ``:contact_ms`` fixes
+  ``physics.environment_contact_time_constant_secs``, e.g. ``default:8`` = the default physics
+  with 8 ms link-obstacle/ground contacts): means over the starts (with standard errors) of the speed of travel (m/s), the
   heading of travel (rad) and the mean per-action peak contact force (N), and env steps/s of the
   vector env (all cores); the differences to the default physics. Why an ensemble: the
   undulating snake is chaotic -- a 1e-6 rad change of the start moves one 20 s trajectory's
@@ -96,35 +99,58 @@ def swimmer(seconds):
     return lambda: timed(step, lambda: env.reset(seed=0), seconds)
 
 
+def machine():
+    """CPU model, number of CPUs and the 1-minute load average (the machine may be shared)."""
+    model = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo") as f:
+            model = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    return {"cpu": model, "cpus": os.cpu_count(), "load_average_1min": os.getloadavg()[0]}
+
+
 def throughput(a):
+    """Env steps/s (wall and per CPU-second) of each variant, best of ``--repeats`` rounds
+    (round-robin), and a markdown table ready to paste into BENCHMARKS.md."""
     rng = np.random.default_rng(0)
     actions = rng.uniform(-1, 1, size=(4096, 9)).astype(np.float32)
     variants = []
-    for floor in ["mujoco", "stick_slip"]:
-        for preset in ["default", "fast"]:
-            o = {"physics.floor_friction": floor, "env.preset": preset}
-            variants.append((f"SimSerpent-v0 {preset} physics, floor {floor}", single(o, actions, a.seconds)))
+    for preset in ["default", "fast"]:
+        variants.append((f"SimSerpent-v0, `preset = \"{preset}\"`", single({"env.preset": preset}, actions, a.seconds)))
     for preset in ["default", "fast"]:
         for threads in (1, 2):
-            o = {"physics.floor_friction": "stick_slip", "env.preset": preset}
             variants.append(
-                (f"vector env 8 envs, {threads} thread(s), {preset}, stick_slip", vector(o, actions, a.seconds, threads))
+                (
+                    f"Rust vector env, 8 envs, {threads} thread{'s' if threads > 1 else ''}, `preset = \"{preset}\"`",
+                    vector({"env.preset": preset}, actions, a.seconds, threads),
+                )
             )
     try:
-        variants.append(("Gymnasium Swimmer-v5", swimmer(a.seconds)))
+        variants.append(("Gymnasium Swimmer-v5 (same `mujoco` wheel)", swimmer(a.seconds)))
     except Exception as e:  # pragma: no cover - gymnasium[mujoco] extras
         print(f"Swimmer-v5 not available: {e}")
+    loads = [os.getloadavg()[0]]
     results: dict[str, list[float]] = {}
     for _ in range(a.repeats):
         for name, fn in variants:
             results[name] = np.maximum(results.get(name, np.zeros(2)), fn()).tolist()
+            loads.append(os.getloadavg()[0])
+    m = machine()
+    print(
+        f"\n{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {m['cpu']}, {m['cpus']} CPUs; "
+        f"1-minute load average during the run {min(loads):.1f}-{max(loads):.1f}; "
+        f"best of {a.repeats} rounds of {a.seconds:g} s; fast preset = {', '.join(simserpent.ENV_FAST_PRESET)}\n"
+    )
+    print("| variant (10-link default snake, random actions) | env steps/s, wall | env steps per CPU-second |")
+    print("|---|---:|---:|")
     for name, _ in variants:
         wall, cpu = results[name]
-        print(f"{name:<55s} {wall:10.1f} env steps/s wall {cpu:10.1f} per CPU-second", flush=True)
-    return results
+        print(f"| {name} | {wall:,.0f} | {cpu:,.0f} |", flush=True)
+    return {"variants": results, "machine": m, "load_average_1min": [min(loads), max(loads)]}
 
 
-def reference_gait(overrides, secs, episodes=8):
+def reference_gait(overrides, secs, episodes=8, first_seed=0):
     """The reference gait from ``episodes`` starts (the default [env] reset noise, seeds 0, 1,
     ...; one snake each in a vector env): per start the speed of travel (|displacement of the
     centre of mass| after the 1 s ramp / time), the heading of travel (rad) and the mean of the
@@ -133,7 +159,7 @@ def reference_gait(overrides, secs, episodes=8):
     cfg = simserpent.load_config(overrides={**overrides, "env.max_episode_secs": secs})
     vec = SimSerpentVectorEnv(num_envs=episodes, config=cfg, threads=0)
     gait = simserpent.Gait(cfg)
-    vec.reset(seed=list(range(episodes)))
+    vec.reset(seed=list(range(first_seed, first_seed + episodes)))
     dt = vec.dt
     n = int(round(secs / dt))
     start = int(round(1.0 / dt))  # after the ramp
@@ -170,19 +196,28 @@ def reference_gait(overrides, secs, episodes=8):
 
 
 def candidate_overrides(name):
+    """``default``, ``fast``, ``perturbed`` or ``integrator@timestep_ms``; any of them may end
+    in ``:contact_ms``, which fixes ``physics.environment_contact_time_constant_secs`` (the
+    link-obstacle and link-ground contact time constant, default "auto" = max(2 ms, 2 timesteps))
+    at that many ms instead (MuJoCo needs at least 2 timesteps)."""
+    name, _, contact_ms = name.partition(":")
+    extra = {}
+    if contact_ms:
+        extra["physics.environment_contact_time_constant_secs"] = float(contact_ms) / 1000.0
     if name == "default":
-        return {}
+        return extra
     if name == "fast":
-        return {"env.preset": "fast"}
+        return {"env.preset": "fast", **extra}
     if name.startswith("perturbed"):
         # The default physics from a start perturbed by 1e-6 rad: the noise floor of the metrics.
-        return {"env.reset_noise_scale": 1e-6}
+        return {"env.reset_noise_scale": 1e-6, **extra}
     integrator, ms = name.split("@")
     dt = float(ms) / 1000.0
     return {
         "general.integrator": integrator,
         "general.timestep_secs": dt,
         "physics.floor_stick_time_constant_secs": max(0.005, 5 * dt),
+        **extra,
     }
 
 
@@ -190,13 +225,13 @@ def accuracy(a):
     out = {}
     for floor in a.floors.split(","):
         base = {"physics.floor_friction": floor}
-        ref = reference_gait(base, a.secs, a.episodes)
+        ref = reference_gait(base, a.secs, a.episodes, a.first_seed)
         out[floor] = {"default": ref}
         print(f"floor {floor}: default physics: {ref}")
         for name in a.candidates.split(","):
             if name == "default":
                 continue
-            r = reference_gait({**base, **candidate_overrides(name)}, a.secs, a.episodes)
+            r = reference_gait({**base, **candidate_overrides(name)}, a.secs, a.episodes, a.first_seed)
             if "error" not in r:
                 r["speed_diff_percent"] = 100 * (r["speed_m_per_s"] / ref["speed_m_per_s"] - 1)
                 r["heading_diff_rad"] = r["heading_rad"] - ref["heading_rad"]
@@ -213,7 +248,8 @@ def main():
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--secs", type=float, default=10.0)
     ap.add_argument("--floors", default="stick_slip,mujoco")
-    ap.add_argument("--episodes", type=int, default=8, help="starts per physics (accuracy)")
+    ap.add_argument("--episodes", type=int, default=16, help="starts per physics (accuracy)")
+    ap.add_argument("--first-seed", type=int, default=0, help="seeds first_seed, first_seed + 1, ... (accuracy)")
     ap.add_argument(
         "--candidates",
         default="fast,RK4@2,implicitfast@2,implicitfast@4,Euler@2,implicitfast@5",
@@ -221,7 +257,7 @@ def main():
     ap.add_argument("--json")
     a = ap.parse_args()
     results = throughput(a) if a.what == "throughput" else accuracy(a)
-    results = {"results": results, "setup": {"cpus": os.cpu_count(), "python": platform.python_version(),
+    results = {"results": results, "setup": {**machine(), "python": platform.python_version(),
                                             "fast_preset": simserpent.ENV_FAST_PRESET}}
     if a.json:
         with open(a.json, "w") as f:

@@ -9,6 +9,7 @@ the Python conveniences:
   observations as numpy arrays);
 - :func:`run` -- a whole configured run, as ``simserpent run`` does, returning its summary
   (optionally with a Python controller instead of the configured gait);
+- :func:`estimate` -- the contact estimator on a recorded run folder (``simserpent estimate``);
 - :class:`Gait` -- the config's gait as a function of time (a base policy for RL);
 - :func:`open_run` -- a run folder's tables as pandas DataFrames;
 - :mod:`simserpent.envs` -- the Gymnasium environment ``SimSerpent-v0`` (registered on import)
@@ -32,6 +33,7 @@ from . import _core
 from ._core import (
     Config,
     ConfigError,
+    EstimateError,
     ModelError,
     RecordError,
     SimSerpentError,
@@ -48,7 +50,11 @@ __version__ = _core.__version__
 #: float32 array or a list), plus its sizes, bounds, observation names, ``mjcf`` and
 #: ``centre_of_mass``; the true state ``time``, ``qpos``, ``qvel``, ``act``, ``ctrl``,
 #: ``integration_state()`` (MuJoCo's ``mjSTATE_INTEGRATION``, for ``mujoco.mj_setState``); and
-#: ``get_state() -> WorldState`` / ``set_state(state)`` for branching rollouts (bit for bit).
+#: ``get_state() -> WorldState`` / ``set_state(state)`` for branching rollouts (bit for bit);
+#: ``contact_estimates()`` -- with ``[estimation] enabled`` the per-link contact estimates of the
+#: latest step as numpy arrays (``obstacle_force_n`` (links x 3, N), ``contact`` (bool),
+#: ``contact_point_along_m`` (NaN when unknown), ``contact_point_m``, ``external_force_n``,
+#: ``floor_force_n``, ``active``).
 #: (The core of :class:`envs.SimSerpentEnv`.)
 World = _core.Env
 WorldState = _core.WorldState
@@ -72,6 +78,7 @@ Overrides = Union[Iterable[str], Mapping[str, Any], None]
 __all__ = [
     "Config",
     "ConfigError",
+    "EstimateError",
     "ModelError",
     "RecordError",
     "Run",
@@ -84,6 +91,7 @@ __all__ = [
     "ENV_FAST_PRESET",
     "JOINT_SIGN_CONVENTION",
     "default_config_toml",
+    "estimate",
     "load_config",
     "make_world",
     "mujoco_version",
@@ -180,7 +188,8 @@ def run(
     folder and tables as the built-in controller. It is called at every physics step with the
     measured observation, a dict (``time_secs``, ``joint_angle_rad``,
     ``joint_velocity_rad_per_s``, ``actuator_torque_nm``, ``head_position_m``, ``head_quat``,
-    ``head_velocity_m_per_s``; numpy arrays), and returns one command per joint for the
+    ``head_velocity_m_per_s``; numpy arrays; with ``[estimation] enabled`` also ``contacts``,
+    the contact estimates as in :meth:`World.contact_estimates`), and returns one command per joint for the
     actuators of ``control.method`` (e.g. target angles in rad for ``"position"``), or a dict
     of blocks (``{"position_rad": ..., "torque_nm": ...}``). An exception in it stops the run
     (the run folder is marked failed) and is raised as the cause of a :class:`SimSerpentError`.
@@ -189,6 +198,26 @@ def run(
     if controller is not None and not callable(controller):
         raise TypeError(f"controller must be callable (obs dict -> command), got {type(controller).__name__}")
     return _core.run(cfg, os.fspath(run_folder) if run_folder is not None else None, controller)
+
+
+def estimate(run_folder: Union[str, "os.PathLike[str]"], overrides: Overrides = None) -> dict[str, Any]:
+    """Runs the contact estimator on a recorded run, as ``simserpent estimate RUN_FOLDER``
+    does (same code, the GIL released): reads the run's ``config.toml`` (its ``[estimation]``
+    settings, with ``overrides`` such as ``{"estimation.orientation": "true"}``),
+    ``sensors.csv`` and ``links.csv`` (the run must be recorded as CSV with
+    ``recording.imu_sensors`` and the link columns; best with ``recording.every_n_steps = 1``),
+    and writes ``RUN_FOLDER/estimation/`` (``estimates.csv``, ``scores.csv``, ``scores.md``,
+    plots). Returns a dict: ``folder``, ``rows``, the paths ``estimates_csv``,
+    ``scores_csv``, ``scores_md``, and the scores ``total`` (all links) and ``per_link`` (a
+    list), each a dict with ``hits``, ``misses``, ``false_alarms``, ``correct_rejections``,
+    ``detection_rate``, ``false_alarm_rate``, ``relative_force_rmse`` (obstacle-force RMSE
+    over its RMS), ``truth_rms_n``, ``point_within_rate``, ``mean_point_error_m``, ... (NaN
+    where undefined, e.g. no contact at all).
+
+    Raises :class:`EstimateError` naming the missing file or column (and the recording switch
+    that writes it), or :class:`ConfigError` for a bad override.
+    """
+    return _core.estimate(os.fspath(run_folder), _override_list(overrides))
 
 
 class Gait:

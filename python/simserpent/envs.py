@@ -20,6 +20,10 @@ The observation, actions, reward and episode end are set by the config's ``[env]
   (``reward_forward``, ``reward_ctrl``, ...) and ``x_position``, ``y_position``, ``x_velocity``,
   ``y_velocity``, ``distance_from_origin``, ``peak_contact_force_n`` (absent, never a fake 0,
   when the step diverged);
+- contact estimates (``[estimation] enabled = true``): ``info["contact_estimates"]`` after every
+  step, the dict of :meth:`simserpent.World.contact_estimates` (per link obstacle force, contact
+  flag and point, from the measured sensors); with ``env.observe_contact_estimates`` also in the
+  observation (per link obstacle force x, y, flag, point along the link);
 - terminated: the simulation diverged (``info["error"]`` says why) or a contact force exceeded
   ``env.terminate_contact_force_n``; truncated: ``env.max_episode_secs`` reached (the physics
   goes on if you keep stepping, each step again ``truncated``; ``spec.max_episode_steps``
@@ -34,6 +38,7 @@ yet) or :mod:`mujoco.viewer` (``"human"``, needs a display).
 from __future__ import annotations
 
 import dataclasses
+import json as _json
 import os
 from typing import Any
 
@@ -230,6 +235,7 @@ class SimSerpentEnv(gym.Env):
         )
         self._start_xy = np.zeros(2)
         self._spec = None
+        self._estimation = bool(_json.loads(self.config.to_json())["estimation"]["enabled"])
 
     # gym.make sets the spec after construction; fill in the env's own episode length so that
     # spec.max_episode_steps says when it truncates (no TimeLimit wrapper is needed).
@@ -282,9 +288,15 @@ class SimSerpentEnv(gym.Env):
         info["distance_from_origin"] = float(
             np.hypot(info["x_position"] - self._start_xy[0], info["y_position"] - self._start_xy[1])
         )
+        if self._estimation:
+            info["contact_estimates"] = self.core.contact_estimates()
         if self.render_mode == "human":
             self.render()
         return obs, float(reward), bool(terminated), bool(truncated), info
+
+    def contact_estimates(self) -> dict[str, Any]:
+        """The contact estimates of the latest step (see :meth:`simserpent.World.contact_estimates`)."""
+        return self.core.contact_estimates()
 
     def render(self):
         if self._renderer is None:

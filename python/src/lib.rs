@@ -15,6 +15,8 @@ use rayon::prelude::*;
 use simserpent::config::{self, Config, ConfigError as LibConfigError, ConfigSource};
 use simserpent::control::{Command, Controller, JointTrajectory, Observation};
 use simserpent::env::{EnvCore, EnvState, RewardTerms, StepOutcome};
+use simserpent::estimate::{EstimateError as LibEstimateError, estimate_run_folder};
+use simserpent::estimation::{ContactEstimates, MotionScore};
 use simserpent::run::{RunError, RunOptions, RunSummary};
 use simserpent::sim::SimError;
 use simserpent::sweep::{self, SampleMode, SummaryTable, SweepError as LibSweepError, SweepSpec, Variation};
@@ -27,6 +29,12 @@ create_exception!(_core, ModelError, SimSerpentError, "MuJoCo rejected a model, 
 create_exception!(_core, SimulationError, SimSerpentError, "The simulation diverged.");
 create_exception!(_core, RecordError, SimSerpentError, "The run folder or a table could not be written.");
 create_exception!(_core, SweepError, SimSerpentError, "Bad sweep arguments, or the sweep folder could not be written.");
+create_exception!(
+    _core,
+    EstimateError,
+    SimSerpentError,
+    "A run folder cannot be estimated (missing file or column, unreadable table, plot failed)."
+);
 
 /// The error and its causes, `: `-separated, leaving out a cause the text already contains
 /// (what the CLI prints after `error: `).
@@ -204,8 +212,84 @@ fn summary_dict<'py>(py: Python<'py>, s: &RunSummary) -> PyResult<Bound<'py, PyD
     Ok(d)
 }
 
+/// Contact estimates as a dict of numpy arrays (n = links): `active` (bool: an estimator filled
+/// them), `external_force_n`, `floor_force_n`, `obstacle_force_n` (n × 3, N, world frame),
+/// `contact` (n, bool), `contact_point_along_m` (n, m from the link's centre along its axis,
+/// positive toward the head; NaN when unknown) and `contact_point_m` (n × 3, world; NaN rows
+/// when unknown).
+fn estimates_dict<'py>(py: Python<'py>, c: &ContactEstimates) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    let rows = |v: &[[f64; 3]]| -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let rows: Vec<Vec<f64>> = v.iter().map(|r| r.to_vec()).collect();
+        Ok(PyArray2::from_vec2(py, &rows)?)
+    };
+    d.set_item("active", c.active)?;
+    d.set_item("external_force_n", rows(&c.external_force_n)?)?;
+    d.set_item("floor_force_n", rows(&c.floor_force_n)?)?;
+    d.set_item("obstacle_force_n", rows(&c.obstacle_force_n)?)?;
+    d.set_item("contact", PyArray1::from_slice(py, &c.contact))?;
+    let along: Vec<f64> = c.contact_point_along_m.iter().map(|p| p.unwrap_or(f64::NAN)).collect();
+    d.set_item("contact_point_along_m", PyArray1::from_vec(py, along))?;
+    let points: Vec<[f64; 3]> = c.contact_point_m.iter().map(|p| p.unwrap_or([f64::NAN; 3])).collect();
+    d.set_item("contact_point_m", rows(&points)?)?;
+    Ok(d)
+}
+
+/// A [`MotionScore`] as a dict: counts, rates and errors (NaN where undefined).
+fn score_dict<'py>(py: Python<'py>, s: &MotionScore) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("hits", s.hits)?;
+    d.set_item("misses", s.misses)?;
+    d.set_item("false_alarms", s.false_alarms)?;
+    d.set_item("correct_rejections", s.correct_rejections)?;
+    d.set_item("detection_rate", s.detection_rate())?;
+    d.set_item("false_alarm_rate", s.false_alarm_rate())?;
+    d.set_item("relative_force_rmse", s.relative_force_rmse())?;
+    d.set_item("truth_rms_n", s.truth_rms_n())?;
+    d.set_item("points", s.points)?;
+    d.set_item("points_within", s.points_within)?;
+    d.set_item("points_missing", s.points_missing)?;
+    d.set_item("point_within_rate", s.point_within_rate())?;
+    d.set_item("mean_point_error_m", s.mean_point_error_m())?;
+    d.set_item("threshold_n", s.threshold_n)?;
+    d.set_item("point_min_lateral_n", s.point_min_lateral_n)?;
+    d.set_item("point_tolerance_m", s.point_tolerance_m)?;
+    Ok(d)
+}
+
+/// `simserpent estimate RUN_FOLDER` (with the GIL released): runs the contact estimator of the
+/// run's config (with `overrides`, `--set` syntax) on the recorded run and writes
+/// `RUN_FOLDER/estimation/` (estimates.csv, scores.csv, scores.md, plots). Returns `folder`,
+/// `rows`, the file paths, `total` (all links) and `per_link` scores.
+#[pyfunction]
+#[pyo3(signature = (run_folder, overrides=Vec::new()))]
+fn estimate<'py>(py: Python<'py>, run_folder: PathBuf, overrides: Vec<String>) -> PyResult<Bound<'py, PyDict>> {
+    let outcome = py.detach(|| estimate_run_folder(&run_folder, &overrides)).map_err(|e| {
+        let text = error_text(&e);
+        match e {
+            LibEstimateError::Config { .. } => ConfigError::new_err(text),
+            _ => EstimateError::new_err(text),
+        }
+    })?;
+    let d = PyDict::new(py);
+    let folder = &outcome.folder;
+    d.set_item("folder", folder.display().to_string())?;
+    d.set_item("rows", outcome.rows)?;
+    for (key, file) in [("estimates_csv", "estimates.csv"), ("scores_csv", "scores.csv"), ("scores_md", "scores.md")] {
+        d.set_item(key, folder.join(file).display().to_string())?;
+    }
+    d.set_item("total", score_dict(py, &outcome.total)?)?;
+    let per_link = PyList::empty(py);
+    for s in &outcome.per_link {
+        per_link.append(score_dict(py, s)?)?;
+    }
+    d.set_item("per_link", per_link)?;
+    Ok(d)
+}
+
 /// A Python callable as the run's controller: called at every physics step with the measured
-/// observation (a dict), it returns the joint command of `control.method` (a sequence of one
+/// observation (a dict; with `[estimation] enabled` its `contacts` entry holds the contact
+/// estimates, see `estimates_dict`), it returns the joint command of `control.method` (a sequence of one
 /// value per joint) or a dict of command blocks (`position_rad`, `velocity_rad_per_s`,
 /// `intvelocity_rad_per_s`, `torque_nm`). Its first exception is kept and stops the run (the
 /// command becomes NaN, which MuJoCo rejects at once).
@@ -225,6 +309,9 @@ impl PyController {
         d.set_item("head_position_m", PyArray1::from_slice(py, &obs.head_position_m))?;
         d.set_item("head_quat", PyArray1::from_slice(py, &obs.head_quat))?;
         d.set_item("head_velocity_m_per_s", PyArray1::from_slice(py, &obs.head_velocity_m_per_s))?;
+        if obs.contacts.active {
+            d.set_item("contacts", estimates_dict(py, &obs.contacts)?)?;
+        }
         let out = self.callable.bind(py).call1((d,))?;
         let nj = obs.n_joints();
         let put = |name: &str, value: &Bound<'_, PyAny>, block: &mut Vec<f64>| -> PyResult<()> {
@@ -599,6 +686,11 @@ impl Env {
     fn integration_state<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         let spec = mujoco_rs::mujoco_c::mjtState::mjSTATE_INTEGRATION as u32;
         PyArray1::from_slice(py, &self.core.world().data().state(spec))
+    }
+    /// The contact estimates of the latest sensed instant (`[estimation] enabled`; otherwise
+    /// `active` is False and all zero): a dict of numpy arrays, see `estimates_dict`.
+    fn contact_estimates<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        estimates_dict(py, self.core.contact_estimates())
     }
     /// A copy of the whole state (engine, held action, sensor-noise streams, ground model,
     /// episode bookkeeping).
@@ -1079,6 +1171,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SimulationError", py.get_type::<SimulationError>())?;
     m.add("RecordError", py.get_type::<RecordError>())?;
     m.add("SweepError", py.get_type::<SweepError>())?;
+    m.add("EstimateError", py.get_type::<EstimateError>())?;
     m.add_class::<PyConfig>()?;
     m.add_class::<Env>()?;
     m.add_class::<VecEnv>()?;
@@ -1092,6 +1185,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(default_config_toml, m)?)?;
     m.add_function(wrap_pyfunction!(mujoco_version, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add_function(wrap_pyfunction!(estimate, m)?)?;
     m.add("SWEEP_METRICS", sweep::METRICS.iter().map(|m| m.name).collect::<Vec<_>>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -467,7 +467,7 @@ pub fn peg_field_config(base: &Config, ground: GroundModel, seed: u64, noise_sca
     ] {
         m.std *= noise_scale;
     }
-    c.estimation = defaults.estimation.clone();
+    c.estimation = base.estimation.clone();
     c.estimation.enabled = true;
     c
 }
@@ -480,6 +480,8 @@ pub fn peg_field_config(base: &Config, ground: GroundModel, seed: u64, noise_sca
 /// about 1 N RMS).
 struct MotionScorer {
     score: MotionScore,
+    /// The floor coefficients the estimator used (forward, backward, lateral), every 0.1 s.
+    friction: Vec<(f64, [f64; 3])>,
     /// The previous recorded instant's truth: time, and per link the sample without estimate.
     previous_time_secs: f64,
     previous: Vec<LinkSample>,
@@ -494,6 +496,9 @@ impl Observer<SimError> for MotionScorer {
             self.previous_time_secs = f64::NAN;
         }
         let aligned = est.active && (view.observation.sensor_time_secs - self.previous_time_secs).abs() < 1e-9;
+        if est.active && self.friction.last().is_none_or(|(t, _)| snap.time_secs >= t + 0.1 - 1e-9) {
+            self.friction.push((snap.time_secs, est.floor_friction));
+        }
         for i in 0..n {
             if aligned && i < est.n_links() {
                 let mut sample = self.previous[i];
@@ -523,17 +528,42 @@ impl Observer<SimError> for MotionScorer {
 /// estimates against the truth at every instant (threshold: `estimation.detection_threshold_n`;
 /// contact point scored where the true lateral force exceeds 1 N, tolerance 1 cm).
 pub fn score_in_motion(config: &Config, steps: u64) -> Result<MotionScore, ExperimentError> {
+    Ok(score_in_motion_with_friction(config, steps)?.0)
+}
+
+/// The floor's Coulomb coefficients (forward, backward, lateral) over time: (time, coefficients).
+pub type FrictionSeries = Vec<(f64, [f64; 3])>;
+
+/// [`score_in_motion`], and the floor's Coulomb coefficients (forward, backward, lateral) the
+/// estimator used every 0.1 s (time, coefficients): `[ground]`'s, or with
+/// `estimation.friction = "identify"` the identified ones.
+pub fn score_in_motion_with_friction(
+    config: &Config,
+    steps: u64,
+) -> Result<(MotionScore, FrictionSeries), ExperimentError> {
     config.validate().map_err(|e| RunError::Sim(e.into()))?;
     let world = World::from_config(config).map_err(RunError::Sim)?;
     let mut sim = Simulation::new(config, world);
     let mut scorer = MotionScorer {
         score: MotionScore::new(config.estimation.detection_threshold_n, 1.0, 0.01),
+        friction: Vec::new(),
         previous_time_secs: f64::NAN,
         previous: Vec::new(),
     };
     let plan = LoopPlan { steps, record_every_n_steps: 1 };
     sim.run(plan, &mut [&mut scorer]).map_err(RunError::Sim)?;
-    Ok(scorer.score)
+    Ok((scorer.score, scorer.friction))
+}
+
+/// Relative error of identified coefficients against the true ones, over the coefficients the
+/// ground model distinguishes (isotropic: μ; anisotropic: axial, lateral; directional: all three).
+pub fn friction_relative_error(model: GroundModel, identified: [f64; 3], truth: [f64; 3]) -> f64 {
+    let used: &[usize] = match model {
+        GroundModel::Isotropic | GroundModel::Viscous => &[0],
+        GroundModel::Anisotropic => &[0, 2],
+        GroundModel::Directional => &[0, 1, 2],
+    };
+    used.iter().map(|&k| ((identified[k] - truth[k]) / truth[k]).abs()).fold(0.0, f64::max)
 }
 
 fn pct(x: f64) -> String {
@@ -632,7 +662,121 @@ fn run_motion(ctx: &Context, base: &Config, section: &mut Section) -> Result<(),
             ));
         }
     }
+    // The same with the floor's friction identified online (default noise), against the known one.
+    let mut friction_csv = String::from("floor,seed,time_s,mu_forward,mu_backward,mu_lateral\n");
+    for (floor_name, model) in [("anisotropic", GroundModel::Anisotropic), ("isotropic", GroundModel::Isotropic)] {
+        let mut total: Option<MotionScore> = None;
+        let (mut worst_end, mut worst_late) = (0.0f64, 0.0f64);
+        // Seed 0's coefficients over time and the true ones.
+        let mut plot_series: Option<(FrictionSeries, [f64; 3])> = None;
+        for seed in 0..seeds {
+            let mut config = peg_field_config(base, model, seed, 1.0);
+            config.estimation.friction = crate::config::FloorFrictionSource::Identify;
+            let truth = crate::estimation::FloorShare::from_config(&config).coefficients();
+            let steps = (duration_secs / config.general.timestep_secs).round() as u64;
+            let (s, friction) = score_in_motion_with_friction(&config, steps)?;
+            for (t, mu) in &friction {
+                friction_csv.push_str(&format!("{floor_name},{seed},{t},{},{},{}\n", mu[0], mu[1], mu[2]));
+            }
+            let end = friction.last().map_or(f64::NAN, |(_, mu)| friction_relative_error(model, *mu, truth));
+            // The largest error over the run's second half: the identification has settled.
+            let late = friction
+                .iter()
+                .filter(|(t, _)| *t >= 0.5 * duration_secs)
+                .map(|(_, mu)| friction_relative_error(model, *mu, truth))
+                .fold(0.0, f64::max);
+            worst_end = worst_end.max(end);
+            worst_late = worst_late.max(late);
+            if seed == 0 {
+                plot_series = Some((friction.clone(), truth));
+            }
+            match total.as_mut() {
+                Some(t) => t.merge(&s),
+                None => total = Some(s),
+            }
+        }
+        let Some(t) = total else { continue };
+        rows.push(vec![
+            floor_name.to_string(),
+            "default, μ identified".to_string(),
+            seeds.to_string(),
+            (t.hits + t.misses).to_string(),
+            pct(t.detection_rate()),
+            pct(t.false_alarm_rate()),
+            pct(t.relative_force_rmse()),
+            sig(t.truth_rms_n()),
+            t.points.to_string(),
+            pct(t.point_within_rate()),
+            sig(100.0 * t.mean_point_error_m()),
+        ]);
+        let label = format!("motion, {floor_name} floor, noise default, μ identified");
+        section.checks.push(Check::at_least(
+            &format!("{label}: obstacle contacts detected (of present link-steps)"),
+            t.detection_rate(),
+            0.95,
+            "",
+        ));
+        section.checks.push(Check::at_most(
+            &format!("{label}: false alarms (of free link-steps)"),
+            t.false_alarm_rate(),
+            0.05,
+            "",
+        ));
+        section.checks.push(Check::at_most(
+            &format!("{label}: obstacle-force RMSE / RMS obstacle force"),
+            t.relative_force_rmse(),
+            0.15,
+            "",
+        ));
+        section.checks.push(Check::at_least(
+            &format!("{label}: contact points within 1 cm (lateral force > 1 N)"),
+            t.point_within_rate(),
+            0.95,
+            "",
+        ));
+        section.checks.push(Check::at_most(
+            &format!("{label}: identified μ at the end, largest relative error over seeds and coefficients"),
+            worst_end,
+            FRICTION_TOLERANCE,
+            "",
+        ));
+        section.checks.push(Check::at_most(
+            &format!("{label}: identified μ over the run's second half, largest relative error"),
+            worst_late,
+            FRICTION_TOLERANCE,
+            "",
+        ));
+        if let Some((friction, truth)) = plot_series {
+            let time: Vec<f64> = friction.iter().map(|(t, _)| *t).collect();
+            let mu: Vec<[f64; 3]> = friction.iter().map(|(_, mu)| *mu).collect();
+            let plots = ctx.folder.join("plots");
+            std::fs::create_dir_all(&plots).map_err(io(&plots))?;
+            let mut series = Vec::new();
+            let names: &[(usize, &str)] = match model {
+                GroundModel::Anisotropic => &[(0, "axial"), (2, "lateral")],
+                _ => &[(0, "μ")],
+            };
+            for &(k, name) in names {
+                series.push((format!("identified {name}"), mu.iter().map(|m| m[k]).collect::<Vec<_>>()));
+                series.push((format!("true {name}"), vec![truth[k]; time.len()]));
+            }
+            crate::plot::plot_time_series(
+                &plots,
+                &format!("estimation_friction_{floor_name}"),
+                &format!("identified floor friction, {floor_name} floor, seed 0"),
+                "Coulomb coefficient",
+                &time,
+                &series,
+            )
+            .map_err(|e| ExperimentError::Data(format!("plot: {e}")))?;
+        }
+    }
+    let friction_path = ctx.folder.join("estimation_friction.csv");
+    std::fs::write(&friction_path, friction_csv).map_err(io(&friction_path))?;
     std::fs::write(&csv_path, csv).map_err(io(&csv_path))?;
     section.tables.push((header, rows));
     Ok(())
 }
+
+/// Largest relative error of the identified floor friction that the experiment accepts.
+pub const FRICTION_TOLERANCE: f64 = 0.10;

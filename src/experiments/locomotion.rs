@@ -91,6 +91,31 @@ pub(crate) fn undulation_config(base: &Config, quick: bool) -> Config {
     c
 }
 
+/// Friction ratios lateral/axial of experiment III's anisotropic Coulomb cases.
+pub(crate) const UNDULATION_RATIOS: [f64; 5] = [1.0, 2.0, 5.0, 10.0, 20.0];
+
+/// Experiment III's Coulomb cases from [`undulation_config`]: isotropic friction 0.5, no
+/// friction, then anisotropic friction lateral 0.5 / axial 0.5 / ratio for each of
+/// [`UNDULATION_RATIOS`] (the accuracy study runs the same list).
+pub(crate) fn undulation_coulomb_cases(base_cfg: &Config) -> Vec<(String, Config)> {
+    let mut cases = Vec::new();
+    for mu in [0.5, 0.0] {
+        let mut c = base_cfg.clone();
+        c.ground.model = GroundModel::Isotropic;
+        c.snake.ground_friction = [mu, 0.0, 0.0];
+        c.snake.link_friction = [mu, 0.0, 0.0];
+        cases.push((format!("undulation-{}", if mu > 0.0 { "isotropic" } else { "frictionless" }), c));
+    }
+    for ratio in UNDULATION_RATIOS {
+        let mut c = base_cfg.clone();
+        c.ground.model = GroundModel::Anisotropic;
+        c.ground.lateral_friction = 0.5;
+        c.ground.axial_friction = 0.5 / ratio;
+        cases.push((format!("undulation-anisotropic-{ratio}"), c));
+    }
+    cases
+}
+
 /// Experiment III (thesis 7.3, table 7) plus anisotropic and viscous friction.
 pub fn undulation(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
     let mut section = Section {
@@ -110,22 +135,8 @@ pub fn undulation(ctx: &Context, base: &Config) -> Result<Section, ExperimentErr
 
     // Every case first, run in parallel; then the analysis in order.
     let isotropic = [("isotropic friction 0.5", 0.5), ("no friction", 0.0)];
-    let ratios = [1.0, 2.0, 5.0, 10.0, 20.0];
-    let mut cases = Vec::new();
-    for (_, mu) in isotropic {
-        let mut c = base_cfg.clone();
-        c.ground.model = GroundModel::Isotropic;
-        c.snake.ground_friction = [mu, 0.0, 0.0];
-        c.snake.link_friction = [mu, 0.0, 0.0];
-        cases.push((format!("undulation-{}", if mu > 0.0 { "isotropic" } else { "frictionless" }), c));
-    }
-    for ratio in ratios {
-        let mut c = base_cfg.clone();
-        c.ground.model = GroundModel::Anisotropic;
-        c.ground.lateral_friction = 0.5;
-        c.ground.axial_friction = 0.5 / ratio;
-        cases.push((format!("undulation-anisotropic-{ratio}"), c));
-    }
+    let ratios = UNDULATION_RATIOS;
+    let cases = undulation_coulomb_cases(&base_cfg);
     let runs = ctx.sub_runs(&cases, |_, _| {})?;
     let mut runs = runs.iter().zip(&cases);
 

@@ -10,6 +10,7 @@ pub mod bounce;
 mod collision;
 mod data;
 pub mod estimation;
+mod hoal;
 mod locomotion;
 mod pictures;
 mod report;
@@ -18,6 +19,7 @@ pub use collision::{LAUNCH_SPEED_M_PER_S, case_bodies as collision_case_bodies};
 pub use data::Table;
 pub use locomotion::averaged_viscous_speed;
 pub(crate) use locomotion::undulation_config as locomotion_undulation_config;
+pub(crate) use locomotion::undulation_coulomb_cases as locomotion_undulation_coulomb_cases;
 pub use report::{Check, Report, Section};
 
 use crate::config::Config;
@@ -53,7 +55,8 @@ pub enum ExperimentError {
 }
 
 /// The experiments, by command name.
-pub const NAMES: [&str; 7] = ["configure", "collision", "undulation", "form-closure", "oal", "estimation", "bounce"];
+pub const NAMES: [&str; 8] =
+    ["configure", "collision", "undulation", "form-closure", "oal", "estimation", "bounce", "hoal"];
 
 /// How an experiment runs: length of its runs, threads, progress.
 #[derive(Debug, Clone, Default)]
@@ -258,6 +261,7 @@ pub fn run_experiment_with(
     let mut report = Report { title: format!("SimSerpent experiment `{name}`"), ..Report::default() };
     let cases = match name {
         "estimation" => "Each case below wrote estimation_<case>.csv and plots/ next to this report.",
+        "hoal" => "The runs are in memory: hoal_runs.csv and plots/ next to this report.",
         _ => "Each case below is a run folder next to this report (config.toml, model.xml, tables).",
     };
     report.intro = format!(
@@ -275,6 +279,7 @@ pub fn run_experiment_with(
         "form-closure" => locomotion::form_closure(&ctx, base)?,
         "estimation" => estimation::run(&ctx, base)?,
         "bounce" => bounce::run(&ctx, base)?,
+        "hoal" => hoal::run(&ctx, base)?,
         _ => locomotion::configure(&ctx, base)?,
     };
     report.sections.push(section);

@@ -195,6 +195,7 @@ type DrawResult = Result<(), String>;
 fn line_chart<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     title: &str,
+    x_label: &str,
     y_label: &str,
     series: &[Series<'_>],
 ) -> DrawResult {
@@ -210,7 +211,7 @@ fn line_chart<DB: DrawingBackend>(
         .map_err(|e| e.to_string())?;
     chart
         .configure_mesh()
-        .x_desc("time (s)")
+        .x_desc(x_label)
         .y_desc(y_label)
         .label_style((FAMILY, 14))
         .axis_desc_style((FAMILY, 16))
@@ -376,7 +377,41 @@ pub fn plot_time_series(
     register_font();
     let series: Vec<Series<'_>> =
         series.iter().map(|(name, y)| Series { name: name.clone(), x: time_s, y: y.clone() }).collect();
-    both(dir, stem, (900, 500), |root: &dyn AnyArea| root.line(title, y_label, &series))
+    both(dir, stem, (900, 500), |root: &dyn AnyArea| root.line(title, "time (s)", y_label, &series))
+}
+
+/// Draws one line chart with its own x axis into `<dir>/<stem>.png` and `.svg`: every
+/// `(name, values)` of `series` over `x` (e.g. a value per seed).
+pub fn plot_lines(
+    dir: &Path,
+    stem: &str,
+    title: &str,
+    x_label: &str,
+    y_label: &str,
+    x: &[f64],
+    series: &[(String, Vec<f64>)],
+) -> Result<Vec<PathBuf>, PlotError> {
+    register_font();
+    let series: Vec<Series<'_>> =
+        series.iter().map(|(name, y)| Series { name: name.clone(), x, y: y.clone() }).collect();
+    both(dir, stem, (900, 500), |root: &dyn AnyArea| root.line(title, x_label, y_label, &series))
+}
+
+/// Draws paths `(name, x, y)` seen from above over circular obstacles `(centre, radius)` (m)
+/// into `<dir>/<stem>.png` and `.svg` (equal scales; an open circle marks each path's start, a
+/// filled one its end).
+pub fn plot_paths_over_circles(
+    dir: &Path,
+    stem: &str,
+    paths: &[(String, Vec<f64>, Vec<f64>)],
+    circles: &[([f64; 2], f64)],
+) -> Result<Vec<PathBuf>, PlotError> {
+    register_font();
+    let series: Vec<Series<'_>> =
+        paths.iter().map(|(name, x, y)| Series { name: name.clone(), x: x.as_slice(), y: y.clone() }).collect();
+    let obstacles: Vec<Obstacle> = circles.iter().map(|(c, r)| Obstacle::Circle { x: c[0], y: c[1], r: *r }).collect();
+    let size = (1100, 600);
+    both(dir, stem, size, |root: &dyn AnyArea| root.top(&series, &obstacles, size))
 }
 
 /// Writes the standard panels of a run folder into `<folder>/plots/`.
@@ -451,7 +486,7 @@ fn draw_panels<'a>(
             out.skipped.push((stem.to_string(), why.to_string()));
             return Ok(());
         }
-        let files = both(dir, stem, size, |root: &dyn AnyArea| root.line(title, y_label, &series))?;
+        let files = both(dir, stem, size, |root: &dyn AnyArea| root.line(title, "time (s)", y_label, &series))?;
         out.files.extend(files);
         drawn.push(LinePanel { title: title.to_string(), y_label: y_label.to_string(), series });
         Ok::<(), PlotError>(())
@@ -611,7 +646,7 @@ fn contact_stats(time: &[f64], c: &Table) -> ContactStats {
 
 /// The two backends behind one object-safe face, so every panel is drawn by one closure.
 trait AnyArea {
-    fn line(&self, title: &str, y_label: &str, series: &[Series<'_>]) -> DrawResult;
+    fn line(&self, title: &str, x_label: &str, y_label: &str, series: &[Series<'_>]) -> DrawResult;
     fn top(&self, paths: &[Series<'_>], obstacles: &[Obstacle], size: (u32, u32)) -> DrawResult;
     fn grid(
         &self,
@@ -642,8 +677,8 @@ impl<DB: DrawingBackend> AnyArea for DrawingArea<DB, Shift> {
     ) -> DrawResult {
         work_precision_chart(self, title, x_label, y_label, series, levels)
     }
-    fn line(&self, title: &str, y_label: &str, series: &[Series<'_>]) -> DrawResult {
-        line_chart(self, title, y_label, series)?;
+    fn line(&self, title: &str, x_label: &str, y_label: &str, series: &[Series<'_>]) -> DrawResult {
+        line_chart(self, title, x_label, y_label, series)?;
         self.present().map_err(|e| e.to_string())
     }
     fn top(&self, paths: &[Series<'_>], obstacles: &[Obstacle], size: (u32, u32)) -> DrawResult {
@@ -661,7 +696,7 @@ impl<DB: DrawingBackend> AnyArea for DrawingArea<DB, Shift> {
         self.fill(&WHITE).map_err(|e| e.to_string())?;
         let areas = self.split_evenly(shape);
         for (area, p) in areas.iter().zip(lines) {
-            line_chart(area, &p.title, &p.y_label, &p.series)?;
+            line_chart(area, &p.title, "time (s)", &p.y_label, &p.series)?;
         }
         if let (false, Some(area)) = (paths.is_empty(), areas.get(lines.len())) {
             top_view(area, paths, obstacles, size)?;

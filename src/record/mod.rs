@@ -89,18 +89,27 @@ pub fn create_run_folder(output_dir: &Path, run_name: &str, stamp: &str) -> Resu
 }
 
 /// The tables of one run, written as the run goes, on a thread of their own: the step loop
-/// only copies each recorded [`Snapshot`] into a buffer from a fixed pool and hands it over;
-/// the writer thread formats the numbers (CSV) or encodes the columns (Parquet) and writes the
-/// files, in the order the rows came. The files are byte for byte those of writing in the loop.
+/// only copies each recorded [`Snapshot`] into a batch from a fixed pool and hands the batch
+/// over when it holds [`BATCH`] rows (or at a flush and at the end); the writer thread formats
+/// the numbers (CSV) or encodes the columns (Parquet) and writes the files, in the order the
+/// rows came. The files are byte for byte those of writing in the loop.
+///
+/// Handing over batches rather than single rows wakes the writer thread once per [`BATCH`]
+/// rows instead of once per row (each wake-up is a system call on the step-loop thread).
 ///
 /// A write error on the writer thread stops its writing at that row; the loop learns it at its
-/// next [`Recorder::write`] or [`Recorder::flush`] (a few steps later at most) and
+/// next [`Recorder::write`] or [`Recorder::flush`] (a few batches later at most) and
 /// [`Recorder::finish`] returns it, with the rows that reached the files.
 pub struct Recorder {
-    /// Rows to the writer thread; `None` once finished.
+    /// Batches to the writer thread; `None` once finished.
     to_writer: Option<std::sync::mpsc::SyncSender<ToWriter>>,
-    /// Written snapshots back from the writer thread, for reuse.
-    free: std::sync::mpsc::Receiver<Box<Snapshot>>,
+    /// Written batches back from the writer thread, for reuse.
+    free: std::sync::mpsc::Receiver<Box<Batch>>,
+    /// The batch being filled, if any.
+    current: Option<Box<Batch>>,
+    /// How often the loop found no free batch and waited for the writer thread (logged at the
+    /// end: a writer that cannot keep up shows here).
+    waits: u64,
     /// The writer thread; it returns the tables.
     writer: Option<std::thread::JoinHandle<Tables>>,
     /// The writer thread's first error, for the loop to take.
@@ -109,12 +118,22 @@ pub struct Recorder {
     failed: Arc<AtomicBool>,
 }
 
-/// Snapshots in flight between the loop and the writer thread: the loop runs at most this many
-/// rows ahead of the files.
-const POOL: usize = 64;
+/// Rows per batch handed to the writer thread.
+pub const BATCH: usize = 16;
+
+/// Batches in flight between the loop and the writer thread: the loop runs at most
+/// `POOL * BATCH` rows ahead of the files.
+const POOL: usize = 8;
+
+/// Up to [`BATCH`] recorded rows: step numbers and snapshots (all allocated once).
+struct Batch {
+    steps: [u64; BATCH],
+    snapshots: Vec<Snapshot>,
+    len: usize,
+}
 
 enum ToWriter {
-    Row(u64, Box<Snapshot>),
+    Rows(Box<Batch>),
     /// Flush, and answer when done (the error, if any, is in the shared slot).
     Flush(std::sync::mpsc::SyncSender<()>),
 }
@@ -163,7 +182,7 @@ impl Tables {
     fn serve(
         mut self,
         rows: std::sync::mpsc::Receiver<ToWriter>,
-        free: std::sync::mpsc::SyncSender<Box<Snapshot>>,
+        free: std::sync::mpsc::SyncSender<Box<Batch>>,
         error: &Mutex<Option<RecordError>>,
         failed: &AtomicBool,
     ) -> Self {
@@ -175,14 +194,17 @@ impl Tables {
         };
         for message in rows {
             match message {
-                ToWriter::Row(step, snapshot) => {
-                    if !failed.load(Ordering::Acquire)
-                        && let Err(e) = self.write(step, &snapshot)
-                    {
-                        fail(e);
+                ToWriter::Rows(mut batch) => {
+                    for (step, snapshot) in batch.steps.iter().zip(&batch.snapshots).take(batch.len) {
+                        if !failed.load(Ordering::Acquire)
+                            && let Err(e) = self.write(*step, snapshot)
+                        {
+                            fail(e);
+                        }
                     }
-                    // The pool holds exactly the snapshots allocated: this never blocks.
-                    let _ = free.try_send(snapshot);
+                    batch.len = 0;
+                    // The pool holds exactly the batches allocated: this never blocks.
+                    let _ = free.try_send(batch);
                 }
                 ToWriter::Flush(answer) => {
                     if !failed.load(Ordering::Acquire)
@@ -242,7 +264,8 @@ impl Recorder {
         let (give_back, free) = std::sync::mpsc::sync_channel(POOL);
         // The whole pool now: a recorded step allocates nothing (but more contacts than ever).
         for _ in 0..POOL {
-            let _ = give_back.try_send(Box::new(Snapshot::new(index.links.len(), index.joints.len())));
+            let snapshots = (0..BATCH).map(|_| Snapshot::new(index.links.len(), index.joints.len())).collect();
+            let _ = give_back.try_send(Box::new(Batch { steps: [0; BATCH], snapshots, len: 0 }));
         }
         let error = Arc::new(Mutex::new(None));
         let failed = Arc::new(AtomicBool::new(false));
@@ -251,7 +274,7 @@ impl Recorder {
             .name("simserpent-recorder".into())
             .spawn(move || tables.serve(rows, give_back, &slot, &flag))
             .map_err(io_err(folder))?;
-        Ok(Self { to_writer: Some(to_writer), free, writer: Some(writer), error, failed })
+        Ok(Self { to_writer: Some(to_writer), free, current: None, waits: 0, writer: Some(writer), error, failed })
     }
 
     /// The writer thread's first error, once it has one (taken: the loop stops with it).
@@ -270,21 +293,58 @@ impl Recorder {
         RecordError::Io { path: PathBuf::from("tables"), source: std::io::Error::other("the recording thread stopped") }
     }
 
-    /// Appends one snapshot (step number `step`): copies it into a buffer of the pool (no
-    /// allocation, except for more contacts than ever before) and hands it to the writer
-    /// thread; waits only when the writer is [`POOL`] rows behind.
+    /// Appends one snapshot (step number `step`): copies it into the current batch (no
+    /// allocation, except for more contacts than ever before) and hands the batch to the writer
+    /// thread once it is full; waits only when the writer is a whole pool of batches behind.
     pub fn write(&mut self, step: u64, s: &Snapshot) -> Result<(), RecordError> {
-        self.writer_error()?;
-        let Ok(mut buffer) = self.free.recv() else { return Err(self.writer_gone()) };
-        buffer.copy_from(s);
-        match self.to_writer.as_ref().map(|t| t.send(ToWriter::Row(step, buffer))) {
+        let mut batch = match self.current.take() {
+            Some(batch) => batch,
+            None => {
+                self.writer_error()?;
+                match self.free.try_recv() {
+                    Ok(batch) => batch,
+                    Err(_) => {
+                        self.waits += 1;
+                        let Ok(batch) = self.free.recv() else { return Err(self.writer_gone()) };
+                        batch
+                    }
+                }
+            }
+        };
+        let n = batch.len;
+        batch.steps[n] = step;
+        batch.snapshots[n].copy_from(s);
+        batch.len = n + 1;
+        if batch.len < BATCH {
+            self.current = Some(batch);
+            return Ok(());
+        }
+        self.hand_over(batch)
+    }
+
+    /// Sends a batch to the writer thread.
+    fn hand_over(&mut self, batch: Box<Batch>) -> Result<(), RecordError> {
+        match self.to_writer.as_ref().map(|t| t.send(ToWriter::Rows(batch))) {
             Some(Ok(())) => Ok(()),
             _ => Err(self.writer_gone()),
         }
     }
 
+    /// Hands over the rows of a batch not full yet.
+    fn hand_over_partial(&mut self) -> Result<(), RecordError> {
+        match self.current.take() {
+            Some(batch) if batch.len > 0 => self.hand_over(batch),
+            Some(batch) => {
+                self.current = Some(batch);
+                Ok(())
+            }
+            None => Ok(()),
+        }
+    }
+
     /// Flushes all tables (whole rows reach the files): waits for the writer thread.
     pub fn flush(&mut self) -> Result<(), RecordError> {
+        self.hand_over_partial()?;
         let (answer, reply) = std::sync::mpsc::sync_channel(1);
         let Some(sender) = self.to_writer.as_ref() else { return Ok(()) };
         if sender.send(ToWriter::Flush(answer)).is_err() || reply.recv().is_err() {
@@ -298,6 +358,9 @@ impl Recorder {
     /// file holds, also after a failure: a CSV file is cut back to its last whole row, and a
     /// Parquet part that cannot be closed is deleted (see [`CsvTable::close`]).
     pub fn finish(mut self) -> (Vec<(String, u64)>, Result<(), RecordError>) {
+        // The last rows (a send fails only when the writer thread is gone: joined below).
+        let _ = self.hand_over_partial();
+        log::debug!("recording: the step loop waited {} times for a free batch", self.waits);
         // Hanging up ends the writer thread after the rows in flight.
         drop(self.to_writer.take());
         let Some(writer) = self.writer.take() else {

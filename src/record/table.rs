@@ -1,6 +1,7 @@
 //! A streaming CSV table: header first, then one row per recorded step, written through a
-//! buffer. Numbers are written with `ryu` (shortest representation that round-trips, no
-//! allocation); names are plain identifiers, so nothing needs quoting.
+//! buffer. Numbers are written with `zmij` (shortest representation that round-trips, no
+//! allocation; about 2.4 times faster than `ryu`, measured 2026-11-23: 33 against 78 ns a
+//! number; large exponents print as `1e+20`); names are plain identifiers, so nothing needs quoting.
 //!
 //! Only whole rows reach the file: values go into the table's own buffer, which is written out
 //! at a row's end once it holds 64 KiB, so every write to the file starts and ends at a row
@@ -31,7 +32,7 @@ pub struct CsvTable {
     /// Bytes and rows known to be in the file (whole rows, header included in the bytes).
     written_bytes: u64,
     written_rows: u64,
-    number: ryu::Buffer,
+    number: zmij::Buffer,
 }
 
 impl CsvTable {
@@ -52,7 +53,7 @@ impl CsvTable {
             rows: 0,
             written_bytes: 0,
             written_rows: 0,
-            number: ryu::Buffer::new(),
+            number: zmij::Buffer::new(),
         };
         table.write_out()?;
         Ok(table)

@@ -145,7 +145,7 @@ impl Cell {
     /// A number; a non-finite one is missing.
     pub fn float(x: f64) -> Self {
         if x.is_finite() {
-            Self { value: CellValue::Float(x), text: ryu::Buffer::new().format_finite(x).to_string() }
+            Self { value: CellValue::Float(x), text: zmij::Buffer::new().format_finite(x).to_string() }
         } else {
             Self { value: CellValue::Float(f64::NAN), text: String::new() }
         }

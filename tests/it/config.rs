@@ -379,6 +379,7 @@ playback_speed = 2.0
 observation_version = 1
 observe_imu = true
 observe_joint_force_torque = true
+observe_contact_estimates = true
 action = "torque"
 control_period_secs = 0.01
 max_episode_secs = 5.0
@@ -399,6 +400,16 @@ geometry = "faithful"
 [ros2]
 namespace = "lab/snake_1"
 contact_arrow_m_per_n = 0.02
+domain_id = 42
+interfaces = ["127.0.0.1"]
+publish_rate_hz = 50.0
+reliability = "best_effort"
+durability = "transient_local"
+history_depth = 3
+clock = "lockstep"
+real_time_factor = 0.5
+steps_per_command = 4
+lockstep_timeout_secs = 2.5
 
 [estimation]
 enabled = true
@@ -407,6 +418,10 @@ detection_threshold_n = 0.6
 min_lateral_force_n = 0.7
 sliding_speed_m_per_s = 0.01
 tilt_gain_per_s = 2.0
+contact_point_filter_secs = 0.03
+friction = "identify"
+friction_prior = 0.4
+friction_window_secs = 3.0
 
 [path_following]
 waypoints_m = [[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]]
@@ -414,6 +429,17 @@ lookahead_m = 1.5
 heading_gain = 0.7
 max_offset_deg = 15.0
 acceptance_radius_m = 0.4
+
+[obstacle_aided]
+contacts = "true"
+target_force_n = 4.5
+force_gain_rad_per_n_s = 0.2
+max_offset_deg = 25.0
+release_per_s = 0.5
+propagation = "progress"
+jam_window_secs = 4.0
+jam_min_progress_m = 0.03
+recovery_secs = 1.5
 "#;
 
 fn all_fields_expected() -> Config {
@@ -669,6 +695,7 @@ fn all_fields_expected() -> Config {
         observation_version: 1,
         observe_imu: true,
         observe_joint_force_torque: true,
+        observe_contact_estimates: true,
         action: EnvAction::Torque,
         control_period_secs: 0.01,
         max_episode_secs: 5.0,
@@ -684,7 +711,20 @@ fn all_fields_expected() -> Config {
         preset: EnvPreset::Fast,
     };
     c.legacy.geometry = LegacyGeometry::Faithful;
-    c.ros2 = Ros2 { namespace: "lab/snake_1".into(), contact_arrow_m_per_n: 0.02 };
+    c.ros2 = Ros2 {
+        namespace: "lab/snake_1".into(),
+        contact_arrow_m_per_n: 0.02,
+        domain_id: 42,
+        interfaces: vec!["127.0.0.1".into()],
+        publish_rate_hz: 50.0,
+        reliability: simserpent::config::Ros2Reliability::BestEffort,
+        durability: simserpent::config::Ros2Durability::TransientLocal,
+        history_depth: 3,
+        clock: simserpent::config::Ros2Clock::Lockstep,
+        real_time_factor: 0.5,
+        steps_per_command: 4,
+        lockstep_timeout_secs: 2.5,
+    };
     c.control.controller = ControllerKind::Gait;
     c.estimation = Estimation {
         enabled: true,
@@ -693,6 +733,10 @@ fn all_fields_expected() -> Config {
         min_lateral_force_n: 0.7,
         sliding_speed_m_per_s: 0.01,
         tilt_gain_per_s: 2.0,
+        contact_point_filter_secs: 0.03,
+        friction: FloorFrictionSource::Identify,
+        friction_prior: 0.4,
+        friction_window_secs: 3.0,
     };
     c.path_following = PathFollowing {
         waypoints_m: vec![[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]],
@@ -700,6 +744,17 @@ fn all_fields_expected() -> Config {
         heading_gain: 0.7,
         max_offset_deg: 15.0,
         acceptance_radius_m: 0.4,
+    };
+    c.obstacle_aided = ObstacleAided {
+        contacts: ContactSource::True,
+        target_force_n: 4.5,
+        force_gain_rad_per_n_s: 0.2,
+        max_offset_deg: 25.0,
+        release_per_s: 0.5,
+        propagation: Propagation::Progress,
+        jam_window_secs: 4.0,
+        jam_min_progress_m: 0.03,
+        recovery_secs: 1.5,
     };
     c
 }

@@ -72,7 +72,11 @@ mod with_parquet {
                 let a = b.column(col);
                 if let Some(f) = a.as_any().downcast_ref::<Float64Array>() {
                     let v = f.value(row);
-                    return if v.is_finite() { ryu::Buffer::new().format_finite(v).to_string() } else { v.to_string() };
+                    return if v.is_finite() {
+                        zmij::Buffer::new().format_finite(v).to_string()
+                    } else {
+                        v.to_string()
+                    };
                 }
                 if let Some(i) = a.as_any().downcast_ref::<Int64Array>() {
                     return i.value(row).to_string();

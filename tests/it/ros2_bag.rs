@@ -72,13 +72,39 @@ fn bad_ros2_values_name_the_key() {
         ("ros2.contact_arrow_m_per_n=0.0", "ros2.contact_arrow_m_per_n"),
         ("ros2.contact_arrow_m_per_n=-0.01", "ros2.contact_arrow_m_per_n"),
         ("ros2.contact_arrow_m_per_n=nan", "ros2.contact_arrow_m_per_n"),
+        // The live bridge's keys (run --ros2).
+        ("ros2.domain_id=233", "ros2.domain_id"),
+        ("ros2.interfaces=[\"eth0\"]", "ros2.interfaces"),
+        ("ros2.publish_rate_hz=0.0", "ros2.publish_rate_hz"),
+        ("ros2.publish_rate_hz=inf", "ros2.publish_rate_hz"),
+        ("ros2.history_depth=0", "ros2.history_depth"),
+        ("ros2.real_time_factor=-1.0", "ros2.real_time_factor"),
+        ("ros2.steps_per_command=0", "ros2.steps_per_command"),
+        ("ros2.lockstep_timeout_secs=0.0", "ros2.lockstep_timeout_secs"),
+        ("ros2.lockstep_timeout_secs=nan", "ros2.lockstep_timeout_secs"),
     ] {
         let e = config(dir.path(), &[set]).unwrap_err();
         assert_eq!(invalid_key(&e), key, "{set}: {e}");
     }
-    for ok in ["ros2.namespace=\"\"", "ros2.namespace=\"lab/snake_1\""] {
+    for ok in ["ros2.namespace=\"\"", "ros2.namespace=\"lab/snake_1\"", "ros2.interfaces=[\"127.0.0.1\"]"] {
         config(dir.path(), &[ok]).unwrap();
     }
+    for bad in ["ros2.clock=\"fast\"", "ros2.reliability=\"sometimes\"", "ros2.durability=\"forever\""] {
+        let e = config(dir.path(), &[bad]).unwrap_err().to_string();
+        assert!(e.contains(bad.split('=').next().unwrap_or_default()), "{bad}: {e}");
+    }
+}
+
+/// `--ros2` on a binary without the `ros2` feature: a clear error before anything is written.
+#[cfg(not(feature = "ros2"))]
+#[test]
+fn ros2_without_the_feature_says_how_to_build_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let c = config(dir.path(), &["general.duration_secs=0.01"]).unwrap();
+    let options = simserpent::run::RunOptions { ros2: true, ..Default::default() };
+    let e = simserpent::run::run(&c, &options).unwrap_err();
+    assert!(e.to_string().contains("--features ros2"), "{e}");
+    assert!(!dir.path().join("runs").exists(), "no run folder");
 }
 
 #[derive(Deserialize)]

@@ -42,6 +42,17 @@ fn the_study_compares_settings_with_the_reference_and_writes_its_files() {
     assert!(t.rebound_speed_m_per_s > 0.0 && t.rebound_speed_m_per_s < 5.0, "rebound {} m/s", t.rebound_speed_m_per_s);
     // Stopping 5 m/s takes a force well above the weight (0.3 kg · 9.81 m/s²).
     assert!(t.peak_force_n > 10.0 * 0.3 * 9.81, "peak {} N", t.peak_force_n);
+    // The 10 ms peak is the impulse per 10 ms window: the momentum change m (v_in + v_out) falls in
+    // at most two windows, so one of them carries at least half of it; and an average never
+    // exceeds the instantaneous peak.
+    let impulse_bound_n = 0.3 * (5.0 + t.rebound_speed_m_per_s) / (2.0 * study::FORCE_WINDOW_SECS);
+    assert!(t.peak_window_force_n >= impulse_bound_n, "10 ms peak {} N < {impulse_bound_n} N", t.peak_window_force_n);
+    assert!(
+        t.peak_window_force_n <= t.peak_force_n,
+        "10 ms peak {} N > peak {} N",
+        t.peak_window_force_n,
+        t.peak_force_n
+    );
     for name in ["accuracy.md", "accuracy.csv", "work_precision_tiny-impact.png", "work_precision_tiny-impact.svg"] {
         assert!(dir.path().join("study").join(name).is_file(), "{name} missing");
     }

@@ -26,7 +26,7 @@ pub use load::{
     ConfigSource, convert_legacy_file, convert_legacy_text, load_config, load_config_str, load_config_with_notes,
     parse_override,
 };
-pub use ros2::Ros2;
+pub use ros2::{Ros2, Ros2Clock, Ros2Durability, Ros2Reliability};
 pub use surfaces::{ExplicitFriction, FrictionSource, PRESETS, Preset, Surface, SurfaceFriction, SurfaceShape};
 
 use serde::{Deserialize, Serialize};
@@ -184,6 +184,7 @@ pub struct Config {
     pub ros2: Ros2,
     pub estimation: Estimation,
     pub path_following: PathFollowing,
+    pub obstacle_aided: ObstacleAided,
 }
 
 /// How the original tool's geometry is reproduced (`[legacy]`; README "The original tool").
@@ -472,6 +473,8 @@ pub enum ControllerKind {
     Gait,
     /// Line-of-sight path following (`control::PathFollowing`, `[path_following]`).
     PathFollowing,
+    /// Obstacle-aided locomotion with force feedback (`control::ObstacleAided`, `[obstacle_aided]`).
+    ObstacleAided,
 }
 
 /// Which actuator kind the controller drives.
@@ -997,6 +1000,8 @@ pub struct Env {
     pub observe_imu: bool,
     /// Per joint force/torque sensor readings in the observation.
     pub observe_joint_force_torque: bool,
+    /// Per link contact estimates (`[estimation]`) in the observation.
+    pub observe_contact_estimates: bool,
     /// What an action is.
     pub action: EnvAction,
     /// Time between two actions (s), a whole number of timesteps.
@@ -1039,16 +1044,13 @@ pub enum EnvPreset {
 }
 
 /// The overrides `env.preset = "fast"` applies on top of the config (keys as `--set`),
-/// chosen from measurements (BENCHMARKS.md, "Python and RL"): implicitfast at 4 ms (5 physics
-/// steps per 20 ms action instead of 20 RK4 steps), the stick spring-damper of
-/// `floor_friction = "stick_slip"` at its stability bound of 5 timesteps. Over 16 starts the
-/// reference gait's mean speed, heading and peak contact force stay within 5 % of the default
-/// physics; 5 ms and 10 ms (faster) moved the mean peak contact force by 9 %.
-pub const ENV_FAST_PRESET: &[&str] = &[
-    "general.integrator=\"implicitfast\"",
-    "general.timestep_secs=0.004",
-    "physics.floor_stick_time_constant_secs=0.02",
-];
+/// chosen from measurements (BENCHMARKS.md, "The `fast` preset on the merged defaults"):
+/// implicitfast at 5 ms (4 physics steps per 20 ms action instead of 20 RK4 steps; the
+/// timestep-dependent "auto" settings follow: floor stick time constant 25 ms, environment
+/// contacts 10 ms). Over 64 starts the reference gait's mean speed, heading and peak contact
+/// force stay within 5 % of the default physics (+0.2 %, +0.012 rad, +1.6 %); at 10 ms (faster)
+/// the mean peak contact force rose by 10.7 %.
+pub const ENV_FAST_PRESET: &[&str] = &["general.integrator=\"implicitfast\"", "general.timestep_secs=0.005"];
 
 /// What an action of the environment is (`env.action`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -1116,6 +1118,25 @@ pub struct Estimation {
     pub sliding_speed_m_per_s: f64,
     /// Gain (1/s) of the head attitude filter's tilt correction from the accelerometer.
     pub tilt_gain_per_s: f64,
+    /// Time constant (s) of the contact point's least-squares filter over the recent steps of a
+    /// contact (0 = every step on its own).
+    pub contact_point_filter_secs: f64,
+    /// Where the floor's Coulomb coefficients come from: `[ground]` or identified online.
+    pub friction: FloorFrictionSource,
+    /// Identification: the starting value of every coefficient (the prior).
+    pub friction_prior: f64,
+    /// Identification: time constant (s) of the forgetting factor (older link-steps weigh less).
+    pub friction_window_secs: f64,
+}
+
+/// `estimation.friction`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FloorFrictionSource {
+    /// The coefficients of `[ground]` (known μ).
+    Config,
+    /// Recursive least squares on the link-steps that only the floor explains.
+    Identify,
 }
 
 /// `estimation.orientation`.
@@ -1143,4 +1164,51 @@ pub struct PathFollowing {
     pub max_offset_deg: f64,
     /// A waypoint counts as reached within this distance of the centre of mass (m).
     pub acceptance_radius_m: f64,
+}
+
+/// The obstacle-aided controller with force feedback (`[obstacle_aided]`; `control::ObstacleAided`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObstacleAided {
+    /// Which contacts the law reads: the estimates of `[estimation]` or the simulator's truth.
+    pub contacts: ContactSource,
+    /// Normal force (N) the body keeps on a peg that pushes it forward.
+    pub target_force_n: f64,
+    /// Integral gain of the force law: joint offset (rad) per newton of force error and second.
+    pub force_gain_rad_per_n_s: f64,
+    /// Largest contact offset of one joint (degrees).
+    pub max_offset_deg: f64,
+    /// Rate (1/s) at which the offsets relax toward zero.
+    pub release_per_s: f64,
+    /// How the offsets move toward the tail.
+    pub propagation: Propagation,
+    /// A jam: less than `jam_min_progress_m` of forward progress within `jam_window_secs` (s).
+    pub jam_window_secs: f64,
+    /// Forward progress (m) that counts as moving.
+    pub jam_min_progress_m: f64,
+    /// How long (s) the wave runs backward after a jam.
+    pub recovery_secs: f64,
+}
+
+/// `obstacle_aided.propagation`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Propagation {
+    /// They stay at their joints.
+    None,
+    /// At the snake's forward speed (a peg the body slides past stays at its bend).
+    Progress,
+    /// At the wave's speed along the body, ω/δ joints per second (a bend pressed on a peg
+    /// travels with the wave's bend).
+    Wave,
+}
+
+/// `obstacle_aided.contacts`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ContactSource {
+    /// The step loop's estimates (`Observation::contacts`, needs `estimation.enabled = true`).
+    Estimated,
+    /// The simulator's obstacle forces and contact points (for comparison).
+    True,
 }

@@ -18,7 +18,9 @@
 //! snake is checked by model generation, not here.
 
 use super::surfaces::{self, FrictionSource, SurfaceShape};
-use super::{Config, ConfigError, GaitKind, GroundModel, JointAxes, LegacyGeometry, TerrainKind};
+use super::{
+    Config, ConfigError, ContactSource, ControllerKind, GaitKind, GroundModel, JointAxes, LegacyGeometry, TerrainKind,
+};
 
 /// The most surfaces a config may have (`ground.surfaces`).
 pub const MAX_SURFACES: usize = 100;
@@ -219,7 +221,40 @@ impl Config {
         self.ros2.validate()?;
         self.validate_env()?;
         self.validate_estimation()?;
-        self.validate_path_following()
+        self.validate_path_following()?;
+        self.validate_obstacle_aided()
+    }
+
+    fn validate_obstacle_aided(&self) -> Check {
+        let o = &self.obstacle_aided;
+        positive("obstacle_aided.target_force_n", o.target_force_n)?;
+        non_negative("obstacle_aided.force_gain_rad_per_n_s", o.force_gain_rad_per_n_s)?;
+        positive("obstacle_aided.max_offset_deg", o.max_offset_deg)?;
+        ensure(
+            o.max_offset_deg < self.snake.joint_range_deg,
+            "obstacle_aided.max_offset_deg",
+            fmt_f(o.max_offset_deg),
+            format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
+        )?;
+        non_negative("obstacle_aided.release_per_s", o.release_per_s)?;
+        positive("obstacle_aided.jam_window_secs", o.jam_window_secs)?;
+        non_negative("obstacle_aided.jam_min_progress_m", o.jam_min_progress_m)?;
+        non_negative("obstacle_aided.recovery_secs", o.recovery_secs)?;
+        if self.control.controller == ControllerKind::ObstacleAided {
+            ensure(
+                self.gait.kind == GaitKind::SineWave,
+                "gait.kind",
+                format!("{:?}", self.gait.kind),
+                "control.controller = \"obstacle_aided\" shapes the sine wave: it needs gait.kind = \"sine_wave\"",
+            )?;
+            ensure(
+                o.contacts == ContactSource::True || self.estimation.enabled,
+                "obstacle_aided.contacts",
+                "\"estimated\"",
+                "reads the step loop's contact estimates: set estimation.enabled = true (or contacts = \"true\")",
+            )?;
+        }
+        Ok(())
     }
 
     fn validate_estimation(&self) -> Check {
@@ -227,7 +262,10 @@ impl Config {
         positive("estimation.detection_threshold_n", e.detection_threshold_n)?;
         positive("estimation.min_lateral_force_n", e.min_lateral_force_n)?;
         positive("estimation.sliding_speed_m_per_s", e.sliding_speed_m_per_s)?;
-        non_negative("estimation.tilt_gain_per_s", e.tilt_gain_per_s)
+        non_negative("estimation.tilt_gain_per_s", e.tilt_gain_per_s)?;
+        non_negative("estimation.contact_point_filter_secs", e.contact_point_filter_secs)?;
+        positive("estimation.friction_prior", e.friction_prior)?;
+        positive("estimation.friction_window_secs", e.friction_window_secs)
     }
 
     fn validate_path_following(&self) -> Check {
@@ -1050,6 +1088,12 @@ impl Config {
             "env.max_episode_secs",
             fmt_f(e.max_episode_secs),
             format!("must be at least env.control_period_secs ({})", fmt_f(e.control_period_secs)),
+        )?;
+        ensure(
+            !e.observe_contact_estimates || self.estimation.enabled,
+            "env.observe_contact_estimates",
+            "true",
+            "needs estimation.enabled = true (the contact estimator that produces the estimates)",
         )
     }
 }

@@ -5,12 +5,14 @@
 //! the step, with the state at the start of that step (see ARCHITECTURE.md for the exact order).
 
 mod gait;
+mod obstacle_aided;
 mod path;
 mod pid;
 
 pub use gait::{
     FormClosureShift, Hold, JointTrajectory, SineWave, Still, TwoPlaneWave, serpenoid, trajectory_from_config,
 };
+pub use obstacle_aided::{ObstacleAided, ObstacleAidedState};
 pub use path::{Guidance, PathFollowing};
 pub use pid::Pid;
 
@@ -186,12 +188,15 @@ impl<C: Controller + ?Sized> Controller for Box<C> {
 }
 
 /// A command set from outside and held: the controller of a reinforcement-learning
-/// environment, whose agent sets [`HeldCommand::command`] before stepping. It does not read the
-/// sensors.
+/// environment, whose agent sets [`HeldCommand::command`] before stepping. It does not look
+/// at the sensors; with `sense_every_step` the step loop still reads them at every step (for
+/// contact estimation, whose filters integrate the sensors step by step).
 #[derive(Debug, Clone, Default)]
 pub struct HeldCommand {
     /// The command sent at every step.
     pub command: Command,
+    /// Read (and estimate from) the sensors at every physics step, not only when asked.
+    pub sense_every_step: bool,
 }
 
 impl Controller for HeldCommand {
@@ -199,18 +204,22 @@ impl Controller for HeldCommand {
         cmd.copy_from(&self.command);
     }
     fn reads_sensors(&self) -> bool {
-        false
+        self.sense_every_step
     }
 }
 
 /// The controller that `config.control.controller` selects, for `n_joints` joints: the gait
-/// ([`TrajectoryController`]) or path following ([`PathFollowing`]). Path following steers the
+/// ([`TrajectoryController`]), path following ([`PathFollowing`]) or obstacle-aided locomotion
+/// ([`ObstacleAided`]; validation requires the sine wave for it). Path following steers the
 /// sine wave; with another `gait.kind` (none, serpenoid, form closure, …) the gait runs open
 /// loop.
 pub fn controller_from_config(config: &Config, n_joints: usize) -> Box<dyn Controller> {
     match (config.control.controller, config.gait.kind) {
         (crate::config::ControllerKind::PathFollowing, crate::config::GaitKind::SineWave) => {
             Box::new(PathFollowing::from_config(config, n_joints))
+        }
+        (crate::config::ControllerKind::ObstacleAided, crate::config::GaitKind::SineWave) => {
+            Box::new(ObstacleAided::from_config(config, n_joints))
         }
         _ => Box::new(TrajectoryController::from_config(config, n_joints)),
     }

@@ -52,7 +52,7 @@
 //! Nothing here allocates after construction.
 
 use super::{ContactEstimator, EstimateOutput, EstimatorInput, NewtonEulerEstimator, cross, quat_to_matrix};
-use crate::config::{Config, GroundModel, JointAxes, OrientationSource};
+use crate::config::{Config, FloorFrictionSource, GroundModel, JointAxes, OrientationSource};
 use crate::control::Observation;
 
 /// Per-link contact estimates of one instant, as controllers see them
@@ -75,6 +75,9 @@ pub struct ContactEstimates {
     pub contact_point_along_m: Vec<Option<f64>>,
     /// The same point in the world (m).
     pub contact_point_m: Vec<Option<[f64; 3]>>,
+    /// The floor's Coulomb coefficients the floor share used (forward, backward, lateral):
+    /// `[ground]`'s, or the identified ones with `estimation.friction = "identify"`.
+    pub floor_friction: [f64; 3],
 }
 
 impl ContactEstimates {
@@ -88,6 +91,7 @@ impl ContactEstimates {
             contact: vec![false; n_links],
             contact_point_along_m: vec![None; n_links],
             contact_point_m: vec![None; n_links],
+            floor_friction: [0.0; 3],
         }
     }
 
@@ -105,6 +109,7 @@ impl ContactEstimates {
         self.contact.clone_from(&other.contact);
         self.contact_point_along_m.clone_from(&other.contact_point_along_m);
         self.contact_point_m.clone_from(&other.contact_point_m);
+        self.floor_friction = other.floor_friction;
     }
 }
 
@@ -334,15 +339,16 @@ impl FloorShare {
     /// from step to step, so the floor is given the benefit of the doubt within the range;
     /// `points`: the two floor contact points relative to the centre of mass with their
     /// velocities. Returns (floor friction, its vertical moment about the centre of mass from
-    /// the sliding points).
+    /// the sliding points, the share of the support on sticking points).
     fn friction(
         &self,
         f_h: [f64; 3],
         axis: [f64; 3],
         normal_n: [f64; 2],
+        share: [f64; 2],
         com_velocity: [f64; 3],
         points: &[([f64; 3], [f64; 3]); 2],
-    ) -> ([f64; 3], f64) {
+    ) -> ([f64; 3], f64, f64) {
         let lat = [-axis[1], axis[0], 0.0];
         let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1];
         let mut viscous = [0.0; 3];
@@ -355,21 +361,24 @@ impl FloorShare {
         }
         let (n_lo, n_hi) = (normal_n[0].min(normal_n[1]).max(0.0), normal_n[0].max(normal_n[1]).max(0.0));
         if n_hi <= 0.0 {
-            return (viscous, 0.0);
+            return (viscous, 0.0, 0.0);
         }
         // Sliding friction per newton of support (each point carries half).
         let mut unit = [0.0; 3];
         let mut unit_moment_z = 0.0;
         let mut stick_share = 0.0;
-        for (r, v) in points {
+        for ((r, v), share) in points.iter().zip(share) {
             let (va, vl) = (dot(*v, axis), dot(*v, lat));
             if va.hypot(vl) < self.sliding_speed_m_per_s {
-                stick_share += 0.5;
+                stick_share += share;
+                continue;
+            }
+            if share <= 0.0 {
                 continue;
             }
             // Friction along the axis opposes va: toward the tail (−x) when sliding forward.
             let mu_a = if va > 0.0 { self.mu_forward } else { self.mu_backward };
-            let (a, b) = (mu_a * 0.5, self.mu_lateral * 0.5);
+            let (a, b) = (mu_a * share, self.mu_lateral * share);
             let d = (a * a * va * va + b * b * vl * vl).sqrt();
             if d <= 0.0 {
                 continue;
@@ -394,7 +403,256 @@ impl FloorShare {
             let (fa, fl) = crate::state::project_to_ellipse(ra, rl, mu_a * n_stick, self.mu_lateral * n_stick);
             friction = add(friction, add(scale(axis, fa), scale(lat, fl)));
         }
-        (friction, moment_z)
+        (friction, moment_z, stick_share)
+    }
+}
+
+impl FloorShare {
+    /// The coefficients (forward, backward, lateral).
+    pub fn coefficients(&self) -> [f64; 3] {
+        [self.mu_forward, self.mu_backward, self.mu_lateral]
+    }
+
+    /// Sets the coefficients (forward, backward, lateral).
+    pub fn set_coefficients(&mut self, mu: [f64; 3]) {
+        [self.mu_forward, self.mu_backward, self.mu_lateral] = mu;
+    }
+
+    /// The sliding friction of a link whose two floor points both slide, and its derivatives
+    /// with respect to the coefficients (forward, backward, lateral): per point `k` with support
+    /// `c = share_k·N` and sliding velocity `(v_a, v_l)`, `F_a = −c·μ_a²·v_a/E`,
+    /// `F_l = −c·μ_l²·v_l/E`, `E = sqrt(μ_a²·v_a² + μ_l²·v_l²)` (the maximum-dissipation point
+    /// of the ellipse), so `∂F_a/∂μ_a = −c·v_a·μ_a·(2E² − μ_a²·v_a²)/E³`,
+    /// `∂F_a/∂μ_l = c·μ_a²·v_a·μ_l·v_l²/E³` and symmetrically. `F` is homogeneous of degree 1
+    /// in the coefficients, so `F = Σ_j μ_j·∂F/∂μ_j`: the regressors of a linear least-squares
+    /// fit at the current coefficients. `None` when a point sticks (slower than
+    /// `min_speed_m_per_s`) or the support is zero. World frame, horizontal.
+    fn sliding_regressors(
+        &self,
+        axis: [f64; 3],
+        normal_n: f64,
+        share: [f64; 2],
+        points: &[([f64; 3], [f64; 3]); 2],
+        min_speed_m_per_s: f64,
+    ) -> Option<[[f64; 3]; 3]> {
+        if normal_n <= 0.0 {
+            return None;
+        }
+        let lat = [-axis[1], axis[0], 0.0];
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1];
+        let mut cols = [[0.0; 3]; 3];
+        for ((_, v), share) in points.iter().zip(share) {
+            let (va, vl) = (dot(*v, axis), dot(*v, lat));
+            if va.hypot(vl) < min_speed_m_per_s {
+                return None;
+            }
+            let c = share * normal_n;
+            let (ia, mu_a) = if va > 0.0 { (0, self.mu_forward) } else { (1, self.mu_backward) };
+            let mu_l = self.mu_lateral;
+            let e2 = mu_a * mu_a * va * va + mu_l * mu_l * vl * vl;
+            if e2 <= 0.0 || c <= 0.0 {
+                continue;
+            }
+            let e3 = e2 * e2.sqrt();
+            let dfa_da = -c * va * mu_a * (2.0 * e2 - mu_a * mu_a * va * va) / e3;
+            let dfa_dl = c * mu_a * mu_a * va * mu_l * vl * vl / e3;
+            let dfl_dl = -c * vl * mu_l * (2.0 * e2 - mu_l * mu_l * vl * vl) / e3;
+            let dfl_da = c * mu_l * mu_l * vl * mu_a * va * va / e3;
+            cols[ia] = add(cols[ia], add(scale(axis, dfa_da), scale(lat, dfl_da)));
+            cols[2] = add(cols[2], add(scale(axis, dfa_dl), scale(lat, dfl_dl)));
+        }
+        Some(cols)
+    }
+}
+
+/// Identification: both floor points of a link-step slide at least this fast (m/s), so the
+/// floor's stick spring has saturated and the friction is on its ellipse.
+const IDENTIFY_MIN_SPEED_M_PER_S: f64 = 0.05;
+
+/// Online identification of the floor's Coulomb coefficients: recursive least squares with
+/// exponential forgetting on the link-steps that only the floor explains.
+///
+/// Model: `f_h = Σ_j μ_j·φ_j` per link-step (the horizontal external force; regressors `φ_j`
+/// of [`FloorShare`]'s sliding friction at the current coefficients, exact for the isotropic
+/// floor and a Gauss–Newton step otherwise), with the coefficients tied by the ground model:
+/// isotropic one `μ`; anisotropic axial (forward = backward) and lateral; directional forward,
+/// backward and lateral. Each horizontal component is one scalar observation:
+/// `k = P·φ/(1 + φᵀ·P·φ)`, `θ ← θ + k·(y − φᵀ·θ)`, `P ← P − k·φᵀ·P`; once per update
+/// `P ← P·exp(dt/T)` (forgetting, `T` = `estimation.friction_window_secs`; capped at the
+/// prior's `P₀ = I`), so the fit follows a floor that changes. Starts at `θ₀` =
+/// `estimation.friction_prior` for every coefficient.
+///
+/// A link-step counts as floor-only when both its floor points slide (faster than twice
+/// `estimation.sliding_speed_m_per_s`), the floor carries at least 30 % of its weight, and its
+/// horizontal force is the model's friction up to a scale: `λ = f_h·F/|F|²` within [0.2, 5] and
+/// `|f_h − λ·F|` below `estimation.detection_threshold_n` (an obstacle pushes across the
+/// sliding friction's direction; the scale lets a wrong prior still learn).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrictionFit {
+    /// Per coefficient (forward, backward, lateral): the parameter it belongs to.
+    tie: [usize; 3],
+    /// Number of parameters.
+    n_params: usize,
+    /// Parameters.
+    theta: [f64; 3],
+    /// Covariance (scaled by the observation variance).
+    p: [[f64; 3]; 3],
+    /// Forgetting time constant (s).
+    window_secs: f64,
+    /// Time of the last update (s).
+    time_secs: Option<f64>,
+    /// Link-steps used so far.
+    pub samples: u64,
+}
+
+impl FrictionFit {
+    /// A fit for `config`'s ground model, started at `estimation.friction_prior`.
+    pub fn from_config(config: &Config) -> Self {
+        let (tie, n_params) = match config.ground.model {
+            GroundModel::Isotropic | GroundModel::Viscous => ([0, 0, 0], 1),
+            GroundModel::Anisotropic => ([0, 0, 1], 2),
+            GroundModel::Directional => ([0, 1, 2], 3),
+        };
+        let mut p = [[0.0; 3]; 3];
+        for (k, row) in p.iter_mut().enumerate().take(n_params) {
+            row[k] = 1.0;
+        }
+        Self {
+            tie,
+            n_params,
+            theta: [config.estimation.friction_prior; 3],
+            p,
+            window_secs: config.estimation.friction_window_secs,
+            time_secs: None,
+            samples: 0,
+        }
+    }
+
+    /// The coefficients (forward, backward, lateral).
+    pub fn coefficients(&self) -> [f64; 3] {
+        self.tie.map(|j| self.theta[j])
+    }
+
+    /// Forgetting up to `time_secs`.
+    fn forget(&mut self, time_secs: f64) {
+        if let Some(t0) = self.time_secs {
+            let dt = time_secs - t0;
+            let trace: f64 = (0..self.n_params).map(|k| self.p[k][k]).sum();
+            if dt > 0.0 && dt.is_finite() && trace < self.n_params as f64 {
+                let g = (dt / self.window_secs).exp();
+                for row in &mut self.p {
+                    for v in row.iter_mut() {
+                        *v *= g;
+                    }
+                }
+            }
+        }
+        self.time_secs = Some(time_secs);
+    }
+
+    /// One link-step: the horizontal force `y` (N) with the regressors `cols` of
+    /// (forward, backward, lateral).
+    fn add(&mut self, y: [f64; 3], cols: &[[f64; 3]; 3]) {
+        let np = self.n_params;
+        for comp in 0..2 {
+            let mut phi = [0.0; 3];
+            for (k, col) in cols.iter().enumerate() {
+                phi[self.tie[k]] += col[comp];
+            }
+            let mut p_phi = [0.0; 3];
+            for (pp, row) in p_phi.iter_mut().zip(&self.p).take(np) {
+                *pp = row.iter().zip(&phi).take(np).map(|(a, b)| a * b).sum();
+            }
+            let denom = 1.0 + (0..np).map(|i| phi[i] * p_phi[i]).sum::<f64>();
+            let predicted: f64 = (0..np).map(|i| phi[i] * self.theta[i]).sum();
+            let innovation = y[comp] - predicted;
+            if !(denom.is_finite() && innovation.is_finite()) {
+                return;
+            }
+            for ((theta, row), pp) in self.theta.iter_mut().zip(self.p.iter_mut()).zip(p_phi).take(np) {
+                let k = pp / denom;
+                *theta = (*theta + k * innovation).clamp(0.01, 5.0);
+                for (pij, ppj) in row.iter_mut().zip(p_phi).take(np) {
+                    *pij -= k * ppj;
+                }
+            }
+        }
+        self.samples += 1;
+    }
+}
+
+/// The contact point of one link fitted over the recent steps of the same contact: the point
+/// moves along the link at a steady rate, `s(t) = s₀ + s₁·(t − t_now)`, and each step's obstacle
+/// moment is `M_k = s(t_k)·f_k` (`f_k` the lateral force), so weighted least squares with
+/// weights `w_k = exp(−(t_now − t_k)/τ)` gives `s₀` from the sums `S_ff = Σw·f²`,
+/// `S_fft = Σw·f²·τ_k`, `S_fftt = Σw·f²·τ_k²`, `S_Mf = Σw·M·f`, `S_Mft = Σw·M·f·τ_k`
+/// (`τ_k = t_k − t_now`): `s₀ = (S_Mf·S_fftt − S_Mft·S_fft) / (S_ff·S_fftt − S_fft²)`; the sums
+/// are updated recursively (shifted by the elapsed time, decayed, the new step added). While the
+/// fit has too little spread in time for the rate (the first steps), `s₀ = S_Mf/S_ff`. The fit
+/// restarts when the contact ends or its lateral force changes sign. `τ = 0`: each step alone.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PointFit {
+    s_ff: f64,
+    s_fft: f64,
+    s_fftt: f64,
+    s_mf: f64,
+    s_mft: f64,
+    /// Time of the last step (s); NaN: no contact running.
+    time_secs: f64,
+    /// Sign of the lateral force.
+    sign: f64,
+    /// The last fitted point (m).
+    last_s: f64,
+}
+
+impl Default for PointFit {
+    fn default() -> Self {
+        Self { s_ff: 0.0, s_fft: 0.0, s_fftt: 0.0, s_mf: 0.0, s_mft: 0.0, time_secs: f64::NAN, sign: 0.0, last_s: 0.0 }
+    }
+}
+
+impl PointFit {
+    /// Adds a step at `time_secs` with the obstacle moment `moment` (N·m, about the centre of
+    /// mass, the peg friction's part removed) and lateral force `lateral` (N); returns `s₀` (m).
+    fn add(&mut self, time_secs: f64, moment: f64, lateral: f64, tau_secs: f64) -> f64 {
+        let dt = time_secs - self.time_secs;
+        let same = self.sign == lateral.signum() && dt > 0.0 && dt.is_finite() && tau_secs > 0.0;
+        if same {
+            let w = (-dt / tau_secs).exp();
+            // Shift the ages by −dt, then decay.
+            self.s_fftt = w * (self.s_fftt - 2.0 * dt * self.s_fft + dt * dt * self.s_ff);
+            self.s_fft = w * (self.s_fft - dt * self.s_ff);
+            self.s_mft = w * (self.s_mft - dt * self.s_mf);
+            self.s_ff *= w;
+            self.s_mf *= w;
+        } else {
+            *self = Self::default();
+        }
+        let ff = lateral * lateral;
+        self.s_ff += ff;
+        self.s_mf += moment * lateral;
+        self.time_secs = time_secs;
+        self.sign = lateral.signum();
+        let det = self.s_ff * self.s_fftt - self.s_fft * self.s_fft;
+        // Enough spread in time for the rate: the ages' weighted variance at least (τ/4)².
+        self.last_s = if det > self.s_ff * self.s_ff * (0.25 * tau_secs).powi(2) {
+            (self.s_mf * self.s_fftt - self.s_mft * self.s_fft) / det
+        } else {
+            self.s_mf / self.s_ff
+        };
+        self.last_s
+    }
+
+    /// While the link's floor contact sticks, the floor's moment is indeterminate and the point
+    /// cannot be measured; the link does not move, so neither does the point on it: the running
+    /// fit's last point (if the contact is the same and went on until `time_secs`' previous
+    /// step), the fit kept for when the link slides again.
+    fn hold(&mut self, time_secs: f64, lateral: f64) -> Option<f64> {
+        let dt = time_secs - self.time_secs;
+        (self.sign == lateral.signum() && dt > 0.0 && dt.is_finite()).then(|| {
+            self.time_secs = time_secs;
+            self.last_s
+        })
     }
 }
 
@@ -413,6 +671,15 @@ pub struct MotionEstimator {
     poses: LinkPoses,
     /// Per link: the floor's support of the previous update (N; NaN before the first).
     previous_normal_n: Vec<f64>,
+    /// Time constant (s) of the contact point's least-squares filter (0 = off).
+    point_filter_secs: f64,
+    /// Per link: the contact point's least-squares filter.
+    point_fit: Vec<PointFit>,
+    /// Per link: the smoothed difference of the front and back floor points' support (N) and
+    /// its time (s; NaN before the first).
+    split_n: Vec<[f64; 2]>,
+    /// Online friction identification (`estimation.friction = "identify"`).
+    friction_fit: Option<FrictionFit>,
 }
 
 impl std::fmt::Debug for MotionEstimator {
@@ -451,7 +718,26 @@ impl MotionEstimator {
             out: EstimateOutput::new(n),
             poses: LinkPoses::new(n),
             previous_normal_n: vec![f64::NAN; n],
+            point_filter_secs: e.contact_point_filter_secs,
+            point_fit: vec![PointFit::default(); n],
+            split_n: vec![[0.0, f64::NAN]; n],
+            friction_fit: None,
         }
+        .with_friction_source(config)
+    }
+
+    fn with_friction_source(mut self, config: &Config) -> Self {
+        if config.estimation.friction == FloorFrictionSource::Identify {
+            let fit = FrictionFit::from_config(config);
+            self.floor.set_coefficients(fit.coefficients());
+            self.friction_fit = Some(fit);
+        }
+        self
+    }
+
+    /// The friction identification, with `estimation.friction = "identify"`.
+    pub fn friction_fit(&self) -> Option<&FrictionFit> {
+        self.friction_fit.as_ref()
     }
 
     /// Whether [`MotionEstimator::update`] needs the simulator's poses.
@@ -463,6 +749,8 @@ impl MotionEstimator {
     pub fn reset(&mut self) {
         self.attitude.time_secs = None;
         self.previous_normal_n.fill(f64::NAN);
+        self.point_fit.fill(PointFit::default());
+        self.split_n.fill([0.0, f64::NAN]);
     }
 
     /// The link poses of the latest update (estimated or true).
@@ -522,7 +810,55 @@ impl MotionEstimator {
             let previous_n = std::mem::replace(&mut self.previous_normal_n[i], normal_n);
             let previous_n = if previous_n.is_nan() { normal_n } else { previous_n };
             let f_h = [f[0], f[1], 0.0];
-            let (friction, friction_moment_z) = self.floor.friction(f_h, axis, [normal_n, previous_n], v, &points);
+            let range = [normal_n, previous_n];
+            // How the support splits between the two floor points: from the moment about the
+            // link's horizontal lateral axis ŷ = ẑ × x̂. The floor points sit r below the axis at
+            // ±h along it, so M_y = −h·(N₊ − N₋) − r·F_a (F_a: the floor friction along the link;
+            // horizontal obstacle forces act at the axis' height and add nothing), hence
+            // N₊ − N₋ = −(M_y + r·F_a)/h, with F_a from a first pass with an even split.
+            let mut share = [0.5, 0.5];
+            if half_core > 0.0 && normal_n > 0.0 {
+                let (first, _, _) = self.floor.friction(f_h, axis, range, share, v, &points);
+                let m = self.out.link_moment_nm[i];
+                let m_y = -axis[1] * m[0] + axis[0] * m[1];
+                let f_a = first[0] * axis[0] + first[1] * axis[1];
+                let raw = -(m_y + self.geometry.link_radius_m * f_a) / half_core;
+                // Smoothed over `contact_point_filter_secs` (the load moves slowly along the
+                // body; the moment's noise, ≈ 0.02 N·m, would otherwise move ≈ 0.3 N per step).
+                let [previous, t0] = self.split_n[i];
+                let dt = obs.sensor_time_secs - t0;
+                let w = if dt > 0.0 && dt.is_finite() && self.point_filter_secs > 0.0 {
+                    (-dt / self.point_filter_secs).exp()
+                } else {
+                    0.0
+                };
+                let diff = w * previous + (1.0 - w) * raw;
+                if diff.is_finite() {
+                    self.split_n[i] = [diff, obs.sensor_time_secs];
+                }
+                let front = (0.5 + 0.5 * diff / normal_n).clamp(0.0, 1.0);
+                if front.is_finite() {
+                    share = [front, 1.0 - front];
+                }
+            }
+            let (friction, friction_moment_z, stick_share) = self.floor.friction(f_h, axis, range, share, v, &points);
+            if let Some(fit) = self.friction_fit.as_mut() {
+                let weight_n = self.geometry.link_mass_kg.get(i).copied().unwrap_or(0.0) * 9.81;
+                let min_speed = IDENTIFY_MIN_SPEED_M_PER_S.max(2.0 * self.floor.sliding_speed_m_per_s);
+                let cols = (normal_n >= 0.3 * weight_n)
+                    .then(|| self.floor.sliding_regressors(axis, normal_n, share, &points, min_speed))
+                    .flatten();
+                if let Some(cols) = cols {
+                    let mu = self.floor.coefficients();
+                    let model = (0..3).fold([0.0; 3], |acc, k| add(acc, scale(cols[k], mu[k])));
+                    let model_sq = model[0] * model[0] + model[1] * model[1];
+                    let lambda = (f_h[0] * model[0] + f_h[1] * model[1]) / model_sq;
+                    let residual = (f_h[0] - lambda * model[0]).hypot(f_h[1] - lambda * model[1]);
+                    if model_sq > 0.0 && (0.5..=2.0).contains(&lambda) && residual < self.detection_threshold_n {
+                        fit.add(f_h, &cols);
+                    }
+                }
+            }
             let floor = [friction[0], friction[1], normal_n];
             let obstacle = [f[0] - friction[0], f[1] - friction[1], 0.0];
             out.external_force_n[i] = f;
@@ -532,17 +868,28 @@ impl MotionEstimator {
             let touching = magnitude >= self.detection_threshold_n && magnitude.is_finite();
             out.contact[i] = touching;
             let lateral = axis[0] * obstacle[1] - axis[1] * obstacle[0];
+            let fit = &mut self.point_fit[i];
             let point = (touching && lateral.abs() >= self.min_lateral_force_n).then(|| {
                 // The obstacle touches the capsule's side, r from the axis on the side the force
                 // comes from; its axial part (peg friction) has the moment r·sign(f_lat)·f_a there.
                 let axial = axis[0] * obstacle[0] + axis[1] * obstacle[1];
                 let side = self.geometry.link_radius_m * lateral.signum() * axial;
                 let moment = self.out.link_moment_nm[i][2] - friction_moment_z - side;
-                (moment / lateral).clamp(-0.5 * self.geometry.link_length_m, 0.5 * self.geometry.link_length_m)
+                let held = if stick_share > 0.0 { fit.hold(obs.sensor_time_secs, lateral) } else { None };
+                held.unwrap_or_else(|| fit.add(obs.sensor_time_secs, moment, lateral, self.point_filter_secs))
+                    .clamp(-0.5 * self.geometry.link_length_m, 0.5 * self.geometry.link_length_m)
             });
+            if point.is_none() {
+                fit.time_secs = f64::NAN;
+            }
             out.contact_point_along_m[i] = point;
             out.contact_point_m[i] = point.map(|s| add(c, scale(axis3, s)));
         }
+        if let Some(fit) = self.friction_fit.as_mut() {
+            fit.forget(obs.sensor_time_secs);
+            self.floor.set_coefficients(fit.coefficients());
+        }
+        out.floor_friction = self.floor.coefficients();
         out.active = true;
     }
 
@@ -667,14 +1014,14 @@ mod tests {
         // Isotropic μ = 0.5, N = 2 N, sliding along +x at both points: F = (−1, 0) N in total.
         let fs = floor(0.5, 0.5, 0.5);
         let pts = [([0.06, 0.0, 0.0], [0.1, 0.0, 0.0]), ([-0.06, 0.0, 0.0], [0.1, 0.0, 0.0])];
-        let (f, m) = fs.friction([0.0; 3], [1.0, 0.0, 0.0], [2.0; 2], [0.1, 0.0, 0.0], &pts);
+        let (f, m, _) = fs.friction([0.0; 3], [1.0, 0.0, 0.0], [2.0; 2], [0.5; 2], [0.1, 0.0, 0.0], &pts);
         assert!((f[0] + 1.0).abs() < 1e-12 && f[1].abs() < 1e-12 && m.abs() < 1e-12, "{f:?}");
         // Anisotropic (0.1 along, 1.0 across), sliding at 45°: A = 0.1, B = 1.0 per point (N/2 = 1);
         // F ∝ −(A² v, B² v) / sqrt(A² v² + B² v²), on the ellipse.
         let fs = floor(0.1, 0.1, 1.0);
         let v = [0.1, 0.1, 0.0];
         let pts = [([0.06, 0.0, 0.0], v), ([-0.06, 0.0, 0.0], v)];
-        let (f, _) = fs.friction([0.0; 3], [1.0, 0.0, 0.0], [2.0; 2], v, &pts);
+        let (f, _, _) = fs.friction([0.0; 3], [1.0, 0.0, 0.0], [2.0; 2], [0.5; 2], v, &pts);
         let d = (0.01f64 + 1.0).sqrt();
         assert!((f[0] + 2.0 * 0.01 / d).abs() < 1e-12 && (f[1] + 2.0 * 1.0 / d).abs() < 1e-12, "{f:?}");
     }
@@ -684,9 +1031,9 @@ mod tests {
         // At rest, μ = 0.5, N = 2 N: the floor holds up to 1 N; a 3 N push leaves 2 N.
         let fs = floor(0.5, 0.5, 0.5);
         let pts = [([0.06, 0.0, 0.0], [0.0; 3]), ([-0.06, 0.0, 0.0], [0.0; 3])];
-        let (f, _) = fs.friction([0.0, 3.0, 0.0], [1.0, 0.0, 0.0], [2.0; 2], [0.0; 3], &pts);
+        let (f, _, _) = fs.friction([0.0, 3.0, 0.0], [1.0, 0.0, 0.0], [2.0; 2], [0.5; 2], [0.0; 3], &pts);
         assert!((f[1] - 1.0).abs() < 1e-9 && f[0].abs() < 1e-9, "{f:?}");
-        let (f, _) = fs.friction([0.0, 0.4, 0.0], [1.0, 0.0, 0.0], [2.0; 2], [0.0; 3], &pts);
+        let (f, _, _) = fs.friction([0.0, 0.4, 0.0], [1.0, 0.0, 0.0], [2.0; 2], [0.5; 2], [0.0; 3], &pts);
         assert!((f[1] - 0.4).abs() < 1e-12, "inside the limit the floor holds it all: {f:?}");
     }
 
@@ -718,6 +1065,124 @@ mod tests {
         assert!(out.contact[0]);
         let s = out.contact_point_along_m[0].expect("2 N lateral determines the point");
         assert!((s - 0.03).abs() < 1e-9, "{s}");
+    }
+
+    #[test]
+    fn point_fit_follows_a_point_moving_at_a_steady_rate() {
+        // s(t) = 0.02 + 0.5·t m under a 3 N lateral force: once the fit spans enough time for
+        // the rate (the ages' spread at least τ/4: about τ of steps), exact, no lag.
+        let mut fit = PointFit::default();
+        let mut s = 0.0;
+        for k in 0..40 {
+            let t = 1.0 + k as f64 * 1e-3;
+            let truth = 0.02 + 0.5 * (t - 1.0);
+            s = fit.add(t, truth * 3.0, 3.0, 0.03);
+            if k >= 30 {
+                assert!((s - truth).abs() < 1e-9, "step {k}: {s} vs {truth}");
+            }
+        }
+        // The same contact while the floor sticks: the last point is held.
+        assert_eq!(fit.hold(1.041, 3.0), Some(s));
+        // Another contact (the push changes side) restarts the fit.
+        assert_eq!(fit.hold(1.042, -3.0), None);
+        assert!((fit.add(1.043, -0.05 * -2.0, -2.0, 0.03) + 0.05).abs() < 1e-12);
+    }
+
+    #[test]
+    fn point_fit_averages_noise_like_least_squares() {
+        // A fixed point at −4 cm, moment noise ±0.02 N·m alternating, 2 N lateral: one step
+        // alone is 1 cm off; the fit over 30 ms is within 1 mm.
+        let mut fit = PointFit::default();
+        let mut s = 0.0;
+        for k in 0..100 {
+            let noise = if k % 2 == 0 { 0.02 } else { -0.02 };
+            s = fit.add(k as f64 * 1e-3, -0.04 * 2.0 + noise, 2.0, 0.03);
+        }
+        assert!((s + 0.04).abs() < 1e-3, "{s}");
+    }
+
+    #[test]
+    fn the_support_split_from_the_pitch_moment_explains_a_turning_link() {
+        // The head turning about its centre (ω = 1 rad/s about z) on an isotropic floor
+        // (μ = 0.5), carried 2 N at its front point and 1 N at its back one (h = 6 cm): friction
+        // −1 N·ŷ at the front (+h), +0.5 N·ŷ at the back (−h), total −0.5 N·ŷ, vertical moment
+        // −h − 0.5·h, and the pitch moment M_y = −h·(N₊ − N₋) = −h. No obstacle: an even split would call
+        // 0.5 N of it an obstacle.
+        let mut config = straight_config(1);
+        config.ground.model = GroundModel::Isotropic;
+        config.snake.ground_friction = [0.5, 0.0, 0.0];
+        config.estimation.detection_threshold_n = 0.2;
+        let h = 0.06;
+        struct Fixed(f64);
+        impl ContactEstimator for Fixed {
+            fn estimate(&mut self, _input: &EstimatorInput, out: &mut EstimateOutput) {
+                let h = self.0;
+                out.link_force_n[0] = [0.0, -0.5, 3.0];
+                out.link_moment_nm[0] = [0.0, -h, -h - h * 0.5];
+            }
+        }
+        let mut est = MotionEstimator::with_estimator(&config, &[0.3], Box::new(Fixed(h)));
+        let mut obs = Observation::new(1, 0);
+        obs.head_quat = [1.0, 0.0, 0.0, 0.0];
+        obs.imu_gyro_rad_per_s[0] = [0.0, 0.0, 1.0];
+        // The centre (−0.1, 0, 0) at rest: the frame origin moves, the centre does not.
+        let mut out = ContactEstimates::new(1);
+        est.update(&obs, None, &mut out);
+        let o = out.obstacle_force_n[0];
+        assert!(o[0].abs() < 1e-9 && o[1].abs() < 1e-9, "{o:?}");
+        assert!(!out.contact[0]);
+    }
+
+    /// The sliding friction of one link with both points moving at `v` (each carrying half of
+    /// `n`) on a floor with the coefficients `mu`, as `FloorShare::friction` computes it.
+    fn sliding_force(mu: [f64; 3], axis: [f64; 3], n: f64, v: [f64; 3]) -> [f64; 3] {
+        let fs = FloorShare { sliding_speed_m_per_s: 1e-3, ..floor(mu[0], mu[1], mu[2]) };
+        let pts = [([0.06, 0.0, 0.0], v), ([-0.06, 0.0, 0.0], v)];
+        fs.friction([0.0; 3], axis, [n; 2], [0.5; 2], v, &pts).0
+    }
+
+    #[test]
+    fn friction_identification_converges_to_the_true_coefficients() {
+        // Anisotropic floor (axial 0.1, lateral 1.0) from the prior 0.3, links sliding in many
+        // directions (a deterministic sweep): the fit reaches the truth within 0.1 %.
+        let mut config = straight_config(1);
+        config.ground.model = GroundModel::Anisotropic;
+        config.estimation.friction_prior = 0.3;
+        let mut fit = FrictionFit::from_config(&config);
+        let truth = [0.1, 0.1, 1.0];
+        let mut model = floor(0.3, 0.3, 0.3);
+        for k in 0..2000 {
+            let heading = 0.37 * k as f64;
+            let axis = [heading.cos(), heading.sin(), 0.0];
+            let dir = 1.3 * k as f64 + 0.2;
+            let v = [0.2 * dir.cos(), 0.2 * dir.sin(), 0.0];
+            let n = 2.0 + (k % 7) as f64 * 0.3;
+            let y = sliding_force(truth, axis, n, v);
+            model.set_coefficients(fit.coefficients());
+            let pts = [([0.06, 0.0, 0.0], v), ([-0.06, 0.0, 0.0], v)];
+            let cols = model.sliding_regressors(axis, n, [0.5; 2], &pts, 0.01).expect("sliding");
+            fit.add(y, &cols);
+            fit.forget(k as f64 * 1e-3);
+        }
+        let mu = fit.coefficients();
+        assert!((mu[0] - 0.1).abs() < 1e-4 && (mu[2] - 1.0).abs() < 1e-3, "{mu:?}");
+        assert_eq!(mu[0], mu[1], "anisotropic: forward and backward are one coefficient");
+    }
+
+    #[test]
+    fn the_regressors_rebuild_the_sliding_friction() {
+        // F = Σ μ_j ∂F/∂μ_j (homogeneous of degree 1), directional floor.
+        let fs = FloorShare { sliding_speed_m_per_s: 1e-3, ..floor(0.2, 0.4, 0.9) };
+        let axis = [0.6, 0.8, 0.0];
+        for v in [[0.1, -0.3, 0.0], [-0.2, 0.05, 0.0], [0.3, 0.3, 0.0]] {
+            let pts = [([0.036, 0.048, 0.0], v), ([-0.036, -0.048, 0.0], v)];
+            let cols = fs.sliding_regressors(axis, 2.5, [0.7, 0.3], &pts, 0.01).expect("both points slide");
+            let mu = fs.coefficients();
+            let rebuilt = (0..3).fold([0.0; 3], |acc, k| add(acc, scale(cols[k], mu[k])));
+            let (f, _, stick) = fs.friction([0.0; 3], axis, [2.5; 2], [0.7, 0.3], v, &pts);
+            assert_eq!(stick, 0.0);
+            assert!((rebuilt[0] - f[0]).abs() < 1e-12 && (rebuilt[1] - f[1]).abs() < 1e-12, "{rebuilt:?} {f:?}");
+        }
     }
 
     #[test]

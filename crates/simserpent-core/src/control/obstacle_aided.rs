@@ -1,0 +1,567 @@
+//! Obstacle-aided locomotion with force feedback: the snake feels the pegs it touches (contact
+//! estimates from its joint force/torque sensors and IMUs) and shapes its body to push against
+//! the ones that drive it forward.
+//!
+//! Sources: the hybrid position/force principle of M. Yoshikawa and J. Sudou (force control
+//! across the contact, position control along it; Yoshikawa, *Dynamic hybrid position/force
+//! control of robot manipulators*, IEEE J. Robotics and Automation 3(5), 1987, as applied to
+//! Boa in the thesis' reference list); the obstacle-aided locomotion schemes of A. A. Transeth,
+//! R. I. Leine, C. Glocker, K. Y. Pettersen and P. Liljebäck (*Snake robot obstacle-aided
+//! locomotion: modeling, simulations, and experiments*, IEEE Trans. Robotics 24(1), 88–104,
+//! 2008) and Liljebäck, Pettersen, Stavdahl and Gravdahl (*Snake Robots: Modelling,
+//! Mechatronics, and Control*, Springer 2013, ch. 10–11, and *Hybrid modelling and control of
+//! obstacle-aided snake robot locomotion*, IEEE Trans. Robotics 26(5), 2010): a peg pushes the
+//! snake forward when its contact force has a component along the direction of travel; bends
+//! that press on such pegs are kept while the body slides past them, i.e. they move toward the
+//! tail at the snake's forward speed.
+//!
+//! **The wave.** Joint j (0 right behind the head) follows
+//!
+//! ```text
+//! φ_j,ref = r(t)·α·sin(ψ − j δ) + o_j,       ψ̇ = ±ω
+//! ```
+//!
+//! with α, ω = 2πf, δ from `[gait.sine_wave]`, r(t) the ramp-in of `gait.ramp_secs`, ψ the
+//! wave's phase (ψ̇ = +ω: the wave travels to the tail and the snake forward; −ω during jam
+//! recovery) and o_j the contact offset of joint j.
+//!
+//! **What the controller measures.** Link headings θ₀ = head yaw (the head gyro's yaw rate
+//! integrated from the starting heading), θᵢ = θᵢ₋₁ + qᵢ₋₁ (encoders; our joint angle is the
+//! child's heading minus the parent's); the mean heading θ̄ and û = (cos θ̄, sin θ̄), the
+//! direction of travel; each link's left normal n̂ᵢ = (−sin θᵢ, cos θᵢ). From the contacts
+//! (`Observation::contacts`, or the simulator's truth with `contacts = "true"`): per link the
+//! flag, the horizontal obstacle force f on the link and the contact point a along it (signed
+//! distance from the centre, + toward the head). The centre of mass (for the jam rule) follows
+//! from the head's position (a tracking system, as for path following) and the chain; the
+//! forward speed v = max(0, v_head·û) from the head's velocity.
+//!
+//! **The force law** (every link i with a contact; f_n = f·n̂ᵢ the force across the link,
+//! f_fwd = f·û its forward part; the peg is on the side s = −sign(f_n)):
+//!
+//! ```text
+//! g_i = k_f·(F_ref − |f_n|)·Δt    if f_fwd > 0   (the peg propels: press on it until |f_n| = F_ref)
+//! g_i = −k_f·|f_n|·Δt              if f_fwd ≤ 0   (the peg holds the snake back: yield)
+//! ```
+//!
+//! g_i > 0 deepens a bend whose apex, the joint at the contact, moves toward the peg: a bend
+//! with its apex at joint k toward side s is the joint pattern (Δo_{k−1}, Δo_k, Δo_{k+1}) =
+//! s·g·(−1, +2, −1) (link k turns toward s going tailward, link k+1 back: joint k moves toward s
+//! relative to its neighbours). The apex is the contact's nearer joint: the front joint of link
+//! i (k = i − 1) with weight w = clamp(½ + a/L, 0, 1), the rear one (k = i) with 1 − w
+//! (w = ½ without a contact point). This is force control across the contact (the offset
+//! integrates the force error) and position control along the body (the wave's angles are
+//! untouched where nothing pushes). Every step the offsets then relax,
+//! o_j ← o_j·(1 − λΔt), are clamped to ±o_max and move toward the tail by σ joints per step
+//! (o_j ← (1 − σ)·o_j + σ·o_{j−1}, a first-order upwind shift): with `propagation =
+//! "progress"` σ = v·Δt/L, so a bend stays where the peg is while the body slides past it;
+//! with `"wave"` σ = (ω/δ)·Δt, the speed at which the wave's bends run down the body, so the
+//! extra bend pressed on a peg travels with the wave's bend that presses it (in ideal lateral
+//! undulation among pegs the two speeds are equal: the body slides through the pegs at the
+//! wave's speed).
+//!
+//! **Jam recovery.** Every `jam_window_secs` T (from the end of the ramp) the controller
+//! compares the centre of mass with the previous checkpoint: if it advanced less than
+//! `jam_min_progress_m` along the checkpoint's û, the snake is jammed: the wave runs backward
+//! (ψ̇ = −ω; the snake backs off the pegs that block it) for `recovery_secs`, the contact
+//! offsets are cleared, and the next window starts when it goes forward again.
+//!
+//! Nothing allocates after construction.
+
+use super::gait::ramp;
+use super::{Command, Controller, Observation, Pid};
+use crate::config::{Config, ContactSource, ControlMethod, JointAxes, Propagation};
+use crate::estimation::ContactEstimates;
+use crate::state::Snapshot;
+use std::f64::consts::TAU;
+
+/// The obstacle-aided controller (module documentation).
+#[derive(Debug, Clone)]
+pub struct ObstacleAided {
+    /// α (rad), ω (rad/s), δ (rad), ramp (s).
+    pub amplitude_rad: f64,
+    pub angular_frequency_rad_per_s: f64,
+    pub phase_lag_rad: f64,
+    pub ramp_secs: f64,
+    /// F_ref (N).
+    pub target_force_n: f64,
+    /// k_f (rad per N and s).
+    pub force_gain_rad_per_n_s: f64,
+    /// o_max (rad).
+    pub max_offset_rad: f64,
+    /// λ (1/s).
+    pub release_per_s: f64,
+    /// How the offsets move toward the tail.
+    pub propagation: Propagation,
+    /// Jam rule: window T (s), progress (m), backward time (s).
+    pub jam_window_secs: f64,
+    pub jam_min_progress_m: f64,
+    pub recovery_secs: f64,
+    /// L (m).
+    pub link_length_m: f64,
+    /// Where the contacts come from.
+    pub source: ContactSource,
+    /// With `source = True`: a link touches a peg when the true horizontal obstacle force reaches
+    /// this (N; the estimator's detection threshold).
+    pub true_threshold_n: f64,
+    yaw_joint: Vec<bool>,
+    method: ControlMethod,
+    pids: Vec<Pid>,
+    dt_secs: f64,
+    /// o_j (rad).
+    offset_rad: Vec<f64>,
+    /// θᵢ (rad), scratch.
+    heading_rad: Vec<f64>,
+    /// The contacts of `source = True`, filled from the snapshot.
+    true_contacts: ContactEstimates,
+    phase_rad: f64,
+    last_time_secs: f64,
+    head_yaw_rad: f64,
+    started: bool,
+    checkpoint: Option<(f64, [f64; 2], [f64; 2])>,
+    recovering_until_secs: f64,
+    /// Latest values, for logging and tests.
+    pub last: ObstacleAidedState,
+}
+
+/// What the controller did in its latest update.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ObstacleAidedState {
+    /// θ̄ (rad).
+    pub mean_heading_rad: f64,
+    /// Centre of mass (x, y; m) from the chain.
+    pub centre_of_mass_m: [f64; 2],
+    /// v (m/s).
+    pub forward_speed_m_per_s: f64,
+    /// Links with a contact that propels / that holds back.
+    pub propulsive_contacts: usize,
+    pub resistive_contacts: usize,
+    /// Whether the wave runs backward (jam recovery).
+    pub recovering: bool,
+    /// Jams detected so far.
+    pub jams: usize,
+}
+
+fn wrap(a: f64) -> f64 {
+    (a + std::f64::consts::PI).rem_euclid(TAU) - std::f64::consts::PI
+}
+
+impl ObstacleAided {
+    /// The controller of `config` (`[obstacle_aided]`, `[gait.sine_wave]`, `[control]`) for
+    /// `n_joints` joints.
+    pub fn from_config(config: &Config, n_joints: usize) -> Self {
+        let w = &config.gait.sine_wave;
+        let o = &config.obstacle_aided;
+        let c = &config.control;
+        let [lo, hi] = config.snake.torque_range_nm;
+        let pid = Pid::new(
+            c.pid_kp_nm_per_rad,
+            c.pid_ki_nm_per_rad_s,
+            c.pid_kd_nm_s_per_rad,
+            lo / c.torque_gear,
+            hi / c.torque_gear,
+        );
+        let yaw_joint = (0..n_joints)
+            .map(|j| !(config.snake.joint_axes == JointAxes::Alternating && (j + 1).is_multiple_of(2)))
+            .collect();
+        Self {
+            amplitude_rad: w.amplitude_deg.to_radians(),
+            angular_frequency_rad_per_s: TAU * w.frequency_hz,
+            phase_lag_rad: w.phase_lag_deg.to_radians(),
+            ramp_secs: config.gait.ramp_secs,
+            target_force_n: o.target_force_n,
+            force_gain_rad_per_n_s: o.force_gain_rad_per_n_s,
+            max_offset_rad: o.max_offset_deg.to_radians(),
+            release_per_s: o.release_per_s,
+            propagation: o.propagation,
+            jam_window_secs: o.jam_window_secs,
+            jam_min_progress_m: o.jam_min_progress_m,
+            recovery_secs: o.recovery_secs,
+            link_length_m: config.snake.link_length_m,
+            source: o.contacts,
+            true_threshold_n: config.estimation.detection_threshold_n,
+            yaw_joint,
+            method: c.method,
+            pids: vec![pid; n_joints],
+            dt_secs: config.general.timestep_secs,
+            offset_rad: vec![0.0; n_joints],
+            heading_rad: vec![0.0; n_joints + 1],
+            true_contacts: ContactEstimates::new(n_joints + 1),
+            phase_rad: 0.0,
+            last_time_secs: 0.0,
+            head_yaw_rad: 0.0,
+            started: false,
+            checkpoint: None,
+            recovering_until_secs: f64::NEG_INFINITY,
+            last: ObstacleAidedState::default(),
+        }
+    }
+
+    /// The contact offsets o_j (rad), joint 0 first.
+    pub fn offsets_rad(&self) -> &[f64] {
+        &self.offset_rad
+    }
+
+    /// Adds the bend with its apex at joint `apex` toward side `side` (+1 left, −1 right) and
+    /// size `g` (rad): the pattern (−1, +2, −1) on joints apex − 1, apex, apex + 1.
+    fn bend(&mut self, apex: usize, side: f64, g: f64) {
+        let n = self.offset_rad.len();
+        if apex >= n {
+            return;
+        }
+        if apex > 0 {
+            self.offset_rad[apex - 1] -= side * g;
+        }
+        self.offset_rad[apex] += 2.0 * side * g;
+        if apex + 1 < n {
+            self.offset_rad[apex + 1] -= side * g;
+        }
+    }
+
+    /// The force law of one step (module documentation): updates the contact offsets from the
+    /// contacts, the link headings θᵢ (rad, head first), the mean heading θ̄ and the forward
+    /// speed v (m/s) over `dt_secs`. Returns (propulsive, resistive) contact counts.
+    pub fn force_law(
+        &mut self,
+        contacts: &ContactEstimates,
+        heading_rad: &[f64],
+        mean_heading_rad: f64,
+        forward_speed_m_per_s: f64,
+        dt_secs: f64,
+    ) -> (usize, usize) {
+        let n_joints = self.offset_rad.len();
+        // Relax, then move toward the tail with the body's progress past the pegs.
+        let keep = (1.0 - self.release_per_s * dt_secs).clamp(0.0, 1.0);
+        self.offset_rad.iter_mut().for_each(|o| *o *= keep);
+        let joints_per_s = match self.propagation {
+            Propagation::None => 0.0,
+            Propagation::Progress => forward_speed_m_per_s.max(0.0) / self.link_length_m,
+            Propagation::Wave if self.phase_lag_rad > 0.0 => self.angular_frequency_rad_per_s / self.phase_lag_rad,
+            Propagation::Wave => 0.0,
+        };
+        if joints_per_s > 0.0 && n_joints > 0 {
+            let sigma = (joints_per_s * dt_secs).clamp(0.0, 1.0);
+            for j in (1..n_joints).rev() {
+                self.offset_rad[j] = (1.0 - sigma) * self.offset_rad[j] + sigma * self.offset_rad[j - 1];
+            }
+            self.offset_rad[0] *= 1.0 - sigma;
+        }
+        let (mut propulsive, mut resistive) = (0, 0);
+        if contacts.active || self.source == ContactSource::True {
+            let u = [mean_heading_rad.cos(), mean_heading_rad.sin()];
+            let n_links = contacts.n_links().min(heading_rad.len()).min(n_joints + 1);
+            for (i, heading) in heading_rad.iter().enumerate().take(n_links) {
+                if !contacts.contact[i] {
+                    continue;
+                }
+                let f = contacts.obstacle_force_n[i];
+                let (s, c) = heading.sin_cos();
+                let f_normal = -s * f[0] + c * f[1];
+                if f_normal == 0.0 {
+                    continue;
+                }
+                let forward = f[0] * u[0] + f[1] * u[1];
+                let g = if forward > 0.0 {
+                    propulsive += 1;
+                    self.force_gain_rad_per_n_s * (self.target_force_n - f_normal.abs()) * dt_secs
+                } else {
+                    resistive += 1;
+                    -self.force_gain_rad_per_n_s * f_normal.abs() * dt_secs
+                };
+                let side = -f_normal.signum();
+                let front = contacts
+                    .contact_point_along_m
+                    .get(i)
+                    .copied()
+                    .flatten()
+                    .map_or(0.5, |a| (0.5 + a / self.link_length_m).clamp(0.0, 1.0));
+                if i > 0 {
+                    self.bend(i - 1, side, g * front);
+                } else {
+                    self.bend(0, side, g * front);
+                }
+                self.bend(i, side, g * (1.0 - front));
+            }
+        }
+        let max = self.max_offset_rad;
+        self.offset_rad.iter_mut().for_each(|o| *o = o.clamp(-max, max));
+        (propulsive, resistive)
+    }
+
+    /// Link headings from the integrated head yaw and the encoders; returns θ̄ and the centre of
+    /// mass (x, y).
+    fn chain(&mut self, obs: &Observation) -> (f64, [f64; 2]) {
+        let l = self.link_length_m;
+        let n_links = self.heading_rad.len();
+        let mut theta = self.head_yaw_rad;
+        let mut o = [obs.head_position_m[0], obs.head_position_m[1]];
+        let (mut sum_theta, mut com) = (0.0, [0.0; 2]);
+        for i in 0..n_links {
+            if i > 0 {
+                o = [o[0] - l * theta.cos(), o[1] - l * theta.sin()];
+                if self.yaw_joint.get(i - 1).copied().unwrap_or(true) {
+                    theta += obs.joint_angle_rad.get(i - 1).copied().unwrap_or(0.0);
+                }
+            }
+            self.heading_rad[i] = theta;
+            sum_theta += theta;
+            com[0] += o[0] - 0.5 * l * theta.cos();
+            com[1] += o[1] - 0.5 * l * theta.sin();
+        }
+        let n = n_links as f64;
+        (sum_theta / n, [com[0] / n, com[1] / n])
+    }
+
+    /// One update with the given contacts.
+    fn step(&mut self, obs: &Observation, contacts: &ContactEstimates, cmd: &mut Command) {
+        let t = obs.time_secs;
+        let q = obs.head_quat;
+        if !self.started {
+            // The starting heading is known (calibration); from then on the gyro integrates it.
+            self.head_yaw_rad = (2.0 * (q[1] * q[2] + q[0] * q[3])).atan2(1.0 - 2.0 * (q[2] * q[2] + q[3] * q[3]));
+            self.last_time_secs = t;
+            self.started = true;
+        }
+        let dt = (t - self.last_time_secs).max(0.0);
+        self.last_time_secs = t;
+        self.head_yaw_rad = wrap(self.head_yaw_rad + obs.imu_gyro_rad_per_s.first().map_or(0.0, |g| g[2]) * dt);
+        let (mean_heading, com) = self.chain(obs);
+        let u = [mean_heading.cos(), mean_heading.sin()];
+        let v = obs.head_velocity_m_per_s;
+        let forward_speed = (v[0] * u[0] + v[1] * u[1]).max(0.0);
+
+        // Jam rule.
+        let recovering = t < self.recovering_until_secs;
+        if !recovering && t >= self.ramp_secs {
+            match self.checkpoint {
+                None => self.checkpoint = Some((t, com, u)),
+                Some((t0, c0, u0)) if t - t0 >= self.jam_window_secs => {
+                    let progress = (com[0] - c0[0]) * u0[0] + (com[1] - c0[1]) * u0[1];
+                    if progress < self.jam_min_progress_m && self.recovery_secs > 0.0 {
+                        self.recovering_until_secs = t + self.recovery_secs;
+                        self.offset_rad.fill(0.0);
+                        self.last.jams += 1;
+                        self.checkpoint = None;
+                    } else {
+                        self.checkpoint = Some((t, com, u));
+                    }
+                }
+                Some(_) => {}
+            }
+        }
+        let recovering = t < self.recovering_until_secs;
+        let direction = if recovering { -1.0 } else { 1.0 };
+        let (propulsive, resistive) = if recovering {
+            self.force_law(&ContactEstimates::default(), &[], mean_heading, 0.0, dt)
+        } else {
+            let heading = std::mem::take(&mut self.heading_rad);
+            let counts = self.force_law(contacts, &heading, mean_heading, forward_speed, dt);
+            self.heading_rad = heading;
+            counts
+        };
+        self.phase_rad = (self.phase_rad + direction * self.angular_frequency_rad_per_s * dt) % (1e3 * TAU);
+        self.last = ObstacleAidedState {
+            mean_heading_rad: mean_heading,
+            centre_of_mass_m: com,
+            forward_speed_m_per_s: forward_speed,
+            propulsive_contacts: propulsive,
+            resistive_contacts: resistive,
+            recovering,
+            jams: self.last.jams,
+        };
+
+        let (r, dr) = ramp(t, self.ramp_secs);
+        let phase_rate = direction * self.angular_frequency_rad_per_s;
+        for j in 0..obs.joint_angle_rad.len().min(cmd.position_rad.len()).min(self.offset_rad.len()) {
+            let phase = self.phase_rad - j as f64 * self.phase_lag_rad;
+            let offset = if self.yaw_joint[j] { self.offset_rad[j] } else { 0.0 };
+            let wave = self.amplitude_rad * phase.sin();
+            let angle = r * wave + offset;
+            let velocity = dr * wave + r * self.amplitude_rad * phase_rate * phase.cos();
+            match self.method {
+                ControlMethod::Position => cmd.position_rad[j] = angle,
+                ControlMethod::Velocity => cmd.velocity_rad_per_s[j] = velocity,
+                ControlMethod::Intvelocity => cmd.intvelocity_rad_per_s[j] = velocity,
+                ControlMethod::Torque => {
+                    let error = angle - obs.joint_angle_rad[j];
+                    let error_rate = velocity - obs.joint_velocity_rad_per_s[j];
+                    cmd.torque_nm[j] = self.pids[j].update(error, error_rate, self.dt_secs);
+                }
+            }
+        }
+    }
+
+    /// Fills the contacts of `source = True` from the simulator's state.
+    fn fill_true_contacts(&mut self, state: &Snapshot) {
+        let c = &mut self.true_contacts;
+        c.active = true;
+        for i in 0..c.n_links().min(state.link_obstacle_force_n.len()) {
+            let f = state.link_obstacle_force_n[i];
+            let f = [f[0], f[1], 0.0];
+            c.obstacle_force_n[i] = f;
+            c.contact[i] = f[0].hypot(f[1]) >= self.true_threshold_n;
+            let [w, x, y, z] = state.link_quat[i];
+            let axis = [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)];
+            let centre = state.link_position_m[i];
+            c.contact_point_m[i] = state.link_obstacle_point_m[i];
+            c.contact_point_along_m[i] =
+                state.link_obstacle_point_m[i].map(|p| (0..3).map(|k| (p[k] - centre[k]) * axis[k]).sum::<f64>());
+        }
+    }
+}
+
+impl Controller for ObstacleAided {
+    fn reset(&mut self) {
+        self.pids.iter_mut().for_each(Pid::reset);
+        self.offset_rad.fill(0.0);
+        self.phase_rad = 0.0;
+        self.started = false;
+        self.checkpoint = None;
+        self.recovering_until_secs = f64::NEG_INFINITY;
+        self.last = ObstacleAidedState::default();
+    }
+
+    fn update(&mut self, obs: &Observation, cmd: &mut Command) {
+        match self.source {
+            ContactSource::Estimated => self.step(obs, &obs.contacts, cmd),
+            // Without the simulator's state (a caller that does not pass it) nothing is felt.
+            ContactSource::True => self.step(obs, &ContactEstimates::default(), cmd),
+        }
+    }
+
+    fn needs_full_state(&self) -> bool {
+        self.source == ContactSource::True
+    }
+
+    fn update_with_state(&mut self, obs: &Observation, state: &Snapshot, cmd: &mut Command) {
+        self.fill_true_contacts(state);
+        let contacts = std::mem::take(&mut self.true_contacts);
+        self.step(obs, &contacts, cmd);
+        self.true_contacts = contacts;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn controller(n_joints: usize) -> ObstacleAided {
+        let mut c = Config::default();
+        c.obstacle_aided.release_per_s = 0.0;
+        c.obstacle_aided.propagation = Propagation::None;
+        c.obstacle_aided.force_gain_rad_per_n_s = 0.1;
+        c.obstacle_aided.target_force_n = 3.0;
+        ObstacleAided::from_config(&c, n_joints)
+    }
+
+    fn one_contact(n_links: usize, link: usize, force: [f64; 3], along: Option<f64>) -> ContactEstimates {
+        let mut c = ContactEstimates::new(n_links);
+        c.active = true;
+        c.contact[link] = true;
+        c.obstacle_force_n[link] = force;
+        c.contact_point_along_m[link] = along;
+        c
+    }
+
+    #[test]
+    fn a_propelling_peg_gets_a_bend_toward_it_until_the_force_reaches_the_target() {
+        // Straight snake along +x; link 3 touches a peg on its right (the peg pushes it left,
+        // +y) and forward (+x): propulsive. Contact at the rear end of link 3 (a = −L/2): apex
+        // joint 3 only. g = k (F_ref − |f_n|) dt = 0.1 · (3 − 1) · 0.5 = 0.1 rad toward the
+        // right (side −1): joints 2, 3, 4 get (+0.1, −0.2, +0.1).
+        let mut oa = controller(9);
+        let contacts = one_contact(10, 3, [0.5, 1.0, 0.0], Some(-0.1));
+        let (p, r) = oa.force_law(&contacts, &[0.0; 10], 0.0, 0.0, 0.5);
+        assert_eq!((p, r), (1, 0));
+        let expected = [0.0, 0.0, 0.1, -0.2, 0.1, 0.0, 0.0, 0.0, 0.0];
+        for (o, e) in oa.offsets_rad().iter().zip(expected) {
+            assert!((o - e).abs() < 1e-12, "{:?}", oa.offsets_rad());
+        }
+        // Above the target force the bend eases: |f_n| = 5 N gives g = 0.1·(3 − 5)·0.5 = −0.1.
+        let contacts = one_contact(10, 3, [0.5, 5.0, 0.0], Some(-0.1));
+        oa.force_law(&contacts, &[0.0; 10], 0.0, 0.0, 0.5);
+        assert!(oa.offsets_rad().iter().all(|o| o.abs() < 1e-12), "{:?}", oa.offsets_rad());
+    }
+
+    #[test]
+    fn a_blocking_peg_makes_the_body_yield_and_the_contact_point_picks_the_apex() {
+        // Link 5 pushed left (+y) and backward (−x): resistive; g = −k |f_n| dt = −0.1·2·0.25 =
+        // −0.05 toward the peg (right): the bend grows to the left. Contact in the middle of the
+        // link: half on the front joint (4) and half on the rear joint (5).
+        let mut oa = controller(9);
+        let contacts = one_contact(10, 5, [-1.0, 2.0, 0.0], Some(0.0));
+        let (p, r) = oa.force_law(&contacts, &[0.0; 10], 0.0, 0.0, 0.25);
+        assert_eq!((p, r), (0, 1));
+        // side = −1, g = −0.05: apex 4 gets side·g·½ = +0.025 ·(−1, 2, −1) on joints 3, 4, 5,
+        // apex 5 the same on 4, 5, 6.
+        let expected = [0.0, 0.0, 0.0, -0.025, 0.025, 0.025, -0.025, 0.0, 0.0];
+        for (o, e) in oa.offsets_rad().iter().zip(expected) {
+            assert!((o - e).abs() < 1e-12, "{:?}", oa.offsets_rad());
+        }
+    }
+
+    #[test]
+    fn the_law_works_in_the_link_frame_whatever_the_heading() {
+        // The same contact as the first test with the whole snake and the force turned by 90°:
+        // the same offsets.
+        let mut oa = controller(9);
+        let turn = std::f64::consts::FRAC_PI_2;
+        let contacts = one_contact(10, 3, [-1.0, 0.5, 0.0], Some(-0.1));
+        oa.force_law(&contacts, &[turn; 10], turn, 0.0, 0.5);
+        let expected = [0.0, 0.0, 0.1, -0.2, 0.1, 0.0, 0.0, 0.0, 0.0];
+        for (o, e) in oa.offsets_rad().iter().zip(expected) {
+            assert!((o - e).abs() < 1e-12, "{:?}", oa.offsets_rad());
+        }
+    }
+
+    #[test]
+    fn offsets_relax_clamp_and_move_toward_the_tail() {
+        let mut c = Config::default();
+        c.obstacle_aided.release_per_s = 0.5;
+        c.obstacle_aided.propagation = Propagation::Progress;
+        c.obstacle_aided.max_offset_deg = 10.0;
+        let mut oa = ObstacleAided::from_config(&c, 4);
+        oa.offset_rad.copy_from_slice(&[1.0, 0.1, 0.0, 0.0]);
+        let none = ContactEstimates::default();
+        // λΔt = 0.1: ×0.9; σ = vΔt/L = 0.4·0.2/0.2 = 0.4 joints.
+        oa.force_law(&none, &[], 0.0, 0.4, 0.2);
+        let max = 10f64.to_radians();
+        let expected = [(0.6 * 0.9f64).min(max), 0.6 * 0.09 + 0.4 * 0.9, 0.4 * 0.09, 0.0].map(|x: f64| x.min(max));
+        for (o, e) in oa.offsets_rad().iter().zip(expected) {
+            assert!((o - e).abs() < 1e-12, "{:?} vs {expected:?}", oa.offsets_rad());
+        }
+    }
+
+    #[test]
+    fn no_progress_for_a_window_reverses_the_wave_for_the_recovery_time() {
+        let mut c = Config::default();
+        c.gait.ramp_secs = 0.0;
+        c.obstacle_aided.jam_window_secs = 1.0;
+        c.obstacle_aided.jam_min_progress_m = 0.05;
+        c.obstacle_aided.recovery_secs = 0.5;
+        let mut oa = ObstacleAided::from_config(&c, 3);
+        let mut obs = Observation::new(4, 3);
+        obs.head_quat = [1.0, 0.0, 0.0, 0.0];
+        let mut cmd = Command::new(3);
+        let mut recovering_at = Vec::new();
+        for k in 0..200 {
+            obs.time_secs = k as f64 * 0.01;
+            oa.update(&obs, &mut cmd);
+            recovering_at.push((obs.time_secs, oa.last.recovering));
+        }
+        // Stuck at the origin: jam at t = 1 s, backward until 1.5 s, a new window from then.
+        assert_eq!(oa.last.jams, 1);
+        for (t, rec) in recovering_at {
+            if (t - 1.0).abs() > 0.005 && (t - 1.5).abs() > 0.005 {
+                assert_eq!(rec, (1.0..1.5).contains(&t), "t = {t}");
+            }
+        }
+        // While the head advances 0.1 m per second nothing jams.
+        let mut oa = ObstacleAided::from_config(&c, 3);
+        for k in 0..300 {
+            obs.time_secs = k as f64 * 0.01;
+            obs.head_position_m[0] = 0.1 * obs.time_secs;
+            oa.update(&obs, &mut cmd);
+        }
+        assert_eq!(oa.last.jams, 0);
+    }
+}

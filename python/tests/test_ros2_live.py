@@ -1,0 +1,472 @@
+"""The live ROS 2 bridge (`simserpent run --ros2`) against an independent DDS: Eclipse Cyclone DDS
+(the `cyclonedds` Python bindings, which bundle the C library), with the ROS 2 message types
+declared as IDL dataclasses here. The peer subscribes to /joint_states and /tf and drives the
+snake in lockstep with a sine wave of joint positions on
+/snake/forward_position_controller/commands; the angles it received equal the run's CSV, and
+the joints follow the commanded sine wave.
+
+Skipped (with the reason) only when the CLI found is not built with the `ros2` feature
+(`cargo build --features ros2`) or `cyclonedds` is not installed. DDS traffic stays on this
+machine: the domain id is random, the simulator uses and announces only 127.0.0.1
+(`ros2.interfaces`), Cyclone is limited to the loopback interface and finds the simulator by
+unicast on 127.0.0.1 (see `cyclone_uri`).
+
+Run as a script (`python test_ros2_live.py STEPS`) it measures the lockstep round trip instead
+(BENCHMARKS.md, "ROS 2 live bridge").
+"""
+
+
+import json
+import os
+import random
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+from conftest import cli  # noqa: E402
+
+cyclonedds = pytest.importorskip("cyclonedds", reason="pip install cyclonedds (python/requirements-dev.txt)")
+from cyclonedds.core import Qos, Policy  # noqa: E402
+from cyclonedds.domain import DomainParticipant  # noqa: E402
+from cyclonedds.idl import IdlStruct  # noqa: E402
+from cyclonedds.idl.types import float32, float64, int32, sequence, uint32  # noqa: E402
+from cyclonedds.pub import DataWriter  # noqa: E402
+from cyclonedds.sub import DataReader  # noqa: E402
+from cyclonedds.topic import Topic  # noqa: E402
+from cyclonedds.util import duration  # noqa: E402
+
+pd = pytest.importorskip("pandas")
+
+
+# ROS 2 message types as DDS sees them (rosidl's IDL: module <pkg>::msg, type name with
+# `dds_::` and a trailing `_`). Field order and types as in ROS 2 Jazzy's common_interfaces.
+@dataclass
+class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
+    sec: int32
+    nanosec: uint32
+
+
+@dataclass
+class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    stamp: Time
+    frame_id: str
+
+
+@dataclass
+class JointState(IdlStruct, typename="sensor_msgs::msg::dds_::JointState_"):
+    header: Header
+    name: sequence[str]
+    position: sequence[float64]
+    velocity: sequence[float64]
+    effort: sequence[float64]
+
+
+@dataclass
+class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@dataclass
+class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
+    x: float64
+    y: float64
+    z: float64
+    w: float64
+
+
+@dataclass
+class Transform(IdlStruct, typename="geometry_msgs::msg::dds_::Transform_"):
+    translation: Vector3
+    rotation: Quaternion
+
+
+@dataclass
+class TransformStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TransformStamped_"):
+    header: Header
+    child_frame_id: str
+    transform: Transform
+
+
+@dataclass
+class TFMessage(IdlStruct, typename="tf2_msgs::msg::dds_::TFMessage_"):
+    transforms: sequence[TransformStamped]
+
+
+@dataclass
+class MultiArrayDimension(IdlStruct, typename="std_msgs::msg::dds_::MultiArrayDimension_"):
+    label: str
+    size: uint32
+    stride: uint32
+
+
+@dataclass
+class MultiArrayLayout(IdlStruct, typename="std_msgs::msg::dds_::MultiArrayLayout_"):
+    dim: sequence[MultiArrayDimension]
+    data_offset: uint32
+
+
+@dataclass
+class Float64MultiArray(IdlStruct, typename="std_msgs::msg::dds_::Float64MultiArray_"):
+    layout: MultiArrayLayout
+    data: sequence[float64]
+
+
+@dataclass
+class JointTrajectoryPoint(IdlStruct, typename="trajectory_msgs::msg::dds_::JointTrajectoryPoint_"):
+    positions: sequence[float64]
+    velocities: sequence[float64]
+    accelerations: sequence[float64]
+    effort: sequence[float64]
+    time_from_start: Time
+
+
+@dataclass
+class JointTrajectory(IdlStruct, typename="trajectory_msgs::msg::dds_::JointTrajectory_"):
+    header: Header
+    joint_names: sequence[str]
+    points: sequence[JointTrajectoryPoint]
+
+
+_ = float32  # (ColorRGBA etc. are not needed by the peer)
+
+BRIDGE_BUILT = "live ROS 2 bridge (run --ros2): built in"
+
+
+def ros2_cli() -> Path | None:
+    """The CLI to test: $SIMSERPENT_ROS2_BIN, else the newest built one; None unless it has the bridge."""
+    env = os.environ.get("SIMSERPENT_ROS2_BIN")
+    binary = Path(env) if env else cli()
+    if binary is None or not binary.is_file():
+        return None
+    out = subprocess.run([str(binary), "--version"], capture_output=True, text=True).stdout
+    return binary if BRIDGE_BUILT in out else None
+
+
+def cyclone_uri(domain: int) -> str:
+    """Cyclone on the loopback interface only, finding peers by unicast on 127.0.0.1."""
+    return (
+        f'<CycloneDDS><Domain id="{domain}"><General><Interfaces>'
+        '<NetworkInterface name="lo" multicast="false"/></Interfaces>'
+        "<AllowMulticast>false</AllowMulticast></General>"
+        "<Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>20</MaxAutoParticipantIndex>"
+        '<Peers><Peer address="127.0.0.1"/></Peers></Discovery></Domain></CycloneDDS>'
+    )
+
+
+def qos() -> Qos:
+    # ros2.reliability = "reliable", durability "volatile", depth 10 (the defaults); plain CDR
+    # (XCDR1), as ROS 2 and RustDDS use.
+    return Qos(
+        Policy.Reliability.Reliable(max_blocking_time=duration(seconds=1)),
+        Policy.Durability.Volatile,
+        Policy.History.KeepLast(10),
+        Policy.DataRepresentation(use_cdrv0_representation=True),
+    )
+
+
+@dataclass
+class Peer:
+    """A lockstep ROS 2 controller: for each /joint_states it sends one position command."""
+
+    domain: int
+    # The default gait's wave ([gait.sine_wave]: 30 deg, 0.5 Hz, 40 deg phase lag per joint).
+    amplitude_rad: float = float(np.radians(30.0))
+    frequency_hz: float = 0.5
+    phase_rad: float = float(np.radians(40.0))
+    timestep_secs: float = 0.001
+    received: list = field(default_factory=list)  # (stamp_ns, names, positions)
+    tf: list = field(default_factory=list)  # (stamp_ns, [(child, translation, rotation)])
+    commands: list = field(default_factory=list)  # (stamp_ns, data)
+    round_trip_secs: list = field(default_factory=list)
+
+    def __post_init__(self):
+        self.participant = DomainParticipant(self.domain)
+        q = qos()
+        self.joint_states = DataReader(self.participant, Topic(self.participant, "rt/joint_states", JointState, qos=q), qos=q)
+        self.tf_reader = DataReader(self.participant, Topic(self.participant, "rt/tf", TFMessage, qos=q), qos=q)
+        topic = Topic(self.participant, "rt/snake/forward_position_controller/commands", Float64MultiArray, qos=q)
+        self.writer = DataWriter(self.participant, topic, qos=q)
+
+    def command(self, t_secs: float, n: int) -> list[float]:
+        w = 2 * np.pi * self.frequency_hz
+        return [self.amplitude_rad * np.sin(w * t_secs - j * self.phase_rad) for j in range(n)]
+
+    def wait_matched(self, writer, process: subprocess.Popen, timeout_secs: float = 60) -> None:
+        """Until `writer` has matched the run's reader (a volatile sample written before is lost)."""
+        end = time.monotonic() + timeout_secs
+        while not writer.get_matched_subscriptions() and process.poll() is None and time.monotonic() < end:
+            time.sleep(0.01)
+
+    def serve(self, process: subprocess.Popen, deadline_secs: float, send: bool = True) -> None:
+        last_publish = None
+        if send:
+            self.wait_matched(self.writer, process)
+        end = time.monotonic() + deadline_secs
+        while process.poll() is None and time.monotonic() < end:
+            for tf in self.tf_reader.take(N=100):
+                if not isinstance(tf, TFMessage):
+                    continue  # an InvalidSample (the writer went away)
+                stamp = tf.transforms[0].header.stamp
+                self.tf.append(
+                    (
+                        stamp.sec * 1_000_000_000 + stamp.nanosec,
+                        [(t.child_frame_id, t.transform.translation, t.transform.rotation) for t in tf.transforms],
+                    )
+                )
+            samples = [s for s in self.joint_states.take(N=100) if isinstance(s, JointState)]
+            if not samples:
+                continue
+            for js in samples:
+                now = time.perf_counter()
+                if last_publish is not None:
+                    self.round_trip_secs.append(now - last_publish)
+                stamp_ns = js.header.stamp.sec * 1_000_000_000 + js.header.stamp.nanosec
+                self.received.append((stamp_ns, list(js.name), list(js.position)))
+                if send:
+                    # The answer to instant k acts from instant k + 1 (README "ROS 2"): command
+                    # the wave at t_k + dt.
+                    data = self.command(stamp_ns * 1e-9 + self.timestep_secs, len(js.name))
+                    self.commands.append((stamp_ns, data))
+                    last_publish = time.perf_counter()
+                    self.writer.write(Float64MultiArray(MultiArrayLayout([], 0), data))
+
+
+def start_run(binary: Path, tmp: Path, domain: int, *sets: str) -> subprocess.Popen:
+    args = [str(binary), "run", "--quiet", "--ros2"]
+    base = [
+        f'general.output_dir="{tmp}"',
+        f"ros2.domain_id={domain}",
+        "ros2.interfaces=" + os.environ.get("SIMSERPENT_ROS2_INTERFACES", "[]"),
+        'ros2.clock="lockstep"',
+        "ros2.lockstep_timeout_secs=30",
+        'control.method="position"',
+        "recording.every_n_steps=1",
+    ]
+    for s in base + list(sets):
+        args += ["--set", s]
+    return subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+@pytest.fixture
+def binary():
+    b = ros2_cli()
+    if b is None:
+        pytest.skip(
+            "no simserpent CLI built with the live ROS 2 bridge: cargo build --features ros2 "
+            "(or set SIMSERPENT_ROS2_BIN)"
+        )
+    return b
+
+
+@pytest.fixture
+def domain(monkeypatch):
+    d = random.randint(1, 200)
+    monkeypatch.setenv("CYCLONEDDS_URI", cyclone_uri(d))
+    return d
+
+
+def finish(process: subprocess.Popen) -> tuple[str, str]:
+    try:
+        out, err = process.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        out, err = process.communicate()
+    return out, err
+
+
+def run_folder(tmp: Path) -> Path:
+    (folder,) = [p for p in tmp.iterdir() if p.is_dir()]
+    return folder
+
+
+def test_a_cyclone_peer_drives_the_snake_in_lockstep(binary, domain, tmp_path):
+    # Start on the wave, as the built-in gait without ramp does (initial_state.joint_angles_deg =
+    # [] puts the joints at the gait's shape at t = 0); the peer's wave at t = 0, in degrees:
+    start_deg = [round(float(30.0 * np.sin(-j * np.radians(40.0))), 12) for j in range(9)]
+    process = start_run(
+        binary, tmp_path, domain, "general.duration_secs=4.0", f"initial_state.joint_angles_deg={start_deg}"
+    )
+    peer = Peer(domain)
+    peer.serve(process, deadline_secs=240)
+    out, err = finish(process)
+    assert process.returncode == 0, f"stdout:\n{out}\nstderr:\n{err}"
+    folder = run_folder(tmp_path)
+    manifest = json.loads((folder / "manifest.json").read_text())
+    assert manifest["status"] == "complete"
+    steps = manifest["steps"]
+    assert steps == 4000
+    report = manifest["ros2"]
+    assert report["clock"] == "lockstep"
+    # One command per step: every instant 0 .. steps-1 waited for one, the peer answered each.
+    assert report["lockstep_commands"] == steps
+    assert report["commands_accepted"] == steps
+    assert all(report[k] == 0 for k in report if k.startswith("rejected_"))
+
+    # The peer's joint angles are the run's, at every instant (CSV floats round-trip exactly).
+    sensors = pd.read_csv(folder / "sensors.csv")
+    names = sorted({c[:8] for c in sensors.columns if c.startswith("joint_") and c.endswith("_encoder_measured_rad")})
+    stamps = np.rint(sensors["time_s"].to_numpy() * 1e9).astype(np.int64)
+    assert [s for s, _, _ in peer.received] == list(stamps), "one /joint_states per instant, in order"
+    for k, (_, js_names, positions) in enumerate(peer.received):
+        assert js_names == names
+        assert positions == [sensors.iloc[k][f"{j}_encoder_measured_rad"] for j in names]
+
+    # /tf: world -> every link, equal to links.csv's orientation at its instant.
+    links = pd.read_csv(folder / "links.csv")
+    link_names = sorted({c[:7] for c in links.columns if c.startswith("link_")})
+    assert len(peer.tf) > 0.9 * len(links), f"{len(peer.tf)} /tf of {len(links)} instants"
+    by_stamp = {s: i for i, s in enumerate(np.rint(links["time_s"].to_numpy() * 1e9).astype(np.int64))}
+    for stamp_ns, frames in peer.tf:
+        row = links.iloc[by_stamp[stamp_ns]]
+        assert [f[0] for f in frames] == link_names
+        for name, _, q in frames:
+            assert [q.w, q.x, q.y, q.z] == [row[f"{name}_orientation_q{a}"] for a in "wxyz"]
+
+    # The joints follow the commanded sine wave as they follow the built-in gait of the same wave
+    # ([gait.sine_wave] defaults, no ramp): the same run without ROS 2. Only instant 0 differs
+    # (the bridge holds zero until the first answer; the gait starts on the wave).
+    reference = tmp_path / "gait"
+    subprocess.run(
+        [str(binary), "run", "--quiet", "--set", f'general.output_dir="{reference}"', "--set",
+         'control.controller="gait"', "--set", "gait.ramp_secs=0", "--set", "general.duration_secs=4.0",
+         "--set", "recording.every_n_steps=1"],
+        check=True, capture_output=True,
+    )
+    gait = pd.read_csv(run_folder(reference) / "joints.csv")
+    joints = pd.read_csv(folder / "joints.csv")
+    cols = [f"{j}_angle_rad" for j in names]
+    ros, ref = joints[cols].to_numpy(), gait[cols].to_numpy()
+    assert ros.shape == ref.shape
+    a = peer.amplitude_rad
+    deviation = np.abs(ros - ref).max()
+    tail = slice(steps - 2000, steps)  # the last period
+    amp_ros = (ros[tail].max(axis=0) - ros[tail].min(axis=0)) / 2
+    amp_ref = (ref[tail].max(axis=0) - ref[tail].min(axis=0)) / 2
+    print(f"max |ROS run - gait run| = {deviation:.3e} rad; amplitudes {amp_ros / a} vs {amp_ref / a}")
+    assert deviation < 0.01 * a, f"the ROS-driven joints deviate from the gait's by {deviation} rad"
+
+
+def test_a_silent_peer_stops_the_lockstep_run_cleanly(binary, domain, tmp_path):
+    # The peer answers 300 instants, then disappears: the run stops after the timeout, the
+    # manifest says why, and the tables hold every instant up to then.
+    process = start_run(binary, tmp_path, domain, "general.duration_secs=2.0", "ros2.lockstep_timeout_secs=8")
+    peer = Peer(domain)
+    end = time.monotonic() + 60
+    while process.poll() is None and len(peer.received) < 300 and time.monotonic() < end:
+        peer.serve(process, deadline_secs=0.05)
+    # Silent from here on: serve without sending (the run waits, then stops).
+    peer.serve(process, deadline_secs=30, send=False)
+    out, err = finish(process)
+    assert process.returncode == 1, f"stdout:\n{out}\nstderr:\n{err}"
+    assert "no valid command within" in err
+    folder = run_folder(tmp_path)
+    manifest = json.loads((folder / "manifest.json").read_text())
+    assert manifest["status"] == "incomplete"
+    assert "ros2.lockstep_timeout_secs" in manifest["error"]
+    assert manifest["ros2"]["stopped"] == manifest["error"]
+    answered = manifest["ros2"]["lockstep_commands"]
+    assert answered >= 300
+    sensors = pd.read_csv(folder / "sensors.csv")
+    # Every step taken is in the table (instants 0 ..= steps), whole rows.
+    assert len(sensors) == manifest["steps"] + 1
+    assert not sensors.isna().any().any()
+
+
+def test_malformed_commands_are_counted_and_the_last_valid_one_holds(binary, domain, tmp_path):
+    # Free clock: a valid command, then bad ones; the run completes, the manifest counts them,
+    # and the joints hold the valid command.
+    process = start_run(
+        binary,
+        tmp_path,
+        domain,
+        "general.duration_secs=3.0",
+        'ros2.clock="free"',
+        "ros2.real_time_factor=1.0",
+        'recording.format=["csv", "mcap"]',
+    )
+    peer = Peer(domain)
+    q = qos()
+    topic = Topic(peer.participant, "rt/snake/joint_trajectory_controller/joint_trajectory", JointTrajectory, qos=q)
+    trajectory = DataWriter(peer.participant, topic, qos=q)
+    velocity = DataWriter(
+        peer.participant,
+        Topic(peer.participant, "rt/snake/forward_velocity_controller/commands", Float64MultiArray, qos=q),
+        qos=q,
+    )
+    # Wait for the run's first state (discovery done both ways, as the bridge publishes).
+    end = time.monotonic() + 60
+    while not peer.received and time.monotonic() < end:
+        peer.serve(process, deadline_secs=0.05, send=False)
+    n = len(peer.received[0][1])
+    valid = [0.2] * n
+    layout = MultiArrayLayout([], 0)
+    for w in (peer.writer, trajectory, velocity):
+        peer.wait_matched(w, process)
+    peer.writer.write(Float64MultiArray(layout, valid))
+    time.sleep(0.2)
+    peer.writer.write(Float64MultiArray(layout, valid[:-1]))  # wrong length
+    peer.writer.write(Float64MultiArray(layout, valid + [0.0]))  # wrong length
+    peer.writer.write(Float64MultiArray(layout, [float("nan")] + valid[1:]))  # NaN
+    peer.writer.write(Float64MultiArray(layout, [float("inf")] + valid[1:]))  # inf
+    velocity.write(Float64MultiArray(layout, [0.0] * n))  # wrong interface
+    point = JointTrajectoryPoint([1.0], [], [], [], Time(1, 0))
+    trajectory.write(JointTrajectory(Header(Time(0, 0), ""), ["joint_99"], [point]))  # unknown joint
+    peer.serve(process, deadline_secs=60, send=False)
+    out, err = finish(process)
+    assert process.returncode == 0, f"stdout:\n{out}\nstderr:\n{err}"
+    assert "ROS 2 command rejected" in err
+    folder = run_folder(tmp_path)
+    report = json.loads((folder / "manifest.json").read_text())["ros2"]
+    assert report["commands_accepted"] == 1
+    assert report["rejected_wrong_length"] == 2
+    assert report["rejected_not_finite"] == 2
+    assert report["rejected_wrong_interface"] == 1
+    assert report["rejected_unknown_joint"] == 1
+    # The command applied at every instant (the bag's command topic): zero until the valid one,
+    # then exactly it to the end — never a partial, NaN or out-of-interface command.
+    mcap_reader = pytest.importorskip("mcap.reader")
+    mcap_ros2_decoder = pytest.importorskip("mcap_ros2.decoder")
+    applied = []
+    with open(folder / "run.mcap", "rb") as f:
+        reader = mcap_reader.make_reader(f, decoder_factories=[mcap_ros2_decoder.DecoderFactory()])
+        for _, _, _, msg in reader.iter_decoded_messages(topics=["/snake/forward_position_controller/commands"]):
+            applied.append(list(msg.data))
+    assert applied[-1] == valid
+    first = applied.index(valid)
+    assert all(c == [0.0] * n for c in applied[:first]) and all(c == valid for c in applied[first:])
+
+
+def measure(steps: int) -> None:
+    """Lockstep round trip over `steps` steps: the peer's time from sending a command to receiving
+    the next /joint_states (the simulator takes the command, steps once, publishes)."""
+    binary = ros2_cli()
+    if binary is None:
+        raise SystemExit("no simserpent CLI with the ros2 feature (set SIMSERPENT_ROS2_BIN)")
+    import tempfile
+
+    domain = random.randint(1, 200)
+    os.environ["CYCLONEDDS_URI"] = cyclone_uri(domain)
+    with tempfile.TemporaryDirectory() as tmp:
+        process = start_run(
+            binary, Path(tmp), domain, f"general.duration_secs={steps * 0.001}", 'recording.format="csv"'
+        )
+        peer = Peer(domain)
+        peer.serve(process, deadline_secs=3600)
+        finish(process)
+        rt = np.array(peer.round_trip_secs) * 1e3
+        print(
+            f"{len(rt)} round trips: median {np.median(rt):.3f} ms, p99 {np.percentile(rt, 99):.3f} ms, "
+            f"max {rt.max():.3f} ms (exit {process.returncode})"
+        )
+
+
+if __name__ == "__main__":
+    measure(int(sys.argv[1]) if len(sys.argv) > 1 else 10_000)

@@ -1,0 +1,485 @@
+//! The live ROS 2 bridge (`simserpent run --ros2`, cargo feature `ros2`): the bag's topics
+//! published over DDS while the run simulates, and joint commands taken from DDS.
+//!
+//! DDS is RustDDS (pure Rust, the RTPS wire protocol every ROS 2 middleware speaks); ROS 2
+//! names map onto DDS as ROS 2 does it: topic `/joint_states` is DDS topic `rt/joint_states`,
+//! type `sensor_msgs/msg/JointState` is `sensor_msgs::msg::dds_::JointState_`, payloads are
+//! CDR (the bytes of [`super::msgs::encode`]).
+//!
+//! The bridge is an [`Observer`] of the step loop:
+//! - at recorded instants (`recording.every_n_steps`; a forward pass has run, so poses and
+//!   contact forces describe the instant): `/tf`, `/<ns>/link_NN/contact_wrench`,
+//!   `/<ns>/contacts`;
+//! - at publish instants (`ros2.publish_rate_hz` with the free clock, every
+//!   `ros2.steps_per_command` steps in lockstep): `/clock`, `/joint_states` (measured),
+//!   `/<ns>/ground_truth/joint_states`, `/<ns>/link_NN/imu`, `/<ns>/joint_NN/wrench`;
+//! - at every step it takes the commands that arrived ([`super::commands::CommandGate`]);
+//!   in lockstep it first publishes, then waits for a command; with the free clock it sleeps
+//!   to keep `ros2.real_time_factor`.
+//!
+//! A command that answers the state of instant k acts from instant k + 1 (the step from k was
+//! already commanded when the state of k was published): one step of transport delay, as a
+//! real robot's sensor-to-actuator loop has.
+
+use super::commands::{CommandGate, CommandSource, Float64MultiArrayMsg, Interface, JointTrajectoryMsg, Ros2Report};
+use super::msgs::{self, Clock, Header, Imu, JointState, Quaternion, TfMessage, Time, Wrench, WrenchStamped};
+use super::{LiveBridge, Ros2Error};
+use crate::config::{Config, Ros2Clock, Ros2Durability, Ros2Reliability};
+use crate::run::RunError;
+use crate::sim::{Index, Observer, StepView};
+use crate::state::Snapshot;
+use rustdds::no_key::{DataReader, DataWriter, SerializerAdapter};
+use rustdds::policy::{Durability, History, Reliability};
+use rustdds::{
+    CDRDeserializerAdapter, DataWriterStatus, DomainParticipant, Publisher, QosPolicies, QosPolicyBuilder,
+    RepresentationIdentifier, StatusEvented, Subscriber, TopicKind,
+};
+use std::time::{Duration, Instant};
+
+/// A message already encoded as CDR (without the encapsulation header, which RustDDS writes).
+#[derive(Debug)]
+struct RawCdr(bytes::Bytes);
+
+/// Passes [`RawCdr`] through to RustDDS unchanged.
+struct RawAdapter;
+
+impl SerializerAdapter<RawCdr> for RawAdapter {
+    type Error = std::convert::Infallible;
+    fn output_encoding() -> RepresentationIdentifier {
+        RepresentationIdentifier::CDR_LE
+    }
+    fn to_bytes(value: &RawCdr) -> Result<bytes::Bytes, Self::Error> {
+        Ok(value.0.clone())
+    }
+}
+
+type Writer = DataWriter<RawCdr, RawAdapter>;
+type Reader<D> = DataReader<D, CDRDeserializerAdapter<D>>;
+
+/// The DDS name of a ROS 2 type: `sensor_msgs/JointState` → `sensor_msgs::msg::dds_::JointState_`.
+pub fn dds_type_name(type_name: &str) -> String {
+    match type_name.split_once('/') {
+        Some((package, name)) => format!("{package}::msg::dds_::{name}_"),
+        None => type_name.to_string(),
+    }
+}
+
+/// The DDS topic of a ROS 2 topic: `/joint_states` → `rt/joint_states`.
+pub fn dds_topic_name(topic: &str) -> String {
+    format!("rt/{}", topic.trim_start_matches('/'))
+}
+
+struct Writers {
+    clock: Writer,
+    joint_states: Writer,
+    joint_states_true: Writer,
+    tf: Writer,
+    contacts: Writer,
+    imu: Vec<Writer>,
+    wrench: Vec<Writer>,
+    contact_wrench: Vec<Writer>,
+}
+
+struct Readers {
+    arrays: Vec<(Interface, String, Reader<Float64MultiArrayMsg>)>,
+    trajectory: (String, Reader<JointTrajectoryMsg>),
+}
+
+/// The bridge: DDS participant, writers, readers, the command gate (see the module doc).
+pub struct Bridge {
+    writers: Writers,
+    readers: Readers,
+    gate: CommandGate,
+    buf: Vec<u8>,
+    links: Vec<String>,
+    joints: Vec<String>,
+    joint_frames: Vec<String>,
+    gyro_covariance: [f64; 9],
+    accel_covariance: [f64; 9],
+    arrow_m_per_n: f64,
+    clock: Ros2Clock,
+    publish_every_n_steps: u64,
+    steps_per_command: u64,
+    real_time_factor: f64,
+    timeout: Duration,
+    started: Option<Instant>,
+    /// Lockstep: a subscriber to `/joint_states` has been seen.
+    peer_seen: bool,
+    domain_id: u16,
+    report: Ros2Report,
+    /// Last: dropped after its writers and readers.
+    _participant: DomainParticipant,
+}
+
+fn dds_err(what: &str) -> impl FnOnce(rustdds::dds::CreateError) -> Ros2Error + '_ {
+    move |e| Ros2Error::Dds { what: what.to_string(), message: format!("{e:?}") }
+}
+
+impl Bridge {
+    /// Joins DDS domain `ros2.domain_id` with a writer per topic and a reader per command topic
+    /// for the robot of `index`; returns the bridge and the controller that applies the
+    /// commands.
+    pub fn open(config: &Config, index: &Index) -> Result<(Self, CommandSource), Ros2Error> {
+        let ros = &config.ros2;
+        let mut builder = rustdds::DomainParticipantBuilder::new(ros.domain_id);
+        if !ros.interfaces.is_empty() {
+            // Validated as IP addresses with the config.
+            let addrs: Vec<std::net::IpAddr> = ros.interfaces.iter().filter_map(|a| a.parse().ok()).collect();
+            builder = builder.with_only_networks(addrs);
+        }
+        let participant = builder.build().map_err(dds_err("joining the DDS domain"))?;
+        let qos = qos(config);
+        let publisher = participant.create_publisher(&qos).map_err(dds_err("creating the publisher"))?;
+        let subscriber = participant.create_subscriber(&qos).map_err(dds_err("creating the subscriber"))?;
+        let writer = |topic: &str, ty: &str| -> Result<Writer, Ros2Error> {
+            make_writer(&participant, &publisher, &qos, topic, ty)
+        };
+        let links: Vec<String> = index.links.iter().map(|l| l.name.clone()).collect();
+        let joints: Vec<String> = index.joints.iter().map(|j| j.name.clone()).collect();
+        let writers = Writers {
+            clock: writer("/clock", "rosgraph_msgs/Clock")?,
+            joint_states: writer("/joint_states", "sensor_msgs/JointState")?,
+            joint_states_true: writer(&ros.topic("ground_truth/joint_states"), "sensor_msgs/JointState")?,
+            tf: writer("/tf", "tf2_msgs/TFMessage")?,
+            contacts: writer(&ros.topic("contacts"), "visualization_msgs/MarkerArray")?,
+            imu: links
+                .iter()
+                .map(|l| writer(&ros.topic(&format!("{l}/imu")), "sensor_msgs/Imu"))
+                .collect::<Result<_, _>>()?,
+            wrench: joints
+                .iter()
+                .map(|j| writer(&ros.topic(&format!("{j}/wrench")), "geometry_msgs/WrenchStamped"))
+                .collect::<Result<_, _>>()?,
+            contact_wrench: links
+                .iter()
+                .map(|l| writer(&ros.topic(&format!("{l}/contact_wrench")), "geometry_msgs/WrenchStamped"))
+                .collect::<Result<_, _>>()?,
+        };
+        let mut arrays = Vec::new();
+        for (interface, kind) in
+            [(Interface::Position, "position"), (Interface::Velocity, "velocity"), (Interface::Effort, "effort")]
+        {
+            let topic = ros.topic(&format!("forward_{kind}_controller/commands"));
+            arrays.push((
+                interface,
+                topic.clone(),
+                make_reader(&participant, &subscriber, &qos, &topic, "std_msgs/Float64MultiArray")?,
+            ));
+        }
+        let trajectory_topic = ros.topic("joint_trajectory_controller/joint_trajectory");
+        let trajectory = (
+            trajectory_topic.clone(),
+            make_reader(&participant, &subscriber, &qos, &trajectory_topic, "trajectory_msgs/JointTrajectory")?,
+        );
+        let (gate, source) = CommandGate::new(joints.clone(), config.control.method);
+        let s = &config.sensors;
+        let variance = |std: f64| if s.noise_enabled { std * std } else { 0.0 };
+        let dt = config.general.timestep_secs;
+        let publish_every_n_steps = match ros.clock {
+            Ros2Clock::Free => (1.0 / (ros.publish_rate_hz * dt)).round().max(1.0) as u64,
+            Ros2Clock::Lockstep => ros.steps_per_command,
+        };
+        let joint_frames = joints.iter().map(|j| super::bag::joint_frame(j, &links)).collect();
+        let report = Ros2Report {
+            clock: match ros.clock {
+                Ros2Clock::Free => "free",
+                Ros2Clock::Lockstep => "lockstep",
+            }
+            .to_string(),
+            domain_id: ros.domain_id,
+            ..Ros2Report::default()
+        };
+        let bridge = Self {
+            _participant: participant,
+            writers,
+            readers: Readers { arrays, trajectory },
+            gate,
+            buf: Vec::with_capacity(64 * 1024),
+            links,
+            joints,
+            joint_frames,
+            gyro_covariance: msgs::diagonal_covariance(variance(s.gyro.std)),
+            accel_covariance: msgs::diagonal_covariance(variance(s.accelerometer.std)),
+            arrow_m_per_n: ros.contact_arrow_m_per_n,
+            clock: ros.clock,
+            publish_every_n_steps,
+            steps_per_command: ros.steps_per_command,
+            real_time_factor: ros.real_time_factor,
+            timeout: Duration::from_secs_f64(ros.lockstep_timeout_secs),
+            started: None,
+            peer_seen: false,
+            domain_id: ros.domain_id,
+            report,
+        };
+        Ok((bridge, source))
+    }
+
+    /// Encodes `message` and writes it on `writer`.
+    fn put<T: serde::Serialize>(buf: &mut Vec<u8>, writer: &Writer, message: &T) -> Result<(), Ros2Error> {
+        msgs::encode(buf, message).map_err(|e| Ros2Error::Dds { what: "encoding".into(), message: e.to_string() })?;
+        let payload = bytes::Bytes::copy_from_slice(&buf[4..]);
+        writer
+            .write(RawCdr(payload), None)
+            .map_err(|e| Ros2Error::Dds { what: "publishing".into(), message: format!("{e:?}") })
+    }
+
+    /// The state topics of the instant of `view`.
+    fn publish_state(&mut self, view: &StepView<'_>) -> Result<(), Ros2Error> {
+        let nanos = msgs::nanos(view.time_secs());
+        let stamp = Time::from_nanos(nanos);
+        let (w, buf) = (&self.writers, &mut self.buf);
+        Self::put(buf, &w.clock, &Clock { clock: stamp })?;
+        let no_frame = Header { stamp, frame_id: "" };
+        let m = view.observation;
+        let measured = JointState {
+            header: no_frame,
+            name: &self.joints,
+            position: &m.joint_angle_rad,
+            velocity: &m.joint_velocity_rad_per_s,
+            effort: &m.actuator_torque_nm,
+        };
+        Self::put(buf, &w.joint_states, &measured)?;
+        let t = view.observation_true;
+        let truth = JointState {
+            header: no_frame,
+            name: &self.joints,
+            position: &t.joint_angle_rad,
+            velocity: &t.joint_velocity_rad_per_s,
+            effort: &t.actuator_torque_nm,
+        };
+        Self::put(buf, &w.joint_states_true, &truth)?;
+        let mut orientation_covariance = [0.0; 9];
+        orientation_covariance[0] = -1.0;
+        for (i, frame) in self.links.iter().enumerate() {
+            let imu = Imu {
+                header: Header { stamp, frame_id: frame },
+                orientation: Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
+                orientation_covariance,
+                angular_velocity: m.imu_gyro_rad_per_s[i].into(),
+                angular_velocity_covariance: self.gyro_covariance,
+                linear_acceleration: m.imu_accel_m_per_s2[i].into(),
+                linear_acceleration_covariance: self.accel_covariance,
+            };
+            Self::put(buf, &w.imu[i], &imu)?;
+        }
+        for (j, frame) in self.joint_frames.iter().enumerate() {
+            let wrench = WrenchStamped {
+                header: Header { stamp, frame_id: frame },
+                wrench: Wrench { force: m.joint_force_n[j].into(), torque: m.joint_torque_nm[j].into() },
+            };
+            Self::put(buf, &w.wrench[j], &wrench)?;
+        }
+        self.report.published_instants += 1;
+        Ok(())
+    }
+
+    /// Takes every command that arrived; returns how many were valid.
+    fn take_commands(&mut self, now_secs: f64) -> u64 {
+        let before = self.gate.accepted();
+        for (interface, topic, reader) in &mut self.readers.arrays {
+            loop {
+                match reader.take_next_sample() {
+                    Ok(Some(sample)) => {
+                        let _ = self.gate.array(*interface, &sample.value().data);
+                    }
+                    Ok(None) => break,
+                    Err(e) => {
+                        self.gate.undecodable(topic, &format!("{e:?}"));
+                        break;
+                    }
+                }
+            }
+        }
+        let (topic, reader) = &mut self.readers.trajectory;
+        loop {
+            match reader.take_next_sample() {
+                Ok(Some(sample)) => {
+                    let _ = self.gate.trajectory(sample.value(), now_secs);
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    self.gate.undecodable(topic, &format!("{e:?}"));
+                    break;
+                }
+            }
+        }
+        self.gate.accepted() - before
+    }
+
+    /// Lockstep, before the first state: waits until a peer subscribes to `/joint_states`
+    /// (a volatile sample written before that would be lost, and the loop would wait forever).
+    fn wait_for_peer(&mut self, view: &StepView<'_>) -> Result<(), Ros2Error> {
+        let start = Instant::now();
+        let mut matched = false;
+        while !matched {
+            while let Some(status) = self.writers.joint_states.try_recv_status() {
+                if let DataWriterStatus::PublicationMatched { current, .. } = status {
+                    matched = current.count() > 0;
+                }
+            }
+            if matched {
+                break;
+            }
+            if start.elapsed() >= self.timeout {
+                let e = Ros2Error::NoPeer { waited_secs: start.elapsed().as_secs_f64(), domain_id: self.domain_id };
+                self.report.stopped = Some(e.to_string());
+                return Err(e);
+            }
+            if crate::interrupt::requested() {
+                return Ok(());
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let _ = view;
+        self.peer_seen = true;
+        Ok(())
+    }
+
+    /// Lockstep: waits until a valid command arrives, or the timeout.
+    fn wait_for_command(&mut self, view: &StepView<'_>) -> Result<(), Ros2Error> {
+        let start = Instant::now();
+        let mut idle = 0u32;
+        loop {
+            if self.take_commands(view.time_secs()) > 0 {
+                self.report.lockstep_commands += 1;
+                return Ok(());
+            }
+            let waited = start.elapsed();
+            if waited >= self.timeout {
+                let e = Ros2Error::PeerTimeout {
+                    waited_secs: waited.as_secs_f64(),
+                    time_secs: view.time_secs(),
+                    step: view.k,
+                };
+                self.report.stopped = Some(e.to_string());
+                return Err(e);
+            }
+            if crate::interrupt::requested() {
+                return Ok(());
+            }
+            // Spin briefly (a loopback round trip is tens of microseconds), then sleep.
+            idle += 1;
+            if idle < 200 {
+                std::thread::yield_now();
+            } else {
+                std::thread::sleep(Duration::from_micros(50));
+            }
+        }
+    }
+}
+
+fn qos(config: &Config) -> QosPolicies {
+    let ros = &config.ros2;
+    QosPolicyBuilder::new()
+        .reliability(match ros.reliability {
+            Ros2Reliability::Reliable => {
+                Reliability::Reliable { max_blocking_time: rustdds::Duration::from_millis(100) }
+            }
+            Ros2Reliability::BestEffort => Reliability::BestEffort,
+        })
+        .durability(match ros.durability {
+            Ros2Durability::Volatile => Durability::Volatile,
+            Ros2Durability::TransientLocal => Durability::TransientLocal,
+        })
+        .history(History::KeepLast { depth: ros.history_depth.min(i32::MAX as u32) as i32 })
+        .build()
+}
+
+fn make_writer(
+    participant: &DomainParticipant,
+    publisher: &Publisher,
+    qos: &QosPolicies,
+    topic: &str,
+    ty: &str,
+) -> Result<Writer, Ros2Error> {
+    let t = participant
+        .create_topic(dds_topic_name(topic), dds_type_name(ty), qos, TopicKind::NoKey)
+        .map_err(dds_err(topic))?;
+    publisher.create_datawriter_no_key::<RawCdr, RawAdapter>(&t, None).map_err(dds_err(topic))
+}
+
+fn make_reader<D: serde::de::DeserializeOwned + 'static>(
+    participant: &DomainParticipant,
+    subscriber: &Subscriber,
+    qos: &QosPolicies,
+    topic: &str,
+    ty: &str,
+) -> Result<Reader<D>, Ros2Error> {
+    let t = participant
+        .create_topic(dds_topic_name(topic), dds_type_name(ty), qos, TopicKind::NoKey)
+        .map_err(dds_err(topic))?;
+    subscriber.create_datareader_no_key_cdr::<D>(&t, None).map_err(dds_err(topic))
+}
+
+impl Observer<RunError> for Bridge {
+    fn on_start(&mut self, _view: &StepView<'_>) -> Result<(), RunError> {
+        self.started = Some(Instant::now());
+        Ok(())
+    }
+
+    fn on_record(&mut self, view: &StepView<'_>, s: &Snapshot) -> Result<(), RunError> {
+        let nanos = msgs::nanos(s.time_secs);
+        let stamp = Time::from_nanos(nanos);
+        let _ = view;
+        let (w, buf) = (&self.writers, &mut self.buf);
+        let tf = TfMessage {
+            stamp,
+            parent: super::bag::WORLD_FRAME,
+            children: &self.links,
+            position_m: &s.link_origin_m,
+            quat_wxyz: &s.link_quat,
+        };
+        Self::put(buf, &w.tf, &tf)?;
+        for i in 0..self.links.len() {
+            let wrench = WrenchStamped {
+                header: Header { stamp, frame_id: super::bag::WORLD_FRAME },
+                wrench: Wrench { force: s.link_contact_force_n[i].into(), torque: s.link_contact_torque_nm[i].into() },
+            };
+            Self::put(buf, &w.contact_wrench[i], &wrench)?;
+        }
+        let markers = msgs::ContactMarkers {
+            stamp,
+            frame_id: super::bag::WORLD_FRAME,
+            contacts: &s.contacts,
+            arrow_m_per_n: self.arrow_m_per_n,
+        };
+        Self::put(buf, &w.contacts, &markers)?;
+        Ok(())
+    }
+
+    fn on_step(&mut self, view: &StepView<'_>) -> Result<(), RunError> {
+        let publish = view.k.is_multiple_of(self.publish_every_n_steps) || view.k >= view.plan.steps;
+        if self.clock == Ros2Clock::Lockstep && !self.peer_seen {
+            self.wait_for_peer(view)?;
+        }
+        if publish {
+            self.publish_state(view)?;
+        }
+        match self.clock {
+            Ros2Clock::Lockstep => {
+                if view.k.is_multiple_of(self.steps_per_command) && view.k < view.plan.steps {
+                    self.wait_for_command(view)?;
+                }
+            }
+            Ros2Clock::Free => {
+                self.take_commands(view.time_secs());
+                if publish && self.real_time_factor > 0.0 {
+                    let due = Duration::from_secs_f64(view.time_secs() / self.real_time_factor);
+                    let elapsed = self.started.map(|s| s.elapsed()).unwrap_or_default();
+                    if due > elapsed {
+                        std::thread::sleep(due - elapsed);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl LiveBridge for Bridge {
+    fn report(&self) -> Ros2Report {
+        let mut r = self.report.clone();
+        self.gate.fill(&mut r);
+        r
+    }
+}
