@@ -225,17 +225,22 @@ impl Config {
         self.validate_obstacle_aided()
     }
 
+    /// A controller's joint offset (deg) must stay inside the joint's range.
+    fn below_joint_range(&self, key: &str, offset_deg: f64) -> Check {
+        positive(key, offset_deg)?;
+        ensure(
+            offset_deg < self.snake.joint_range_deg,
+            key,
+            fmt_f(offset_deg),
+            format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
+        )
+    }
+
     fn validate_obstacle_aided(&self) -> Check {
         let o = &self.obstacle_aided;
         positive("obstacle_aided.target_force_n", o.target_force_n)?;
         non_negative("obstacle_aided.force_gain_rad_per_n_s", o.force_gain_rad_per_n_s)?;
-        positive("obstacle_aided.max_offset_deg", o.max_offset_deg)?;
-        ensure(
-            o.max_offset_deg < self.snake.joint_range_deg,
-            "obstacle_aided.max_offset_deg",
-            fmt_f(o.max_offset_deg),
-            format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
-        )?;
+        self.below_joint_range("obstacle_aided.max_offset_deg", o.max_offset_deg)?;
         non_negative("obstacle_aided.release_per_s", o.release_per_s)?;
         positive("obstacle_aided.jam_window_secs", o.jam_window_secs)?;
         non_negative("obstacle_aided.jam_min_progress_m", o.jam_min_progress_m)?;
@@ -273,13 +278,7 @@ impl Config {
         positive("path_following.lookahead_m", p.lookahead_m)?;
         positive("path_following.heading_gain", p.heading_gain)?;
         positive("path_following.acceptance_radius_m", p.acceptance_radius_m)?;
-        positive("path_following.max_offset_deg", p.max_offset_deg)?;
-        ensure(
-            p.max_offset_deg < self.snake.joint_range_deg,
-            "path_following.max_offset_deg",
-            fmt_f(p.max_offset_deg),
-            format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
-        )?;
+        self.below_joint_range("path_following.max_offset_deg", p.max_offset_deg)?;
         ensure(
             p.waypoints_m.len() >= 2,
             "path_following.waypoints_m",

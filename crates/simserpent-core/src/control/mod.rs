@@ -16,7 +16,7 @@ pub use obstacle_aided::{ObstacleAided, ObstacleAidedState};
 pub use path::{Guidance, PathFollowing};
 pub use pid::Pid;
 
-use crate::config::{Config, ControlMethod};
+use crate::config::{Config, ControlMethod, JointAxes};
 
 /// What a controller sees at one step. All vectors are per joint (`n_joints`) or per link
 /// (`n_links`); world frame unless the name says otherwise.
@@ -225,6 +225,91 @@ pub fn controller_from_config(config: &Config, n_joints: usize) -> Box<dyn Contr
     }
 }
 
+/// The joint PID of `method = "torque"`: the `[control]` gains, saturated at
+/// `snake.torque_range_nm` over the gear (thesis chapter 8.4). Controllers clone it per joint.
+pub fn joint_pid(config: &Config) -> Pid {
+    let c = &config.control;
+    let [lo, hi] = config.snake.torque_range_nm;
+    let gear = c.torque_gear;
+    Pid::new(c.pid_kp_nm_per_rad, c.pid_ki_nm_per_rad_s, c.pid_kd_nm_s_per_rad, lo / gear, hi / gear)
+}
+
+/// Per joint: whether it turns in the ground plane (yaw). Joint j sits in front of link j+1;
+/// alternating axes make every second joint (j = 1, 3, …) a pitch joint.
+pub fn yaw_joints(config: &Config, n_joints: usize) -> Vec<bool> {
+    (0..n_joints).map(|j| !(config.snake.joint_axes == JointAxes::Alternating && (j + 1).is_multiple_of(2))).collect()
+}
+
+/// An angle wrapped to [−π, π) (rad).
+pub fn wrap_angle_rad(a: f64) -> f64 {
+    (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
+}
+
+/// Yaw (rad) of a body's x axis from its orientation quaternion `[w, x, y, z]`: atan2(R₁₀, R₀₀).
+pub fn yaw_of_quat(q: [f64; 4]) -> f64 {
+    (2.0 * (q[1] * q[2] + q[0] * q[3])).atan2(1.0 - 2.0 * (q[2] * q[2] + q[3] * q[3]))
+}
+
+/// The snake in the ground plane from what the robot knows: the head's yaw and position (a
+/// tracking system) and the encoders. Link i's heading is θ₀ = `head_yaw_rad`, θᵢ = θᵢ₋₁ +
+/// qᵢ₋₁ over the yaw joints (our joint angle is the child's heading minus the parent's); link i
+/// starts where link i − 1 ends, `link_length_m` behind it, and its centre is half a link
+/// further. Writes θᵢ into `heading_rad` (its length is the number of links; missing joint
+/// angles count as 0) and returns (the mean heading θ̄ (rad), the centre of mass (x, y) (m)).
+pub fn planar_chain(
+    head_yaw_rad: f64,
+    head_xy_m: [f64; 2],
+    joint_angle_rad: &[f64],
+    yaw_joint: &[bool],
+    link_length_m: f64,
+    heading_rad: &mut [f64],
+) -> (f64, [f64; 2]) {
+    let l = link_length_m;
+    let (mut theta, mut o) = (head_yaw_rad, head_xy_m);
+    let (mut sum_theta, mut com) = (0.0, [0.0; 2]);
+    for (i, heading) in heading_rad.iter_mut().enumerate() {
+        if i > 0 {
+            o = [o[0] - l * theta.cos(), o[1] - l * theta.sin()];
+            if yaw_joint.get(i - 1).copied().unwrap_or(true) {
+                theta += joint_angle_rad.get(i - 1).copied().unwrap_or(0.0);
+            }
+        }
+        *heading = theta;
+        sum_theta += theta;
+        com[0] += o[0] - 0.5 * l * theta.cos();
+        com[1] += o[1] - 0.5 * l * theta.sin();
+    }
+    let n = heading_rad.len().max(1) as f64;
+    (sum_theta / n, [com[0] / n, com[1] / n])
+}
+
+/// Sends joint `j` to `angle_rad` moving at `velocity_rad_per_s` through the actuator kind
+/// `method`: the angle to a position servo, the velocity to a velocity or integrated-velocity
+/// servo, and for torque motors the output of `pid` on the errors against the measured joint
+/// (`dt_secs` is the PID's step).
+#[allow(clippy::too_many_arguments)]
+pub fn command_joint(
+    method: ControlMethod,
+    cmd: &mut Command,
+    j: usize,
+    angle_rad: f64,
+    velocity_rad_per_s: f64,
+    obs: &Observation,
+    pid: &mut Pid,
+    dt_secs: f64,
+) {
+    match method {
+        ControlMethod::Position => cmd.position_rad[j] = angle_rad,
+        ControlMethod::Velocity => cmd.velocity_rad_per_s[j] = velocity_rad_per_s,
+        ControlMethod::Intvelocity => cmd.intvelocity_rad_per_s[j] = velocity_rad_per_s,
+        ControlMethod::Torque => {
+            let error = angle_rad - obs.joint_angle_rad[j];
+            let error_rate = velocity_rad_per_s - obs.joint_velocity_rad_per_s[j];
+            cmd.torque_nm[j] = pid.update(error, error_rate, dt_secs);
+        }
+    }
+}
+
 /// The built-in controller: follows a joint trajectory with the configured actuator kind.
 /// `position` sends the target angle, `velocity` and `intvelocity` the target velocity, and
 /// `torque` runs a PID on the angle error per joint (thesis chapter 8.4), saturated at the
@@ -241,11 +326,8 @@ pub struct TrajectoryController {
 impl TrajectoryController {
     /// Builds the controller that `config` describes for `n_joints` joints.
     pub fn from_config(config: &Config, n_joints: usize) -> Self {
-        let c = &config.control;
-        let [lo, hi] = config.snake.torque_range_nm;
-        let gear = c.torque_gear;
-        let pid = Pid::new(c.pid_kp_nm_per_rad, c.pid_ki_nm_per_rad_s, c.pid_kd_nm_s_per_rad, lo / gear, hi / gear);
-        Self::new(trajectory_from_config(config), c.method, vec![pid; n_joints], config.general.timestep_secs)
+        let pids = vec![joint_pid(config); n_joints];
+        Self::new(trajectory_from_config(config), config.control.method, pids, config.general.timestep_secs)
     }
 
     /// A controller from its parts: one PID per joint (used only with `method = torque`).

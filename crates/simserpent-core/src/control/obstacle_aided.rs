@@ -68,8 +68,11 @@
 //! Nothing allocates after construction.
 
 use super::gait::ramp;
-use super::{Command, Controller, Observation, Pid};
-use crate::config::{Config, ContactSource, ControlMethod, JointAxes, Propagation};
+use super::{
+    Command, Controller, Observation, Pid, command_joint, joint_pid, planar_chain, wrap_angle_rad, yaw_joints,
+    yaw_of_quat,
+};
+use crate::config::{Config, ContactSource, ControlMethod, Propagation};
 use crate::estimation::ContactEstimates;
 use crate::state::Snapshot;
 use std::f64::consts::TAU;
@@ -141,28 +144,12 @@ pub struct ObstacleAidedState {
     pub jams: usize,
 }
 
-fn wrap(a: f64) -> f64 {
-    (a + std::f64::consts::PI).rem_euclid(TAU) - std::f64::consts::PI
-}
-
 impl ObstacleAided {
     /// The controller of `config` (`[obstacle_aided]`, `[gait.sine_wave]`, `[control]`) for
     /// `n_joints` joints.
     pub fn from_config(config: &Config, n_joints: usize) -> Self {
         let w = &config.gait.sine_wave;
         let o = &config.obstacle_aided;
-        let c = &config.control;
-        let [lo, hi] = config.snake.torque_range_nm;
-        let pid = Pid::new(
-            c.pid_kp_nm_per_rad,
-            c.pid_ki_nm_per_rad_s,
-            c.pid_kd_nm_s_per_rad,
-            lo / c.torque_gear,
-            hi / c.torque_gear,
-        );
-        let yaw_joint = (0..n_joints)
-            .map(|j| !(config.snake.joint_axes == JointAxes::Alternating && (j + 1).is_multiple_of(2)))
-            .collect();
         Self {
             amplitude_rad: w.amplitude_deg.to_radians(),
             angular_frequency_rad_per_s: TAU * w.frequency_hz,
@@ -179,9 +166,9 @@ impl ObstacleAided {
             link_length_m: config.snake.link_length_m,
             source: o.contacts,
             true_threshold_n: config.estimation.detection_threshold_n,
-            yaw_joint,
-            method: c.method,
-            pids: vec![pid; n_joints],
+            yaw_joint: yaw_joints(config, n_joints),
+            method: config.control.method,
+            pids: vec![joint_pid(config); n_joints],
             dt_secs: config.general.timestep_secs,
             offset_rad: vec![0.0; n_joints],
             heading_rad: vec![0.0; n_joints + 1],
@@ -290,25 +277,15 @@ impl ObstacleAided {
     /// Link headings from the integrated head yaw and the encoders; returns θ̄ and the centre of
     /// mass (x, y).
     fn chain(&mut self, obs: &Observation) -> (f64, [f64; 2]) {
-        let l = self.link_length_m;
-        let n_links = self.heading_rad.len();
-        let mut theta = self.head_yaw_rad;
-        let mut o = [obs.head_position_m[0], obs.head_position_m[1]];
-        let (mut sum_theta, mut com) = (0.0, [0.0; 2]);
-        for i in 0..n_links {
-            if i > 0 {
-                o = [o[0] - l * theta.cos(), o[1] - l * theta.sin()];
-                if self.yaw_joint.get(i - 1).copied().unwrap_or(true) {
-                    theta += obs.joint_angle_rad.get(i - 1).copied().unwrap_or(0.0);
-                }
-            }
-            self.heading_rad[i] = theta;
-            sum_theta += theta;
-            com[0] += o[0] - 0.5 * l * theta.cos();
-            com[1] += o[1] - 0.5 * l * theta.sin();
-        }
-        let n = n_links as f64;
-        (sum_theta / n, [com[0] / n, com[1] / n])
+        let head = [obs.head_position_m[0], obs.head_position_m[1]];
+        planar_chain(
+            self.head_yaw_rad,
+            head,
+            &obs.joint_angle_rad,
+            &self.yaw_joint,
+            self.link_length_m,
+            &mut self.heading_rad,
+        )
     }
 
     /// One update with the given contacts.
@@ -317,13 +294,14 @@ impl ObstacleAided {
         let q = obs.head_quat;
         if !self.started {
             // The starting heading is known (calibration); from then on the gyro integrates it.
-            self.head_yaw_rad = (2.0 * (q[1] * q[2] + q[0] * q[3])).atan2(1.0 - 2.0 * (q[2] * q[2] + q[3] * q[3]));
+            self.head_yaw_rad = yaw_of_quat(q);
             self.last_time_secs = t;
             self.started = true;
         }
         let dt = (t - self.last_time_secs).max(0.0);
         self.last_time_secs = t;
-        self.head_yaw_rad = wrap(self.head_yaw_rad + obs.imu_gyro_rad_per_s.first().map_or(0.0, |g| g[2]) * dt);
+        self.head_yaw_rad =
+            wrap_angle_rad(self.head_yaw_rad + obs.imu_gyro_rad_per_s.first().map_or(0.0, |g| g[2]) * dt);
         let (mean_heading, com) = self.chain(obs);
         let u = [mean_heading.cos(), mean_heading.sin()];
         let v = obs.head_velocity_m_per_s;
@@ -377,16 +355,7 @@ impl ObstacleAided {
             let wave = self.amplitude_rad * phase.sin();
             let angle = r * wave + offset;
             let velocity = dr * wave + r * self.amplitude_rad * phase_rate * phase.cos();
-            match self.method {
-                ControlMethod::Position => cmd.position_rad[j] = angle,
-                ControlMethod::Velocity => cmd.velocity_rad_per_s[j] = velocity,
-                ControlMethod::Intvelocity => cmd.intvelocity_rad_per_s[j] = velocity,
-                ControlMethod::Torque => {
-                    let error = angle - obs.joint_angle_rad[j];
-                    let error_rate = velocity - obs.joint_velocity_rad_per_s[j];
-                    cmd.torque_nm[j] = self.pids[j].update(error, error_rate, self.dt_secs);
-                }
-            }
+            command_joint(self.method, cmd, j, angle, velocity, obs, &mut self.pids[j], self.dt_secs);
         }
     }
 

@@ -40,9 +40,12 @@
 //! the centre of mass and θ̄ follow from the chain (equal links of `snake.link_length_m`).
 
 use super::gait::ramp;
-use super::{Command, Controller, Observation, Pid};
-use crate::config::{Config, ControlMethod, JointAxes};
-use std::f64::consts::{PI, TAU};
+use super::{
+    Command, Controller, Observation, Pid, command_joint, joint_pid, planar_chain, wrap_angle_rad, yaw_joints,
+    yaw_of_quat,
+};
+use crate::config::{Config, ControlMethod};
+use std::f64::consts::TAU;
 
 /// The path-following controller (module documentation).
 #[derive(Debug, Clone)]
@@ -66,6 +69,8 @@ pub struct PathFollowing {
     pub link_length_m: f64,
     /// Per joint: whether it turns about the vertical (yaw) axis and so steers.
     yaw_joint: Vec<bool>,
+    /// θᵢ (rad), scratch.
+    heading_rad: Vec<f64>,
     method: ControlMethod,
     pids: Vec<Pid>,
     dt_secs: f64,
@@ -90,29 +95,12 @@ pub struct Guidance {
     pub segment: usize,
 }
 
-fn wrap(a: f64) -> f64 {
-    (a + PI).rem_euclid(TAU) - PI
-}
-
 impl PathFollowing {
     /// The controller of `config` (`[path_following]`, `[gait.sine_wave]`, `[control]`) for
     /// `n_joints` joints.
     pub fn from_config(config: &Config, n_joints: usize) -> Self {
         let w = &config.gait.sine_wave;
         let p = &config.path_following;
-        let c = &config.control;
-        let [lo, hi] = config.snake.torque_range_nm;
-        let pid = Pid::new(
-            c.pid_kp_nm_per_rad,
-            c.pid_ki_nm_per_rad_s,
-            c.pid_kd_nm_s_per_rad,
-            lo / c.torque_gear,
-            hi / c.torque_gear,
-        );
-        // Joint j sits in front of link j+1; alternating axes put pitch on even links.
-        let yaw_joint = (0..n_joints)
-            .map(|j| !(config.snake.joint_axes == JointAxes::Alternating && (j + 1).is_multiple_of(2)))
-            .collect();
         Self {
             amplitude_rad: w.amplitude_deg.to_radians(),
             angular_frequency_rad_per_s: TAU * w.frequency_hz,
@@ -124,9 +112,10 @@ impl PathFollowing {
             max_offset_rad: p.max_offset_deg.to_radians(),
             acceptance_radius_m: p.acceptance_radius_m,
             link_length_m: config.snake.link_length_m,
-            yaw_joint,
-            method: c.method,
-            pids: vec![pid; n_joints],
+            yaw_joint: yaw_joints(config, n_joints),
+            heading_rad: vec![0.0; n_joints + 1],
+            method: config.control.method,
+            pids: vec![joint_pid(config); n_joints],
             dt_secs: config.general.timestep_secs,
             segment: 0,
             last: Guidance::default(),
@@ -134,27 +123,12 @@ impl PathFollowing {
     }
 
     /// Centre of mass (x, y) and mean link heading θ̄ from the head pose and the encoders.
-    fn chain(&self, obs: &Observation) -> ([f64; 2], f64) {
-        let q = obs.head_quat;
-        // Yaw of the head's x axis: atan2(R₁₀, R₀₀).
-        let yaw = (2.0 * (q[1] * q[2] + q[0] * q[3])).atan2(1.0 - 2.0 * (q[2] * q[2] + q[3] * q[3]));
-        let l = self.link_length_m;
-        let (mut theta, mut o) = (yaw, [obs.head_position_m[0], obs.head_position_m[1]]);
-        let n_links = obs.joint_angle_rad.len() + 1;
-        let (mut sum_theta, mut com) = (0.0, [0.0; 2]);
-        for i in 0..n_links {
-            if i > 0 {
-                o = [o[0] - l * theta.cos(), o[1] - l * theta.sin()];
-                if self.yaw_joint.get(i - 1).copied().unwrap_or(true) {
-                    theta += obs.joint_angle_rad[i - 1];
-                }
-            }
-            sum_theta += theta;
-            com[0] += o[0] - 0.5 * l * theta.cos();
-            com[1] += o[1] - 0.5 * l * theta.sin();
-        }
-        let n = n_links as f64;
-        ([com[0] / n, com[1] / n], sum_theta / n)
+    fn chain(&mut self, obs: &Observation) -> ([f64; 2], f64) {
+        let yaw = yaw_of_quat(obs.head_quat);
+        let head = [obs.head_position_m[0], obs.head_position_m[1]];
+        let (theta_mean, com) =
+            planar_chain(yaw, head, &obs.joint_angle_rad, &self.yaw_joint, self.link_length_m, &mut self.heading_rad);
+        (com, theta_mean)
     }
 
     /// The guidance for the centre of mass `p` and mean heading `theta_mean` (advances the
@@ -178,8 +152,8 @@ impl PathFollowing {
             // A positive offset bends the body so that the headings grow from head to tail: moving
             // forward along that arc the snake turns clockwise (θ̄ decreases). So the offset has
             // the sign of θ̄ − θ_ref.
-            let offset =
-                (self.heading_gain * wrap(theta_mean - theta_ref)).clamp(-self.max_offset_rad, self.max_offset_rad);
+            let offset = (self.heading_gain * wrap_angle_rad(theta_mean - theta_ref))
+                .clamp(-self.max_offset_rad, self.max_offset_rad);
             return Guidance {
                 centre_of_mass_m: p,
                 cross_track_m: e,
@@ -212,16 +186,7 @@ impl Controller for PathFollowing {
             let shape = self.amplitude_rad * phase.sin() + offset;
             let angle = r * shape;
             let velocity = dr * shape + r * self.amplitude_rad * omega * phase.cos();
-            match self.method {
-                ControlMethod::Position => cmd.position_rad[j] = angle,
-                ControlMethod::Velocity => cmd.velocity_rad_per_s[j] = velocity,
-                ControlMethod::Intvelocity => cmd.intvelocity_rad_per_s[j] = velocity,
-                ControlMethod::Torque => {
-                    let error = angle - obs.joint_angle_rad[j];
-                    let error_rate = velocity - obs.joint_velocity_rad_per_s[j];
-                    cmd.torque_nm[j] = self.pids[j].update(error, error_rate, self.dt_secs);
-                }
-            }
+            command_joint(self.method, cmd, j, angle, velocity, obs, &mut self.pids[j], self.dt_secs);
         }
     }
 }
@@ -229,6 +194,7 @@ impl Controller for PathFollowing {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::PI;
 
     fn controller() -> PathFollowing {
         let mut c = Config::default();
@@ -263,7 +229,7 @@ mod tests {
 
     #[test]
     fn chain_of_a_straight_snake_has_its_centre_half_a_body_behind_the_head() {
-        let pf = controller();
+        let mut pf = controller();
         let mut obs = Observation::new(10, 9);
         obs.head_quat = [1.0, 0.0, 0.0, 0.0];
         let (p, theta) = pf.chain(&obs);
