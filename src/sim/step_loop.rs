@@ -299,10 +299,10 @@ impl<C: Controller> Simulation<C> {
             ground: self.ground.clone(),
             energy_guard: self.energy_guard,
             sensed: self.sensed,
-            estimation: self.estimation.as_ref().map(|e| EstimationState {
-                estimator: e.estimator.save_state(),
-                estimates: e.estimates.clone(),
-            }),
+            estimation: self
+                .estimation
+                .as_ref()
+                .map(|e| EstimationState { estimator: e.estimator.save_state(), estimates: e.estimates.clone() }),
         }
     }
 

@@ -41,6 +41,14 @@ fn action(a: usize, n_joints: usize) -> Vec<f64> {
     (0..n_joints).map(|j| 0.6 * (0.35 * a as f64 - 0.9 * j as f64).sin()).collect()
 }
 
+/// Asserts that two series of what environments showed are equal, action by action.
+fn assert_same(a: &[Seen], b: &[Seen], what: &str) {
+    assert_eq!(a.len(), b.len(), "{what}");
+    for (k, (x, y)) in a.iter().zip(b).enumerate() {
+        assert_eq!(x, y, "{what}: action {k}");
+    }
+}
+
 /// What an environment showed after one action.
 #[derive(Debug, PartialEq)]
 struct Seen {
@@ -135,7 +143,7 @@ fn restored_state_with_estimation_and_noise_continues_bit_for_bit() {
     }
     env.restore_state(&saved).unwrap();
     let second: Vec<Seen> = (6..16).map(|a| step_env(&mut env, a, &mut obs)).collect();
-    assert_eq!(first, second);
+    assert_same(&first, &second, "restored in the same environment");
     // Into a second environment of the same config, after an episode of its own.
     let mut other = EnvCore::new(&c).unwrap();
     other.reset(99, &mut obs).unwrap();
@@ -144,10 +152,10 @@ fn restored_state_with_estimation_and_noise_continues_bit_for_bit() {
     }
     other.restore_state(&saved).unwrap();
     let third: Vec<Seen> = (6..16).map(|a| step_env(&mut other, a, &mut obs)).collect();
-    assert_eq!(first, third);
+    assert_same(&first, &third, "restored in another environment");
     // A state of a world without estimation does not fit.
     let plain = EnvCore::new(&config(&["estimation.enabled=false", "env.observe_contact_estimates=false"])).unwrap();
-    let err = env.restore_state(&plain.save_state()).err().expect("rejected").to_string();
+    let err = env.restore_state(&plain.save_state()).expect_err("rejected").to_string();
     assert!(err.contains("[estimation]"), "{err}");
 }
 
@@ -164,9 +172,9 @@ fn reset_restarts_the_estimator_and_the_identified_friction() {
     }
     env.reset(3, &mut obs).unwrap();
     let again: Vec<Seen> = (0..10).map(|a| step_env(&mut env, a, &mut obs)).collect();
-    assert_eq!(first, again);
+    assert_same(&first, &again, "after a reset");
     let mut fresh = EnvCore::new(&c).unwrap();
     fresh.reset(3, &mut obs).unwrap();
     let from_fresh: Vec<Seen> = (0..10).map(|a| step_env(&mut fresh, a, &mut obs)).collect();
-    assert_eq!(first, from_fresh);
+    assert_same(&first, &from_fresh, "fresh environment");
 }

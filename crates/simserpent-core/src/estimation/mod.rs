@@ -45,7 +45,8 @@ mod motion;
 mod score;
 
 pub use motion::{
-    ChainGeometry, ContactEstimates, FloorShare, FrictionFit, HeadAttitude, LinkPoses, MotionEstimator, MotionEstimatorState,
+    ChainGeometry, ContactEstimates, FloorShare, FrictionFit, HeadAttitude, LinkPoses, MotionEstimator,
+    MotionEstimatorState,
 };
 pub use score::{LinkSample, MotionScore};
 
