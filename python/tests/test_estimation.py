@@ -348,3 +348,32 @@ def test_world_estimates_equal_a_rust_run_holding_the_same_commands(tmp_path):
         assert t == pytest.approx(t_run, abs=1e-12), a
         np.testing.assert_array_equal(angles, angles_run, err_msg=f"measured angles after action {a}")
         assert_estimates_equal(est, est_run, f"estimates after action {a}")
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_vector_env_with_estimation_equals_single_envs(threads):
+    """The Rust vector env with the estimator in the loop and noisy sensors (observation with
+    the estimates) equals single envs bit for bit, through an autoreset (next step)."""
+    from simserpent.envs import SimSerpentEnv, SimSerpentVectorEnv
+
+    sets = {**IN_THE_LOOP, "env.normalize_action": True, "env.max_episode_secs": 0.1}  # 5 actions
+    n, seed = 2, 8
+    vec = SimSerpentVectorEnv(num_envs=n, overrides=sets, threads=threads)
+    singles = [SimSerpentEnv(overrides=sets) for _ in range(n)]
+    obs, _ = vec.reset(seed=seed)
+    for i, s in enumerate(singles):
+        np.testing.assert_array_equal(obs[i], s.reset(seed=seed + i)[0])
+    done = [False] * n
+    for k in range(8):
+        actions = np.stack([np.clip(wave_action(k + 3 * i), -1, 1) for i in range(n)]).astype(np.float32)
+        obs, rewards, term, trunc, _ = vec.step(actions)
+        for i, s in enumerate(singles):
+            if done[i]:
+                np.testing.assert_array_equal(obs[i], s.reset()[0])
+                done[i] = False
+                continue
+            o, r, te, tr, _ = s.step(actions[i])
+            np.testing.assert_array_equal(obs[i], o, err_msg=f"env {i}, step {k}")
+            assert rewards[i] == r
+            done[i] = te or tr
+    vec.close()
