@@ -16,7 +16,7 @@
 
 use crate::config::{self, Config, ConfigError, ConfigSource, ControlMethod, EnvAction, EnvPreset};
 use crate::control::{Command, HeldCommand};
-use crate::sim::{LoopPlan, Observer, SimError, Simulation, SimulationState, StepView, World};
+use crate::sim::{SimError, Simulation, SimulationState, World};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -113,9 +113,11 @@ pub struct StepOutcome {
     pub error: Option<String>,
 }
 
-/// One environment: the simulation (world, ground model, sensor models) with the agent's
-/// held command as its controller, and the episode's bookkeeping. An action is the step loop
-/// run for `substeps` physics steps ([`Simulation::run`]).
+/// One environment: the simulation (world, ground model, sensor models, contact estimator)
+/// with the agent's held command as its controller, and the episode's bookkeeping. An action
+/// is `substeps` physics steps ([`Simulation::control`] then [`Simulation::advance`]), then
+/// the sensors are read at the instant reached; every physics instant is sensed and controlled
+/// exactly once, at action boundaries too.
 pub struct EnvCore {
     config: Config,
     sim: Simulation<HeldCommand>,
@@ -123,6 +125,8 @@ pub struct EnvCore {
     steps: u64,
     max_steps: u64,
     com: [f64; 3],
+    /// Centre of mass at the episode's start (m).
+    start_com: [f64; 3],
     /// The forward direction of the reward: the head's heading in the model's initial pose.
     forward_xy: [f64; 2],
     /// Physical action bounds (rad or N·m).
@@ -135,12 +139,14 @@ pub struct EnvCore {
 }
 
 /// A saved state of an [`EnvCore`] ([`EnvCore::save_state`]): the simulation (engine state,
-/// held action, sensor-noise streams, ground model) and the episode's bookkeeping.
+/// held action, sensor-noise streams and biases, contact estimator's filters, ground model)
+/// and the episode's bookkeeping.
 #[derive(Clone)]
 pub struct EnvState {
     sim: SimulationState<HeldCommand>,
     steps: u64,
     com: [f64; 3],
+    start_com: [f64; 3],
     terminated: bool,
 }
 
@@ -148,22 +154,6 @@ impl EnvState {
     /// The saved engine state (`qpos`, `qvel`, `time`, …).
     pub fn world(&self) -> &crate::sim::WorldState {
         self.sim.world()
-    }
-}
-
-/// Adds up the actuator energy of an action: the power after each physics step (MuJoCo's
-/// joint-space actuator torque of the step times the joint velocity it reached), times dt.
-#[derive(Default)]
-struct EnergyMeter {
-    energy_j: f64,
-}
-
-impl Observer<SimError> for EnergyMeter {
-    fn on_step(&mut self, view: &StepView<'_>) -> Result<(), SimError> {
-        if view.k > 0 {
-            self.energy_j += view.world.actuator_power_w() * view.world.timestep_secs();
-        }
-        Ok(())
     }
 }
 
@@ -228,6 +218,7 @@ impl EnvCore {
             steps: 0,
             max_steps,
             com: [0.0; 3],
+            start_com: [0.0; 3],
             forward_xy,
             lo,
             hi,
@@ -307,6 +298,11 @@ impl EnvCore {
         self.sim.world().centre_of_mass_m()
     }
 
+    /// Centre of mass of the links at the start of the episode (m; part of a saved state).
+    pub fn start_centre_of_mass(&self) -> [f64; 3] {
+        self.start_com
+    }
+
     /// The forward direction of the reward (unit vector in the xy-plane).
     pub fn forward_xy(&self) -> [f64; 2] {
         self.forward_xy
@@ -361,13 +357,21 @@ impl EnvCore {
         self.steps = 0;
         self.terminated = false;
         self.com = self.centre_of_mass();
+        self.start_com = self.com;
         Ok(())
     }
 
-    /// A copy of the whole state (engine, held action, sensor-noise streams, ground model,
-    /// episode bookkeeping): [`EnvCore::restore_state`] continues bit for bit from here.
+    /// A copy of the whole state (engine, held action, sensor-noise streams and biases, contact
+    /// estimator, ground model, episode bookkeeping): [`EnvCore::restore_state`] continues bit
+    /// for bit from here.
     pub fn save_state(&self) -> EnvState {
-        EnvState { sim: self.sim.save(), steps: self.steps, com: self.com, terminated: self.terminated }
+        EnvState {
+            sim: self.sim.save(),
+            steps: self.steps,
+            com: self.com,
+            start_com: self.start_com,
+            terminated: self.terminated,
+        }
     }
 
     /// Goes back to a state saved from this environment, or from another environment of the
@@ -379,6 +383,7 @@ impl EnvCore {
         self.sim.restore(&state.sim)?;
         self.steps = state.steps;
         self.com = state.com;
+        self.start_com = state.start_com;
         self.terminated = state.terminated;
         Ok(())
     }
@@ -431,10 +436,23 @@ impl EnvCore {
                 block[j] = f64::NAN;
             }
         }
-        let mut meter = EnergyMeter::default();
-        let plan = LoopPlan { steps: self.substeps, record_every_n_steps: 0 };
-        let mut error = self.sim.run(plan, &mut [&mut meter]).err().map(|e| e.to_string());
-        let energy_j = meter.energy_j;
+        // The action's physics steps. Each instant is sensed and controlled once: the first
+        // was sensed at the end of the previous action (or the reset), and the one this action
+        // ends at is sensed below and controlled by the next action — as in one long
+        // `simserpent run` that holds the same commands.
+        let mut energy_j = 0.0;
+        let mut error = None;
+        let dt = self.sim.world().timestep_secs();
+        for _ in 0..self.substeps {
+            self.sim.control();
+            if let Err(e) = self.sim.advance() {
+                error = Some(e.to_string());
+                break;
+            }
+            // Power after each step: MuJoCo's actuator torque of the step times the joint
+            // velocity it reached.
+            energy_j += self.sim.world().actuator_power_w() * dt;
+        }
         self.steps += 1;
         let e = &self.config.env;
         let period = e.control_period_secs;

@@ -1,8 +1,18 @@
 """RL throughput and the accuracy of the physics presets (issue 19).
 
     python python/bench/bench_rl.py throughput [--seconds 3] [--repeats 3] [--json out.json]
+        [--set key=value ...] [--with key=value ...] [--only substring ...]
     python python/bench/bench_rl.py accuracy [--secs 10] [--episodes 16] [--first-seed 0]
         [--floors stick_slip] [--candidates fast,implicitfast@2,implicitfast@4:8,...] [--json out.json]
+        [--set key=value ...]
+
+``--set key=value`` (repeatable, the CLI's config overrides: a TOML value, e.g.
+``--set estimation.enabled=true --set sensors.noise_enabled=true``) applies to every SimSerpent
+variant. ``--with key=value`` (throughput; repeatable) measures every SimSerpent variant a second
+time with these overrides added, interleaved with the first in the same rounds, so the ratio
+is not skewed by a machine whose load changes (``--with estimation.enabled=true``: the cost of
+the contact estimator in the loop). ``--only`` keeps the variants whose name contains one of
+the given substrings (e.g. ``--only SimSerpent-v0``).
 
 throughput: env steps per second (wall, and per CPU-second of this process) of
   - ``gym.make("SimSerpent-v0")`` (the 10-link default snake and terrain, random actions in
@@ -34,6 +44,7 @@ import math
 import os
 import platform
 import time
+import tomllib
 
 import gymnasium as gym
 import numpy as np
@@ -42,6 +53,26 @@ import simserpent
 from simserpent.envs import SimSerpentVectorEnv
 
 QUIET = {"env.reset_noise_scale": 0.0, "env.reset_heading_noise_rad": 0.0}
+
+
+def parse_sets(items):
+    """``["key=value", ...]`` (the CLI's ``--set``: value a TOML literal; a bare word that is
+    not TOML is taken as a string) as an overrides dict, in order."""
+    out = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise SystemExit(f"--set/--with {item!r}: expected key=value, e.g. estimation.enabled=true")
+        try:
+            out[key] = tomllib.loads(f"v = {value.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            out[key] = value.strip()
+    return out
+
+
+def describe(overrides):
+    return ", ".join(f"{k} = {simserpent.toml_literal(v)}" for k, v in overrides.items())
 
 
 def timed(step, reset, seconds):
@@ -115,21 +146,28 @@ def throughput(a):
     (round-robin), and a markdown table ready to paste into BENCHMARKS.md."""
     rng = np.random.default_rng(0)
     actions = rng.uniform(-1, 1, size=(4096, 9)).astype(np.float32)
+    sets, extra = parse_sets(a.set), parse_sets(a.with_)
+    kinds = [("", {})] + ([(f", {describe(extra)}", extra)] if extra else [])
     variants = []
     for preset in ["default", "fast"]:
-        variants.append((f"SimSerpent-v0, `preset = \"{preset}\"`", single({"env.preset": preset}, actions, a.seconds)))
+        for tag, more in kinds:
+            o = {"env.preset": preset, **sets, **more}
+            variants.append((f"SimSerpent-v0, `preset = \"{preset}\"`{tag}", single(o, actions, a.seconds)))
     for preset in ["default", "fast"]:
         for threads in (1, 2):
-            variants.append(
-                (
-                    f"Rust vector env, 8 envs, {threads} thread{'s' if threads > 1 else ''}, `preset = \"{preset}\"`",
-                    vector({"env.preset": preset}, actions, a.seconds, threads),
-                )
-            )
+            for tag, more in kinds:
+                o = {"env.preset": preset, **sets, **more}
+                s = "s" if threads > 1 else ""
+                name = f"Rust vector env, 8 envs, {threads} thread{s}, `preset = \"{preset}\"`{tag}"
+                variants.append((name, vector(o, actions, a.seconds, threads)))
     try:
         variants.append(("Gymnasium Swimmer-v5 (same `mujoco` wheel)", swimmer(a.seconds)))
     except Exception as e:  # pragma: no cover - gymnasium[mujoco] extras
         print(f"Swimmer-v5 not available: {e}")
+    if a.only:
+        variants = [(n, f) for n, f in variants if any(o in n for o in a.only)]
+        if not variants:
+            raise SystemExit(f"--only {a.only}: no variant matches")
     loads = [os.getloadavg()[0]]
     results: dict[str, list[float]] = {}
     for _ in range(a.repeats):
@@ -140,14 +178,17 @@ def throughput(a):
     print(
         f"\n{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}; {m['cpu']}, {m['cpus']} CPUs; "
         f"1-minute load average during the run {min(loads):.1f}-{max(loads):.1f}; "
-        f"best of {a.repeats} rounds of {a.seconds:g} s; fast preset = {', '.join(simserpent.ENV_FAST_PRESET)}\n"
+        f"best of {a.repeats} rounds of {a.seconds:g} s; fast preset = {', '.join(simserpent.ENV_FAST_PRESET)}"
+        + (f"; every SimSerpent variant with {describe(sets)}" if sets else "")
+        + "\n"
     )
     print("| variant (10-link default snake, random actions) | env steps/s, wall | env steps per CPU-second |")
     print("|---|---:|---:|")
     for name, _ in variants:
         wall, cpu = results[name]
         print(f"| {name} | {wall:,.0f} | {cpu:,.0f} |", flush=True)
-    return {"variants": results, "machine": m, "load_average_1min": [min(loads), max(loads)]}
+    return {"variants": results, "machine": m, "load_average_1min": [min(loads), max(loads)], "set": sets,
+            "with": extra}
 
 
 def reference_gait(overrides, secs, episodes=8, first_seed=0):
@@ -223,8 +264,9 @@ def candidate_overrides(name):
 
 def accuracy(a):
     out = {}
+    sets = parse_sets(a.set)
     for floor in a.floors.split(","):
-        base = {"physics.floor_friction": floor}
+        base = {"physics.floor_friction": floor, **sets}
         ref = reference_gait(base, a.secs, a.episodes, a.first_seed)
         out[floor] = {"default": ref}
         print(f"floor {floor}: default physics: {ref}")
@@ -255,6 +297,12 @@ def main():
         default="fast,RK4@2,implicitfast@2,implicitfast@4,Euler@2,implicitfast@5",
     )
     ap.add_argument("--json")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="config override for every SimSerpent variant (repeatable), e.g. estimation.enabled=true")
+    ap.add_argument("--with", dest="with_", action="append", default=[], metavar="KEY=VALUE",
+                    help="throughput: also measure every SimSerpent variant with this override (repeatable)")
+    ap.add_argument("--only", action="append", default=[], metavar="SUBSTRING",
+                    help="throughput: only the variants whose name contains this (repeatable)")
     a = ap.parse_args()
     results = throughput(a) if a.what == "throughput" else accuracy(a)
     results = {"results": results, "setup": {**machine(), "python": platform.python_version(),

@@ -233,7 +233,6 @@ class SimSerpentEnv(gym.Env):
             if render_mode
             else None
         )
-        self._start_xy = np.zeros(2)
         self._spec = None
         self._estimation = bool(_json.loads(self.config.to_json())["estimation"]["enabled"])
 
@@ -265,10 +264,11 @@ class SimSerpentEnv(gym.Env):
 
     def _xy_info(self) -> dict[str, float]:
         x, y, _ = self.core.centre_of_mass
+        x0, y0, _ = self.core.start_centre_of_mass
         return {
             "x_position": x,
             "y_position": y,
-            "distance_from_origin": float(np.hypot(x - self._start_xy[0], y - self._start_xy[1])),
+            "distance_from_origin": float(np.hypot(x - x0, y - y0)),
         }
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -276,7 +276,6 @@ class SimSerpentEnv(gym.Env):
         # The noise seed comes from the env's generator: the same seed, the same episode.
         episode_seed = int(self.np_random.integers(0, _SEED_MAX))
         obs = self.core.reset(episode_seed)
-        self._start_xy = np.array(self.core.centre_of_mass[:2])
         info = {"time_secs": self.core.time_secs, "seed": episode_seed, **self._xy_info()}
         if self.render_mode == "human":
             self.render()
@@ -285,9 +284,9 @@ class SimSerpentEnv(gym.Env):
     def step(self, action):
         a = action if isinstance(action, np.ndarray) and action.ndim == 1 else np.asarray(action).reshape(-1)
         obs, reward, terminated, truncated, info = self.core.step(a)
-        info["distance_from_origin"] = float(
-            np.hypot(info["x_position"] - self._start_xy[0], info["y_position"] - self._start_xy[1])
-        )
+        # The episode's start is part of the world's state (restored by set_state).
+        x0, y0, _ = self.core.start_centre_of_mass
+        info["distance_from_origin"] = float(np.hypot(info["x_position"] - x0, info["y_position"] - y0))
         if self._estimation:
             info["contact_estimates"] = self.core.contact_estimates()
         if self.render_mode == "human":

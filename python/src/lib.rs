@@ -631,6 +631,11 @@ impl Env {
     fn centre_of_mass(&self) -> [f64; 3] {
         self.core.centre_of_mass()
     }
+    /// Centre of mass of the links at the start of the episode (m; restored by `set_state`).
+    #[getter]
+    fn start_centre_of_mass(&self) -> [f64; 3] {
+        self.core.start_centre_of_mass()
+    }
     /// The forward direction of the reward (x, y).
     #[getter]
     fn forward_xy(&self) -> [f64; 2] {

@@ -109,7 +109,7 @@ def test_reward_terms_follow_the_weights():
     assert r == pytest.approx(total, abs=1e-12)
     assert info["energy_j"] > 0 and info["peak_contact_force_n"] > 0
     assert info["x_velocity"] == pytest.approx(
-        (info["x_position"] - env.unwrapped._start_xy[0]) / dt, abs=1e-9
+        (info["x_position"] - env.unwrapped.world.start_centre_of_mass[0]) / dt, abs=1e-9
     )
 
 

@@ -204,3 +204,176 @@ def test_gymnasium_env_info_and_vector_env_observation():
     single = simserpent.World(simserpent.load_config(overrides=sets))
     assert single.observation_names[-4:] == [f"link_04_{n}" for n in (
         "obstacle_force_x_n", "obstacle_force_y_n", "obstacle_contact", "obstacle_contact_point_along_m")]
+
+
+# ------------------------------------------------- the estimator in the RL loop (issue 19)
+
+#: Estimation on (friction identified online: the estimator's longest memory), every sensor noisy
+#: with a random-walk bias, a quiet start, physical actions (target angles in rad).
+IN_THE_LOOP = {
+    **RESTING,
+    "general.seed": 5,
+    "estimation.friction": "identify",
+    "sensors.noise_enabled": True,
+    "sensors.joint_angle.std": 0.01,
+    "sensors.joint_angle.bias_random_walk_per_sqrt_s": 0.01,
+    "sensors.gyro.bias_random_walk_per_sqrt_s": 0.01,
+    "sensors.accelerometer.bias_random_walk_per_sqrt_s": 0.05,
+    "env.normalize_action": False,
+    "env.observe_contact_estimates": True,
+    "env.max_episode_secs": 10.0,
+}
+
+
+def wave_action(a, n=4):
+    """Action number ``a``: joint target angles (rad) of a travelling wave."""
+    return 0.6 * np.sin(0.35 * a - 0.9 * np.arange(n))
+
+
+def assert_estimates_equal(x, y, what):
+    assert x.keys() == y.keys(), what
+    for key in x:
+        np.testing.assert_array_equal(x[key], y[key], err_msg=f"{what}: {key}")
+
+
+def test_set_state_with_estimation_and_noise_continues_bit_for_bit():
+    """get_state/set_state carry the estimator's filters and the sensor models' state: a
+    branch restored mid-episode gives the same observations and estimates bit for bit, in the
+    same world, in a second world and through the Gymnasium env (whose info is restored too)."""
+    cfg = simserpent.load_config(overrides=IN_THE_LOOP)
+    w = simserpent.World(cfg)
+    w.reset(3)
+    for a in range(8):
+        w.step(wave_action(a))
+    state = w.get_state()
+
+    def branch(world):
+        out = []
+        for a in range(8, 20):
+            obs, r, term, trunc, info = world.step(wave_action(a))
+            assert not term
+            out.append((obs, r, world.contact_estimates()))
+        return out
+
+    first = branch(w)
+    for a in range(30, 37):  # elsewhere
+        w.step(wave_action(a))
+    w.set_state(state)
+    second = branch(w)
+    other = simserpent.World(cfg)
+    other.reset(77)
+    for a in range(5):
+        other.step(wave_action(a))
+    other.set_state(state)
+    third = branch(other)
+    for k, (x, y, z) in enumerate(zip(first, second, third)):
+        for i in range(2):
+            np.testing.assert_array_equal(x[i], y[i], err_msg=f"action {k}")
+            np.testing.assert_array_equal(x[i], z[i], err_msg=f"action {k}")
+        assert_estimates_equal(x[2], y[2], f"action {k}")
+        assert_estimates_equal(x[2], z[2], f"action {k}")
+    assert first[-1][2]["floor_force_n"][:, 2].sum() > 1.0  # the floor carries the weight
+
+    # The Gymnasium env: its info (distance from the episode's start, the estimates) too.
+    from simserpent.envs import SimSerpentEnv
+
+    env = SimSerpentEnv(config=cfg)
+    env.reset(seed=4)
+    for a in range(6):
+        env.step(wave_action(a))
+    saved = env.get_state()
+    one = [env.step(wave_action(a)) for a in range(6, 12)]
+    env.reset(seed=9)
+    env.set_state(saved)
+    two = [env.step(wave_action(a)) for a in range(6, 12)]
+    for x, y in zip(one, two):
+        np.testing.assert_array_equal(x[0], y[0])
+        assert x[1] == y[1]
+        assert x[4]["distance_from_origin"] == y[4]["distance_from_origin"]
+        assert_estimates_equal(x[4]["contact_estimates"], y[4]["contact_estimates"], "env")
+
+
+def test_reset_restarts_the_estimator():
+    """A reset restarts the estimator's filters and its identified friction: the same seed
+    gives the same episode after a long one as in a fresh world."""
+    cfg = simserpent.load_config(overrides=IN_THE_LOOP)
+
+    def episode(world):
+        world.reset(2)
+        return [(world.step(wave_action(a))[0], world.contact_estimates()) for a in range(8)]
+
+    w = simserpent.World(cfg)
+    first = episode(w)
+    for a in range(50):
+        w.step(wave_action(a))
+    again = episode(w)
+    fresh = episode(simserpent.World(cfg))
+    for k, (x, y, z) in enumerate(zip(first, again, fresh)):
+        np.testing.assert_array_equal(x[0], y[0])
+        np.testing.assert_array_equal(x[0], z[0])
+        assert_estimates_equal(x[1], y[1], f"action {k}")
+        assert_estimates_equal(x[1], z[1], f"action {k}")
+
+
+def test_world_estimates_equal_a_rust_run_holding_the_same_commands(tmp_path):
+    """World senses every physics instant once (no second noise draw or estimator update where
+    one action ends and the next begins): its measured joint angles and estimates after each
+    action equal, bit for bit, those a Python controller sees at the same instant of one
+    ``simserpent.run`` that holds the same commands for the same control periods."""
+    cfg = simserpent.load_config(overrides=IN_THE_LOOP)
+    w = simserpent.World(cfg)
+    n_actions, substeps = 15, int(w.substeps)
+    w.reset(5)  # the run's noise is seeded with general.seed = 5; no reset noise
+    from_world = []
+    for a in range(n_actions):
+        obs = w.step(wave_action(a))[0]
+        from_world.append((w.time, obs[:4].copy(), w.contact_estimates()))
+
+    seen = []
+    k = [0]
+
+    def controller(o):
+        if k[0] > 0 and k[0] % substeps == 0:
+            seen.append((o["time_secs"], o["joint_angle_rad"].copy(), o["contacts"]))
+        command = wave_action(k[0] // substeps).tolist()
+        k[0] += 1
+        return command
+
+    duration = n_actions * substeps * w.timestep_secs
+    run_cfg = cfg.with_overrides([f"general.duration_secs={duration!r}", 'control.method="position"'])
+    summary = simserpent.run(run_cfg, run_folder=tmp_path / "held", controller=controller)
+    assert simserpent.open_run(summary["run_folder"]).status == "complete"
+    assert len(seen) == n_actions
+    for a, ((t, angles, est), (t_run, angles_run, est_run)) in enumerate(zip(from_world, seen)):
+        assert t == pytest.approx(t_run, abs=1e-12), a
+        np.testing.assert_array_equal(angles, angles_run, err_msg=f"measured angles after action {a}")
+        assert_estimates_equal(est, est_run, f"estimates after action {a}")
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_vector_env_with_estimation_equals_single_envs(threads):
+    """The Rust vector env with the estimator in the loop and noisy sensors (observation with
+    the estimates) equals single envs bit for bit, through an autoreset (next step)."""
+    from simserpent.envs import SimSerpentEnv, SimSerpentVectorEnv
+
+    sets = {**IN_THE_LOOP, "env.normalize_action": True, "env.max_episode_secs": 0.1}  # 5 actions
+    n, seed = 2, 8
+    vec = SimSerpentVectorEnv(num_envs=n, overrides=sets, threads=threads)
+    singles = [SimSerpentEnv(overrides=sets) for _ in range(n)]
+    obs, _ = vec.reset(seed=seed)
+    for i, s in enumerate(singles):
+        np.testing.assert_array_equal(obs[i], s.reset(seed=seed + i)[0])
+    done = [False] * n
+    for k in range(8):
+        actions = np.stack([np.clip(wave_action(k + 3 * i), -1, 1) for i in range(n)]).astype(np.float32)
+        obs, rewards, term, trunc, _ = vec.step(actions)
+        for i, s in enumerate(singles):
+            if done[i]:
+                np.testing.assert_array_equal(obs[i], s.reset()[0])
+                done[i] = False
+                continue
+            o, r, te, tr, _ = s.step(actions[i])
+            np.testing.assert_array_equal(obs[i], o, err_msg=f"env {i}, step {k}")
+            assert rewards[i] == r
+            done[i] = te or tr
+    vec.close()

@@ -3,7 +3,11 @@
 //! [`Simulation::run`] visits the instants k = 0 ..= `plan.steps` of a [`LoopPlan`]. At each:
 //!
 //! 1. **sense** (skipped for a controller that does not read the sensors): the exact
-//!    observation from the state, then the sensor models ([`SensorNoise`]);
+//!    observation from the state, then the sensor models ([`SensorNoise`]) and the contact
+//!    estimator. Each instant is sensed at most once: an instant sensed already (by
+//!    [`Simulation::reset`], or by [`Simulation::sense`] at the end of a reinforcement-learning
+//!    action) keeps its reading, so the noise is drawn and the estimator's filters are updated
+//!    once per physics instant however the loop is cut into runs;
 //! 2. **control**: the controller writes a [`Command`], which goes to the actuators; the ground
 //!    model prepares the step ([`Ground::before_step`]);
 //! 3. **record** (every `plan.record_every_n_steps`-th instant and the last): a forward pass
@@ -22,7 +26,7 @@
 use super::{EnergyGuard, Ground, SensorNoise, SimError, World, WorldState};
 use crate::config::{Config, Sensors};
 use crate::control::{Command, Controller, Observation};
-use crate::estimation::{ContactEstimates, LinkPoses, MotionEstimator};
+use crate::estimation::{ContactEstimates, LinkPoses, MotionEstimator, MotionEstimatorState};
 use crate::state::Snapshot;
 
 /// How many steps one [`Simulation::run`] takes and which instants it records.
@@ -142,6 +146,15 @@ pub struct SimulationState<C> {
     steps: u64,
     ground: Ground,
     energy_guard: EnergyGuard,
+    sensed: bool,
+    estimation: Option<EstimationState>,
+}
+
+/// The saved part of [`Estimation`]: the estimator's filters and its latest output.
+#[derive(Clone)]
+struct EstimationState {
+    estimator: MotionEstimatorState,
+    estimates: ContactEstimates,
 }
 
 impl<C> SimulationState<C> {
@@ -175,6 +188,9 @@ pub struct Simulation<C: Controller = Box<dyn Controller>> {
     energy_guard: EnergyGuard,
     /// Contact estimation on the measured sensors (`[estimation]`), part of sensing.
     estimation: Option<Estimation>,
+    /// Whether `obs` (and the estimates) were read at the current instant: sensing again
+    /// before the next step does nothing.
+    sensed: bool,
 }
 
 /// The estimator of the step loop with its output and, for `orientation = "true"`, the
@@ -233,6 +249,7 @@ impl<C: Controller> Simulation<C> {
             controller,
             world,
             steps: 0,
+            sensed: false,
         }
     }
 
@@ -258,13 +275,15 @@ impl<C: Controller> Simulation<C> {
             e.estimator.reset();
         }
         self.steps = 0;
+        self.sensed = false;
         self.sense();
         Ok(())
     }
 
     /// A copy of everything that decides the rest of the trajectory: the engine state, the
-    /// controller, the sensor models (their random streams), the ground model, the energy
-    /// guard and the latest observations. [`Simulation::restore`] continues bit for bit.
+    /// controller, the sensor models (their random streams, biases and held samples), the
+    /// contact estimator's filters, the ground model, the energy guard and the latest
+    /// observations. [`Simulation::restore`] continues bit for bit.
     pub fn save(&self) -> SimulationState<C>
     where
         C: Clone,
@@ -279,6 +298,11 @@ impl<C: Controller> Simulation<C> {
             steps: self.steps,
             ground: self.ground.clone(),
             energy_guard: self.energy_guard,
+            sensed: self.sensed,
+            estimation: self
+                .estimation
+                .as_ref()
+                .map(|e| EstimationState { estimator: e.estimator.save_state(), estimates: e.estimates.clone() }),
         }
     }
 
@@ -299,6 +323,19 @@ impl<C: Controller> Simulation<C> {
         self.steps = state.steps;
         self.ground.clone_from(&state.ground);
         self.energy_guard = state.energy_guard;
+        self.sensed = state.sensed;
+        match (self.estimation.as_mut(), state.estimation.as_ref()) {
+            (Some(e), Some(saved)) => {
+                e.estimator.restore_state(&saved.estimator);
+                e.estimates.clone_from(&saved.estimates);
+            }
+            (None, None) => {}
+            _ => {
+                return Err(SimError::Model(
+                    "the state was saved from a simulation with another [estimation] enabled setting".into(),
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -307,8 +344,10 @@ impl<C: Controller> Simulation<C> {
         &self.world
     }
 
-    /// The world, for setting initial conditions before a run ([`World::qvel_mut`] …).
+    /// The world, for setting initial conditions before a run ([`World::qvel_mut`] …). The
+    /// state may change, so the next instant is sensed afresh.
     pub fn world_mut(&mut self) -> &mut World {
+        self.sensed = false;
         &mut self.world
     }
 
@@ -347,8 +386,15 @@ impl<C: Controller> Simulation<C> {
         &self.ground
     }
 
-    /// Reads the sensors at the current state: the exact observation, then the sensor models.
+    /// Reads the sensors at the current instant: the exact observation, then the sensor models
+    /// and the contact estimator. Once per instant: when this instant was sensed already
+    /// (since the last step, reset or [`Simulation::world_mut`]) it keeps that reading, so no
+    /// noise is drawn twice and the estimator's filters do not see the instant twice.
     pub fn sense(&mut self) {
+        if self.sensed {
+            return;
+        }
+        self.sensed = true;
         self.world.observe_true(&mut self.obs_true);
         self.noise.measure(&self.obs_true, &mut self.obs);
         if let Some(e) = self.estimation.as_mut() {
@@ -401,6 +447,7 @@ impl<C: Controller> Simulation<C> {
             self.world.step();
         }
         self.steps += 1;
+        self.sensed = false;
         self.world.check_finite(self.steps, reached_secs)?;
         self.energy_guard.check(&mut self.world, self.steps, reached_secs)
     }

@@ -24,6 +24,7 @@ mod physics;
 mod plot;
 #[cfg(feature = "render")]
 mod render;
+mod rl_env;
 mod robustness;
 mod ros2_bag;
 mod sensors;

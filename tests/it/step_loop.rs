@@ -152,3 +152,38 @@ fn compared_job_touches_pegs_and_floor_in_the_compared_window() {
     assert!(c.obstacle > 0, "no peg contact in 1.5 s");
     assert!(c.floor > 0 && c.xfrc > 0, "floor contacts {} and stick-slip forces {}", c.floor, c.xfrc);
 }
+
+/// Sensing is once per instant: a second `sense` before the next step keeps the reading (no
+/// second noise draw, no second estimator update); a step, a reset or `world_mut` makes the
+/// next `sense` read afresh.
+#[test]
+fn an_instant_is_sensed_once() {
+    let sets: Vec<String> = [
+        "snake.n_links=4",
+        "terrain.kind=\"none\"",
+        "sensors.noise_enabled=true",
+        "sensors.joint_angle.std=0.01",
+        "estimation.enabled=true",
+    ]
+    .iter()
+    .map(|s| (*s).to_string())
+    .collect();
+    let config = default_config_with(&sets).unwrap();
+    let world = World::from_config(&config).unwrap();
+    let mut sim = Simulation::new(&config, world);
+    sim.reset(3).unwrap();
+    let first = format!("{:?}", sim.observation());
+    sim.sense();
+    assert_eq!(format!("{:?}", sim.observation()), first, "sensed twice at the reset instant");
+    // The state may have changed: read afresh (the noise stream moves on).
+    let _ = sim.world_mut();
+    sim.sense();
+    let fresh = format!("{:?}", sim.observation());
+    assert_ne!(fresh, first);
+    sim.step().unwrap();
+    sim.sense();
+    let after_step = format!("{:?}", sim.observation());
+    assert_ne!(after_step, fresh);
+    sim.sense();
+    assert_eq!(format!("{:?}", sim.observation()), after_step);
+}

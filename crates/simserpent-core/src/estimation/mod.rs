@@ -44,7 +44,10 @@ use crate::control::Observation;
 mod motion;
 mod score;
 
-pub use motion::{ChainGeometry, ContactEstimates, FloorShare, FrictionFit, HeadAttitude, LinkPoses, MotionEstimator};
+pub use motion::{
+    ChainGeometry, ContactEstimates, FloorShare, FrictionFit, HeadAttitude, LinkPoses, MotionEstimator,
+    MotionEstimatorState,
+};
 pub use score::{LinkSample, MotionScore};
 
 /// What an estimator gets at one instant: per link (`n_links`) and per joint (`n_joints =

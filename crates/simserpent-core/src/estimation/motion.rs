@@ -680,6 +680,26 @@ pub struct MotionEstimator {
     split_n: Vec<[f64; 2]>,
     /// Online friction identification (`estimation.friction = "identify"`).
     friction_fit: Option<FrictionFit>,
+    /// The floor model and the friction fit at the start, for [`MotionEstimator::reset`].
+    initial_floor: FloorShare,
+    initial_friction_fit: Option<FrictionFit>,
+}
+
+/// The internal state of a [`MotionEstimator`] ([`MotionEstimator::save_state`]): the head's
+/// attitude filter, the floor support and contact-point filters, the friction fit and the
+/// latest poses and stage-2 output. The stage-2 estimator itself is not part of it: it must
+/// not keep state between updates (the built-in [`super::NewtonEulerEstimator`] keeps none).
+#[derive(Debug, Clone, PartialEq)]
+pub struct MotionEstimatorState {
+    attitude: HeadAttitude,
+    floor: FloorShare,
+    poses: LinkPoses,
+    out_force_n: Vec<[f64; 3]>,
+    out_moment_nm: Vec<[f64; 3]>,
+    previous_normal_n: Vec<f64>,
+    point_fit: Vec<PointFit>,
+    split_n: Vec<[f64; 2]>,
+    friction_fit: Option<FrictionFit>,
 }
 
 impl std::fmt::Debug for MotionEstimator {
@@ -722,6 +742,8 @@ impl MotionEstimator {
             point_fit: vec![PointFit::default(); n],
             split_n: vec![[0.0, f64::NAN]; n],
             friction_fit: None,
+            initial_floor: FloorShare::from_config(config),
+            initial_friction_fit: None,
         }
         .with_friction_source(config)
     }
@@ -730,8 +752,10 @@ impl MotionEstimator {
         if config.estimation.friction == FloorFrictionSource::Identify {
             let fit = FrictionFit::from_config(config);
             self.floor.set_coefficients(fit.coefficients());
-            self.friction_fit = Some(fit);
+            self.friction_fit = Some(fit.clone());
+            self.initial_friction_fit = Some(fit);
         }
+        self.initial_floor = self.floor;
         self
     }
 
@@ -745,12 +769,46 @@ impl MotionEstimator {
         self.orientation == OrientationSource::True
     }
 
-    /// Forgets the attitude filter's state (it restarts at the next update's head pose).
+    /// Back to the state after construction: the attitude filter restarts at the next
+    /// update's head pose, the floor support and contact-point filters are empty, and the
+    /// friction fit (`estimation.friction = "identify"`) starts again from its prior.
     pub fn reset(&mut self) {
         self.attitude.time_secs = None;
         self.previous_normal_n.fill(f64::NAN);
         self.point_fit.fill(PointFit::default());
         self.split_n.fill([0.0, f64::NAN]);
+        self.floor = self.initial_floor;
+        self.friction_fit.clone_from(&self.initial_friction_fit);
+    }
+
+    /// A copy of the internal state: [`MotionEstimator::restore_state`] makes the following
+    /// updates give the same estimates bit for bit as after this call.
+    pub fn save_state(&self) -> MotionEstimatorState {
+        MotionEstimatorState {
+            attitude: self.attitude,
+            floor: self.floor,
+            poses: self.poses.clone(),
+            out_force_n: self.out.link_force_n.clone(),
+            out_moment_nm: self.out.link_moment_nm.clone(),
+            previous_normal_n: self.previous_normal_n.clone(),
+            point_fit: self.point_fit.clone(),
+            split_n: self.split_n.clone(),
+            friction_fit: self.friction_fit.clone(),
+        }
+    }
+
+    /// Goes back to a state from [`MotionEstimator::save_state`] of an estimator of the same
+    /// snake (no allocation when the sizes match).
+    pub fn restore_state(&mut self, state: &MotionEstimatorState) {
+        self.attitude = state.attitude;
+        self.floor = state.floor;
+        self.poses.clone_from(&state.poses);
+        self.out.link_force_n.clone_from(&state.out_force_n);
+        self.out.link_moment_nm.clone_from(&state.out_moment_nm);
+        self.previous_normal_n.clone_from(&state.previous_normal_n);
+        self.point_fit.clone_from(&state.point_fit);
+        self.split_n.clone_from(&state.split_n);
+        self.friction_fit.clone_from(&state.friction_fit);
     }
 
     /// The link poses of the latest update (estimated or true).
