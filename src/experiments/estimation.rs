@@ -665,24 +665,6 @@ fn run_motion(ctx: &Context, base: &Config, section: &mut Section) -> Result<(),
         let label = format!("motion, {floor_name} floor, noise default, μ identified");
         push_motion_checks(&mut section.checks, &label, &t, (0.95, 0.05, 0.15, 0.95));
         section.checks.push(Check::at_most(
-            &format!("{label}: false alarms (of free link-steps)"),
-            t.false_alarm_rate(),
-            0.05,
-            "",
-        ));
-        section.checks.push(Check::at_most(
-            &format!("{label}: obstacle-force RMSE / RMS obstacle force"),
-            t.relative_force_rmse(),
-            0.15,
-            "",
-        ));
-        section.checks.push(Check::at_least(
-            &format!("{label}: contact points within 1 cm (lateral force > 1 N)"),
-            t.point_within_rate(),
-            0.95,
-            "",
-        ));
-        section.checks.push(Check::at_most(
             &format!("{label}: identified μ at the end, largest relative error over seeds and coefficients"),
             worst_end,
             FRICTION_TOLERANCE,
