@@ -191,8 +191,9 @@ impl BagWriter {
             .profile("ros2")
             .library(format!("simserpent {}", env!("CARGO_PKG_VERSION")))
             .compression(Some(mcap::Compression::Zstd))
-            // Compress on the simulating thread: the mcap crate would otherwise start one zstd
-            // worker per physical CPU for every run (and a sweep runs one per core already).
+            // Compress on the bag's writer thread (`record::offload`): the mcap crate would
+            // otherwise start one zstd worker per physical CPU for every run (and a sweep runs
+            // one per core already).
             .compression_threads(0);
         let mut writer = options.create(BufWriter::new(file)).map_err(bag_err(&path))?;
         let ros = &config.ros2;
