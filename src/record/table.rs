@@ -77,6 +77,7 @@ impl CsvTable {
     }
 
     /// Appends a number to the current row.
+    #[inline]
     pub fn num(&mut self, value: f64) -> std::io::Result<()> {
         self.separator();
         // Exact zeros are common (a quarter of the values of `links` and `joints`, half of
@@ -97,7 +98,10 @@ impl CsvTable {
     }
 
     /// Appends several numbers.
+    #[inline]
     pub fn nums(&mut self, values: &[f64]) -> std::io::Result<()> {
+        // Room for all of them at once (a number takes at most 24 bytes and its comma).
+        self.buffer.reserve(values.len() * 25);
         values.iter().try_for_each(|v| self.num(*v))
     }
 
