@@ -79,6 +79,9 @@ impl ParquetSink {
     fn num(&mut self, _: f64) -> std::io::Result<()> {
         match *self {}
     }
+    fn nums(&mut self, _: &[f64]) -> std::io::Result<()> {
+        match *self {}
+    }
     fn int(&mut self, _: u64) -> std::io::Result<()> {
         match *self {}
     }
@@ -191,7 +194,7 @@ impl Table {
             t.nums(values)?;
         }
         if let Some(t) = self.parquet.as_mut() {
-            values.iter().try_for_each(|v| t.num(*v)).inspect_err(|_| self.parquet_failed = true)?;
+            t.nums(values).inspect_err(|_| self.parquet_failed = true)?;
         }
         Ok(())
     }
