@@ -92,3 +92,84 @@ fn a_write_error_of_the_bag_on_its_writer_thread_fails_the_run_naming_the_file()
     let error = m["error"].as_str().unwrap();
     assert!(error.contains("run.mcap") && error.contains("File too large"), "{error}");
 }
+
+/// Kills the child process if the test fails before it ends.
+struct KillOnDrop(Option<std::process::Child>);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        if let Some(child) = self.0.as_mut() {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
+/// SIGTERM during an every-step run writing CSV, the ROS 2 bag and `state.csv` on their writer
+/// threads: the run stops with exit 130 and an `incomplete` manifest, and every file holds the
+/// same recorded instants, whole: the CSV tables and `state.csv` end with a whole row, the bag
+/// is finished (summary and footer: the `mcap` reader reads every message).
+#[test]
+fn an_interrupted_run_leaves_every_writer_thread_file_whole_and_consistent() {
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+    let dir = tempfile::tempdir().unwrap();
+    let mut guard = KillOnDrop(Some(
+        Command::new(exe())
+            .current_dir(dir.path())
+            .args([
+                "run",
+                "--quiet",
+                "--set",
+                "general.duration_secs=3600",
+                "--set",
+                "recording.every_n_steps=1",
+                "--set",
+                r#"recording.format=["csv","mcap"]"#,
+            ])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    ));
+    let child = guard.0.as_mut().unwrap();
+    let started = Instant::now();
+    let run = loop {
+        assert!(started.elapsed() < Duration::from_secs(120), "no rows in links.csv after 120 s");
+        if let Some(run) = run_folders(dir.path()).first()
+            && std::fs::read_to_string(run.join("links.csv")).is_ok_and(|t| t.lines().count() >= 200)
+        {
+            break run.clone();
+        }
+        assert!(child.try_wait().unwrap().is_none(), "the run ended by itself");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert!(Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap().success());
+    let stopped = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        assert!(stopped.elapsed() < Duration::from_secs(60), "still running 60 s after SIGTERM");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = guard.0.take().unwrap().wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(130), "{}", text(&out));
+    let m = manifest(&run);
+    assert_eq!(m["status"], "incomplete", "{m}");
+    let count =
+        |file: &str| m["tables"].as_array().unwrap().iter().find(|t| t[0] == file).and_then(|t| t[1].as_u64()).unwrap();
+    let instants = count("links.csv");
+    assert!(instants >= 199, "{m}");
+    for file in ["links.csv", "joints.csv", "sensors.csv", "state.csv"] {
+        let (_, rows) = crate::common::read_complete_csv(&run.join(file));
+        assert_eq!(rows.len() as u64, instants, "{file}");
+    }
+    assert_eq!(count("run.mcap"), instants, "{m}");
+    let bag = std::fs::read(run.join("run.mcap")).unwrap();
+    let clocks = mcap::MessageStream::new(&bag)
+        .unwrap()
+        .map(|message| message.unwrap())
+        .filter(|message| message.channel.topic == "/clock")
+        .count();
+    assert_eq!(clocks as u64, instants, "one /clock message per recorded instant");
+    // Finished: the summary section is there (a bag cut off by a kill has none).
+    assert!(mcap::Summary::read(&bag).unwrap().is_some(), "run.mcap has its summary");
+}
