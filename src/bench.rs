@@ -16,7 +16,11 @@
 //! - **full (CSV)**: `run::run` — controller, sensor noise model, read-out, CSV recording of
 //!   every table at the configured interval, run folder and manifest;
 //! - **full (Parquet)**: the same, recording Parquet tables instead (feature `parquet`);
-//! - **full (MCAP)**: the same, writing only the ROS 2 bag (`run.mcap`) instead.
+//! - **full (MCAP)**: the same, writing only the ROS 2 bag (`run.mcap`) instead;
+//! - with `--inline-writers`, also **full (CSV / Parquet / MCAP, writers inline)**: the same
+//!   runs with the files formatted and written on the step-loop thread
+//!   ([`RunOptions::inline_writers`], the synchronous path) instead of on writer threads —
+//!   measured interleaved with the others, so the two paths are compared in one process.
 //!
 //! "Bare, gait" was the baseline of issue 20 and its CI guard; since the own floor friction model
 //! (issue 14) became the default, it simulates cheaper physics than the run does (no floor
@@ -70,13 +74,21 @@ fn bare(config: &Config, steps: u64, with_gait: bool, with_ground: bool) -> Resu
     Ok(steps as f64 / start.elapsed().as_secs_f64())
 }
 
-/// The modes measured per snake size, in output order.
-pub fn modes() -> Vec<&'static str> {
+/// The modes measured per snake size, in output order; with `inline_writers` also the
+/// full-pipeline modes with the writers on the step-loop thread.
+pub fn modes(inline_writers: bool) -> Vec<&'static str> {
     let mut m = vec![BARE_STILL, BARE_GAIT, BARE_GAIT_GROUND, FULL_NONE, FULL_CSV];
     if cfg!(feature = "parquet") {
         m.push(FULL_PARQUET);
     }
     m.push(FULL_MCAP);
+    if inline_writers {
+        m.push(FULL_CSV_INLINE);
+        if cfg!(feature = "parquet") {
+            m.push(FULL_PARQUET_INLINE);
+        }
+        m.push(FULL_MCAP_INLINE);
+    }
     m
 }
 
@@ -94,6 +106,12 @@ pub const FULL_CSV: &str = "full pipeline (CSV)";
 pub const FULL_PARQUET: &str = "full pipeline (Parquet)";
 /// `run::run` writing only the ROS 2 bag (`run.mcap`, README "ROS 2").
 pub const FULL_MCAP: &str = "full pipeline (MCAP)";
+/// [`FULL_CSV`] with the writers on the step-loop thread.
+pub const FULL_CSV_INLINE: &str = "full pipeline (CSV, writers inline)";
+/// [`FULL_PARQUET`] with the writers on the step-loop thread.
+pub const FULL_PARQUET_INLINE: &str = "full pipeline (Parquet, writers inline)";
+/// [`FULL_MCAP`] with the writers on the step-loop thread.
+pub const FULL_MCAP_INLINE: &str = "full pipeline (MCAP, writers inline)";
 
 fn measure(config: &Config, mode: &str, steps: u64) -> Result<f64, RunError> {
     match mode {
@@ -104,11 +122,12 @@ fn measure(config: &Config, mode: &str, steps: u64) -> Result<f64, RunError> {
             let mut config = config.clone();
             config.recording.enabled = mode != FULL_NONE;
             config.recording.format = match mode {
-                FULL_PARQUET => TableFormat::Parquet,
-                FULL_MCAP => TableFormat::Mcap,
+                FULL_PARQUET | FULL_PARQUET_INLINE => TableFormat::Parquet,
+                FULL_MCAP | FULL_MCAP_INLINE => TableFormat::Mcap,
                 _ => TableFormat::Csv,
             };
-            let options = RunOptions { config_source: "bench".into(), ..RunOptions::default() };
+            let inline_writers = matches!(mode, FULL_CSV_INLINE | FULL_PARQUET_INLINE | FULL_MCAP_INLINE);
+            let options = RunOptions { config_source: "bench".into(), inline_writers, ..RunOptions::default() };
             let summary = run::run(&config, &options)?;
             // Only the last folder of each mode is kept: benches should not fill the disk.
             let _ = std::fs::remove_dir_all(&summary.run_folder);
@@ -117,7 +136,8 @@ fn measure(config: &Config, mode: &str, steps: u64) -> Result<f64, RunError> {
     }
 }
 
-/// Runs the benchmark for each snake size; `duration_secs` of simulated time per measurement.
+/// Runs the benchmark for each snake size; `duration_secs` of simulated time per measurement
+/// (`inline_writers`: also the modes of [`modes`] with the writers inline).
 /// Each mode is measured `repeats` times, interleaved with the others (so that a slow spell of
 /// the machine hits all modes alike), and the fastest measurement is reported.
 pub fn run_bench(
@@ -126,6 +146,7 @@ pub fn run_bench(
     duration_secs: f64,
     output_dir: &str,
     repeats: usize,
+    inline_writers: bool,
 ) -> Result<Vec<BenchRow>, RunError> {
     let mut rows = Vec::new();
     for &n_links in sizes {
@@ -135,7 +156,7 @@ pub fn run_bench(
         config.general.output_dir = output_dir.to_string();
         config.general.run_name = format!("bench-{n_links}");
         let steps = (duration_secs / config.general.timestep_secs).round() as u64;
-        let modes = modes();
+        let modes = modes(inline_writers);
         let mut best = vec![0.0f64; modes.len()];
         for _ in 0..repeats.max(1) {
             for (mode, best) in modes.iter().zip(&mut best) {

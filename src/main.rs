@@ -240,6 +240,10 @@ enum Command {
         /// bare engine with the same gait) instead of a table.
         #[arg(long)]
         json: bool,
+        /// Also measure the full pipeline with the files written on the step-loop thread
+        /// (the synchronous path) instead of on writer threads, interleaved with the others.
+        #[arg(long)]
+        inline_writers: bool,
         /// Regression guard: exit with code 1 when any full-pipeline ratio (full pipeline /
         /// bare engine with the same gait) is below this value, e.g. 0.85.
         #[arg(long, value_name = "RATIO")]
@@ -745,6 +749,7 @@ fn model(args: &ConfigArgs, output: Option<&Path>, scene_dir: Option<&Path>) -> 
     Ok(())
 }
 
+#[allow(clippy::too_many_arguments)]
 fn bench(
     args: &ConfigArgs,
     links: &[usize],
@@ -753,12 +758,14 @@ fn bench(
     repeats: usize,
     json: bool,
     min_ratio: Option<f64>,
+    inline_writers: bool,
 ) -> Result<(), Failure> {
     if let Some(r) = min_ratio.filter(|r| !(r.is_finite() && *r > 0.0)) {
         return Err(bad_input(anyhow::anyhow!("--min-ratio {r}: must be a number greater than 0 (e.g. 0.85)")));
     }
     let (config, source) = load(args)?;
-    let rows = simserpent::bench::run_bench(&config, links, duration_secs, output_dir, repeats).map_err(failure)?;
+    let rows = simserpent::bench::run_bench(&config, links, duration_secs, output_dir, repeats, inline_writers)
+        .map_err(failure)?;
     let below: Vec<String> = simserpent::bench::pipeline_ratios(&rows)
         .into_iter()
         .filter(|(_, _, ratio)| min_ratio.is_some_and(|floor| *ratio < floor))
@@ -789,7 +796,7 @@ fn bench(
     );
     outln!("| links | mode | steps/s | real-time factor | vs bare still | vs bare gait | vs bare gait + ground |");
     outln!("|---|---|---|---|---|---|---|");
-    for chunk in rows.chunks(simserpent::bench::modes().len()) {
+    for chunk in rows.chunks(simserpent::bench::modes(inline_writers).len()) {
         let (still, gait, ground) = (chunk[0].steps_per_sec, chunk[1].steps_per_sec, chunk[2].steps_per_sec);
         for r in chunk {
             outln!(
@@ -932,8 +939,8 @@ fn main() -> ExitCode {
         Some(Command::Model { config, output, scene_dir }) => model(&config, output.as_deref(), scene_dir.as_deref()),
         Some(Command::Check { config }) => check(&config),
         Some(Command::Convert { input, output, force }) => convert(&input, output.as_deref(), force),
-        Some(Command::Bench { config, links, duration_secs, output_dir, repeats, json, min_ratio }) => {
-            bench(&config, &links, duration_secs, &output_dir, repeats, json, min_ratio)
+        Some(Command::Bench { config, links, duration_secs, output_dir, repeats, json, min_ratio, inline_writers }) => {
+            bench(&config, &links, duration_secs, &output_dir, repeats, json, min_ratio, inline_writers)
         }
         Some(Command::Sweep { config, vary, sample, samples, seed, sweep_dir, threads, shard, quiet }) => {
             sweep(&config, &vary, sample, samples, seed, sweep_dir, threads, shard, quiet)

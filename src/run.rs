@@ -31,6 +31,10 @@ pub struct RunOptions {
     /// publishes its topics over DDS and takes its joint commands from ROS 2 (the built-in
     /// controller is not used).
     pub ros2: bool,
+    /// Write the tables, the ROS 2 bag and `state.csv` on the step-loop thread instead of on
+    /// writer threads (`record::offload`). The files are byte for byte the same; this is the
+    /// synchronous path, for comparisons (`simserpent bench --inline-writers`) and tests.
+    pub inline_writers: bool,
 }
 
 /// Errors of a run (the binary maps them to the documented exit codes).
@@ -260,19 +264,27 @@ fn run_simulation_tracked<C: Controller>(
     let mut reserve = open_run_folder(&folder, created, &mut manifest)?;
     let set_up = write_run_files(config, &folder, sim.world()).and_then(|()| {
         let format = config.recording.format;
+        let threaded = !options.inline_writers;
         let recorder = if config.recording.enabled && (format.csv() || format.parquet()) {
             let surfaces = !sim.ground().surfaces().is_empty();
-            Some(Recorder::create(&folder, &config.recording, &sim.world().index, surfaces, config.estimation.enabled)?)
+            Some(Recorder::create(
+                &folder,
+                &config.recording,
+                &sim.world().index,
+                surfaces,
+                config.estimation.enabled,
+                threaded,
+            )?)
         } else {
             None
         };
         // The ROS 2 bag (README "ROS 2").
         let bag = if config.recording.enabled && format.mcap() {
-            Some(crate::ros2::BagRecorder::create(&folder, config, &sim.world().index)?)
+            Some(crate::ros2::BagRecorder::create(&folder, config, &sim.world().index, threaded)?)
         } else {
             None
         };
-        let visuals = crate::render::RunVisuals::create(config, &folder, sim.world().data(), options.viewer)?;
+        let visuals = crate::render::RunVisuals::create(config, &folder, sim.world().data(), options.viewer, threaded)?;
         Ok((recorder, bag, visuals))
     });
     let (mut recorder, mut bag, mut visuals) = match set_up {

@@ -19,6 +19,7 @@
 
 mod columns;
 mod manifest;
+pub mod offload;
 #[cfg(feature = "parquet")]
 mod parquet;
 mod sink;
@@ -33,9 +34,8 @@ pub use table::CsvTable;
 use crate::config::Recording;
 use crate::sim::{Index, Snapshot};
 use columns::{ContactNames, Layout, TABLES, Wanted};
+use offload::{Offload, Sink};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
 
 /// Errors of writing a run folder; they always name the file.
 #[derive(Debug, thiserror::Error)]
@@ -88,54 +88,26 @@ pub fn create_run_folder(output_dir: &Path, run_name: &str, stamp: &str) -> Resu
     }
 }
 
-/// The tables of one run, written as the run goes, on a thread of their own: the step loop
-/// only copies each recorded [`Snapshot`] into a batch from a fixed pool and hands the batch
-/// over when it holds [`BATCH`] rows (or at a flush and at the end); the writer thread formats
-/// the numbers (CSV) or encodes the columns (Parquet) and writes the files, in the order the
-/// rows came. The files are byte for byte those of writing in the loop.
-///
-/// Handing over batches rather than single rows wakes the writer thread once per [`BATCH`]
-/// rows instead of once per row (each wake-up is a system call on the step-loop thread).
+/// The tables of one run, written as the run goes, on a thread of their own ([`offload`]): the
+/// step loop only copies each recorded [`Snapshot`] into a preallocated row buffer and hands it
+/// over; the writer thread formats the numbers (CSV) or encodes the columns (Parquet) and writes
+/// the files, in the order the rows came. The files are byte for byte those of writing in the
+/// loop (`threaded = false` in [`Recorder::create`]).
 ///
 /// A write error on the writer thread stops its writing at that row; the loop learns it at its
 /// next [`Recorder::write`] or [`Recorder::flush`] (a few batches later at most) and
 /// [`Recorder::finish`] returns it, with the rows that reached the files.
 pub struct Recorder {
-    /// Batches to the writer thread; `None` once finished.
-    to_writer: Option<std::sync::mpsc::SyncSender<ToWriter>>,
-    /// Written batches back from the writer thread, for reuse.
-    free: std::sync::mpsc::Receiver<Box<Batch>>,
-    /// The batch being filled, if any.
-    current: Option<Box<Batch>>,
-    /// How often the loop found no free batch and waited for the writer thread (logged at the
-    /// end: a writer that cannot keep up shows here).
-    waits: u64,
-    /// The writer thread; it returns the tables.
-    writer: Option<std::thread::JoinHandle<Tables>>,
-    /// The writer thread's first error, for the loop to take.
-    error: Arc<Mutex<Option<RecordError>>>,
-    /// Set by the writer thread when it put an error into `error`.
-    failed: Arc<AtomicBool>,
+    out: Offload<Tables>,
 }
 
 /// Rows per batch handed to the writer thread.
-pub const BATCH: usize = 16;
+pub use offload::BATCH;
 
-/// Batches in flight between the loop and the writer thread: the loop runs at most
-/// `POOL * BATCH` rows ahead of the files.
-const POOL: usize = 8;
-
-/// Up to [`BATCH`] recorded rows: step numbers and snapshots (all allocated once).
-struct Batch {
-    steps: [u64; BATCH],
-    snapshots: Vec<Snapshot>,
-    len: usize,
-}
-
-enum ToWriter {
-    Rows(Box<Batch>),
-    /// Flush, and answer when done (the error, if any, is in the shared slot).
-    Flush(std::sync::mpsc::SyncSender<()>),
+/// One recorded instant: its step number and snapshot.
+struct TableRow {
+    step: u64,
+    snapshot: Snapshot,
 }
 
 /// The tables themselves, owned by the writer thread.
@@ -146,12 +118,14 @@ struct Tables {
     names: ContactNames,
 }
 
-impl Tables {
-    fn write(&mut self, step: u64, s: &Snapshot) -> Result<(), RecordError> {
+impl Sink for Tables {
+    type Row = TableRow;
+
+    fn write(&mut self, row: &TableRow) -> Result<(), RecordError> {
         for (layout, table) in &mut self.tables {
             // Paths are only copied on error: a recorded step allocates nothing.
             layout
-                .write(table, s, step, &self.names)
+                .write(table, &row.snapshot, row.step, &self.names)
                 .map_err(|source| RecordError::Io { path: table.path().to_path_buf(), source })?;
         }
         Ok(())
@@ -163,7 +137,9 @@ impl Tables {
         }
         Ok(())
     }
+}
 
+impl Tables {
     fn finish(self) -> (Vec<(String, u64)>, Result<(), RecordError>) {
         let mut out = Vec::new();
         let mut first_error = Ok(());
@@ -176,52 +152,11 @@ impl Tables {
         }
         (out, first_error)
     }
-
-    /// The writer thread: rows in order until the loop hangs up; after the first error, rows
-    /// are only handed back.
-    fn serve(
-        mut self,
-        rows: std::sync::mpsc::Receiver<ToWriter>,
-        free: std::sync::mpsc::SyncSender<Box<Batch>>,
-        error: &Mutex<Option<RecordError>>,
-        failed: &AtomicBool,
-    ) -> Self {
-        let fail = |e: RecordError| {
-            if let Ok(mut slot) = error.lock() {
-                slot.get_or_insert(e);
-            }
-            failed.store(true, Ordering::Release);
-        };
-        for message in rows {
-            match message {
-                ToWriter::Rows(mut batch) => {
-                    for (step, snapshot) in batch.steps.iter().zip(&batch.snapshots).take(batch.len) {
-                        if !failed.load(Ordering::Acquire)
-                            && let Err(e) = self.write(*step, snapshot)
-                        {
-                            fail(e);
-                        }
-                    }
-                    batch.len = 0;
-                    // The pool holds exactly the batches allocated: this never blocks.
-                    let _ = free.try_send(batch);
-                }
-                ToWriter::Flush(answer) => {
-                    if !failed.load(Ordering::Acquire)
-                        && let Err(e) = self.flush()
-                    {
-                        fail(e);
-                    }
-                    let _ = answer.send(());
-                }
-            }
-        }
-        self
-    }
 }
 
 impl Recorder {
-    /// Creates the tables in `folder` with headers for the robot described by `index`.
+    /// Creates the tables in `folder` with headers for the robot described by `index`, written
+    /// on a writer thread (`threaded`) or in the caller's thread.
     ///
     /// With `surfaces` (the config has floor surfaces) `links` gets one more column per link,
     /// `link_ii_surface`: the index of the surface under the link's centre in `ground.surfaces`,
@@ -234,6 +169,7 @@ impl Recorder {
         index: &Index,
         surfaces: bool,
         estimation: bool,
+        threaded: bool,
     ) -> Result<Self, RecordError> {
         let want = Wanted { flags, surfaces, estimation };
         let links: Vec<&str> = index.links.iter().map(|l| l.name.as_str()).collect();
@@ -259,121 +195,39 @@ impl Recorder {
             }
         }
         let names = ContactNames { geoms: index.geom_names.clone(), bodies: index.body_names.clone() };
-        let tables = Tables { tables, names };
-        let (to_writer, rows) = std::sync::mpsc::sync_channel(POOL);
-        let (give_back, free) = std::sync::mpsc::sync_channel(POOL);
-        // The whole pool now: a recorded step allocates nothing (but more contacts than ever).
-        for _ in 0..POOL {
-            let snapshots = (0..BATCH).map(|_| Snapshot::new(index.links.len(), index.joints.len())).collect();
-            let _ = give_back.try_send(Box::new(Batch { steps: [0; BATCH], snapshots, len: 0 }));
-        }
-        let error = Arc::new(Mutex::new(None));
-        let failed = Arc::new(AtomicBool::new(false));
-        let (slot, flag) = (error.clone(), failed.clone());
-        let writer = std::thread::Builder::new()
-            .name("simserpent-recorder".into())
-            .spawn(move || tables.serve(rows, give_back, &slot, &flag))
-            .map_err(io_err(folder))?;
-        Ok(Self { to_writer: Some(to_writer), free, current: None, waits: 0, writer: Some(writer), error, failed })
+        let (n_links, n_joints) = (index.links.len(), index.joints.len());
+        // Every row buffer now: a recorded step allocates nothing (but more contacts than ever).
+        let row = || TableRow { step: 0, snapshot: Snapshot::new(n_links, n_joints) };
+        let out = Offload::new(Tables { tables, names }, row, folder.join("tables"), threaded)?;
+        Ok(Self { out })
     }
 
-    /// The writer thread's first error, once it has one (taken: the loop stops with it).
-    fn writer_error(&mut self) -> Result<(), RecordError> {
-        if !self.failed.load(Ordering::Acquire) {
-            return Ok(());
-        }
-        match self.error.lock().ok().and_then(|mut slot| slot.take()) {
-            Some(e) => Err(e),
-            None => Ok(()),
-        }
-    }
-
-    /// The writer thread ended unexpectedly (it panicked).
-    fn writer_gone(&self) -> RecordError {
-        RecordError::Io { path: PathBuf::from("tables"), source: std::io::Error::other("the recording thread stopped") }
-    }
-
-    /// Appends one snapshot (step number `step`): copies it into the current batch (no
-    /// allocation, except for more contacts than ever before) and hands the batch to the writer
-    /// thread once it is full; waits only when the writer is a whole pool of batches behind.
+    /// Appends one snapshot (step number `step`): copies it into a row buffer (no allocation,
+    /// except for more contacts than ever before) for the writer thread.
     pub fn write(&mut self, step: u64, s: &Snapshot) -> Result<(), RecordError> {
-        let mut batch = match self.current.take() {
-            Some(batch) => batch,
-            None => {
-                self.writer_error()?;
-                match self.free.try_recv() {
-                    Ok(batch) => batch,
-                    Err(_) => {
-                        self.waits += 1;
-                        let Ok(batch) = self.free.recv() else { return Err(self.writer_gone()) };
-                        batch
-                    }
-                }
-            }
-        };
-        let n = batch.len;
-        batch.steps[n] = step;
-        batch.snapshots[n].copy_from(s);
-        batch.len = n + 1;
-        if batch.len < BATCH {
-            self.current = Some(batch);
-            return Ok(());
-        }
-        self.hand_over(batch)
-    }
-
-    /// Sends a batch to the writer thread.
-    fn hand_over(&mut self, batch: Box<Batch>) -> Result<(), RecordError> {
-        match self.to_writer.as_ref().map(|t| t.send(ToWriter::Rows(batch))) {
-            Some(Ok(())) => Ok(()),
-            _ => Err(self.writer_gone()),
-        }
-    }
-
-    /// Hands over the rows of a batch not full yet.
-    fn hand_over_partial(&mut self) -> Result<(), RecordError> {
-        match self.current.take() {
-            Some(batch) if batch.len > 0 => self.hand_over(batch),
-            Some(batch) => {
-                self.current = Some(batch);
-                Ok(())
-            }
-            None => Ok(()),
-        }
+        let row = self.out.slot()?;
+        row.step = step;
+        row.snapshot.copy_from(s);
+        self.out.commit()
     }
 
     /// Flushes all tables (whole rows reach the files): waits for the writer thread.
     pub fn flush(&mut self) -> Result<(), RecordError> {
-        self.hand_over_partial()?;
-        let (answer, reply) = std::sync::mpsc::sync_channel(1);
-        let Some(sender) = self.to_writer.as_ref() else { return Ok(()) };
-        if sender.send(ToWriter::Flush(answer)).is_err() || reply.recv().is_err() {
-            return Err(self.writer_gone());
-        }
-        self.writer_error()
+        self.out.flush()
     }
 
     /// Flushes and closes all tables, each even when another fails. Returns (file name, rows)
     /// per table file, for the manifest, and the first error. The rows are the whole rows each
     /// file holds, also after a failure: a CSV file is cut back to its last whole row, and a
     /// Parquet part that cannot be closed is deleted (see [`CsvTable::close`]).
-    pub fn finish(mut self) -> (Vec<(String, u64)>, Result<(), RecordError>) {
-        // The last rows (a send fails only when the writer thread is gone: joined below).
-        let _ = self.hand_over_partial();
-        log::debug!("recording: the step loop waited {} times for a free batch", self.waits);
-        // Hanging up ends the writer thread after the rows in flight.
-        drop(self.to_writer.take());
-        let Some(writer) = self.writer.take() else {
-            return (Vec::new(), Err(self.writer_gone()));
-        };
-        match writer.join() {
-            Ok(tables) => {
+    pub fn finish(self) -> (Vec<(String, u64)>, Result<(), RecordError>) {
+        match self.out.finish() {
+            (Some(tables), pending) => {
                 // An error the loop has not taken yet (a failed last row) comes first.
-                let pending = self.error.lock().ok().and_then(|mut slot| slot.take());
                 let (files, closed) = tables.finish();
-                (files, pending.map_or(closed, Err))
+                (files, pending.and(closed))
             }
-            Err(_) => (Vec::new(), Err(self.writer_gone())),
+            (None, gone) => (Vec::new(), gone),
         }
     }
 }

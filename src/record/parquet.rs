@@ -416,6 +416,13 @@ impl TableSink for ParquetDataset {
         self.part()?.num(value)
     }
 
+    /// One look-up of the part for a group of numbers.
+    #[inline]
+    fn nums(&mut self, values: &[f64]) -> std::io::Result<()> {
+        let part = self.part()?;
+        values.iter().try_for_each(|v| part.num(*v))
+    }
+
     #[inline]
     fn int(&mut self, value: u64) -> std::io::Result<()> {
         self.part()?.int(value)

@@ -79,6 +79,9 @@ impl ParquetSink {
     fn num(&mut self, _: f64) -> std::io::Result<()> {
         match *self {}
     }
+    fn nums(&mut self, _: &[f64]) -> std::io::Result<()> {
+        match *self {}
+    }
     fn int(&mut self, _: u64) -> std::io::Result<()> {
         match *self {}
     }
@@ -183,10 +186,17 @@ impl Table {
         Ok(())
     }
 
-    /// Appends several numbers.
+    /// Appends several numbers (each format takes them all at once: one dispatch per group of
+    /// values rather than per value; the rows are the same).
     #[inline]
     pub fn nums(&mut self, values: &[f64]) -> std::io::Result<()> {
-        values.iter().try_for_each(|v| self.num(*v))
+        if let Some(t) = self.csv.as_mut() {
+            t.nums(values)?;
+        }
+        if let Some(t) = self.parquet.as_mut() {
+            t.nums(values).inspect_err(|_| self.parquet_failed = true)?;
+        }
+        Ok(())
     }
 
     /// Appends an integer.

@@ -158,15 +158,17 @@ impl std::fmt::Debug for RunVisuals {
 impl RunVisuals {
     /// What a run in `folder` needs (`model.xml` must already be there), or `None` when nothing
     /// is wanted: no `state.csv` (`render.record_state` off or recording disabled), no video,
-    /// no images, no live viewer.
+    /// no images, no live viewer. `state.csv` is written on a writer thread (`threaded`) or in
+    /// the caller's thread.
     pub fn create<M: mujoco_rs::wrappers::mj_model::traits::ModelType>(
         config: &Config,
         folder: &Path,
         data: &mujoco_rs::prelude::MjData<M>,
         live_viewer: bool,
+        threaded: bool,
     ) -> Result<Option<Self>, RenderError> {
         let state = if config.render.record_state && config.recording.enabled {
-            Some(StateWriter::create(folder, data.model())?)
+            Some(StateWriter::create(folder, data.model(), threaded)?)
         } else {
             None
         };

@@ -8,6 +8,8 @@
 
 use super::RenderError;
 use crate::record::CsvTable;
+use crate::record::RecordError;
+use crate::record::offload::{Offload, Sink};
 use mujoco_rs::prelude::*;
 use mujoco_rs::wrappers::mj_model::traits::ModelType;
 use std::path::{Path, PathBuf};
@@ -39,37 +41,80 @@ pub fn state_header(model: &MjModel) -> Vec<String> {
     h
 }
 
-/// Writes `state.csv` as the run goes (no allocation per row).
+/// Writes `state.csv` as the run goes, on a writer thread of its own
+/// ([`crate::record::offload`]): the step loop copies the state into a preallocated row buffer,
+/// the writer thread formats and writes it (no allocation per row on either side). The file is
+/// byte for byte that of formatting in the loop (`threaded = false`).
 pub struct StateWriter {
+    out: Offload<StateSink>,
+    path: PathBuf,
+}
+
+/// One row: the state as `mj_getState` wrote it (its first `len` values).
+pub struct StateRow {
+    len: usize,
+    values: Vec<f64>,
+}
+
+/// The file, on the writer thread.
+pub struct StateSink {
     table: CsvTable,
-    buffer: Vec<f64>,
+}
+
+impl Sink for StateSink {
+    type Row = StateRow;
+    fn write(&mut self, row: &StateRow) -> Result<(), RecordError> {
+        // The path is only copied on error: a recorded step allocates nothing.
+        match self.table.nums(&row.values[..row.len]).and_then(|()| self.table.end_row()) {
+            Ok(()) => Ok(()),
+            Err(e) => Err(crate::record::io_err(self.table.path())(e)),
+        }
+    }
+    fn flush(&mut self) -> Result<(), RecordError> {
+        self.table.flush().map_err(crate::record::io_err(self.table.path()))
+    }
+}
+
+fn render_err(e: RecordError) -> RenderError {
+    match e {
+        RecordError::Io { path, source } => RenderError::Io { path, source },
+    }
 }
 
 impl StateWriter {
-    /// Creates `<folder>/state.csv` for `model`.
-    pub fn create(folder: &Path, model: &MjModel) -> Result<Self, RenderError> {
+    /// Creates `<folder>/state.csv` for `model`, written on a writer thread (`threaded`) or in
+    /// the caller's thread.
+    pub fn create(folder: &Path, model: &MjModel, threaded: bool) -> Result<Self, RenderError> {
         let path = folder.join(STATE_FILE);
         let table = CsvTable::create(&path, &state_header(model)).map_err(RenderError::io(&path))?;
-        Ok(Self { table, buffer: vec![0.0; model.state_size(STATE_SPEC)] })
+        let size = model.state_size(STATE_SPEC);
+        let row = || StateRow { len: 0, values: vec![0.0; size] };
+        let out = Offload::new(StateSink { table }, row, path.clone(), threaded).map_err(render_err)?;
+        Ok(Self { out, path })
     }
 
     /// Appends the current state of `data`.
     pub fn write<M: ModelType>(&mut self, data: &MjData<M>) -> Result<(), RenderError> {
-        let n =
-            data.try_read_state_into(STATE_SPEC, &mut self.buffer).map_err(|e| RenderError::Engine(e.to_string()))?;
-        // The path is only copied on error: a recorded step allocates nothing.
-        match self.table.nums(&self.buffer[..n]).and_then(|()| self.table.end_row()) {
-            Ok(()) => Ok(()),
-            Err(e) => Err(RenderError::io(self.table.path())(e)),
-        }
+        let row = self.out.slot().map_err(render_err)?;
+        row.len =
+            data.try_read_state_into(STATE_SPEC, &mut row.values).map_err(|e| RenderError::Engine(e.to_string()))?;
+        self.out.commit().map_err(render_err)
     }
 
-    /// Flushes and closes the file; returns its path and the number of rows.
+    /// Flushes and closes the file (also after a write error: it keeps its whole rows); returns
+    /// its path and the number of rows.
     pub fn finish(self) -> Result<(PathBuf, u64), RenderError> {
-        let path = self.table.path().to_path_buf();
-        let rows = self.table.rows();
-        self.table.finish().map_err(RenderError::io(&path))?;
-        Ok((path, rows))
+        let (sink, pending) = self.out.finish();
+        let Some(sink) = sink else {
+            return Err(pending
+                .map_err(render_err)
+                .err()
+                .unwrap_or_else(|| RenderError::io(&self.path)(std::io::Error::other("the writer thread stopped"))));
+        };
+        let (rows, closed) = sink.table.close();
+        pending.map_err(render_err)?;
+        closed.map_err(RenderError::io(&self.path))?;
+        Ok((self.path, rows))
     }
 }
 

@@ -21,6 +21,7 @@ use super::msgs::{Clock, TfMessage, Time, Wrench, WrenchStamped};
 use crate::config::{Config, ControlMethod};
 use crate::control::Command;
 use crate::record::RecordError;
+use crate::record::offload::{Offload, Sink};
 use crate::sim::{Index, Snapshot};
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -85,16 +86,32 @@ impl Out {
     }
 }
 
-/// Writes the bag of a run (see the module doc). Sized once; a recorded instant reuses one
-/// buffer for every message and allocates nothing of its own.
+/// Writes the bag of a run (see the module doc) on a writer thread of its own
+/// ([`crate::record::offload`]): the step loop copies each recorded instant (snapshot and
+/// command) into a preallocated row buffer; the writer thread encodes and writes the messages.
+/// The file is byte for byte that of encoding in the loop (`threaded = false`).
 pub struct BagRecorder {
+    out: Offload<BagWriter>,
+    path: PathBuf,
+    method: ControlMethod,
+}
+
+/// One recorded instant for the bag.
+pub struct BagRow {
+    snapshot: Snapshot,
+    /// The command block of the run's control method.
+    command: Vec<f64>,
+}
+
+/// The bag's writer (on the writer thread). Sized once; a recorded instant reuses one buffer
+/// for every message and allocates nothing of its own.
+pub struct BagWriter {
     out: Out,
     channels: Channels,
     instants: u64,
     links: Vec<String>,
     joints: Vec<String>,
     joint_frames: Vec<String>,
-    method: ControlMethod,
     gyro_covariance: [f64; 9],
     accel_covariance: [f64; 9],
     arrow_m_per_n: f64,
@@ -115,6 +132,57 @@ fn encode_err(path: &Path) -> impl FnOnce(cdr_encoding::Error) -> RecordError + 
 }
 
 impl BagRecorder {
+    /// Creates `run.mcap` in `folder` with a channel per topic for the robot of `index`, written
+    /// on a writer thread (`threaded`) or in the caller's thread.
+    pub fn create(folder: &Path, config: &Config, index: &Index, threaded: bool) -> Result<Self, RecordError> {
+        let writer = BagWriter::create(folder, config, index)?;
+        let path = writer.out.path.clone();
+        let (n_links, n_joints) = (index.links.len(), index.joints.len());
+        let row = || BagRow { snapshot: Snapshot::new(n_links, n_joints), command: vec![0.0; n_joints] };
+        let out = Offload::new(writer, row, path.clone(), threaded)?;
+        Ok(Self { out, path, method: config.control.method })
+    }
+
+    /// The bag's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Hands one recorded instant to the writer (a copy; no allocation but for more contacts
+    /// than ever before).
+    pub fn write(&mut self, s: &Snapshot, command: &Command) -> Result<(), RecordError> {
+        let block = command.block(self.method);
+        let row = self.out.slot()?;
+        row.snapshot.copy_from(s);
+        row.command.resize(block.len(), 0.0);
+        row.command.copy_from_slice(block);
+        self.out.commit()
+    }
+
+    /// Finishes the bag (see [`BagWriter::finish`]); a write error of the writer thread not
+    /// returned yet comes first.
+    pub fn finish(self) -> (Vec<(String, u64)>, Result<(), RecordError>) {
+        match self.out.finish() {
+            (Some(writer), pending) => {
+                let (files, done) = writer.finish();
+                (files, pending.and(done))
+            }
+            (None, gone) => (vec![(FILE_NAME.to_string(), 0)], gone),
+        }
+    }
+}
+
+impl Sink for BagWriter {
+    type Row = BagRow;
+    fn write(&mut self, row: &BagRow) -> Result<(), RecordError> {
+        self.write_instant(&row.snapshot, &row.command)
+    }
+    fn flush(&mut self) -> Result<(), RecordError> {
+        Ok(())
+    }
+}
+
+impl BagWriter {
     /// Creates `run.mcap` in `folder` with a channel per topic for the robot of `index`.
     pub fn create(folder: &Path, config: &Config, index: &Index) -> Result<Self, RecordError> {
         let path = folder.join(FILE_NAME);
@@ -123,8 +191,9 @@ impl BagRecorder {
             .profile("ros2")
             .library(format!("simserpent {}", env!("CARGO_PKG_VERSION")))
             .compression(Some(mcap::Compression::Zstd))
-            // Compress on the simulating thread: the mcap crate would otherwise start one zstd
-            // worker per physical CPU for every run (and a sweep runs one per core already).
+            // Compress on the bag's writer thread (`record::offload`): the mcap crate would
+            // otherwise start one zstd worker per physical CPU for every run (and a sweep runs
+            // one per core already).
             .compression_threads(0);
         let mut writer = options.create(BufWriter::new(file)).map_err(bag_err(&path))?;
         let ros = &config.ros2;
@@ -183,20 +252,15 @@ impl BagRecorder {
             links,
             joints,
             joint_frames,
-            method,
             gyro_covariance: msgs::diagonal_covariance(variance(s.gyro.std)),
             accel_covariance: msgs::diagonal_covariance(variance(s.accelerometer.std)),
             arrow_m_per_n: config.ros2.contact_arrow_m_per_n,
         })
     }
 
-    /// The bag's path.
-    pub fn path(&self) -> &Path {
-        &self.out.path
-    }
-
-    /// Writes every topic of one recorded instant.
-    pub fn write(&mut self, s: &Snapshot, command: &Command) -> Result<(), RecordError> {
+    /// Writes every topic of one recorded instant (`command`: the command block of the run's
+    /// control method).
+    pub fn write_instant(&mut self, s: &Snapshot, command: &[f64]) -> Result<(), RecordError> {
         let nanos = msgs::nanos(s.time_secs);
         let stamp = Time::from_nanos(nanos);
         let ch = &self.channels;
@@ -255,10 +319,7 @@ impl BagRecorder {
             };
             out.put(ch.wrench[j], nanos, &wrench)?;
         }
-        let command = Float64MultiArray {
-            layout: MultiArrayLayout { dim: &[], data_offset: 0 },
-            data: command.block(self.method),
-        };
+        let command = Float64MultiArray { layout: MultiArrayLayout { dim: &[], data_offset: 0 }, data: command };
         out.put(ch.command, nanos, &command)?;
         let markers =
             ContactMarkers { stamp, frame_id: WORLD_FRAME, contacts: &s.contacts, arrow_m_per_n: self.arrow_m_per_n };

@@ -95,6 +95,10 @@ pub struct Ground {
     bodies: Vec<usize>,
     /// SimSerpent's own floor friction (`physics.floor_friction = "stick_slip"`), if in use.
     stick_slip: Option<StickSlip>,
+    /// [`Ground::fill_snapshot`]'s scratch: the friction slot of every contact row (grows only
+    /// with more contacts than ever), and Σ N of the rows of each link's ground slots.
+    row_slots: Vec<Option<(usize, usize, f64)>>,
+    slot_normal_n: Vec<[f64; SLOTS]>,
 }
 
 impl Ground {
@@ -138,6 +142,8 @@ impl Ground {
             region_now: vec![0; n],
             pairs,
             bodies: world.index.links.iter().map(|l| l.body).collect(),
+            row_slots: Vec::new(),
+            slot_normal_n: vec![[0.0; SLOTS]; n],
         }
     }
 
@@ -378,9 +384,13 @@ impl Ground {
     /// of a step was computed from the previous evaluation's contacts: at a slot that has just
     /// lost its contact the friction still acts for this step and no row carries it; the link's
     /// columns do.)
-    pub fn fill_snapshot(&self, s: &mut Snapshot) {
-        s.link_region.copy_from_slice(&self.region_now);
-        let Some(st) = &self.stick_slip else { return };
+    ///
+    /// One pass over the rows finds each row's slot and adds up Σ N per ground slot; a second
+    /// shares out the friction (no allocation but for more contacts than ever).
+    pub fn fill_snapshot(&mut self, s: &mut Snapshot) {
+        let Self { stick_slip, region_now, row_slots, slot_normal_n, .. } = self;
+        s.link_region.copy_from_slice(region_now);
+        let Some(st) = stick_slip.as_ref() else { return };
         for i in 0..st.force_n.len() {
             let (fo, to) = (st.obstacle_force_n[i], st.obstacle_torque_nm[i]);
             let (ff, tf) = (sub(st.force_n[i], fo), sub(st.torque_nm[i], to));
@@ -415,8 +425,22 @@ impl Ground {
             let along = dot(sub(c.position_m, s.link_position_m[link]), quat_x_axis(s.link_quat[link]));
             Some((link, usize::from(along < 0.0), sign))
         };
+        // Pass 1: every row's slot, and Σ N over the rows (with N > 0) of each ground slot, in
+        // row order (the order of the sums below, so the same bits).
+        row_slots.clear();
+        row_slots.extend(s.contacts.iter().map(row_slot));
+        slot_normal_n.clear();
+        slot_normal_n.resize(st.force_n.len(), [0.0; SLOTS]);
+        for (c, key) in s.contacts.iter().zip(row_slots.iter()) {
+            if let Some((link, slot, _)) = *key
+                && slot < SLOTS
+                && c.normal_force_n > 0.0
+            {
+                slot_normal_n[link][slot] += c.normal_force_n;
+            }
+        }
         for r in 0..s.contacts.len() {
-            let Some((link, slot, sign)) = row_slot(&s.contacts[r]) else { continue };
+            let Some((link, slot, sign)) = row_slots[r] else { continue };
             let n_row = s.contacts[r].normal_force_n;
             if n_row <= 0.0 {
                 continue;
@@ -429,13 +453,17 @@ impl Ground {
                     None => continue,
                 }
             };
-            // Σ N over the rows of this slot (a handful of rows: no scratch needed).
-            let n_slot: f64 = s
-                .contacts
-                .iter()
-                .filter(|c| c.normal_force_n > 0.0 && row_slot(c).is_some_and(|(l, k, _)| l == link && k == slot))
-                .map(|c| c.normal_force_n)
-                .sum();
+            // Σ N over the rows of this slot (obstacle slots: a handful of rows, summed here).
+            let n_slot: f64 = if slot < SLOTS {
+                slot_normal_n[link][slot]
+            } else {
+                s.contacts
+                    .iter()
+                    .zip(row_slots.iter())
+                    .filter(|(c, key)| c.normal_force_n > 0.0 && key.is_some_and(|(l, k, _)| l == link && k == slot))
+                    .map(|(c, _)| c.normal_force_n)
+                    .sum()
+            };
             let f_on_geom2 = applied.map(|x| sign * x * n_row / n_slot);
             let axis = quat_x_axis(s.link_quat[link]);
             let row = &mut s.contacts[r];

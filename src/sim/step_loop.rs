@@ -462,7 +462,7 @@ impl<C: Controller> Simulation<C> {
     /// velocities, accelerations, contacts, sensors and constraint forces all describe this
     /// instant, and reads them into `snapshot`.
     pub fn snapshot(&mut self, snapshot: &mut Snapshot) {
-        read_instant(&mut self.world, &self.ground, &self.obs_true, &self.obs, snapshot);
+        read_instant(&mut self.world, &mut self.ground, &self.obs_true, &self.obs, snapshot);
     }
 
     fn view(&self, k: u64, plan: LoopPlan) -> StepView<'_> {
@@ -511,7 +511,7 @@ impl<C: Controller> Simulation<C> {
             self.control();
             let recorded = plan.records(*k);
             if recorded {
-                read_instant(&mut self.world, &self.ground, &self.obs_true, &self.obs, &mut self.snapshot);
+                read_instant(&mut self.world, &mut self.ground, &self.obs_true, &self.obs, &mut self.snapshot);
                 let view = self.view(*k, plan);
                 for o in observers.iter_mut() {
                     o.on_record(&view, &self.snapshot)?;
@@ -537,7 +537,7 @@ impl<C: Controller> Simulation<C> {
 /// model's part (floor regions, SimSerpent's floor friction): everything of one instant.
 fn read_instant(
     world: &mut World,
-    ground: &Ground,
+    ground: &mut Ground,
     obs_true: &Observation,
     obs: &Observation,
     snapshot: &mut Snapshot,

@@ -37,3 +37,4 @@ mod sweep;
 mod sweep_interrupt;
 mod terrain;
 mod thesis_homes;
+mod writers;

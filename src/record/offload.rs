@@ -1,0 +1,372 @@
+//! Writing off the step-loop thread, shared by every file a run writes as it goes (the tables,
+//! the ROS 2 bag `run.mcap`, `state.csv`).
+//!
+//! The step loop only *fills* rows: [`Offload::slot`] gives it the next preallocated row buffer
+//! of a [`Sink`], the loop copies the instant's numbers into it (no allocation, no formatting)
+//! and [`Offload::commit`]s it. Rows travel to a writer thread of their own in batches of
+//! [`BATCH`] over a bounded channel; the writer thread formats and writes them, in order, and
+//! sends each batch back for reuse. [`POOL`] batches exist, allocated when the file is created:
+//! the loop runs at most `POOL × BATCH` rows ahead of the file and waits only when the writer
+//! thread is that far behind.
+//!
+//! A write error on the writer thread stops the writing at that row (the sink keeps what it
+//! wrote, whole rows); the loop learns it when it next needs a fresh batch or flushes, and
+//! [`Offload::finish`] returns it. [`Offload::inline`] does the same work on the calling thread
+//! (the synchronous path: for comparisons and tests; the files are byte for byte the same).
+
+use super::RecordError;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
+use std::sync::{Arc, Mutex};
+
+/// Rows per batch handed to the writer thread: one channel send (one wake-up of a sleeping
+/// writer thread) per batch rather than per row.
+pub const BATCH: usize = 16;
+
+/// Batches in flight between the loop and the writer thread.
+pub const POOL: usize = 8;
+
+/// What the writer thread does with the rows of one file (or group of files).
+pub trait Sink: Send + 'static {
+    /// A preallocated row buffer, filled by the step loop.
+    type Row: Send + 'static;
+    /// Formats and writes one row.
+    fn write(&mut self, row: &Self::Row) -> Result<(), RecordError>;
+    /// Pushes written rows to the files (whole rows).
+    fn flush(&mut self) -> Result<(), RecordError>;
+}
+
+/// Up to [`BATCH`] filled rows.
+struct Batch<R> {
+    rows: Vec<R>,
+    len: usize,
+}
+
+enum ToWriter<R> {
+    Rows(Box<Batch<R>>),
+    /// Flush, and answer when done (the error, if any, is in the shared slot).
+    Flush(SyncSender<()>),
+}
+
+/// The writer thread's side.
+struct Threaded<S: Sink> {
+    /// Batches to the writer thread; `None` once finished.
+    to_writer: Option<SyncSender<ToWriter<S::Row>>>,
+    /// Written batches back from the writer thread, for reuse.
+    free: Receiver<Box<Batch<S::Row>>>,
+    /// The batch being filled, if any.
+    current: Option<Box<Batch<S::Row>>>,
+    /// How often the loop found no free batch and waited (logged at the end).
+    waits: u64,
+    writer: Option<std::thread::JoinHandle<S>>,
+    /// The writer thread's first error, for the loop to take.
+    error: Arc<Mutex<Option<RecordError>>>,
+    /// Set by the writer thread when it put an error into `error`.
+    failed: Arc<AtomicBool>,
+}
+
+/// The calling thread's side (the synchronous path).
+struct Inline<S: Sink> {
+    sink: S,
+    row: S::Row,
+    /// After the first error nothing more is written (as on the writer thread).
+    failed: bool,
+}
+
+enum Mode<S: Sink> {
+    Threaded(Threaded<S>),
+    Inline(Inline<S>),
+}
+
+/// A [`Sink`] fed from the step loop (see the module documentation).
+pub struct Offload<S: Sink> {
+    mode: Mode<S>,
+    /// Names the work in errors and logs (say, `tables` or `run.mcap`).
+    what: PathBuf,
+}
+
+fn serve<S: Sink>(
+    mut sink: S,
+    rows: Receiver<ToWriter<S::Row>>,
+    free: SyncSender<Box<Batch<S::Row>>>,
+    error: &Mutex<Option<RecordError>>,
+    failed: &AtomicBool,
+) -> S {
+    let fail = |e: RecordError| {
+        if let Ok(mut slot) = error.lock() {
+            slot.get_or_insert(e);
+        }
+        failed.store(true, Ordering::Release);
+    };
+    for message in rows {
+        match message {
+            ToWriter::Rows(mut batch) => {
+                for row in batch.rows.iter().take(batch.len) {
+                    if !failed.load(Ordering::Acquire)
+                        && let Err(e) = sink.write(row)
+                    {
+                        fail(e);
+                    }
+                }
+                batch.len = 0;
+                // The pool holds exactly the batches allocated: this never blocks.
+                let _ = free.try_send(batch);
+            }
+            ToWriter::Flush(answer) => {
+                if !failed.load(Ordering::Acquire)
+                    && let Err(e) = sink.flush()
+                {
+                    fail(e);
+                }
+                let _ = answer.send(());
+            }
+        }
+    }
+    sink
+}
+
+impl<S: Sink> Offload<S> {
+    /// Starts the writer thread for `sink`; `row` makes the `POOL × BATCH` row buffers (all of
+    /// them now). `what` names the work in errors (a file or `tables`).
+    pub fn spawn(sink: S, mut row: impl FnMut() -> S::Row, what: PathBuf) -> Result<Self, RecordError> {
+        let (to_writer, rows) = sync_channel(POOL);
+        let (give_back, free) = sync_channel(POOL);
+        for _ in 0..POOL {
+            let rows = (0..BATCH).map(|_| row()).collect();
+            let _ = give_back.try_send(Box::new(Batch { rows, len: 0 }));
+        }
+        let error = Arc::new(Mutex::new(None));
+        let failed = Arc::new(AtomicBool::new(false));
+        let (slot, flag) = (error.clone(), failed.clone());
+        let writer = std::thread::Builder::new()
+            .name("simserpent-writer".into())
+            .spawn(move || serve(sink, rows, give_back, &slot, &flag))
+            .map_err(|source| RecordError::Io { path: what.clone(), source })?;
+        let threaded =
+            Threaded { to_writer: Some(to_writer), free, current: None, waits: 0, writer: Some(writer), error, failed };
+        Ok(Self { mode: Mode::Threaded(threaded), what })
+    }
+
+    /// The same work on the calling thread: every committed row is written at once.
+    pub fn inline(sink: S, mut row: impl FnMut() -> S::Row, what: PathBuf) -> Self {
+        Self { mode: Mode::Inline(Inline { sink, row: row(), failed: false }), what }
+    }
+
+    /// Either: on a writer thread (`threaded`) or on the calling thread.
+    pub fn new(sink: S, row: impl FnMut() -> S::Row, what: PathBuf, threaded: bool) -> Result<Self, RecordError> {
+        if threaded { Self::spawn(sink, row, what) } else { Ok(Self::inline(sink, row, what)) }
+    }
+
+    /// The writer thread ended unexpectedly (it panicked).
+    fn writer_gone(what: &std::path::Path) -> RecordError {
+        RecordError::Io { path: what.to_path_buf(), source: std::io::Error::other("the writer thread stopped") }
+    }
+
+    /// The row buffer to fill next. It holds whatever an earlier row left in it: fill every
+    /// value. A buffer that is not [`Offload::commit`]ted is handed out again. Fails with the
+    /// writer thread's first error, once there is one.
+    pub fn slot(&mut self) -> Result<&mut S::Row, RecordError> {
+        match &mut self.mode {
+            Mode::Inline(inline) => Ok(&mut inline.row),
+            Mode::Threaded(t) => {
+                if t.current.is_none() {
+                    t.writer_error()?;
+                    let batch = match t.free.try_recv() {
+                        Ok(batch) => batch,
+                        Err(_) => {
+                            t.waits += 1;
+                            let Ok(batch) = t.free.recv() else { return Err(Self::writer_gone(&self.what)) };
+                            batch
+                        }
+                    };
+                    t.current = Some(batch);
+                }
+                match t.current.as_mut() {
+                    Some(batch) => Ok(&mut batch.rows[batch.len]),
+                    None => Err(Self::writer_gone(&self.what)),
+                }
+            }
+        }
+    }
+
+    /// Hands the row filled in [`Offload::slot`] on: to the writer thread (in a batch, once the
+    /// batch is full) or, inline, writes it now.
+    pub fn commit(&mut self) -> Result<(), RecordError> {
+        match &mut self.mode {
+            Mode::Inline(inline) => {
+                if inline.failed {
+                    return Ok(());
+                }
+                inline.sink.write(&inline.row).inspect_err(|_| inline.failed = true)
+            }
+            Mode::Threaded(t) => {
+                let Some(mut batch) = t.current.take() else { return Ok(()) };
+                batch.len += 1;
+                if batch.len < BATCH {
+                    t.current = Some(batch);
+                    return Ok(());
+                }
+                t.hand_over(batch).map_err(|()| Self::writer_gone(&self.what))
+            }
+        }
+    }
+
+    /// Waits until every committed row is written and flushed to the files.
+    pub fn flush(&mut self) -> Result<(), RecordError> {
+        match &mut self.mode {
+            Mode::Inline(inline) => {
+                if inline.failed {
+                    return Ok(());
+                }
+                inline.sink.flush().inspect_err(|_| inline.failed = true)
+            }
+            Mode::Threaded(t) => {
+                t.hand_over_partial().map_err(|()| Self::writer_gone(&self.what))?;
+                let (answer, reply) = sync_channel(1);
+                let Some(sender) = t.to_writer.as_ref() else { return Ok(()) };
+                if sender.send(ToWriter::Flush(answer)).is_err() || reply.recv().is_err() {
+                    return Err(Self::writer_gone(&self.what));
+                }
+                t.writer_error()
+            }
+        }
+    }
+
+    /// Writes the rows still in flight and stops the writer thread. Returns the sink (to close
+    /// its files; `None` only when the writer thread panicked) and the first write error not
+    /// returned yet.
+    pub fn finish(self) -> (Option<S>, Result<(), RecordError>) {
+        match self.mode {
+            Mode::Inline(inline) => (Some(inline.sink), Ok(())),
+            Mode::Threaded(mut t) => {
+                // The last rows (a send fails only when the writer thread is gone: joined below).
+                let _ = t.hand_over_partial();
+                log::debug!("{}: the step loop waited {} times for a free batch", self.what.display(), t.waits);
+                // Hanging up ends the writer thread after the rows in flight.
+                drop(t.to_writer.take());
+                let joined = t.writer.take().map(std::thread::JoinHandle::join);
+                match joined {
+                    Some(Ok(sink)) => {
+                        let pending = t.error.lock().ok().and_then(|mut slot| slot.take());
+                        (Some(sink), pending.map_or(Ok(()), Err))
+                    }
+                    _ => (None, Err(Self::writer_gone(&self.what))),
+                }
+            }
+        }
+    }
+}
+
+impl<S: Sink> Threaded<S> {
+    /// The writer thread's first error, once it has one (taken: the loop stops with it).
+    fn writer_error(&mut self) -> Result<(), RecordError> {
+        if !self.failed.load(Ordering::Acquire) {
+            return Ok(());
+        }
+        match self.error.lock().ok().and_then(|mut slot| slot.take()) {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    fn hand_over(&mut self, batch: Box<Batch<S::Row>>) -> Result<(), ()> {
+        match self.to_writer.as_ref().map(|t| t.send(ToWriter::Rows(batch))) {
+            Some(Ok(())) => Ok(()),
+            _ => Err(()),
+        }
+    }
+
+    /// Hands over the rows of a batch not full yet.
+    fn hand_over_partial(&mut self) -> Result<(), ()> {
+        match self.current.take() {
+            Some(batch) if batch.len > 0 => self.hand_over(batch),
+            Some(batch) => {
+                self.current = Some(batch);
+                Ok(())
+            }
+            None => Ok(()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Collects rows; fails at a given row.
+    struct Collect {
+        seen: Vec<u64>,
+        fail_at: Option<u64>,
+        flushes: usize,
+    }
+
+    impl Sink for Collect {
+        type Row = u64;
+        fn write(&mut self, row: &u64) -> Result<(), RecordError> {
+            if Some(*row) == self.fail_at {
+                return Err(RecordError::Io { path: "x.csv".into(), source: std::io::Error::other("disk full") });
+            }
+            self.seen.push(*row);
+            Ok(())
+        }
+        fn flush(&mut self) -> Result<(), RecordError> {
+            self.flushes += 1;
+            Ok(())
+        }
+    }
+
+    fn push(o: &mut Offload<Collect>, n: u64) -> Result<(), RecordError> {
+        *o.slot()? = n;
+        o.commit()
+    }
+
+    #[test]
+    fn rows_arrive_in_order_through_the_thread_and_inline() {
+        for threaded in [true, false] {
+            let sink = Collect { seen: Vec::new(), fail_at: None, flushes: 0 };
+            let mut o = Offload::new(sink, || 0, "t".into(), threaded).expect("started");
+            // More than the pool holds, and a partial last batch; a flush in between.
+            for n in 0..(3 * POOL * BATCH + 5) as u64 {
+                push(&mut o, n).expect("row");
+                if n == 100 {
+                    o.flush().expect("flush");
+                }
+            }
+            let (sink, result) = o.finish();
+            result.expect("finished");
+            let sink = sink.expect("sink back");
+            assert_eq!(sink.seen, (0..(3 * POOL * BATCH + 5) as u64).collect::<Vec<_>>());
+            assert_eq!(sink.flushes, 1);
+        }
+    }
+
+    #[test]
+    fn a_write_error_on_the_writer_thread_reaches_the_loop_and_stops_the_writing() {
+        let sink = Collect { seen: Vec::new(), fail_at: Some(40), flushes: 0 };
+        let mut o = Offload::spawn(sink, || 0, "t".into()).expect("started");
+        let mut error = None;
+        for n in 0..10_000 {
+            if let Err(e) = push(&mut o, n) {
+                error = Some(e);
+                break;
+            }
+        }
+        let error = error.expect("the loop learns the error");
+        assert!(error.to_string().contains("x.csv") && error.to_string().contains("disk full"), "{error}");
+        let (sink, result) = o.finish();
+        assert!(result.is_ok(), "the error was taken by the loop already");
+        assert_eq!(sink.expect("sink back").seen, (0..40).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn an_error_in_the_last_rows_comes_from_finish() {
+        let sink = Collect { seen: Vec::new(), fail_at: Some(3), flushes: 0 };
+        let mut o = Offload::spawn(sink, || 0, "t".into()).expect("started");
+        for n in 0..5 {
+            push(&mut o, n).expect("the error is not known yet");
+        }
+        let (_, result) = o.finish();
+        assert!(result.expect_err("finish returns it").to_string().contains("x.csv"));
+    }
+}

@@ -1,0 +1,175 @@
+//! The writer threads (`record::offload`): the files of a run written on writer threads are byte
+//! for byte those of the synchronous path (everything formatted and written on the step-loop
+//! thread), and a write error on a writer thread still fails the run naming the file.
+
+use crate::common::{default_config_with, exe, manifest, run_folders, text};
+use simserpent::run::{self, RunOptions};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::Command;
+
+/// Every file under `folder` (recursively: a Parquet table is a folder of parts) with its bytes,
+/// by path relative to `folder`.
+fn files(folder: &Path) -> BTreeMap<String, Vec<u8>> {
+    fn walk(root: &Path, dir: &Path, out: &mut BTreeMap<String, Vec<u8>>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                walk(root, &path, out);
+            } else {
+                let name = path.strip_prefix(root).unwrap().display().to_string();
+                out.insert(name, std::fs::read(&path).unwrap());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    walk(folder, folder, &mut out);
+    out
+}
+
+/// A short job recording every step in every format (CSV, Parquet with several row groups and
+/// parts, the ROS 2 bag), with the `estimates` table and `state.csv`, over a number of rows that
+/// is not a multiple of the hand-over batch: run with writer threads and with the writers
+/// inline, every file but the manifest (wall time) is the same, byte for byte.
+#[test]
+fn files_written_on_writer_threads_are_those_of_the_synchronous_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = default_config_with(&[
+        "general.duration_secs=0.6".into(),
+        "recording.every_n_steps=1".into(),
+        r#"recording.format=["csv","parquet","mcap"]"#.into(),
+        "recording.parquet_row_group_rows=64".into(),
+        "recording.parquet_rows_per_file=256".into(),
+        "estimation.enabled=true".into(),
+    ])
+    .unwrap();
+    let mut written = Vec::new();
+    for inline_writers in [false, true] {
+        let folder = dir.path().join(if inline_writers { "inline" } else { "threaded" });
+        let options = RunOptions { run_folder: Some(folder.clone()), inline_writers, ..RunOptions::default() };
+        run::run(&config, &options).unwrap();
+        let m = manifest(&folder);
+        assert_eq!(m["status"], "complete");
+        // 601 instants (0.6 s at 1 ms, both ends) = 37 batches of 16 and 9 rows.
+        assert_eq!(m["tables"][0], serde_json::json!(["links.csv", 601]), "{m}");
+        let mut f = files(&folder);
+        f.remove("manifest.json");
+        written.push(f);
+    }
+    let (threaded, inline) = (&written[0], &written[1]);
+    for name in ["links.csv", "contacts.csv", "estimates.csv", "state.csv", "run.mcap", "config.toml"] {
+        assert!(threaded.contains_key(name), "{name} missing: {:?}", threaded.keys().collect::<Vec<_>>());
+    }
+    let parts = threaded.keys().filter(|k| k.starts_with("links.parquet/")).count();
+    assert_eq!(parts, 3, "601 rows in parts of 256: {:?}", threaded.keys().collect::<Vec<_>>());
+    assert_eq!(threaded.keys().collect::<Vec<_>>(), inline.keys().collect::<Vec<_>>());
+    for (name, bytes) in threaded {
+        assert!(bytes == &inline[name], "{name} differs ({} against {} bytes)", bytes.len(), inline[name].len());
+    }
+}
+
+/// A file-size limit (`ulimit -f`, SIGXFSZ ignored: writes fail with EFBIG) hits the ROS 2 bag,
+/// which is written on a writer thread: the run fails with exit 1 naming `run.mcap`, and the
+/// manifest says so.
+#[test]
+fn a_write_error_of_the_bag_on_its_writer_thread_fails_the_run_naming_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = format!(
+        "ulimit -f 100 && trap '' XFSZ && exec '{}' run --quiet --set general.duration_secs=5 \
+         --set recording.every_n_steps=1 --set 'recording.format=\"mcap\"' --set render.record_state=false",
+        exe()
+    );
+    let out = Command::new("sh").current_dir(dir.path()).args(["-c", &script]).output().unwrap();
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(
+        stderr.contains("cannot write ") && stderr.contains("run.mcap") && stderr.contains("File too large"),
+        "{stderr}"
+    );
+    let run = &run_folders(dir.path())[0];
+    let m = manifest(run);
+    assert_eq!(m["status"], "failed");
+    let error = m["error"].as_str().unwrap();
+    assert!(error.contains("run.mcap") && error.contains("File too large"), "{error}");
+}
+
+/// Kills the child process if the test fails before it ends.
+struct KillOnDrop(Option<std::process::Child>);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        if let Some(child) = self.0.as_mut() {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
+/// SIGTERM during an every-step run writing CSV, the ROS 2 bag and `state.csv` on their writer
+/// threads: the run stops with exit 130 and an `incomplete` manifest, and every file holds the
+/// same recorded instants, whole: the CSV tables and `state.csv` end with a whole row, the bag
+/// is finished (summary and footer: the `mcap` reader reads every message).
+#[test]
+fn an_interrupted_run_leaves_every_writer_thread_file_whole_and_consistent() {
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+    let dir = tempfile::tempdir().unwrap();
+    let mut guard = KillOnDrop(Some(
+        Command::new(exe())
+            .current_dir(dir.path())
+            .args([
+                "run",
+                "--quiet",
+                "--set",
+                "general.duration_secs=3600",
+                "--set",
+                "recording.every_n_steps=1",
+                "--set",
+                r#"recording.format=["csv","mcap"]"#,
+            ])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    ));
+    let child = guard.0.as_mut().unwrap();
+    let started = Instant::now();
+    let run = loop {
+        assert!(started.elapsed() < Duration::from_secs(120), "no rows in links.csv after 120 s");
+        if let Some(run) = run_folders(dir.path()).first()
+            && std::fs::read_to_string(run.join("links.csv")).is_ok_and(|t| t.lines().count() >= 200)
+        {
+            break run.clone();
+        }
+        assert!(child.try_wait().unwrap().is_none(), "the run ended by itself");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert!(Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap().success());
+    let stopped = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        assert!(stopped.elapsed() < Duration::from_secs(60), "still running 60 s after SIGTERM");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = guard.0.take().unwrap().wait_with_output().unwrap();
+    assert_eq!(out.status.code(), Some(130), "{}", text(&out));
+    let m = manifest(&run);
+    assert_eq!(m["status"], "incomplete", "{m}");
+    let count =
+        |file: &str| m["tables"].as_array().unwrap().iter().find(|t| t[0] == file).and_then(|t| t[1].as_u64()).unwrap();
+    let instants = count("links.csv");
+    assert!(instants >= 199, "{m}");
+    for file in ["links.csv", "joints.csv", "sensors.csv", "state.csv"] {
+        let (_, rows) = crate::common::read_complete_csv(&run.join(file));
+        assert_eq!(rows.len() as u64, instants, "{file}");
+    }
+    assert_eq!(count("run.mcap"), instants, "{m}");
+    let bag = std::fs::read(run.join("run.mcap")).unwrap();
+    let clocks = mcap::MessageStream::new(&bag)
+        .unwrap()
+        .map(|message| message.unwrap())
+        .filter(|message| message.channel.topic == "/clock")
+        .count();
+    assert_eq!(clocks as u64, instants, "one /clock message per recorded instant");
+    // Finished: the summary section is there (a bag cut off by a kill has none).
+    assert!(mcap::Summary::read(&bag).unwrap().is_some(), "run.mcap has its summary");
+}
