@@ -156,6 +156,17 @@ pub struct Ros2Report {
     pub published_instants: u64,
     /// Lockstep: commands waited for (and received).
     pub lockstep_commands: u64,
+    /// Lockstep: how often the state of the first command instant was published again because
+    /// no command answered it within [`crate::ros2::FIRST_STATE_RESEND_SECS`] (a peer's reader
+    /// that matched the bridge's writer only after the first sample had been sent never gets
+    /// that sample; README "ROS 2", "Clock modes").
+    #[serde(default)]
+    pub lockstep_state_resends: u64,
+    /// Lockstep: valid commands that answered a resent copy of the first state after the
+    /// first answer had come (applied, counted in `commands_accepted`, but not as the answer
+    /// to a later instant).
+    #[serde(default)]
+    pub lockstep_extra_answers: u64,
     /// Why the bridge stopped the run early (a lockstep peer that went silent), if it did.
     pub stopped: Option<String>,
 }

@@ -103,8 +103,6 @@ pub struct Bridge {
     real_time_factor: f64,
     timeout: Duration,
     started: Option<Instant>,
-    /// Lockstep: a subscriber to `/joint_states` has been seen.
-    peer_seen: bool,
     domain_id: u16,
     report: Ros2Report,
     /// Last: dropped after its writers and readers.
@@ -207,7 +205,6 @@ impl Bridge {
             real_time_factor: ros.real_time_factor,
             timeout: Duration::from_secs_f64(ros.lockstep_timeout_secs),
             started: None,
-            peer_seen: false,
             domain_id: ros.domain_id,
             report,
         };
@@ -223,7 +220,8 @@ impl Bridge {
             .map_err(|e| Ros2Error::Dds { what: "publishing".into(), message: format!("{e:?}") })
     }
 
-    /// The state topics of the instant of `view`.
+    /// The state topics of the instant of `view` (counted by the caller: a lockstep resend of
+    /// the same instant is not a new published instant).
     fn publish_state(&mut self, view: &StepView<'_>) -> Result<(), Ros2Error> {
         let nanos = msgs::nanos(view.time_secs());
         let stamp = Time::from_nanos(nanos);
@@ -269,7 +267,6 @@ impl Bridge {
             };
             Self::put(buf, &w.wrench[j], &wrench)?;
         }
-        self.report.published_instants += 1;
         Ok(())
     }
 
@@ -308,7 +305,9 @@ impl Bridge {
 
     /// Lockstep, before the first state: waits until a peer subscribes to `/joint_states`
     /// (a volatile sample written before that would be lost, and the loop would wait forever).
-    fn wait_for_peer(&mut self, view: &StepView<'_>) -> Result<(), Ros2Error> {
+    /// Necessary, not sufficient: the peer may learn of this writer only after the first sample
+    /// arrived ([`super::FIRST_STATE_RESEND_SECS`] covers that).
+    fn wait_for_peer(&mut self) -> Result<(), Ros2Error> {
         let start = Instant::now();
         let mut matched = false;
         while !matched {
@@ -330,19 +329,42 @@ impl Bridge {
             }
             std::thread::sleep(Duration::from_millis(5));
         }
-        let _ = view;
-        self.peer_seen = true;
         Ok(())
     }
 
-    /// Lockstep: waits until a valid command arrives, or the timeout.
+    /// Lockstep, after the first answer when the first state was sent more than once: a peer
+    /// that received several copies answers each. Every command that arrives within `window`
+    /// still answers the first instant (the next state is not published yet); it is applied in
+    /// turn (the last valid one holds) and counted as an extra answer, so that it does not
+    /// count as the answer to the next instant.
+    fn absorb_extra_answers(&mut self, view: &StepView<'_>, window: Duration) {
+        let start = Instant::now();
+        while start.elapsed() < window && !crate::interrupt::requested() {
+            self.report.lockstep_extra_answers += self.take_commands(view.time_secs());
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    /// Lockstep: waits until a valid command arrives, or the timeout. Until the first command
+    /// has come, the state of the instant is published again every
+    /// [`super::FIRST_STATE_RESEND_SECS`] (see there: the peer's reader may have missed it).
     fn wait_for_command(&mut self, view: &StepView<'_>) -> Result<(), Ros2Error> {
         let start = Instant::now();
+        let resend_every = Duration::from_secs_f64(super::FIRST_STATE_RESEND_SECS);
+        let mut sent = start;
         let mut idle = 0u32;
         loop {
             if self.take_commands(view.time_secs()) > 0 {
                 self.report.lockstep_commands += 1;
+                if self.report.lockstep_commands == 1 && self.report.lockstep_state_resends > 0 {
+                    self.absorb_extra_answers(view, resend_every);
+                }
                 return Ok(());
+            }
+            if self.report.lockstep_commands == 0 && sent.elapsed() >= resend_every {
+                self.publish_state(view)?;
+                self.report.lockstep_state_resends += 1;
+                sent = Instant::now();
             }
             let waited = start.elapsed();
             if waited >= self.timeout {
@@ -413,6 +435,10 @@ fn make_reader<D: serde::de::DeserializeOwned + 'static>(
 
 impl Observer<RunError> for Bridge {
     fn on_start(&mut self, _view: &StepView<'_>) -> Result<(), RunError> {
+        // Lockstep: a peer before anything of instant 0 (also its /tf) is published.
+        if self.clock == Ros2Clock::Lockstep {
+            self.wait_for_peer()?;
+        }
         self.started = Some(Instant::now());
         Ok(())
     }
@@ -449,11 +475,9 @@ impl Observer<RunError> for Bridge {
 
     fn on_step(&mut self, view: &StepView<'_>) -> Result<(), RunError> {
         let publish = view.k.is_multiple_of(self.publish_every_n_steps) || view.k >= view.plan.steps;
-        if self.clock == Ros2Clock::Lockstep && !self.peer_seen {
-            self.wait_for_peer(view)?;
-        }
         if publish {
             self.publish_state(view)?;
+            self.report.published_instants += 1;
         }
         match self.clock {
             Ros2Clock::Lockstep => {
