@@ -396,6 +396,7 @@ def test_a_silent_peer_stops_the_lockstep_run_cleanly(binary, domain, tmp_path):
     manifest = json.loads((folder / "manifest.json").read_text())
     assert manifest["status"] == "incomplete"
     assert "ros2.lockstep_timeout_secs" in manifest["error"]
+    assert "no valid command within 8." in manifest["error"], "the configured timeout, not another"
     assert manifest["ros2"]["stopped"] == manifest["error"]
     answered = manifest["ros2"]["lockstep_commands"]
     assert answered >= 300
@@ -403,6 +404,24 @@ def test_a_silent_peer_stops_the_lockstep_run_cleanly(binary, domain, tmp_path):
     # Every step taken is in the table (instants 0 ..= steps), whole rows.
     assert len(sensors) == manifest["steps"] + 1
     assert not sensors.isna().any().any()
+
+
+def test_a_lockstep_run_without_a_peer_stops_before_its_first_step(binary, domain, tmp_path):
+    # Nobody subscribes to /joint_states: after ros2.lockstep_timeout_secs the run stops, exit
+    # 1, and the manifest says why (no step taken).
+    started = time.monotonic()
+    process = start_run(binary, tmp_path, domain, "general.duration_secs=1.0", "ros2.lockstep_timeout_secs=3")
+    out, err = finish(process)
+    waited_secs = time.monotonic() - started
+    assert process.returncode == 1, f"stdout:\n{out}\nstderr:\n{err}"
+    assert "no subscriber to /joint_states appeared within 3." in err
+    assert waited_secs >= 3.0
+    manifest = json.loads((run_folder(tmp_path) / "manifest.json").read_text())
+    assert manifest["status"] == "incomplete"
+    assert manifest["steps"] == 0
+    assert f"ROS_DOMAIN_ID = {domain}" in manifest["error"]
+    assert manifest["ros2"]["stopped"] == manifest["error"]
+    assert manifest["ros2"]["published_instants"] == 0
 
 
 def test_a_slow_first_answer_is_not_taken_for_the_next_instant(binary, domain, tmp_path):

@@ -465,12 +465,19 @@ mod tests {
         assert_eq!(g.array(Interface::Position, &[f64::NAN, 0.2, 0.3]), Err(Rejection::NotFinite));
         assert_eq!(g.array(Interface::Position, &[0.0, f64::INFINITY, 0.3]), Err(Rejection::NotFinite));
         assert_eq!(g.array(Interface::Velocity, &[0.0, 0.0, 0.0]), Err(Rejection::WrongInterface));
+        g.undecodable("/snake/forward_position_controller/commands", "truncated CDR");
         assert_eq!(applied(&mut s, 1.0), [0.1, 0.2, 0.3], "no truncation, no partial update");
         let mut r = Ros2Report::default();
         g.fill(&mut r);
         assert_eq!(
-            (r.commands_accepted, r.rejected_wrong_length, r.rejected_not_finite, r.rejected_wrong_interface),
-            (1, 2, 2, 1)
+            (
+                r.commands_accepted,
+                r.rejected_wrong_length,
+                r.rejected_not_finite,
+                r.rejected_wrong_interface,
+                r.rejected_undecodable
+            ),
+            (1, 2, 2, 1, 1)
         );
     }
 
