@@ -7,10 +7,13 @@ the joints follow the commanded sine wave.
 
 Skipped (with the reason) only when the CLI found is not built with the `ros2` feature
 (`cargo build --features ros2`) or `cyclonedds` is not installed, and only when
-$SIMSERPENT_ROS2_BIN is not set: with it (CI's last step, `.ci/run`) either is an error. DDS traffic stays on this
-machine: the domain id is random, the simulator uses and announces only 127.0.0.1
-(`ros2.interfaces`), Cyclone is limited to the loopback interface and finds the simulator by
-unicast on 127.0.0.1 (see `cyclone_uri`).
+$SIMSERPENT_ROS2_BIN is not set: with it (CI's last step, `.ci/run`) either is an error. The peer's traffic stays on
+this machine: the domain id is random, Cyclone is limited to the loopback interface and finds the
+simulator by unicast on 127.0.0.1 (see `cyclone_uri`), so every sample travels over loopback.
+The simulator itself runs with `ros2.interfaces = []` (every interface; set
+SIMSERPENT_ROS2_INTERFACES='["127.0.0.1"]' to restrict it): RustDDS then also multicasts its
+participant announcements on the other interfaces. Restricted to 127.0.0.1 it discovers Cyclone
+unreliably (README "ROS 2", "Network").
 
 Run as a script (`python test_ros2_live.py STEPS`) it measures the lockstep round trip instead
 (BENCHMARKS.md, "ROS 2 live bridge").
