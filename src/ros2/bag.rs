@@ -19,7 +19,7 @@
 use super::msgs::{self, ContactMarkers, Float64MultiArray, Header, Imu, JointState, MultiArrayLayout, Quaternion};
 use super::msgs::{Clock, TfMessage, Time, Wrench, WrenchStamped};
 use crate::config::{Config, ControlMethod};
-use crate::control::Command;
+use crate::control::{Command, Observation};
 use crate::record::RecordError;
 use crate::record::offload::{Offload, Sink};
 use crate::sim::{Index, Snapshot};
@@ -49,6 +49,101 @@ pub fn controller_name(method: ControlMethod) -> &'static str {
 pub fn joint_frame(joint: &str, links: &[String]) -> String {
     let link = joint.replacen("joint_", "link_", 1);
     if links.contains(&link) { link } else { joint.to_string() }
+}
+
+/// The messages of an instant, as the bag and the live bridge both make them: the robot's link
+/// and joint names, each joint sensor's frame, the IMU covariances of the noise model and the
+/// contact arrow scale, and one builder per message kind (the builders only borrow: nothing is
+/// allocated per message).
+pub struct RobotMessages {
+    /// Link names (`index.links`), the head first: the IMU frames and `/tf`'s children.
+    pub links: Vec<String>,
+    /// Joint names (`index.joints`): `/joint_states`' names, the joint wrench topics.
+    pub joints: Vec<String>,
+    joint_frames: Vec<String>,
+    gyro_covariance: [f64; 9],
+    accel_covariance: [f64; 9],
+    arrow_m_per_n: f64,
+}
+
+impl RobotMessages {
+    /// For the robot of `index`, with the covariances of `[sensors]` (zero without noise) and
+    /// `ros2.contact_arrow_m_per_n`.
+    pub fn new(config: &Config, index: &Index) -> Self {
+        let links: Vec<String> = index.links.iter().map(|l| l.name.clone()).collect();
+        let joints: Vec<String> = index.joints.iter().map(|j| j.name.clone()).collect();
+        let joint_frames = joints.iter().map(|j| joint_frame(j, &links)).collect();
+        let s = &config.sensors;
+        let variance = |std: f64| if s.noise_enabled { std * std } else { 0.0 };
+        Self {
+            links,
+            joints,
+            joint_frames,
+            gyro_covariance: msgs::diagonal_covariance(variance(s.gyro.std)),
+            accel_covariance: msgs::diagonal_covariance(variance(s.accelerometer.std)),
+            arrow_m_per_n: config.ros2.contact_arrow_m_per_n,
+        }
+    }
+
+    /// `sensor_msgs/JointState` of every joint (no frame).
+    pub fn joint_state<'a>(
+        &'a self,
+        stamp: Time,
+        position: &'a [f64],
+        velocity: &'a [f64],
+        effort: &'a [f64],
+    ) -> JointState<'a> {
+        JointState { header: Header { stamp, frame_id: "" }, name: &self.joints, position, velocity, effort }
+    }
+
+    /// `sensor_msgs/Imu` of link `i` from the observation `m`, in the link's frame. No
+    /// orientation estimate: element 0 of its covariance is −1 (sensor_msgs/Imu's rule).
+    pub fn imu(&self, stamp: Time, m: &Observation, i: usize) -> Imu<'_> {
+        let mut orientation_covariance = [0.0; 9];
+        orientation_covariance[0] = -1.0;
+        Imu {
+            header: Header { stamp, frame_id: &self.links[i] },
+            orientation: Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
+            orientation_covariance,
+            angular_velocity: m.imu_gyro_rad_per_s[i].into(),
+            angular_velocity_covariance: self.gyro_covariance,
+            linear_acceleration: m.imu_accel_m_per_s2[i].into(),
+            linear_acceleration_covariance: self.accel_covariance,
+        }
+    }
+
+    /// `geometry_msgs/WrenchStamped` of joint `j`'s force/torque sensor from the observation
+    /// `m`, in the child link's frame.
+    pub fn joint_wrench(&self, stamp: Time, m: &Observation, j: usize) -> WrenchStamped<'_> {
+        WrenchStamped {
+            header: Header { stamp, frame_id: &self.joint_frames[j] },
+            wrench: Wrench { force: m.joint_force_n[j].into(), torque: m.joint_torque_nm[j].into() },
+        }
+    }
+
+    /// `geometry_msgs/WrenchStamped`: the true contact wrench on link `i`, in the world frame.
+    pub fn contact_wrench(&self, stamp: Time, s: &Snapshot, i: usize) -> WrenchStamped<'static> {
+        WrenchStamped {
+            header: Header { stamp, frame_id: WORLD_FRAME },
+            wrench: Wrench { force: s.link_contact_force_n[i].into(), torque: s.link_contact_torque_nm[i].into() },
+        }
+    }
+
+    /// `tf2_msgs/TFMessage`: `world` → every link (true poses).
+    pub fn tf<'a>(&'a self, stamp: Time, s: &'a Snapshot) -> TfMessage<'a> {
+        TfMessage {
+            stamp,
+            parent: WORLD_FRAME,
+            children: &self.links,
+            position_m: &s.link_origin_m,
+            quat_wxyz: &s.link_quat,
+        }
+    }
+
+    /// `visualization_msgs/MarkerArray`: the contacts of the instant as arrows.
+    pub fn contacts<'a>(&self, stamp: Time, s: &'a Snapshot) -> ContactMarkers<'a> {
+        ContactMarkers { stamp, frame_id: WORLD_FRAME, contacts: &s.contacts, arrow_m_per_n: self.arrow_m_per_n }
+    }
 }
 
 struct Channels {
@@ -109,12 +204,7 @@ pub struct BagWriter {
     out: Out,
     channels: Channels,
     instants: u64,
-    links: Vec<String>,
-    joints: Vec<String>,
-    joint_frames: Vec<String>,
-    gyro_covariance: [f64; 9],
-    accel_covariance: [f64; 9],
-    arrow_m_per_n: f64,
+    messages: RobotMessages,
 }
 
 fn bag_err(path: &Path) -> impl FnOnce(mcap::McapError) -> RecordError + '_ {
@@ -211,8 +301,8 @@ impl BagWriter {
             };
             writer.add_channel(schema, topic, "cdr", &no_metadata)
         };
-        let links: Vec<String> = index.links.iter().map(|l| l.name.clone()).collect();
-        let joints: Vec<String> = index.joints.iter().map(|j| j.name.clone()).collect();
+        let messages = RobotMessages::new(config, index);
+        let (links, joints) = (&messages.links, &messages.joints);
         let method = config.control.method;
         let channels = (|| -> Result<Channels, mcap::McapError> {
             let w = &mut writer;
@@ -242,19 +332,11 @@ impl BagWriter {
             })
         })()
         .map_err(bag_err(&path))?;
-        let s = &config.sensors;
-        let variance = |std: f64| if s.noise_enabled { std * std } else { 0.0 };
-        let joint_frames = joints.iter().map(|j| joint_frame(j, &links)).collect();
         Ok(Self {
             out: Out { path, writer: Some(writer), buf: Vec::with_capacity(64 * 1024), sequence: 0 },
             channels,
             instants: 0,
-            links,
-            joints,
-            joint_frames,
-            gyro_covariance: msgs::diagonal_covariance(variance(s.gyro.std)),
-            accel_covariance: msgs::diagonal_covariance(variance(s.accelerometer.std)),
-            arrow_m_per_n: config.ros2.contact_arrow_m_per_n,
+            messages,
         })
     }
 
@@ -263,67 +345,25 @@ impl BagWriter {
     pub fn write_instant(&mut self, s: &Snapshot, command: &[f64]) -> Result<(), RecordError> {
         let nanos = msgs::nanos(s.time_secs);
         let stamp = Time::from_nanos(nanos);
-        let ch = &self.channels;
-        let out = &mut self.out;
+        let (ch, out, msg) = (&self.channels, &mut self.out, &self.messages);
         out.put(ch.clock, nanos, &Clock { clock: stamp })?;
-        let no_frame = Header { stamp, frame_id: "" };
         let m = &s.observation_measured;
-        let measured = JointState {
-            header: no_frame,
-            name: &self.joints,
-            position: &m.joint_angle_rad,
-            velocity: &m.joint_velocity_rad_per_s,
-            effort: &m.actuator_torque_nm,
-        };
+        let measured = msg.joint_state(stamp, &m.joint_angle_rad, &m.joint_velocity_rad_per_s, &m.actuator_torque_nm);
         out.put(ch.joint_states, nanos, &measured)?;
-        let truth = JointState {
-            header: no_frame,
-            name: &self.joints,
-            position: &s.joint_angle_rad,
-            velocity: &s.joint_velocity_rad_per_s,
-            effort: &s.joint_actuator_torque_nm,
-        };
+        let truth =
+            msg.joint_state(stamp, &s.joint_angle_rad, &s.joint_velocity_rad_per_s, &s.joint_actuator_torque_nm);
         out.put(ch.joint_states_true, nanos, &truth)?;
-        let tf = TfMessage {
-            stamp,
-            parent: WORLD_FRAME,
-            children: &self.links,
-            position_m: &s.link_origin_m,
-            quat_wxyz: &s.link_quat,
-        };
-        out.put(ch.tf, nanos, &tf)?;
-        // No orientation estimate: element 0 of its covariance is −1 (sensor_msgs/Imu's rule).
-        let mut orientation_covariance = [0.0; 9];
-        orientation_covariance[0] = -1.0;
-        for (i, frame) in self.links.iter().enumerate() {
-            let imu = Imu {
-                header: Header { stamp, frame_id: frame },
-                orientation: Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
-                orientation_covariance,
-                angular_velocity: m.imu_gyro_rad_per_s[i].into(),
-                angular_velocity_covariance: self.gyro_covariance,
-                linear_acceleration: m.imu_accel_m_per_s2[i].into(),
-                linear_acceleration_covariance: self.accel_covariance,
-            };
-            out.put(ch.imu[i], nanos, &imu)?;
-            let wrench = WrenchStamped {
-                header: Header { stamp, frame_id: WORLD_FRAME },
-                wrench: Wrench { force: s.link_contact_force_n[i].into(), torque: s.link_contact_torque_nm[i].into() },
-            };
-            out.put(ch.contact_wrench[i], nanos, &wrench)?;
+        out.put(ch.tf, nanos, &msg.tf(stamp, s))?;
+        for i in 0..msg.links.len() {
+            out.put(ch.imu[i], nanos, &msg.imu(stamp, m, i))?;
+            out.put(ch.contact_wrench[i], nanos, &msg.contact_wrench(stamp, s, i))?;
         }
-        for (j, frame) in self.joint_frames.iter().enumerate() {
-            let wrench = WrenchStamped {
-                header: Header { stamp, frame_id: frame },
-                wrench: Wrench { force: m.joint_force_n[j].into(), torque: m.joint_torque_nm[j].into() },
-            };
-            out.put(ch.wrench[j], nanos, &wrench)?;
+        for j in 0..msg.joints.len() {
+            out.put(ch.wrench[j], nanos, &msg.joint_wrench(stamp, m, j))?;
         }
         let command = Float64MultiArray { layout: MultiArrayLayout { dim: &[], data_offset: 0 }, data: command };
         out.put(ch.command, nanos, &command)?;
-        let markers =
-            ContactMarkers { stamp, frame_id: WORLD_FRAME, contacts: &s.contacts, arrow_m_per_n: self.arrow_m_per_n };
-        out.put(ch.contacts, nanos, &markers)?;
+        out.put(ch.contacts, nanos, &msg.contacts(stamp, s))?;
         self.instants += 1;
         Ok(())
     }

@@ -156,6 +156,17 @@ pub struct Ros2Report {
     pub published_instants: u64,
     /// Lockstep: commands waited for (and received).
     pub lockstep_commands: u64,
+    /// Lockstep: how often the state of the first command instant was published again because
+    /// no command answered it within [`crate::ros2::FIRST_STATE_RESEND_SECS`] (a peer's reader
+    /// that matched the bridge's writer only after the first sample had been sent never gets
+    /// that sample; README "ROS 2", "Clock modes").
+    #[serde(default)]
+    pub lockstep_state_resends: u64,
+    /// Lockstep: valid commands that answered a resent copy of the first state after the
+    /// first answer had come (applied, counted in `commands_accepted`, but not as the answer
+    /// to a later instant).
+    #[serde(default)]
+    pub lockstep_extra_answers: u64,
     /// Why the bridge stopped the run early (a lockstep peer that went silent), if it did.
     pub stopped: Option<String>,
 }
@@ -454,12 +465,19 @@ mod tests {
         assert_eq!(g.array(Interface::Position, &[f64::NAN, 0.2, 0.3]), Err(Rejection::NotFinite));
         assert_eq!(g.array(Interface::Position, &[0.0, f64::INFINITY, 0.3]), Err(Rejection::NotFinite));
         assert_eq!(g.array(Interface::Velocity, &[0.0, 0.0, 0.0]), Err(Rejection::WrongInterface));
+        g.undecodable("/snake/forward_position_controller/commands", "truncated CDR");
         assert_eq!(applied(&mut s, 1.0), [0.1, 0.2, 0.3], "no truncation, no partial update");
         let mut r = Ros2Report::default();
         g.fill(&mut r);
         assert_eq!(
-            (r.commands_accepted, r.rejected_wrong_length, r.rejected_not_finite, r.rejected_wrong_interface),
-            (1, 2, 2, 1)
+            (
+                r.commands_accepted,
+                r.rejected_wrong_length,
+                r.rejected_not_finite,
+                r.rejected_wrong_interface,
+                r.rejected_undecodable
+            ),
+            (1, 2, 2, 1, 1)
         );
     }
 

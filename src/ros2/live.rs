@@ -21,8 +21,9 @@
 //! already commanded when the state of k was published): one step of transport delay, as a
 //! real robot's sensor-to-actuator loop has.
 
+use super::bag::RobotMessages;
 use super::commands::{CommandGate, CommandSource, Float64MultiArrayMsg, Interface, JointTrajectoryMsg, Ros2Report};
-use super::msgs::{self, Clock, Header, Imu, JointState, Quaternion, TfMessage, Time, Wrench, WrenchStamped};
+use super::msgs::{self, Clock, Time};
 use super::{LiveBridge, Ros2Error};
 use crate::config::{Config, Ros2Clock, Ros2Durability, Ros2Reliability};
 use crate::run::RunError;
@@ -91,20 +92,13 @@ pub struct Bridge {
     readers: Readers,
     gate: CommandGate,
     buf: Vec<u8>,
-    links: Vec<String>,
-    joints: Vec<String>,
-    joint_frames: Vec<String>,
-    gyro_covariance: [f64; 9],
-    accel_covariance: [f64; 9],
-    arrow_m_per_n: f64,
+    messages: RobotMessages,
     clock: Ros2Clock,
     publish_every_n_steps: u64,
     steps_per_command: u64,
     real_time_factor: f64,
     timeout: Duration,
     started: Option<Instant>,
-    /// Lockstep: a subscriber to `/joint_states` has been seen.
-    peer_seen: bool,
     domain_id: u16,
     report: Ros2Report,
     /// Last: dropped after its writers and readers.
@@ -134,8 +128,8 @@ impl Bridge {
         let writer = |topic: &str, ty: &str| -> Result<Writer, Ros2Error> {
             make_writer(&participant, &publisher, &qos, topic, ty)
         };
-        let links: Vec<String> = index.links.iter().map(|l| l.name.clone()).collect();
-        let joints: Vec<String> = index.joints.iter().map(|j| j.name.clone()).collect();
+        let messages = RobotMessages::new(config, index);
+        let (links, joints) = (&messages.links, &messages.joints);
         let writers = Writers {
             clock: writer("/clock", "rosgraph_msgs/Clock")?,
             joint_states: writer("/joint_states", "sensor_msgs/JointState")?,
@@ -172,14 +166,11 @@ impl Bridge {
             make_reader(&participant, &subscriber, &qos, &trajectory_topic, "trajectory_msgs/JointTrajectory")?,
         );
         let (gate, source) = CommandGate::new(joints.clone(), config.control.method);
-        let s = &config.sensors;
-        let variance = |std: f64| if s.noise_enabled { std * std } else { 0.0 };
         let dt = config.general.timestep_secs;
         let publish_every_n_steps = match ros.clock {
             Ros2Clock::Free => (1.0 / (ros.publish_rate_hz * dt)).round().max(1.0) as u64,
             Ros2Clock::Lockstep => ros.steps_per_command,
         };
-        let joint_frames = joints.iter().map(|j| super::bag::joint_frame(j, &links)).collect();
         let report = Ros2Report {
             clock: match ros.clock {
                 Ros2Clock::Free => "free",
@@ -195,19 +186,13 @@ impl Bridge {
             readers: Readers { arrays, trajectory },
             gate,
             buf: Vec::with_capacity(64 * 1024),
-            links,
-            joints,
-            joint_frames,
-            gyro_covariance: msgs::diagonal_covariance(variance(s.gyro.std)),
-            accel_covariance: msgs::diagonal_covariance(variance(s.accelerometer.std)),
-            arrow_m_per_n: ros.contact_arrow_m_per_n,
+            messages,
             clock: ros.clock,
             publish_every_n_steps,
             steps_per_command: ros.steps_per_command,
             real_time_factor: ros.real_time_factor,
             timeout: Duration::from_secs_f64(ros.lockstep_timeout_secs),
             started: None,
-            peer_seen: false,
             domain_id: ros.domain_id,
             report,
         };
@@ -223,53 +208,24 @@ impl Bridge {
             .map_err(|e| Ros2Error::Dds { what: "publishing".into(), message: format!("{e:?}") })
     }
 
-    /// The state topics of the instant of `view`.
+    /// The state topics of the instant of `view` (counted by the caller: a lockstep resend of
+    /// the same instant is not a new published instant).
     fn publish_state(&mut self, view: &StepView<'_>) -> Result<(), Ros2Error> {
-        let nanos = msgs::nanos(view.time_secs());
-        let stamp = Time::from_nanos(nanos);
-        let (w, buf) = (&self.writers, &mut self.buf);
+        let stamp = Time::from_nanos(msgs::nanos(view.time_secs()));
+        let (w, buf, msg) = (&self.writers, &mut self.buf, &self.messages);
         Self::put(buf, &w.clock, &Clock { clock: stamp })?;
-        let no_frame = Header { stamp, frame_id: "" };
         let m = view.observation;
-        let measured = JointState {
-            header: no_frame,
-            name: &self.joints,
-            position: &m.joint_angle_rad,
-            velocity: &m.joint_velocity_rad_per_s,
-            effort: &m.actuator_torque_nm,
-        };
+        let measured = msg.joint_state(stamp, &m.joint_angle_rad, &m.joint_velocity_rad_per_s, &m.actuator_torque_nm);
         Self::put(buf, &w.joint_states, &measured)?;
         let t = view.observation_true;
-        let truth = JointState {
-            header: no_frame,
-            name: &self.joints,
-            position: &t.joint_angle_rad,
-            velocity: &t.joint_velocity_rad_per_s,
-            effort: &t.actuator_torque_nm,
-        };
+        let truth = msg.joint_state(stamp, &t.joint_angle_rad, &t.joint_velocity_rad_per_s, &t.actuator_torque_nm);
         Self::put(buf, &w.joint_states_true, &truth)?;
-        let mut orientation_covariance = [0.0; 9];
-        orientation_covariance[0] = -1.0;
-        for (i, frame) in self.links.iter().enumerate() {
-            let imu = Imu {
-                header: Header { stamp, frame_id: frame },
-                orientation: Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
-                orientation_covariance,
-                angular_velocity: m.imu_gyro_rad_per_s[i].into(),
-                angular_velocity_covariance: self.gyro_covariance,
-                linear_acceleration: m.imu_accel_m_per_s2[i].into(),
-                linear_acceleration_covariance: self.accel_covariance,
-            };
-            Self::put(buf, &w.imu[i], &imu)?;
+        for (i, writer) in w.imu.iter().enumerate() {
+            Self::put(buf, writer, &msg.imu(stamp, m, i))?;
         }
-        for (j, frame) in self.joint_frames.iter().enumerate() {
-            let wrench = WrenchStamped {
-                header: Header { stamp, frame_id: frame },
-                wrench: Wrench { force: m.joint_force_n[j].into(), torque: m.joint_torque_nm[j].into() },
-            };
-            Self::put(buf, &w.wrench[j], &wrench)?;
+        for (j, writer) in w.wrench.iter().enumerate() {
+            Self::put(buf, writer, &msg.joint_wrench(stamp, m, j))?;
         }
-        self.report.published_instants += 1;
         Ok(())
     }
 
@@ -308,7 +264,9 @@ impl Bridge {
 
     /// Lockstep, before the first state: waits until a peer subscribes to `/joint_states`
     /// (a volatile sample written before that would be lost, and the loop would wait forever).
-    fn wait_for_peer(&mut self, view: &StepView<'_>) -> Result<(), Ros2Error> {
+    /// Necessary, not sufficient: the peer may learn of this writer only after the first sample
+    /// arrived ([`super::FIRST_STATE_RESEND_SECS`] covers that).
+    fn wait_for_peer(&mut self) -> Result<(), Ros2Error> {
         let start = Instant::now();
         let mut matched = false;
         while !matched {
@@ -330,19 +288,45 @@ impl Bridge {
             }
             std::thread::sleep(Duration::from_millis(5));
         }
-        let _ = view;
-        self.peer_seen = true;
         Ok(())
     }
 
-    /// Lockstep: waits until a valid command arrives, or the timeout.
+    /// Lockstep, after the first answer when the first state was sent more than once: a peer
+    /// that received several copies answers each. Every command that arrives within `window`
+    /// still answers the first instant (the next state is not published yet); it is applied in
+    /// turn (the last valid one holds) and counted as an extra answer, so that it does not
+    /// count as the answer to the next instant.
+    fn absorb_extra_answers(&mut self, view: &StepView<'_>, window: Duration) {
+        let start = Instant::now();
+        while start.elapsed() < window && !crate::interrupt::requested() {
+            self.report.lockstep_extra_answers += self.take_commands(view.time_secs());
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    /// Lockstep: waits until a valid command arrives, or the timeout. Until the first command
+    /// has come, the state of the instant is published again every
+    /// [`super::FIRST_STATE_RESEND_SECS`] (see there: the peer's reader may have missed it).
     fn wait_for_command(&mut self, view: &StepView<'_>) -> Result<(), Ros2Error> {
         let start = Instant::now();
+        let resend_every = Duration::from_secs_f64(super::FIRST_STATE_RESEND_SECS);
+        let mut sent = start;
         let mut idle = 0u32;
         loop {
-            if self.take_commands(view.time_secs()) > 0 {
+            let valid = self.take_commands(view.time_secs());
+            if valid > 0 {
                 self.report.lockstep_commands += 1;
+                if self.report.lockstep_commands == 1 && self.report.lockstep_state_resends > 0 {
+                    // Answers to several copies may arrive together.
+                    self.report.lockstep_extra_answers += valid - 1;
+                    self.absorb_extra_answers(view, resend_every);
+                }
                 return Ok(());
+            }
+            if self.report.lockstep_commands == 0 && sent.elapsed() >= resend_every {
+                self.publish_state(view)?;
+                self.report.lockstep_state_resends += 1;
+                sent = Instant::now();
             }
             let waited = start.elapsed();
             if waited >= self.timeout {
@@ -413,47 +397,30 @@ fn make_reader<D: serde::de::DeserializeOwned + 'static>(
 
 impl Observer<RunError> for Bridge {
     fn on_start(&mut self, _view: &StepView<'_>) -> Result<(), RunError> {
+        // Lockstep: a peer before anything of instant 0 (also its /tf) is published.
+        if self.clock == Ros2Clock::Lockstep {
+            self.wait_for_peer()?;
+        }
         self.started = Some(Instant::now());
         Ok(())
     }
 
-    fn on_record(&mut self, view: &StepView<'_>, s: &Snapshot) -> Result<(), RunError> {
-        let nanos = msgs::nanos(s.time_secs);
-        let stamp = Time::from_nanos(nanos);
-        let _ = view;
-        let (w, buf) = (&self.writers, &mut self.buf);
-        let tf = TfMessage {
-            stamp,
-            parent: super::bag::WORLD_FRAME,
-            children: &self.links,
-            position_m: &s.link_origin_m,
-            quat_wxyz: &s.link_quat,
-        };
-        Self::put(buf, &w.tf, &tf)?;
-        for i in 0..self.links.len() {
-            let wrench = WrenchStamped {
-                header: Header { stamp, frame_id: super::bag::WORLD_FRAME },
-                wrench: Wrench { force: s.link_contact_force_n[i].into(), torque: s.link_contact_torque_nm[i].into() },
-            };
-            Self::put(buf, &w.contact_wrench[i], &wrench)?;
+    fn on_record(&mut self, _view: &StepView<'_>, s: &Snapshot) -> Result<(), RunError> {
+        let stamp = Time::from_nanos(msgs::nanos(s.time_secs));
+        let (w, buf, msg) = (&self.writers, &mut self.buf, &self.messages);
+        Self::put(buf, &w.tf, &msg.tf(stamp, s))?;
+        for (i, writer) in w.contact_wrench.iter().enumerate() {
+            Self::put(buf, writer, &msg.contact_wrench(stamp, s, i))?;
         }
-        let markers = msgs::ContactMarkers {
-            stamp,
-            frame_id: super::bag::WORLD_FRAME,
-            contacts: &s.contacts,
-            arrow_m_per_n: self.arrow_m_per_n,
-        };
-        Self::put(buf, &w.contacts, &markers)?;
+        Self::put(buf, &w.contacts, &msg.contacts(stamp, s))?;
         Ok(())
     }
 
     fn on_step(&mut self, view: &StepView<'_>) -> Result<(), RunError> {
         let publish = view.k.is_multiple_of(self.publish_every_n_steps) || view.k >= view.plan.steps;
-        if self.clock == Ros2Clock::Lockstep && !self.peer_seen {
-            self.wait_for_peer(view)?;
-        }
         if publish {
             self.publish_state(view)?;
+            self.report.published_instants += 1;
         }
         match self.clock {
             Ros2Clock::Lockstep => {

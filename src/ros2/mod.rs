@@ -18,6 +18,21 @@ pub mod msgs;
 pub use bag::BagRecorder;
 pub use commands::{CommandSource, Ros2Report};
 
+/// Lockstep: until the first valid command has arrived, the state of the waiting instant is
+/// published again after this many wall-clock seconds without an answer (and again after as
+/// many more), so that a peer whose reader missed the first sample still gets one.
+///
+/// Why: the bridge learns that a peer subscribes to `/joint_states` when the peer's reader
+/// announcement reaches it (RustDDS's `PublicationMatched`), but the peer accepts samples only
+/// after *the bridge's* writer announcement has reached *it*, which travels separately (one
+/// datagram with every writer, about 8 kB for a 10-link snake) and can arrive after the first
+/// `/joint_states`. A volatile reader (ROS 2's default) drops a sample of a writer it does not
+/// know yet and never asks for it again, and in lockstep both sides would then wait for each
+/// other until `ros2.lockstep_timeout_secs`. Once the peer has answered, its reader is known
+/// to hold the writer and every later sample is delivered reliably, so only the first wait
+/// resends. A peer that answers slower than this would see the first instant twice.
+pub const FIRST_STATE_RESEND_SECS: f64 = 0.25;
+
 /// Errors of the live bridge.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
