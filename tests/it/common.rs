@@ -230,3 +230,34 @@ pub fn largest_floor_friction_ratio(sim: &mut Simulation, steps: usize) -> f64 {
     }
     largest
 }
+
+/// Kills a child process when the test ends (also when it fails before the child does: a long
+/// run must not outlive its test).
+pub struct KillOnDrop(pub Option<std::process::Child>);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        if let Some(child) = self.0.as_mut() {
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+    }
+}
+
+/// A full disk, simulated with a file-size limit (`ulimit -f 100`: 100 blocks of 512 bytes, so
+/// config, model and manifest fit; SIGXFSZ ignored so writes fail with EFBIG instead of killing
+/// the process): runs `simserpent run --quiet` with `args` (shell words) in `dir`, and asserts
+/// that the run failed with exit 1 naming a file whose name contains `file`, on stderr and in
+/// the manifest.
+pub fn assert_a_full_disk_fails_the_run_naming(dir: &Path, args: &str, file: &str) {
+    let script = format!("ulimit -f 100 && trap '' XFSZ && exec '{}' run --quiet {args}", exe());
+    let out = std::process::Command::new("sh").current_dir(dir).args(["-c", &script]).output().unwrap();
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(stderr.contains("cannot write ") && stderr.contains(file) && stderr.contains("File too large"), "{stderr}");
+    let run = &run_folders(dir)[0];
+    let m = manifest(run);
+    assert_eq!(m["status"], "failed");
+    let error = m["error"].as_str().unwrap();
+    assert!(error.contains(file) && error.contains("File too large"), "{error}");
+}

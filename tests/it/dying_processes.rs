@@ -14,7 +14,7 @@ fn exe() -> PathBuf {
         .map_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_simserpent")), PathBuf::from)
 }
 
-use crate::common::text;
+use crate::common::{KillOnDrop, text};
 
 /// Run folders under `dir`, sorted.
 fn run_folders(dir: &Path) -> Vec<PathBuf> {
@@ -29,18 +29,6 @@ fn run_folders(dir: &Path) -> Vec<PathBuf> {
 fn manifest(run: &Path) -> serde_json::Value {
     let text = std::fs::read_to_string(run.join("manifest.json")).unwrap();
     serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: invalid JSON ({e}):\n{text}", run.display()))
-}
-
-/// Kills a child process when the test ends (also when it fails).
-struct KillOnDrop(Option<Child>);
-
-impl Drop for KillOnDrop {
-    fn drop(&mut self) {
-        if let Some(child) = self.0.as_mut() {
-            let _ = child.kill();
-            let _ = child.wait();
-        }
-    }
 }
 
 // --- 13. a resumed sweep --------------------------------------------------------------------

@@ -3,8 +3,8 @@
 //! problems (unwritable folder, full disk), determinism, and the documented exit codes.
 
 use crate::common::{
-    data, exe, in_child_process, leaf_paths, manifest, manifest_dir, read_complete_csv, run_folders, set_path,
-    simserpent, text,
+    KillOnDrop, assert_a_full_disk_fails_the_run_naming, data, exe, in_child_process, leaf_paths, manifest,
+    manifest_dir, read_complete_csv, run_folders, set_path, simserpent, text,
 };
 use proptest::prelude::*;
 use simserpent::config::{self, Config, ConfigSource};
@@ -483,18 +483,6 @@ fn a_controller_that_sends_nan_fails_the_run_instead_of_being_silently_zeroed() 
 
 // --- 4. interruption --------------------------------------------------------------------------
 
-/// Kills the child process if the test fails before it ends (a one-hour run must not outlive it).
-struct KillOnDrop(Option<std::process::Child>);
-
-impl Drop for KillOnDrop {
-    fn drop(&mut self) {
-        if let Some(child) = self.0.as_mut() {
-            let _ = child.kill();
-            let _ = child.wait();
-        }
-    }
-}
-
 fn interrupt_with(signal: &str) {
     let dir = tempfile::tempdir().unwrap();
     let mut guard = KillOnDrop(Some(
@@ -585,20 +573,7 @@ fn an_unwritable_output_folder_fails_at_once_naming_it() {
 #[test]
 fn a_full_disk_fails_the_run_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
-    // 100 blocks of 512 bytes: config, model and manifest fit; the tables do not.
-    let script = format!("ulimit -f 100 && trap '' XFSZ && exec '{}' run --quiet --set general.duration_secs=5", exe());
-    let out = Command::new("sh").current_dir(dir.path()).args(["-c", &script]).output().unwrap();
-    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
-    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(
-        stderr.contains("cannot write ") && stderr.contains(".csv") && stderr.contains("File too large"),
-        "{stderr}"
-    );
-    let run = &run_folders(dir.path())[0];
-    let m = manifest(run);
-    assert_eq!(m["status"], "failed");
-    let error = m["error"].as_str().unwrap();
-    assert!(error.contains(".csv") && error.contains("File too large"), "{error}");
+    assert_a_full_disk_fails_the_run_naming(dir.path(), "--set general.duration_secs=5", ".csv");
 }
 
 /// Unmounts a test's tmpfs when the test ends (also when it fails).

@@ -2,7 +2,9 @@
 //! for byte those of the synchronous path (everything formatted and written on the step-loop
 //! thread), and a write error on a writer thread still fails the run naming the file.
 
-use crate::common::{default_config_with, exe, manifest, run_folders, text};
+use crate::common::{
+    KillOnDrop, assert_a_full_disk_fails_the_run_naming, default_config_with, exe, manifest, run_folders, text,
+};
 use simserpent::run::{self, RunOptions};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -74,35 +76,9 @@ fn files_written_on_writer_threads_are_those_of_the_synchronous_path() {
 #[test]
 fn a_write_error_of_the_bag_on_its_writer_thread_fails_the_run_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
-    let script = format!(
-        "ulimit -f 100 && trap '' XFSZ && exec '{}' run --quiet --set general.duration_secs=5 \
-         --set recording.every_n_steps=1 --set 'recording.format=\"mcap\"' --set render.record_state=false",
-        exe()
-    );
-    let out = Command::new("sh").current_dir(dir.path()).args(["-c", &script]).output().unwrap();
-    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
-    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(
-        stderr.contains("cannot write ") && stderr.contains("run.mcap") && stderr.contains("File too large"),
-        "{stderr}"
-    );
-    let run = &run_folders(dir.path())[0];
-    let m = manifest(run);
-    assert_eq!(m["status"], "failed");
-    let error = m["error"].as_str().unwrap();
-    assert!(error.contains("run.mcap") && error.contains("File too large"), "{error}");
-}
-
-/// Kills the child process if the test fails before it ends.
-struct KillOnDrop(Option<std::process::Child>);
-
-impl Drop for KillOnDrop {
-    fn drop(&mut self) {
-        if let Some(child) = self.0.as_mut() {
-            let _ = child.kill();
-            let _ = child.wait();
-        }
-    }
+    let args = "--set general.duration_secs=5 --set recording.every_n_steps=1 \
+                --set 'recording.format=\"mcap\"' --set render.record_state=false";
+    assert_a_full_disk_fails_the_run_naming(dir.path(), args, "run.mcap");
 }
 
 /// SIGTERM during an every-step run writing CSV, the ROS 2 bag and `state.csv` on their writer
