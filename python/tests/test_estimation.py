@@ -17,15 +17,18 @@ import simserpent
 #: The 5-link snake on the bare floor, estimation on, a quiet start.
 RESTING = {**SMALL, "estimation.enabled": True, "env.reset_noise_scale": 0.0, "env.reset_heading_noise_rad": 0.0}
 
-#: 12 random pegs around the 10-link snake's starting place: it touches some within 1.5 s.
-PEGS = {
-    "terrain.kind": "none",
-    "terrain.pegboard.layout": "random",
-    "terrain.pegboard.region_min_m": [-2.2, -0.4],
-    "terrain.pegboard.region_max_m": [0.5, 0.4],
-    "terrain.pegboard.count": 12,
-    "terrain.pegboard.spacing_m": 0.3,
-}
+
+def load_force_feedback_example():
+    """python/examples/force_feedback.py as a module (its scene and its controller)."""
+    spec = importlib.util.spec_from_file_location("force_feedback", REPO / "python/examples/force_feedback.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    return example
+
+
+#: The example's 12 random pegs around the 10-link snake's starting place: it touches some
+#: within 1.5 s.
+PEGS = {k: v for k, v in load_force_feedback_example().OVERRIDES.items() if k.startswith("terrain.")}
 
 #: What `simserpent estimate` needs: CSV with the sensors and the link columns, every step.
 RECORD_FOR_ESTIMATE = {
@@ -104,9 +107,7 @@ def test_estimates_in_the_observation():
 def test_python_controller_gets_the_estimates_and_the_example_runs(tmp_path):
     """python/examples/force_feedback.py: a Python controller reads obs["contacts"] (the step
     loop's estimates), records a normal run folder whose estimates table holds the same flags."""
-    spec = importlib.util.spec_from_file_location("force_feedback", REPO / "python/examples/force_feedback.py")
-    example = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(example)
+    example = load_force_feedback_example()
     summary, log = example.main(duration_secs=2.0, run_folder=tmp_path / "ff")
     run = simserpent.open_run(summary["run_folder"])
     assert run.status == "complete"
