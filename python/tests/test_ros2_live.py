@@ -265,7 +265,7 @@ def start_run(binary: Path, tmp: Path, domain: int, *sets: str) -> subprocess.Po
     base = [
         f'general.output_dir="{tmp}"',
         f"ros2.domain_id={domain}",
-        "ros2.interfaces=" + os.environ.get("SIMSERPENT_ROS2_INTERFACES", "[]"),
+        "ros2.interfaces=" + os.environ.get("SIMSERPENT_ROS2_INTERFACES", '["127.0.0.1"]'),
         'ros2.clock="lockstep"',
         "ros2.lockstep_timeout_secs=30",
         'control.method="position"',
@@ -273,7 +273,14 @@ def start_run(binary: Path, tmp: Path, domain: int, *sets: str) -> subprocess.Po
     ]
     for s in base + list(sets):
         args += ["--set", s]
-    return subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # Output to files, not pipes: nobody reads a pipe while the run goes on, and a full pipe
+    # (64 KiB) blocks the simulator's next write to it, including RustDDS's logging from its
+    # event loop thread, which then stops all DDS traffic.
+    out, err = tmp / "simserpent.stdout", tmp / "simserpent.stderr"
+    with out.open("w") as o, err.open("w") as e:
+        process = subprocess.Popen(args, stdout=o, stderr=e, text=True)
+    process.output_paths = (out, err)
+    return process
 
 
 @pytest.fixture
@@ -302,12 +309,14 @@ def domain(monkeypatch):
 
 
 def finish(process: subprocess.Popen) -> tuple[str, str]:
+    """Waits for the run (killed after 60 s); its stdout and stderr."""
     try:
-        out, err = process.communicate(timeout=60)
+        process.wait(timeout=60)
     except subprocess.TimeoutExpired:
         process.kill()
-        out, err = process.communicate()
-    return out, err
+        process.wait()
+    out, err = process.output_paths
+    return out.read_text(), err.read_text()
 
 
 def run_folder(tmp: Path) -> Path:
