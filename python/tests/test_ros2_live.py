@@ -18,10 +18,10 @@ loopback test). Cyclone is limited to `lo`, multicast off, and finds the simulat
 127.0.0.1 with TTL 0 when its participant starts, which never leaves the machine. The domain id is
 random. Both still listen on wildcard-address (0.0.0.0) sockets, as RustDDS and Cyclone bind them.
 `test_the_simulator_and_the_peer_send_only_to_loopback` checks this with strace (skipped if strace
-is not installed): measured 545 datagrams from the simulator and 708 from the peer for a 200-step
-lockstep run, all to 127.0.0.1 but that probe; with `ros2.interfaces = []` the simulator also sent
-145 to this machine's eth0 address (192.0.2.2) and 91 to the multicast group 239.255.0.1 out of
-eth0.
+is not installed): measured 534-545 datagrams from the simulator and 708 from the peer for a
+200-step lockstep run, all to 127.0.0.1 but that probe; with `ros2.interfaces = []` the simulator
+also sent 145 to this machine's eth0 address (192.0.2.2) and 91 to the multicast group 239.255.0.1
+out of eth0.
 
 The simulator's stdout and stderr go to files: an unread pipe fills (64 KiB) and then blocks
 the simulator's next log line, including RustDDS's from its event loop thread, which stops all
