@@ -911,8 +911,19 @@ fn error_text(error: &anyhow::Error) -> String {
     text
 }
 
+/// The log filter unless `RUST_LOG` sets one: warnings and errors, but from RustDDS (the live
+/// ROS 2 bridge's DDS) errors only. Its warnings are per-datagram diagnostics, not problems of the
+/// run: "Message size = …" for every datagram above 1500 bytes and, with `ros2.interfaces =
+/// ["127.0.0.1"]`, "No locators for RtpsReaderProxy" about its own participant's built-in readers
+/// dozens of times a second (over 1 KB each). Nor the error RustDDS logs at exit for leaving a
+/// multicast group it never joined (no multicast-capable interface in `ros2.interfaces`: Linux's
+/// `lo` has no MULTICAST flag). Its warnings about interfaces stay (an address in
+/// `ros2.interfaces` that no interface has: "matched no unicast interfaces"). `RUST_LOG=warn`
+/// shows them all.
+const DEFAULT_LOG_FILTER: &str = "warn,rustdds=error,rustdds::network::util=warn,rustdds::network::udp_listener=off";
+
 fn main() -> ExitCode {
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or(DEFAULT_LOG_FILTER)).init();
     // MuJoCo's warnings go to the log instead of stdout.
     // SAFETY: called first thing in main, before any thread exists or MuJoCo is used.
     #[allow(unsafe_code)]

@@ -7,13 +7,26 @@ the joints follow the commanded sine wave.
 
 Skipped (with the reason) only when the CLI found is not built with the `ros2` feature
 (`cargo build --features ros2`) or `cyclonedds` is not installed, and only when
-$SIMSERPENT_ROS2_BIN is not set: with it (CI's last step, `.ci/run`) either is an error. The peer's traffic stays on
-this machine: the domain id is random, Cyclone is limited to the loopback interface and finds the
-simulator by unicast on 127.0.0.1 (see `cyclone_uri`), so every sample travels over loopback.
-The simulator itself runs with `ros2.interfaces = []` (every interface; set
-SIMSERPENT_ROS2_INTERFACES='["127.0.0.1"]' to restrict it): RustDDS then also multicasts its
-participant announcements on the other interfaces. Restricted to 127.0.0.1 it discovers Cyclone
-unreliably (README "ROS 2", "Network").
+$SIMSERPENT_ROS2_BIN is not set: with it (CI's last step, `.ci/run`) either is an error.
+
+Loopback only: both sides send every datagram, discovery and data, to 127.0.0.1. The simulator
+runs with `ros2.interfaces = ["127.0.0.1"]` (RustDDS announces only 127.0.0.1 locators, finds
+peers by unicast SPDP to 127.0.0.1 and, as Linux's `lo` has no MULTICAST flag, has no multicast
+socket; SIMSERPENT_ROS2_INTERFACES overrides it, e.g. '[]' for every interface, which skips the
+loopback test). Cyclone is limited to `lo`, multicast off, and finds the simulator by unicast to
+127.0.0.1 (`cyclone_uri`); its only multicast datagram is one 16-byte probe to 239.255.0.1 out of
+127.0.0.1 with TTL 0 when its participant starts, which never leaves the machine. The domain id is
+random. Both still listen on wildcard-address (0.0.0.0) sockets, as RustDDS and Cyclone bind them.
+`test_the_simulator_and_the_peer_send_only_to_loopback` checks this with strace (skipped if strace
+is not installed): measured 534-545 datagrams from the simulator and 708 from the peer for a
+200-step lockstep run, all to 127.0.0.1 but that probe; with `ros2.interfaces = []` the simulator
+also sent 145 to this machine's eth0 address (192.0.2.2) and 91 to the multicast group 239.255.0.1
+out of eth0.
+
+The simulator's stdout and stderr go to files: an unread pipe fills (64 KiB) and then blocks
+the simulator's next log line, including RustDDS's from its event loop thread, which stops all
+DDS traffic. (That, with RustDDS's "No locators" warnings of `["127.0.0.1"]`, was why this file
+failed with `["127.0.0.1"]` before; the CLI now shows RustDDS's errors only, src/main.rs.)
 
 Run as a script (`python test_ros2_live.py STEPS`) it measures the lockstep round trip instead
 (BENCHMARKS.md, "ROS 2 live bridge").
@@ -24,6 +37,8 @@ import importlib
 import json
 import os
 import random
+import re
+import shutil
 import subprocess
 import sys
 import time
@@ -260,12 +275,16 @@ class Peer:
                     self.writer.write(Float64MultiArray(MultiArrayLayout([], 0), data))
 
 
-def start_run(binary: Path, tmp: Path, domain: int, *sets: str) -> subprocess.Popen:
-    args = [str(binary), "run", "--quiet", "--ros2"]
+# ros2.interfaces of the tests' runs (SIMSERPENT_ROS2_INTERFACES overrides it).
+LOOPBACK = '["127.0.0.1"]'
+
+
+def start_run(binary: Path, tmp: Path, domain: int, *sets: str, wrapper: tuple = ()) -> subprocess.Popen:
+    args = [*wrapper, str(binary), "run", "--quiet", "--ros2"]
     base = [
         f'general.output_dir="{tmp}"',
         f"ros2.domain_id={domain}",
-        "ros2.interfaces=" + os.environ.get("SIMSERPENT_ROS2_INTERFACES", "[]"),
+        "ros2.interfaces=" + os.environ.get("SIMSERPENT_ROS2_INTERFACES", LOOPBACK),
         'ros2.clock="lockstep"',
         "ros2.lockstep_timeout_secs=30",
         'control.method="position"',
@@ -273,7 +292,14 @@ def start_run(binary: Path, tmp: Path, domain: int, *sets: str) -> subprocess.Po
     ]
     for s in base + list(sets):
         args += ["--set", s]
-    return subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # Output to files, not pipes: nobody reads a pipe while the run goes on, and a full pipe
+    # (64 KiB) blocks the simulator's next write to it, including RustDDS's logging from its
+    # event loop thread, which then stops all DDS traffic.
+    out, err = tmp / "simserpent.stdout", tmp / "simserpent.stderr"
+    with out.open("w") as o, err.open("w") as e:
+        process = subprocess.Popen(args, stdout=o, stderr=e, text=True)
+    process.output_paths = (out, err)
+    return process
 
 
 @pytest.fixture
@@ -302,17 +328,104 @@ def domain(monkeypatch):
 
 
 def finish(process: subprocess.Popen) -> tuple[str, str]:
+    """Waits for the run (killed after 60 s); its stdout and stderr."""
     try:
-        out, err = process.communicate(timeout=60)
+        process.wait(timeout=60)
     except subprocess.TimeoutExpired:
         process.kill()
-        out, err = process.communicate()
-    return out, err
+        process.wait()
+    out, err = process.output_paths
+    return out.read_text(), err.read_text()
 
 
 def run_folder(tmp: Path) -> Path:
     (folder,) = [p for p in tmp.iterdir() if p.is_dir()]
     return folder
+
+
+STRACE = shutil.which("strace")
+# In strace's log: a datagram's destination (sin_addr=inet_addr("127.0.0.1") or
+# sin6_addr=inet_pton(AF_INET6, "::1", ...)), and the multicast options of a socket.
+DESTINATION = re.compile(r'sin_addr=inet_addr\("([^"]+)"\)|inet_pton\(AF_INET6, "([^"]+)"')
+CALL = re.compile(r"^(\d+) +(sendto|sendmsg|sendmmsg|setsockopt)\((\d+), (.*)")
+
+
+def strace_sends(output: Path) -> tuple:
+    """strace logging every way to send a datagram (sendto, sendmsg, sendmmsg) and the socket
+    options (the multicast interface and TTL) to `output`."""
+    trace = "trace=sendto,sendmsg,sendmmsg,setsockopt"
+    return (STRACE, "-f", "-qq", "-e", trace, "-e", "signal=none", "-o", str(output))
+
+
+def ip_destinations(trace: Path) -> dict[str, int]:
+    """How many datagrams went to each IP address, from a log of `strace_sends`. A multicast
+    datagram counts as "loopback multicast" when its socket sends multicast out of 127.0.0.1 with
+    TTL 0 (delivered on this machine only); sends to Unix sockets, netlink and socket pairs have
+    no IP destination."""
+    counts: dict[str, int] = {}
+    multicast_if: dict[tuple, str] = {}  # (thread, fd) -> what IP_MULTICAST_IF / _TTL set
+    multicast_ttl: dict[tuple, str] = {}
+    for line in trace.read_text().splitlines():
+        m = CALL.match(line)
+        if m is None:
+            continue
+        tid, call, fd, rest = m.groups()
+        key = (tid, fd)  # strace -f logs threads by id; a socket is set up and used by one thread here
+        if call == "setsockopt":
+            if "IP_MULTICAST_IF" in rest:
+                multicast_if[key] = rest
+            elif "IP_MULTICAST_TTL" in rest:
+                multicast_ttl[key] = rest
+            continue
+        for v4, v6 in DESTINATION.findall(rest):
+            address = v4 or v6
+            if v4 and 224 <= int(v4.split(".")[0]) <= 239:
+                # 16777343 = 127.0.0.1 as the int IP_MULTICAST_IF takes; "\0" = TTL 0.
+                local = "127.0.0.1" in multicast_if.get(key, "") or "16777343" in multicast_if.get(key, "")
+                if local and '"\\0"' in multicast_ttl.get(key, ""):
+                    address = f"loopback multicast {v4}"
+            counts[address] = counts.get(address, 0) + 1
+    return counts
+
+
+@pytest.mark.skipif(STRACE is None, reason="strace is not installed (it lists where the processes send datagrams)")
+def test_the_simulator_and_the_peer_send_only_to_loopback(binary, domain, tmp_path):
+    # "On loopback only": every datagram either side sends — discovery (SPDP, SEDP) and data —
+    # goes to 127.0.0.1, none to another interface's address or to a multicast group. The
+    # simulator runs under strace; the peer's process (Cyclone's threads in this process) is
+    # traced from before its participant exists.
+    if os.environ.get("SIMSERPENT_ROS2_INTERFACES", LOOPBACK) != LOOPBACK:
+        pytest.skip(f"SIMSERPENT_ROS2_INTERFACES is not {LOOPBACK}")
+    simulator_trace, peer_trace = tmp_path / "simserpent.strace", tmp_path / "peer.strace"
+    # The simulator first: a process traced with -f cannot start another strace.
+    process = start_run(
+        binary, tmp_path, domain, "general.duration_secs=0.2", wrapper=strace_sends(simulator_trace)
+    )
+    tids = sorted(os.listdir(f"/proc/{os.getpid()}/task"))
+    tracer = subprocess.Popen(
+        [*strace_sends(peer_trace), *[a for t in tids for a in ("-p", t)]], stderr=subprocess.DEVNULL
+    )
+    try:
+        end = time.monotonic() + 10
+        while "TracerPid:\t0\n" in Path("/proc/self/status").read_text() and time.monotonic() < end:
+            time.sleep(0.01)
+        if "TracerPid:\t0\n" in Path("/proc/self/status").read_text():
+            process.kill()
+            pytest.skip("strace cannot attach to this process (ptrace not permitted)")
+        peer = Peer(domain)
+        peer.serve(process, deadline_secs=120)
+        out, err = finish(process)
+    finally:
+        tracer.terminate()
+        tracer.wait(timeout=30)
+    assert process.returncode == 0, f"stdout:\n{out}\nstderr:\n{err}"
+    assert len(peer.received) >= 200, "the peer got the states (so the traces hold the data traffic)"
+    for who, trace in (("simulator", simulator_trace), ("peer", peer_trace)):
+        destinations = ip_destinations(trace)
+        print(f"{who}: datagrams per destination {destinations}")
+        assert "127.0.0.1" in destinations, f"the {who}'s trace holds no datagram to 127.0.0.1"
+        elsewhere = {a: n for a, n in destinations.items() if a != "127.0.0.1" and not a.startswith("loopback ")}
+        assert not elsewhere, f"the {who} sent datagrams off loopback: {destinations}"
 
 
 def test_a_cyclone_peer_drives_the_snake_in_lockstep(binary, domain, tmp_path):
@@ -424,6 +537,10 @@ def test_a_lockstep_run_without_a_peer_stops_before_its_first_step(binary, domai
     waited_secs = time.monotonic() - started
     assert process.returncode == 1, f"stdout:\n{out}\nstderr:\n{err}"
     assert "no subscriber to /joint_states appeared within 3." in err
+    if "RUST_LOG" not in os.environ:
+        # RustDDS's warnings are off by default (src/main.rs, DEFAULT_LOG_FILTER): with
+        # ros2.interfaces = ["127.0.0.1"] it logs "No locators" dozens of times a second.
+        assert "rustdds" not in err, err[:3000]
     assert waited_secs >= 3.0
     manifest = json.loads((run_folder(tmp_path) / "manifest.json").read_text())
     assert manifest["status"] == "incomplete"
