@@ -261,3 +261,48 @@ pub fn assert_a_full_disk_fails_the_run_naming(dir: &Path, args: &str, file: &st
     let error = m["error"].as_str().unwrap();
     assert!(error.contains(file) && error.contains("File too large"), "{error}");
 }
+
+/// Starts `simserpent run --quiet` in `dir` with `--set` for each of `sets`, its output piped;
+/// the child is killed when the guard drops.
+pub fn spawn_run(dir: &Path, sets: &[&str]) -> KillOnDrop {
+    let mut command = std::process::Command::new(exe());
+    command.current_dir(dir).args(["run", "--quiet"]);
+    for s in sets {
+        command.args(["--set", s]);
+    }
+    let piped = std::process::Stdio::piped;
+    KillOnDrop(Some(command.stdout(piped()).stderr(piped()).spawn().unwrap()))
+}
+
+/// Waits (at most 120 s) until the run in `dir` has at least `lines` lines in `links.csv`
+/// (header included) and returns its run folder; fails if the run ends by itself first.
+pub fn wait_for_rows(guard: &mut KillOnDrop, dir: &Path, lines: usize) -> PathBuf {
+    use std::time::{Duration, Instant};
+    let child = guard.0.as_mut().unwrap();
+    let started = Instant::now();
+    loop {
+        assert!(started.elapsed() < Duration::from_secs(120), "not {lines} lines in links.csv after 120 s");
+        if let Some(run) = run_folders(dir).first()
+            && std::fs::read_to_string(run.join("links.csv")).is_ok_and(|t| t.lines().count() >= lines)
+        {
+            return run.clone();
+        }
+        assert!(child.try_wait().unwrap().is_none(), "the run ended by itself");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+}
+
+/// Sends `signal` (`TERM`, `INT`, …) to the child, waits for its end (at most 60 s: the stop
+/// comes within 64 steps, the rest is a loaded machine's slack) and returns its output.
+pub fn signal_and_wait(mut guard: KillOnDrop, signal: &str) -> Output {
+    use std::time::{Duration, Instant};
+    let child = guard.0.as_mut().unwrap();
+    let status = std::process::Command::new("kill").args([&format!("-{signal}"), &child.id().to_string()]).status();
+    assert!(status.unwrap().success());
+    let stopped = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        assert!(stopped.elapsed() < Duration::from_secs(60), "{signal}: still running 60 s after the signal");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    guard.0.take().unwrap().wait_with_output().unwrap()
+}

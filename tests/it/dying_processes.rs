@@ -14,7 +14,7 @@ fn exe() -> PathBuf {
         .map_or_else(|| PathBuf::from(env!("CARGO_BIN_EXE_simserpent")), PathBuf::from)
 }
 
-use crate::common::{KillOnDrop, text};
+use crate::common::{KillOnDrop, spawn_run, text};
 
 /// Run folders under `dir`, sorted.
 fn run_folders(dir: &Path) -> Vec<PathBuf> {
@@ -518,15 +518,6 @@ fn finish(mut guard: KillOnDrop, limit: Duration) -> Output {
         std::thread::sleep(Duration::from_millis(20));
     }
     guard.0.take().unwrap().wait_with_output().unwrap()
-}
-
-fn spawn_run(dir: &Path, sets: &[&str]) -> KillOnDrop {
-    let mut command = Command::new(exe());
-    command.current_dir(dir).args(["run", "--quiet"]);
-    for s in sets {
-        command.args(["--set", s]);
-    }
-    KillOnDrop(Some(command.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap()))
 }
 
 /// SIGINT or SIGTERM while the model is still being built and compiled (a terrain of many

@@ -3,8 +3,8 @@
 //! problems (unwritable folder, full disk), determinism, and the documented exit codes.
 
 use crate::common::{
-    KillOnDrop, assert_a_full_disk_fails_the_run_naming, data, exe, in_child_process, leaf_paths, manifest,
-    manifest_dir, read_complete_csv, run_folders, set_path, simserpent, text,
+    assert_a_full_disk_fails_the_run_naming, data, in_child_process, leaf_paths, manifest, manifest_dir,
+    read_complete_csv, run_folders, set_path, signal_and_wait, simserpent, spawn_run, text, wait_for_rows,
 };
 use proptest::prelude::*;
 use simserpent::config::{self, Config, ConfigSource};
@@ -485,42 +485,13 @@ fn a_controller_that_sends_nan_fails_the_run_instead_of_being_silently_zeroed() 
 
 fn interrupt_with(signal: &str) {
     let dir = tempfile::tempdir().unwrap();
-    let mut guard = KillOnDrop(Some(
-        Command::new(exe())
-            .current_dir(dir.path())
-            .args(["run", "--quiet", "--set", "general.duration_secs=3600"])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap(),
-    ));
-    let child = guard.0.as_mut().unwrap();
+    let mut guard = spawn_run(dir.path(), &["general.duration_secs=3600"]);
     // Wait until rows have reached links.csv (the header and at least two rows).
-    let started = Instant::now();
-    let links = loop {
-        assert!(started.elapsed() < Duration::from_secs(120), "no rows in links.csv after 120 s");
-        if let Some(run) = run_folders(dir.path()).first() {
-            let links = run.join("links.csv");
-            if std::fs::read_to_string(&links).map(|t| t.lines().count() >= 3).unwrap_or(false) {
-                break links;
-            }
-        }
-        assert!(child.try_wait().unwrap().is_none(), "the run ended by itself");
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    let status = Command::new("kill").args([&format!("-{signal}"), &child.id().to_string()]).status().unwrap();
-    assert!(status.success());
-    // The stop comes within 64 steps; allow a loaded machine a minute.
-    let stopped = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        assert!(stopped.elapsed() < Duration::from_secs(60), "{signal}: still running 60 s after the signal");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let out = guard.0.take().unwrap().wait_with_output().unwrap();
+    let run = wait_for_rows(&mut guard, dir.path(), 3);
+    let out = signal_and_wait(guard, signal);
     assert_eq!(out.status.code(), Some(130), "{signal}: {}", text(&out));
     assert!(text(&out).contains("interrupted"), "{}", text(&out));
-    let run = links.parent().unwrap();
-    let m = manifest(run);
+    let m = manifest(&run);
     assert_eq!(m["status"], "incomplete", "{signal}");
     let reason = m["error"].as_str().unwrap();
     assert!(reason.contains("interrupted by a signal") && reason.contains("step "), "{reason}");

@@ -3,12 +3,12 @@
 //! thread), and a write error on a writer thread still fails the run naming the file.
 
 use crate::common::{
-    KillOnDrop, assert_a_full_disk_fails_the_run_naming, default_config_with, exe, manifest, run_folders, text,
+    assert_a_full_disk_fails_the_run_naming, default_config_with, manifest, signal_and_wait, spawn_run, text,
+    wait_for_rows,
 };
 use simserpent::run::{self, RunOptions};
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::Command;
 
 /// Every file under `folder` (recursively: a Parquet table is a folder of parts) with its bytes,
 /// by path relative to `folder`.
@@ -87,46 +87,11 @@ fn a_write_error_of_the_bag_on_its_writer_thread_fails_the_run_naming_the_file()
 /// is finished (summary and footer: the `mcap` reader reads every message).
 #[test]
 fn an_interrupted_run_leaves_every_writer_thread_file_whole_and_consistent() {
-    use std::process::Stdio;
-    use std::time::{Duration, Instant};
     let dir = tempfile::tempdir().unwrap();
-    let mut guard = KillOnDrop(Some(
-        Command::new(exe())
-            .current_dir(dir.path())
-            .args([
-                "run",
-                "--quiet",
-                "--set",
-                "general.duration_secs=3600",
-                "--set",
-                "recording.every_n_steps=1",
-                "--set",
-                r#"recording.format=["csv","mcap"]"#,
-            ])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap(),
-    ));
-    let child = guard.0.as_mut().unwrap();
-    let started = Instant::now();
-    let run = loop {
-        assert!(started.elapsed() < Duration::from_secs(120), "no rows in links.csv after 120 s");
-        if let Some(run) = run_folders(dir.path()).first()
-            && std::fs::read_to_string(run.join("links.csv")).is_ok_and(|t| t.lines().count() >= 200)
-        {
-            break run.clone();
-        }
-        assert!(child.try_wait().unwrap().is_none(), "the run ended by itself");
-        std::thread::sleep(Duration::from_millis(50));
-    };
-    assert!(Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap().success());
-    let stopped = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        assert!(stopped.elapsed() < Duration::from_secs(60), "still running 60 s after SIGTERM");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let out = guard.0.take().unwrap().wait_with_output().unwrap();
+    let sets = ["general.duration_secs=3600", "recording.every_n_steps=1", r#"recording.format=["csv","mcap"]"#];
+    let mut guard = spawn_run(dir.path(), &sets);
+    let run = wait_for_rows(&mut guard, dir.path(), 200);
+    let out = signal_and_wait(guard, "TERM");
     assert_eq!(out.status.code(), Some(130), "{}", text(&out));
     let m = manifest(&run);
     assert_eq!(m["status"], "incomplete", "{m}");
