@@ -507,14 +507,11 @@ impl Observer<SimError> for MotionScorer {
                 sample.estimated_point_along_m = est.contact_point_along_m[i];
                 self.score.add(&sample);
             }
-            let [w, x, y, z] = snap.link_quat[i];
-            let axis3 = [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)];
+            let axis3 = crate::state::x_axis(snap.link_quat[i]);
             let h = axis3[0].hypot(axis3[1]).max(1e-12);
-            let c = snap.link_position_m[i];
             self.previous[i] = LinkSample {
                 true_obstacle_n: snap.link_obstacle_force_n[i],
-                true_point_along_m: snap.link_obstacle_point_m[i]
-                    .map(|p| (0..3).map(|k| (p[k] - c[k]) * axis3[k]).sum::<f64>()),
+                true_point_along_m: snap.link_obstacle_point_m[i].map(|p| snap.along_link_axis_m(i, p)),
                 axis: [axis3[0] / h, axis3[1] / h, 0.0],
                 ..LinkSample::default()
             };

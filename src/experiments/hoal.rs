@@ -81,14 +81,9 @@ struct Trace {
 
 impl Observer<SimError> for Trace {
     fn on_record(&mut self, view: &StepView<'_>, snap: &Snapshot) -> Result<(), SimError> {
-        let n = snap.link_position_m.len().max(1) as f64;
-        let mut com = [0.0; 2];
-        for p in &snap.link_position_m {
-            com[0] += p[0] / n;
-            com[1] += p[1] / n;
-        }
+        let com = snap.centre_of_mass_m();
         self.time_secs.push(snap.time_secs);
-        self.com_m.push(com);
+        self.com_m.push([com[0], com[1]]);
         if self.forces {
             let est = &view.observation.contacts;
             let estimated: f64 =

@@ -403,14 +403,6 @@ fn estimate3(v: &[[f64; 3]], i: usize) -> [f64; 3] {
     v.get(i).copied().unwrap_or([0.0; 3])
 }
 
-/// Signed distance (m) of `point` from the link's centre of mass along its axis (+x).
-fn along_axis(s: &Snapshot, i: usize, point: [f64; 3]) -> f64 {
-    let [w, x, y, z] = s.link_quat[i];
-    let axis = [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)];
-    let c = s.link_position_m[i];
-    (0..3).map(|k| (point[k] - c[k]) * axis[k]).sum()
-}
-
 /// `estimates.csv`: one row per recorded step, per link the contact estimates the controller saw
 /// (`estimation::MotionEstimator`, from the measured sensors) next to the ground truth. The
 /// estimates describe `sensor_time_s` (the sensors' sample, one step before `time_s`), the true
@@ -462,7 +454,7 @@ pub(super) const ESTIMATES: TableSpec = TableSpec {
                     t.nums(&a.s.link_obstacle_force_n[a.i])
                 }),
                 Group::float(always, Names::One("true_point_along_m"), |t, a| {
-                    t.num(a.s.link_obstacle_point_m[a.i].map_or(0.0, |p| along_axis(a.s, a.i, p)))
+                    t.num(a.s.link_obstacle_point_m[a.i].map_or(0.0, |p| a.s.along_link_axis_m(a.i, p)))
                 }),
             ],
         },

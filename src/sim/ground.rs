@@ -70,7 +70,7 @@
 use super::World;
 use crate::config::{Config, FloorFriction, GroundModel};
 use crate::model::{SurfaceMap, names};
-use crate::state::{ContactRow, GeomClass, Snapshot};
+use crate::state::{ContactRow, GeomClass, Snapshot, x_axis};
 use mujoco_rs::prelude::MjtObjBase;
 
 /// Below this axial speed (m/s) a link counts as not sliding (directional model).
@@ -422,7 +422,7 @@ impl Ground {
             if !ground(other) {
                 return None;
             }
-            let along = dot(sub(c.position_m, s.link_position_m[link]), quat_x_axis(s.link_quat[link]));
+            let along = s.along_link_axis_m(link, c.position_m);
             Some((link, usize::from(along < 0.0), sign))
         };
         // Pass 1: every row's slot, and Σ N over the rows (with N > 0) of each ground slot, in
@@ -465,7 +465,7 @@ impl Ground {
                     .sum()
             };
             let f_on_geom2 = applied.map(|x| sign * x * n_row / n_slot);
-            let axis = quat_x_axis(s.link_quat[link]);
+            let axis = x_axis(s.link_quat[link]);
             let row = &mut s.contacts[r];
             // Tangent axes: the link's axis in the contact plane, and normal × that (MuJoCo's
             // frame of a capsule–plane contact, whose first tangent follows the capsule axis).
@@ -684,11 +684,6 @@ fn tangential(v: [f64; 3], n: [f64; 3]) -> [f64; 3] {
 fn normalized(v: [f64; 3]) -> Option<[f64; 3]> {
     let len = dot(v, v).sqrt();
     (len > 1e-9).then(|| v.map(|x| x / len))
-}
-/// The x axis (first column of the rotation matrix) of the unit quaternion (w, x, y, z).
-fn quat_x_axis(q: [f64; 4]) -> [f64; 3] {
-    let [w, x, y, z] = q;
-    [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)]
 }
 /// A unit vector perpendicular to the unit vector `n`.
 fn any_perpendicular(n: [f64; 3]) -> [f64; 3] {

@@ -310,6 +310,13 @@ impl Snapshot {
     }
 
     /// Mass-weighted centre of the links (m).
+    /// Signed distance (m) of `point_m` from link `i`'s centre of mass along the link's axis
+    /// (+ toward the head): where along the link a contact acts.
+    pub fn along_link_axis_m(&self, i: usize, point_m: [f64; 3]) -> f64 {
+        let (axis, centre) = (x_axis(self.link_quat[i]), self.link_position_m[i]);
+        (0..3).map(|k| (point_m[k] - centre[k]) * axis[k]).sum()
+    }
+
     pub fn centre_of_mass_m(&self) -> [f64; 3] {
         centre_of_mass_m(self.link_mass_kg.iter().copied().zip(self.link_position_m.iter().copied()))
     }
@@ -346,6 +353,12 @@ pub fn heading_xy([w, x, y, z]: [f64; 4]) -> [f64; 2] {
     let (hx, hy) = (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z));
     let norm = hx.hypot(hy);
     if norm > 1e-9 { [hx / norm, hy / norm] } else { [1.0, 0.0] }
+}
+
+/// The body's +x axis in the world frame (the first column of the rotation matrix) for the
+/// unit orientation quaternion `(w, x, y, z)`; for the snake's links, the link's axis toward the head.
+pub fn x_axis([w, x, y, z]: [f64; 4]) -> [f64; 3] {
+    [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)]
 }
 
 /// Yaw angle (rad, in (−π, π]) of the orientation quaternion `(w, x, y, z)`: the first angle of

@@ -245,11 +245,6 @@ pub fn wrap_angle_rad(a: f64) -> f64 {
     (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
 }
 
-/// Yaw (rad) of a body's x axis from its orientation quaternion `[w, x, y, z]`: atan2(R₁₀, R₀₀).
-pub fn yaw_of_quat(q: [f64; 4]) -> f64 {
-    (2.0 * (q[1] * q[2] + q[0] * q[3])).atan2(1.0 - 2.0 * (q[2] * q[2] + q[3] * q[3]))
-}
-
 /// The snake in the ground plane from what the robot knows: the head's yaw and position (a
 /// tracking system) and the encoders. Link i's heading is θ₀ = `head_yaw_rad`, θᵢ = θᵢ₋₁ +
 /// qᵢ₋₁ over the yaw joints (our joint angle is the child's heading minus the parent's); link i

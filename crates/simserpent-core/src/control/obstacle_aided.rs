@@ -70,7 +70,6 @@
 use super::gait::ramp;
 use super::{
     Command, Controller, Observation, Pid, command_joint, joint_pid, planar_chain, wrap_angle_rad, yaw_joints,
-    yaw_of_quat,
 };
 use crate::config::{Config, ContactSource, ControlMethod, Propagation};
 use crate::estimation::ContactEstimates;
@@ -294,7 +293,7 @@ impl ObstacleAided {
         let q = obs.head_quat;
         if !self.started {
             // The starting heading is known (calibration); from then on the gyro integrates it.
-            self.head_yaw_rad = yaw_of_quat(q);
+            self.head_yaw_rad = crate::state::yaw_rad(q);
             self.last_time_secs = t;
             self.started = true;
         }
@@ -368,12 +367,8 @@ impl ObstacleAided {
             let f = [f[0], f[1], 0.0];
             c.obstacle_force_n[i] = f;
             c.contact[i] = f[0].hypot(f[1]) >= self.true_threshold_n;
-            let [w, x, y, z] = state.link_quat[i];
-            let axis = [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)];
-            let centre = state.link_position_m[i];
             c.contact_point_m[i] = state.link_obstacle_point_m[i];
-            c.contact_point_along_m[i] =
-                state.link_obstacle_point_m[i].map(|p| (0..3).map(|k| (p[k] - centre[k]) * axis[k]).sum::<f64>());
+            c.contact_point_along_m[i] = state.link_obstacle_point_m[i].map(|p| state.along_link_axis_m(i, p));
         }
     }
 }

@@ -42,7 +42,6 @@
 use super::gait::ramp;
 use super::{
     Command, Controller, Observation, Pid, command_joint, joint_pid, planar_chain, wrap_angle_rad, yaw_joints,
-    yaw_of_quat,
 };
 use crate::config::{Config, ControlMethod};
 use std::f64::consts::TAU;
@@ -124,7 +123,7 @@ impl PathFollowing {
 
     /// Centre of mass (x, y) and mean link heading θ̄ from the head pose and the encoders.
     fn chain(&mut self, obs: &Observation) -> ([f64; 2], f64) {
-        let yaw = yaw_of_quat(obs.head_quat);
+        let yaw = crate::state::yaw_rad(obs.head_quat);
         let head = [obs.head_position_m[0], obs.head_position_m[1]];
         let (theta_mean, com) =
             planar_chain(yaw, head, &obs.joint_angle_rad, &self.yaw_joint, self.link_length_m, &mut self.heading_rad);
