@@ -28,7 +28,7 @@ use crate::state::Snapshot;
 use std::path::Path;
 
 /// Peg densities (name, pegs per m²).
-const DENSITIES: [(&str, f64); 3] = [("sparse", 1.5), ("medium", 3.0), ("dense", 4.5)];
+pub const DENSITIES: [(&str, f64); 3] = [("sparse", 1.5), ("medium", 3.0), ("dense", 4.5)];
 /// The field: peg centres in this rectangle (m), at least `SPACING_M` apart.
 const REGION_MIN_M: [f64; 2] = [-2.2, -1.0];
 const REGION_MAX_M: [f64; 2] = [4.0, 1.0];
@@ -132,7 +132,7 @@ fn jammed(trace: &Trace, from_secs: f64) -> bool {
 /// The field of `density` pegs per m² and `seed` on top of `base`: the estimation experiment's
 /// peg-field scene (10 links, default sine wave, default noise, estimation on) with the
 /// isotropic floor and this experiment's region and spacing.
-fn field_config(base: &Config, density: f64, seed: u64) -> Config {
+pub fn field_config(base: &Config, density: f64, seed: u64) -> Config {
     let mut c = super::estimation::peg_field_config(base, GroundModel::Isotropic, seed, 1.0);
     let area = (REGION_MAX_M[0] - REGION_MIN_M[0]) * (REGION_MAX_M[1] - REGION_MIN_M[1]);
     c.terrain.pegboard.region_min_m = REGION_MIN_M;
@@ -186,6 +186,15 @@ fn run_case(config: &Config, forces: bool) -> Result<Trace, ExperimentError> {
     };
     sim.run(LoopPlan { steps, record_every_n_steps: RECORD_EVERY }, &mut [&mut trace]).map_err(RunError::Sim)?;
     Ok(trace)
+}
+
+/// One run of `config` (a [`field_config`] with a controller) as the experiment scores it: the
+/// forward speed (m/s along +x after the ramp-in) and whether it jammed. For tuning tools that
+/// score controllers on the experiment's fields.
+pub fn score_run(config: &Config) -> Result<(f64, bool), ExperimentError> {
+    let trace = run_case(config, false)?;
+    let ramp_secs = config.gait.ramp_secs;
+    Ok((forward_speed(&trace, ramp_secs), jammed(&trace, ramp_secs)))
 }
 
 fn median(values: &[f64]) -> f64 {

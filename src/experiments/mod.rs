@@ -10,7 +10,7 @@ pub mod bounce;
 mod collision;
 mod data;
 pub mod estimation;
-mod hoal;
+pub mod hoal;
 mod locomotion;
 mod pictures;
 mod report;
