@@ -47,7 +47,12 @@
 //! `f_lat = f·ŷ`, `f_a = f·x̂`), so its moment is `s·f_lat + r·sign(f_lat)·f_a` (the second term:
 //! the peg's friction along the link, acting at the radius), and
 //! `s = (M_obs − r·sign(f_lat)·f_a) / f_lat`, clamped to the link (|s| ≤ L/2), reported when
-//! `|f_lat|` reaches `estimation.min_lateral_force_n`.
+//! `|f_lat|` reaches `estimation.min_lateral_force_n`. That `s` is where the force's line of
+//! action crosses the side's line; when it lies beyond the cylinder part (`|s| > L/2 − r`) the
+//! obstacle touches an end cap, whose normal force points at the cap's centre rather than across
+//! the link, and the point is where the line of action enters the cap's circle (radius r about
+//! `±(L/2 − r)·x̂`): [`cap_point_m`]. Without that, a peg pushing on a cap at angle β from the
+//! lateral direction reads `r·(tan β − sin β)` too far out (1.2 cm at 45° with r = 4 cm).
 //!
 //! Nothing here allocates after construction.
 
@@ -656,6 +661,34 @@ impl PointFit {
     }
 }
 
+/// The contact point along a capsule link (m from its centre, + toward `x̂`) from `side_s_m`, where
+/// the obstacle force's line of action crosses the side's line `y = −r·sign(f_lat)` (link frame:
+/// `x` along the axis, `y` to its left; `axial_n`, `lateral_n` the force's components). Within
+/// the cylinder part (`|s| ≤ half_core_m`) that is the point. Beyond it the obstacle touches the
+/// end cap (a circle of radius `radius_m` about `(±half_core_m, 0)`): the point is where the line
+/// of action, run along the force, first meets the circle (the force pushes into the body there),
+/// projected on the axis; a line that misses the circle (noise) takes the circle's point nearest
+/// to it.
+pub fn cap_point_m(side_s_m: f64, axial_n: f64, lateral_n: f64, half_core_m: f64, radius_m: f64) -> f64 {
+    let norm = axial_n.hypot(lateral_n);
+    if side_s_m.abs() <= half_core_m || norm == 0.0 || !side_s_m.is_finite() {
+        return side_s_m;
+    }
+    let centre_x = half_core_m.copysign(side_s_m);
+    let u = [axial_n / norm, lateral_n / norm];
+    let d = [side_s_m - centre_x, -radius_m * lateral_n.signum()];
+    let du = d[0] * u[0] + d[1] * u[1];
+    let disc = du * du - (d[0] * d[0] + d[1] * d[1]) + radius_m * radius_m;
+    if disc >= 0.0 {
+        side_s_m + (-du - disc.sqrt()) * u[0]
+    } else {
+        // The circle's point nearest to the line: along the line's closest approach.
+        let p = [d[0] - du * u[0], d[1] - du * u[1]];
+        let len = p[0].hypot(p[1]);
+        centre_x + if len > 0.0 { radius_m * p[0] / len } else { 0.0 }
+    }
+}
+
 /// The estimator of the step loop (module documentation). Built once; `update` does not
 /// allocate.
 pub struct MotionEstimator {
@@ -934,7 +967,8 @@ impl MotionEstimator {
                 let side = self.geometry.link_radius_m * lateral.signum() * axial;
                 let moment = self.out.link_moment_nm[i][2] - friction_moment_z - side;
                 let held = if stick_share > 0.0 { fit.hold(obs.sensor_time_secs, lateral) } else { None };
-                held.unwrap_or_else(|| fit.add(obs.sensor_time_secs, moment, lateral, self.point_filter_secs))
+                let s = held.unwrap_or_else(|| fit.add(obs.sensor_time_secs, moment, lateral, self.point_filter_secs));
+                cap_point_m(s, axial, lateral, half_core, self.geometry.link_radius_m)
                     .clamp(-0.5 * self.geometry.link_length_m, 0.5 * self.geometry.link_length_m)
             });
             if point.is_none() {
@@ -1123,6 +1157,35 @@ mod tests {
         assert!(out.contact[0]);
         let s = out.contact_point_along_m[0].expect("2 N lateral determines the point");
         assert!((s - 0.03).abs() < 1e-9, "{s}");
+    }
+
+    #[test]
+    fn a_push_on_an_end_cap_is_placed_on_the_cap_not_on_the_side_line() {
+        // Frictionless push at angle β on the front cap (centre (h, 0), radius r) from the right
+        // (y < 0): contact (h + r sin β, −r cos β), force N·(−sin β, cos β) toward the centre.
+        // Its line crosses y = −r at s = h + r tan β; the point on the cap is h + r sin β.
+        let (h, r) = (0.06, 0.04);
+        for beta_deg in [10.0f64, 30.0, 45.0, 60.0] {
+            let b = beta_deg.to_radians();
+            let (fa, fl) = (-2.0 * b.sin(), 2.0 * b.cos());
+            let side = h + r * b.tan();
+            let s = cap_point_m(side, fa, fl, h, r);
+            assert!((s - (h + r * b.sin())).abs() < 1e-12, "β {beta_deg}: {s}");
+            // Mirrored: the rear cap, pushed from the left.
+            let s = cap_point_m(-side, -fa, -fl, h, r);
+            assert!((s + (h + r * b.sin())).abs() < 1e-12, "β {beta_deg} mirrored: {s}");
+        }
+        // With friction the force is not along the normal; the line of action still goes through
+        // the contact: contact at β = 40°, normal 2 N inward plus 0.5 N tangential friction.
+        let b = 40f64.to_radians();
+        let contact = [h + r * b.sin(), -r * b.cos()];
+        let n_in = [-b.sin(), b.cos()];
+        let t = [b.cos(), b.sin()];
+        let f = [2.0 * n_in[0] + 0.5 * t[0], 2.0 * n_in[1] + 0.5 * t[1]];
+        let side = contact[0] + (-r - contact[1]) * f[0] / f[1];
+        assert!((cap_point_m(side, f[0], f[1], h, r) - contact[0]).abs() < 1e-12);
+        // On the cylinder part nothing changes.
+        assert_eq!(cap_point_m(0.03, 1.0, 2.0, h, r), 0.03);
     }
 
     #[test]
