@@ -15,8 +15,9 @@
 //! (the synchronous path: for comparisons and tests; the files are byte for byte the same).
 
 use super::RecordError;
+use std::cell::RefCell;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::sync::{Arc, Mutex};
 
@@ -26,6 +27,71 @@ pub const BATCH: usize = 16;
 
 /// Batches in flight between the loop and the writer thread.
 pub const POOL: usize = 8;
+
+/// What the writer threads of a run cost, summed over them (`simserpent bench` reports it per
+/// step): their CPU time, and how often and how long the step loop waited for them. Writer
+/// threads started on a thread that has an account ([`account_writers`]) add to it when they end.
+#[derive(Debug, Default)]
+pub struct WriterAccount {
+    cpu_ns: AtomicU64,
+    threads: AtomicU64,
+    waits: AtomicU64,
+    wait_ns: AtomicU64,
+    /// The writer threads drop the rows they receive instead of writing them (a dummy sink:
+    /// the bench measures the step loop's side of the hand-over without the writer's work).
+    discard: bool,
+}
+
+/// A snapshot of a [`WriterAccount`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct WriterTotals {
+    /// CPU time of all writer threads that ended, summed (ns).
+    pub cpu_ns: u64,
+    /// Writer threads that ended.
+    pub threads: u64,
+    /// Times the step loop found no free batch, or flushed, and so waited for a writer thread.
+    pub waits: u64,
+    /// Wall time the step loop spent in those waits (ns).
+    pub wait_ns: u64,
+}
+
+impl WriterAccount {
+    /// An empty account; with `discard` its writer threads write nothing (see the field).
+    pub fn new(discard: bool) -> Self {
+        Self { discard, ..Self::default() }
+    }
+
+    /// What was added so far.
+    pub fn totals(&self) -> WriterTotals {
+        WriterTotals {
+            cpu_ns: self.cpu_ns.load(Ordering::Acquire),
+            threads: self.threads.load(Ordering::Acquire),
+            waits: self.waits.load(Ordering::Acquire),
+            wait_ns: self.wait_ns.load(Ordering::Acquire),
+        }
+    }
+}
+
+thread_local! {
+    /// The account of writer threads started on this thread, if any.
+    static ACCOUNT: RefCell<Option<Arc<WriterAccount>>> = const { RefCell::new(None) };
+}
+
+/// Until the guard is dropped, writer threads started on the calling thread add to `account`
+/// (the account before is restored then).
+pub fn account_writers(account: Arc<WriterAccount>) -> AccountGuard {
+    AccountGuard(ACCOUNT.with(|a| a.borrow_mut().replace(account)))
+}
+
+/// See [`account_writers`].
+pub struct AccountGuard(Option<Arc<WriterAccount>>);
+
+impl Drop for AccountGuard {
+    fn drop(&mut self) {
+        let before = self.0.take();
+        ACCOUNT.with(|a| *a.borrow_mut() = before);
+    }
+}
 
 /// What the writer thread does with the rows of one file (or group of files).
 pub trait Sink: Send + 'static {
@@ -59,6 +125,10 @@ struct Threaded<S: Sink> {
     current: Option<Box<Batch<S::Row>>>,
     /// How often the loop found no free batch and waited (logged at the end).
     waits: u64,
+    /// Wall time of those waits and of flushes (ns).
+    wait_ns: u64,
+    /// Where the writer thread's cost goes, if anywhere.
+    account: Option<Arc<WriterAccount>>,
     writer: Option<std::thread::JoinHandle<S>>,
     /// The writer thread's first error, for the loop to take.
     error: Arc<Mutex<Option<RecordError>>>,
@@ -92,6 +162,7 @@ fn serve<S: Sink>(
     free: SyncSender<Box<Batch<S::Row>>>,
     error: &Mutex<Option<RecordError>>,
     failed: &AtomicBool,
+    discard: bool,
 ) -> S {
     let fail = |e: RecordError| {
         if let Ok(mut slot) = error.lock() {
@@ -103,7 +174,8 @@ fn serve<S: Sink>(
         match message {
             ToWriter::Rows(mut batch) => {
                 for row in batch.rows.iter().take(batch.len) {
-                    if !failed.load(Ordering::Acquire)
+                    if !discard
+                        && !failed.load(Ordering::Acquire)
                         && let Err(e) = sink.write(row)
                     {
                         fail(e);
@@ -139,12 +211,31 @@ impl<S: Sink> Offload<S> {
         let error = Arc::new(Mutex::new(None));
         let failed = Arc::new(AtomicBool::new(false));
         let (slot, flag) = (error.clone(), failed.clone());
+        let account = ACCOUNT.with(|a| a.borrow().clone());
+        let theirs = account.clone();
         let writer = std::thread::Builder::new()
             .name("simserpent-writer".into())
-            .spawn(move || serve(sink, rows, give_back, &slot, &flag))
+            .spawn(move || {
+                let discard = theirs.as_ref().is_some_and(|a| a.discard);
+                let sink = serve(sink, rows, give_back, &slot, &flag, discard);
+                if let Some(a) = theirs {
+                    a.cpu_ns.fetch_add(crate::cpu_time::thread_cpu_ns(), Ordering::AcqRel);
+                    a.threads.fetch_add(1, Ordering::AcqRel);
+                }
+                sink
+            })
             .map_err(|source| RecordError::Io { path: what.clone(), source })?;
-        let threaded =
-            Threaded { to_writer: Some(to_writer), free, current: None, waits: 0, writer: Some(writer), error, failed };
+        let threaded = Threaded {
+            to_writer: Some(to_writer),
+            free,
+            current: None,
+            waits: 0,
+            wait_ns: 0,
+            account,
+            writer: Some(writer),
+            error,
+            failed,
+        };
         Ok(Self { mode: Mode::Threaded(threaded), what })
     }
 
@@ -176,7 +267,9 @@ impl<S: Sink> Offload<S> {
                         Ok(batch) => batch,
                         Err(_) => {
                             t.waits += 1;
+                            let waiting = std::time::Instant::now();
                             let Ok(batch) = t.free.recv() else { return Err(Self::writer_gone(&self.what)) };
+                            t.wait_ns += u64::try_from(waiting.elapsed().as_nanos()).unwrap_or(u64::MAX);
                             batch
                         }
                     };
@@ -225,9 +318,12 @@ impl<S: Sink> Offload<S> {
                 t.hand_over_partial().map_err(|()| Self::writer_gone(&self.what))?;
                 let (answer, reply) = sync_channel(1);
                 let Some(sender) = t.to_writer.as_ref() else { return Ok(()) };
+                let waiting = std::time::Instant::now();
                 if sender.send(ToWriter::Flush(answer)).is_err() || reply.recv().is_err() {
                     return Err(Self::writer_gone(&self.what));
                 }
+                t.waits += 1;
+                t.wait_ns += u64::try_from(waiting.elapsed().as_nanos()).unwrap_or(u64::MAX);
                 t.writer_error()
             }
         }
@@ -242,7 +338,16 @@ impl<S: Sink> Offload<S> {
             Mode::Threaded(mut t) => {
                 // The last rows (a send fails only when the writer thread is gone: joined below).
                 let _ = t.hand_over_partial();
-                log::debug!("{}: the step loop waited {} times for a free batch", self.what.display(), t.waits);
+                log::debug!(
+                    "{}: the step loop waited {} times ({:.3} s) for the writer thread",
+                    self.what.display(),
+                    t.waits,
+                    t.wait_ns as f64 * 1e-9
+                );
+                if let Some(a) = &t.account {
+                    a.waits.fetch_add(t.waits, Ordering::AcqRel);
+                    a.wait_ns.fetch_add(t.wait_ns, Ordering::AcqRel);
+                }
                 // Hanging up ends the writer thread after the rows in flight.
                 drop(t.to_writer.take());
                 let joined = t.writer.take().map(std::thread::JoinHandle::join);
