@@ -68,6 +68,9 @@ pub struct Measured {
     pub loop_waits: u64,
     /// Wall time of those waits (s).
     pub loop_wait_secs: f64,
+    /// The longest CPU time a writer thread spent on one batch of rows (s; see
+    /// [`crate::record::offload::WriterTotals::longest_batch_ns`]).
+    pub writer_longest_batch_secs: f64,
 }
 
 /// One measured row: the fastest of the repeats (wall), and the CPU times of every repeat.
@@ -214,6 +217,7 @@ fn measure(config: &Config, mode: &str, steps: u64) -> Result<Measured, RunError
                 writer_threads: writers.threads,
                 loop_waits: writers.waits,
                 loop_wait_secs: writers.wait_ns as f64 * 1e-9,
+                writer_longest_batch_secs: writers.longest_batch_ns as f64 * 1e-9,
             })
         }
     }
@@ -325,12 +329,15 @@ pub fn to_json(config: &Config, duration_secs: f64, repeats: usize, rows: &[Benc
                 "cpu_ratio_to_bare_gait_ground": find(&cpu_same_physics, r),
                 "loop_waits": waits,
                 "loop_wait_secs": wait_secs,
+                "writer_longest_batch_ms": r.repeats.iter().map(|m| m.writer_longest_batch_secs * 1e3).fold(0.0, f64::max),
+                "loop_lead_ms": us(r.loop_cpu_ns_per_step()) * 1e-3 * (crate::record::offload::POOL * crate::record::offload::BATCH) as f64,
                 "repeats": r.repeats.iter().map(|m| serde_json::json!({
                     "steps_per_sec": m.steps_per_sec,
                     "loop_cpu_us_per_step": us(m.loop_cpu_ns_per_step),
                     "writer_cpu_us_per_step": us(m.writer_cpu_ns_per_step),
                     "loop_waits": m.loop_waits,
                     "loop_wait_secs": m.loop_wait_secs,
+                    "writer_longest_batch_ms": m.writer_longest_batch_secs * 1e3,
                 })).collect::<Vec<_>>(),
             })
         })

@@ -25,7 +25,8 @@ use std::sync::{Arc, Mutex};
 /// writer thread) per batch rather than per row.
 pub const BATCH: usize = 16;
 
-/// Batches in flight between the loop and the writer thread.
+/// Batches in flight between the loop and the writer thread (by default; see
+/// [`Offload::with_pool`]).
 pub const POOL: usize = 8;
 
 /// What the writer threads of a run cost, summed over them (`simserpent bench` reports it per
@@ -37,6 +38,7 @@ pub struct WriterAccount {
     threads: AtomicU64,
     waits: AtomicU64,
     wait_ns: AtomicU64,
+    longest_batch_ns: AtomicU64,
     /// The writer threads drop the rows they receive instead of writing them (a dummy sink:
     /// the bench measures the step loop's side of the hand-over without the writer's work).
     discard: bool,
@@ -53,6 +55,10 @@ pub struct WriterTotals {
     pub waits: u64,
     /// Wall time the step loop spent in those waits (ns).
     pub wait_ns: u64,
+    /// The most CPU time a writer thread spent on one batch of [`BATCH`] rows (ns): its longest
+    /// burst of work (say, a Parquet row group compressed and written at once). When it is
+    /// longer than the loop needs for `POOL × BATCH` steps, the loop waits even on a free core.
+    pub longest_batch_ns: u64,
 }
 
 impl WriterAccount {
@@ -68,6 +74,7 @@ impl WriterAccount {
             threads: self.threads.load(Ordering::Acquire),
             waits: self.waits.load(Ordering::Acquire),
             wait_ns: self.wait_ns.load(Ordering::Acquire),
+            longest_batch_ns: self.longest_batch_ns.load(Ordering::Acquire),
         }
     }
 }
@@ -162,8 +169,9 @@ fn serve<S: Sink>(
     free: SyncSender<Box<Batch<S::Row>>>,
     error: &Mutex<Option<RecordError>>,
     failed: &AtomicBool,
-    discard: bool,
+    account: Option<&WriterAccount>,
 ) -> S {
+    let discard = account.is_some_and(|a| a.discard);
     let fail = |e: RecordError| {
         if let Ok(mut slot) = error.lock() {
             slot.get_or_insert(e);
@@ -173,6 +181,8 @@ fn serve<S: Sink>(
     for message in rows {
         match message {
             ToWriter::Rows(mut batch) => {
+                // Only for an account (the bench): one clock read per batch.
+                let cpu_before = account.map(|_| crate::cpu_time::thread_cpu_ns());
                 for row in batch.rows.iter().take(batch.len) {
                     if !discard
                         && !failed.load(Ordering::Acquire)
@@ -182,6 +192,10 @@ fn serve<S: Sink>(
                     }
                 }
                 batch.len = 0;
+                if let (Some(a), Some(before)) = (account, cpu_before) {
+                    let spent = crate::cpu_time::thread_cpu_ns().saturating_sub(before);
+                    a.longest_batch_ns.fetch_max(spent, Ordering::AcqRel);
+                }
                 // The pool holds exactly the batches allocated: this never blocks.
                 let _ = free.try_send(batch);
             }
@@ -201,10 +215,23 @@ fn serve<S: Sink>(
 impl<S: Sink> Offload<S> {
     /// Starts the writer thread for `sink`; `row` makes the `POOL × BATCH` row buffers (all of
     /// them now). `what` names the work in errors (a file or `tables`).
-    pub fn spawn(sink: S, mut row: impl FnMut() -> S::Row, what: PathBuf) -> Result<Self, RecordError> {
-        let (to_writer, rows) = sync_channel(POOL);
-        let (give_back, free) = sync_channel(POOL);
-        for _ in 0..POOL {
+    pub fn spawn(sink: S, row: impl FnMut() -> S::Row, what: PathBuf) -> Result<Self, RecordError> {
+        Self::spawn_with_pool(sink, row, what, POOL)
+    }
+
+    /// [`Offload::spawn`] with `batches` batches in flight instead of [`POOL`] (at least 1): the
+    /// loop runs up to `batches × BATCH` rows ahead of the writer thread, which must cover the
+    /// writer's longest burst of work for the loop never to wait on a free core.
+    fn spawn_with_pool(
+        sink: S,
+        mut row: impl FnMut() -> S::Row,
+        what: PathBuf,
+        batches: usize,
+    ) -> Result<Self, RecordError> {
+        let batches = batches.max(1);
+        let (to_writer, rows) = sync_channel(batches);
+        let (give_back, free) = sync_channel(batches);
+        for _ in 0..batches {
             let rows = (0..BATCH).map(|_| row()).collect();
             let _ = give_back.try_send(Box::new(Batch { rows, len: 0 }));
         }
@@ -216,8 +243,7 @@ impl<S: Sink> Offload<S> {
         let writer = std::thread::Builder::new()
             .name("simserpent-writer".into())
             .spawn(move || {
-                let discard = theirs.as_ref().is_some_and(|a| a.discard);
-                let sink = serve(sink, rows, give_back, &slot, &flag, discard);
+                let sink = serve(sink, rows, give_back, &slot, &flag, theirs.as_deref());
                 if let Some(a) = theirs {
                     a.cpu_ns.fetch_add(crate::cpu_time::thread_cpu_ns(), Ordering::AcqRel);
                     a.threads.fetch_add(1, Ordering::AcqRel);
@@ -246,7 +272,19 @@ impl<S: Sink> Offload<S> {
 
     /// Either: on a writer thread (`threaded`) or on the calling thread.
     pub fn new(sink: S, row: impl FnMut() -> S::Row, what: PathBuf, threaded: bool) -> Result<Self, RecordError> {
-        if threaded { Self::spawn(sink, row, what) } else { Ok(Self::inline(sink, row, what)) }
+        Self::with_pool(sink, row, what, threaded, POOL)
+    }
+
+    /// [`Offload::new`] with `batches` batches in flight on the writer thread (see
+    /// [`Offload::spawn_with_pool`]; the inline path holds one row whatever `batches`).
+    pub fn with_pool(
+        sink: S,
+        row: impl FnMut() -> S::Row,
+        what: PathBuf,
+        threaded: bool,
+        batches: usize,
+    ) -> Result<Self, RecordError> {
+        if threaded { Self::spawn_with_pool(sink, row, what, batches) } else { Ok(Self::inline(sink, row, what)) }
     }
 
     /// The writer thread ended unexpectedly (it panicked).
@@ -443,6 +481,35 @@ mod tests {
             let sink = sink.expect("sink back");
             assert_eq!(sink.seen, (0..(3 * POOL * BATCH + 5) as u64).collect::<Vec<_>>());
             assert_eq!(sink.flushes, 1);
+        }
+    }
+
+    #[test]
+    fn a_larger_pool_lets_the_loop_run_that_far_ahead_of_a_stalled_writer() {
+        // The writer thread blocks in its first row until released: the loop fills the pool.
+        struct Stall(std::sync::mpsc::Receiver<()>);
+        impl Sink for Stall {
+            type Row = u64;
+            fn write(&mut self, _: &u64) -> Result<(), RecordError> {
+                let _ = self.0.recv();
+                Ok(())
+            }
+            fn flush(&mut self) -> Result<(), RecordError> {
+                Ok(())
+            }
+        }
+        for batches in [POOL, 4 * POOL] {
+            let (release, stalled) = sync_channel(0);
+            let mut o = Offload::with_pool(Stall(stalled), || 0, "t".into(), true, batches).expect("started");
+            // All batches but the one on the writer thread can be filled without waiting.
+            for n in 0..(batches * BATCH) as u64 {
+                push(&mut o, n).expect("row");
+            }
+            let Mode::Threaded(t) = &o.mode else { panic!("threaded") };
+            assert_eq!(t.waits, 0, "{batches} batches: the loop waited");
+            drop(release);
+            let (_, result) = o.finish();
+            result.expect("finished");
         }
     }
 
