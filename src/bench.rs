@@ -295,6 +295,12 @@ pub fn cpu_ratios(rows: &[BenchRow], baseline: &str) -> Vec<(usize, &'static str
         .collect()
 }
 
+/// How many rows the step loop can run ahead of the tables' writer thread in `mode`.
+fn lead_rows(mode: &str) -> usize {
+    use crate::record::{BATCH, PARQUET_POOL, offload::POOL};
+    if matches!(mode, FULL_PARQUET | FULL_PARQUET_INLINE) { PARQUET_POOL * BATCH } else { POOL * BATCH }
+}
+
 /// The benchmark as one JSON document (`simserpent bench --json`): the settings and, per
 /// snake size and mode, steps per wall second and the ratio to the bare engine with the same
 /// gait. A ratio, not a time, is what a regression guard on a shared machine compares.
@@ -330,7 +336,7 @@ pub fn to_json(config: &Config, duration_secs: f64, repeats: usize, rows: &[Benc
                 "loop_waits": waits,
                 "loop_wait_secs": wait_secs,
                 "writer_longest_batch_ms": r.repeats.iter().map(|m| m.writer_longest_batch_secs * 1e3).fold(0.0, f64::max),
-                "loop_lead_ms": us(r.loop_cpu_ns_per_step()) * 1e-3 * (crate::record::offload::POOL * crate::record::offload::BATCH) as f64,
+                "loop_lead_ms": (r.fastest.writer_threads > 0).then(|| us(r.loop_cpu_ns_per_step()) * 1e-3 * lead_rows(r.mode) as f64),
                 "repeats": r.repeats.iter().map(|m| serde_json::json!({
                     "steps_per_sec": m.steps_per_sec,
                     "loop_cpu_us_per_step": us(m.loop_cpu_ns_per_step),

@@ -459,7 +459,7 @@ mod tests {
         }
     }
 
-    fn push(o: &mut Offload<Collect>, n: u64) -> Result<(), RecordError> {
+    fn push<S: Sink<Row = u64>>(o: &mut Offload<S>, n: u64) -> Result<(), RecordError> {
         *o.slot()? = n;
         o.commit()
     }
