@@ -162,3 +162,27 @@ fn bench_reports_cpu_time_per_step_of_the_loop_and_of_the_writer_threads() {
     assert!((ratio - expected).abs() < 1e-9, "{ratio} against {expected}");
     assert!(num(csv, "writer_longest_batch_ms") > 0.0 && num(csv, "loop_lead_ms") > 0.0, "{csv}");
 }
+
+/// `--min-cpu-ratio` fails the bench (exit 1, naming the ratio) when the step loop's CPU time
+/// ratio is below the floor, and rejects a floor that is not a positive number (exit 2).
+#[test]
+fn the_cpu_ratio_guard_fails_below_its_floor_and_rejects_a_bad_floor() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let bench = |floor: &str| {
+        simserpent(
+            dir.path(),
+            &["bench", "--links", "3", "--duration-secs", "0.05", "--min-cpu-ratio", floor, "--output-dir", "bench"],
+        )
+    };
+    // No pipeline needs 1000 times less CPU per step than the bare engine.
+    let out = bench("1000");
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    assert!(
+        text(&out).contains("step-loop CPU time per step") && text(&out).contains("below the floor 1000"),
+        "{}",
+        text(&out)
+    );
+    let out = bench("0");
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    assert!(text(&out).contains("--min-cpu-ratio 0: must be a number greater than 0"), "{}", text(&out));
+}
