@@ -27,15 +27,53 @@
 //! friction forces), so both ratios are reported: to "bare, gait" (the guard, unchanged) and to
 //! "bare, gait + ground" (the same physics: what recording and control cost).
 //!
+//! - with `--discard-rows`, also **full (CSV, rows discarded)**: the CSV run with writer threads
+//!   that receive the rows and drop them unwritten (a dummy sink): the step loop does exactly
+//!   the work of "full (CSV)", the writer threads almost none — so the step-loop thread's CPU
+//!   time in the two modes shows how much a busy writer thread slows the loop through the shared
+//!   caches and memory.
+//!
 //! Wall time only counts the stepping (model compilation is excluded in all three).
+//!
+//! Besides wall time every row has the **CPU time per step** of the step-loop thread and,
+//! summed, of the writer threads (`CLOCK_THREAD_CPUTIME_ID`, [`crate::cpu_time`]), and how often
+//! and how long the step loop waited for a writer thread. CPU time does not count time spent
+//! waiting for a core, so the ratio of the step-loop thread's CPU time per step, bare engine
+//! over full pipeline (`cpu_ratio_to_bare_gait` in `--json`), does not fall when other
+//! processes load the machine, unlike the wall ratio; it does not count the writer threads
+//! either (they are reported beside it).
 
 use crate::config::{Config, ControlMethod, TableFormat};
 use crate::control::{JointTrajectory, trajectory_from_config};
+use crate::cpu_time::thread_cpu_ns;
+use crate::record::offload::{WriterAccount, account_writers};
 use crate::run::{self, RunError, RunOptions};
 use crate::sim::{Ground, SimError, World};
+use std::sync::Arc;
 use std::time::Instant;
 
-/// One measured row.
+/// One measurement of one mode.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Measured {
+    /// Steps per wall second.
+    pub steps_per_sec: f64,
+    /// CPU time of the step-loop thread per step (ns), over the same interval.
+    pub loop_cpu_ns_per_step: f64,
+    /// CPU time of all writer threads per step (ns), summed over the threads and their whole
+    /// life (including the rows written after the loop ended); 0 without writer threads.
+    pub writer_cpu_ns_per_step: f64,
+    /// Writer threads.
+    pub writer_threads: u64,
+    /// Times the step loop waited for a writer thread (no free batch, or a flush).
+    pub loop_waits: u64,
+    /// Wall time of those waits (s).
+    pub loop_wait_secs: f64,
+    /// The longest CPU time a writer thread spent on one batch of rows (s; see
+    /// [`crate::record::offload::WriterTotals::longest_batch_ns`]).
+    pub writer_longest_batch_secs: f64,
+}
+
+/// One measured row: the fastest of the repeats (wall), and the CPU times of every repeat.
 #[derive(Debug, Clone)]
 pub struct BenchRow {
     /// Links.
@@ -44,11 +82,33 @@ pub struct BenchRow {
     pub mode: &'static str,
     /// Steps taken.
     pub steps: u64,
-    /// Steps per wall second.
+    /// Steps per wall second (the fastest repeat).
     pub steps_per_sec: f64,
+    /// The fastest repeat (by wall time), whole.
+    pub fastest: Measured,
+    /// Every repeat, in order.
+    pub repeats: Vec<Measured>,
 }
 
-fn bare(config: &Config, steps: u64, with_gait: bool, with_ground: bool) -> Result<f64, SimError> {
+impl BenchRow {
+    /// The step-loop thread's CPU time per step, least over the repeats (ns): the least
+    /// disturbed measurement, as the fastest wall time is.
+    pub fn loop_cpu_ns_per_step(&self) -> f64 {
+        self.repeats.iter().map(|m| m.loop_cpu_ns_per_step).fold(f64::INFINITY, f64::min)
+    }
+
+    /// The writer threads' CPU time per step, least over the repeats (ns).
+    pub fn writer_cpu_ns_per_step(&self) -> f64 {
+        self.repeats.iter().map(|m| m.writer_cpu_ns_per_step).fold(f64::INFINITY, f64::min)
+    }
+
+    /// Waits of the step loop for a writer thread, summed over the repeats, and their wall time (s).
+    pub fn loop_waits(&self) -> (u64, f64) {
+        self.repeats.iter().fold((0, 0.0), |(n, s), m| (n + m.loop_waits, s + m.loop_wait_secs))
+    }
+}
+
+fn bare(config: &Config, steps: u64, with_gait: bool, with_ground: bool) -> Result<Measured, SimError> {
     let mut world = World::from_config(config)?;
     let mut ground = with_ground.then(|| Ground::new(config, &world));
     let trajectory: Box<dyn JointTrajectory> = trajectory_from_config(config);
@@ -58,6 +118,7 @@ fn bare(config: &Config, steps: u64, with_gait: bool, with_ground: bool) -> Resu
     let (mut angle, mut velocity) = (vec![0.0; n], vec![0.0; n]);
     let dt = config.general.timestep_secs;
     let start = Instant::now();
+    let cpu_start = thread_cpu_ns();
     for k in 0..steps {
         if with_gait {
             trajectory.targets(k as f64 * dt, &mut angle, &mut velocity);
@@ -71,12 +132,19 @@ fn bare(config: &Config, steps: u64, with_gait: bool, with_ground: bool) -> Resu
         }
         world.step();
     }
-    Ok(steps as f64 / start.elapsed().as_secs_f64())
+    let cpu_ns = thread_cpu_ns().saturating_sub(cpu_start) as f64;
+    let wall = start.elapsed().as_secs_f64();
+    Ok(Measured {
+        steps_per_sec: steps as f64 / wall,
+        loop_cpu_ns_per_step: cpu_ns / steps as f64,
+        ..Measured::default()
+    })
 }
 
 /// The modes measured per snake size, in output order; with `inline_writers` also the
-/// full-pipeline modes with the writers on the step-loop thread.
-pub fn modes(inline_writers: bool) -> Vec<&'static str> {
+/// full-pipeline modes with the writers on the step-loop thread, with `discard_rows` also
+/// [`FULL_CSV_DISCARD`].
+pub fn modes(inline_writers: bool, discard_rows: bool) -> Vec<&'static str> {
     let mut m = vec![BARE_STILL, BARE_GAIT, BARE_GAIT_GROUND, FULL_NONE, FULL_CSV];
     if cfg!(feature = "parquet") {
         m.push(FULL_PARQUET);
@@ -88,6 +156,9 @@ pub fn modes(inline_writers: bool) -> Vec<&'static str> {
             m.push(FULL_PARQUET_INLINE);
         }
         m.push(FULL_MCAP_INLINE);
+    }
+    if discard_rows {
+        m.push(FULL_CSV_DISCARD);
     }
     m
 }
@@ -106,6 +177,8 @@ pub const FULL_CSV: &str = "full pipeline (CSV)";
 pub const FULL_PARQUET: &str = "full pipeline (Parquet)";
 /// `run::run` writing only the ROS 2 bag (`run.mcap`, README "ROS 2").
 pub const FULL_MCAP: &str = "full pipeline (MCAP)";
+/// [`FULL_CSV`] with writer threads that drop the rows unwritten (a dummy sink).
+pub const FULL_CSV_DISCARD: &str = "full pipeline (CSV, rows discarded)";
 /// [`FULL_CSV`] with the writers on the step-loop thread.
 pub const FULL_CSV_INLINE: &str = "full pipeline (CSV, writers inline)";
 /// [`FULL_PARQUET`] with the writers on the step-loop thread.
@@ -113,7 +186,7 @@ pub const FULL_PARQUET_INLINE: &str = "full pipeline (Parquet, writers inline)";
 /// [`FULL_MCAP`] with the writers on the step-loop thread.
 pub const FULL_MCAP_INLINE: &str = "full pipeline (MCAP, writers inline)";
 
-fn measure(config: &Config, mode: &str, steps: u64) -> Result<f64, RunError> {
+fn measure(config: &Config, mode: &str, steps: u64) -> Result<Measured, RunError> {
     match mode {
         BARE_STILL => Ok(bare(config, steps, false, false)?),
         BARE_GAIT => Ok(bare(config, steps, true, false)?),
@@ -128,16 +201,30 @@ fn measure(config: &Config, mode: &str, steps: u64) -> Result<f64, RunError> {
             };
             let inline_writers = matches!(mode, FULL_CSV_INLINE | FULL_PARQUET_INLINE | FULL_MCAP_INLINE);
             let options = RunOptions { config_source: "bench".into(), inline_writers, ..RunOptions::default() };
-            let summary = run::run(&config, &options)?;
+            let account = Arc::new(WriterAccount::new(mode == FULL_CSV_DISCARD));
+            let summary = {
+                let _accounting = account_writers(account.clone());
+                run::run(&config, &options)?
+            };
             // Only the last folder of each mode is kept: benches should not fill the disk.
             let _ = std::fs::remove_dir_all(&summary.run_folder);
-            Ok(summary.steps_per_wall_sec)
+            let writers = account.totals();
+            let per_step = |x: f64| x / steps.max(1) as f64;
+            Ok(Measured {
+                steps_per_sec: summary.steps_per_wall_sec,
+                loop_cpu_ns_per_step: per_step(summary.loop_cpu_secs * 1e9),
+                writer_cpu_ns_per_step: per_step(writers.cpu_ns as f64),
+                writer_threads: writers.threads,
+                loop_waits: writers.waits,
+                loop_wait_secs: writers.wait_ns as f64 * 1e-9,
+                writer_longest_batch_secs: writers.longest_batch_ns as f64 * 1e-9,
+            })
         }
     }
 }
 
 /// Runs the benchmark for each snake size; `duration_secs` of simulated time per measurement
-/// (`inline_writers`: also the modes of [`modes`] with the writers inline).
+/// (`inline_writers`, `discard_rows`: also those modes of [`modes`]).
 /// Each mode is measured `repeats` times, interleaved with the others (so that a slow spell of
 /// the machine hits all modes alike), and the fastest measurement is reported.
 pub fn run_bench(
@@ -147,6 +234,7 @@ pub fn run_bench(
     output_dir: &str,
     repeats: usize,
     inline_writers: bool,
+    discard_rows: bool,
 ) -> Result<Vec<BenchRow>, RunError> {
     let mut rows = Vec::new();
     for &n_links in sizes {
@@ -156,15 +244,19 @@ pub fn run_bench(
         config.general.output_dir = output_dir.to_string();
         config.general.run_name = format!("bench-{n_links}");
         let steps = (duration_secs / config.general.timestep_secs).round() as u64;
-        let modes = modes(inline_writers);
-        let mut best = vec![0.0f64; modes.len()];
+        let modes = modes(inline_writers, discard_rows);
+        let mut all: Vec<Vec<Measured>> = vec![Vec::new(); modes.len()];
         for _ in 0..repeats.max(1) {
-            for (mode, best) in modes.iter().zip(&mut best) {
-                *best = best.max(measure(&config, mode, steps)?);
+            for (mode, all) in modes.iter().zip(&mut all) {
+                all.push(measure(&config, mode, steps)?);
             }
         }
-        for (mode, steps_per_sec) in modes.into_iter().zip(best) {
-            rows.push(BenchRow { n_links, mode, steps, steps_per_sec });
+        for (mode, repeats) in modes.into_iter().zip(all) {
+            let fastest = repeats
+                .iter()
+                .copied()
+                .fold(Measured::default(), |a, m| if m.steps_per_sec > a.steps_per_sec { m } else { a });
+            rows.push(BenchRow { n_links, mode, steps, steps_per_sec: fastest.steps_per_sec, fastest, repeats });
         }
     }
     Ok(rows)
@@ -190,12 +282,33 @@ fn ratios_to(rows: &[BenchRow], baseline: &str) -> Vec<(usize, &'static str, f64
         .collect()
 }
 
+/// The step-loop thread's CPU time per step, `baseline` over each full-pipeline CSV/Parquet
+/// row (least over the repeats each): `(n_links, mode, ratio)`. 1 means the loop thread of the
+/// full pipeline needs no more CPU per step than the bare engine; it is not lowered by other
+/// processes waiting for the cores (see the module documentation).
+pub fn cpu_ratios(rows: &[BenchRow], baseline: &str) -> Vec<(usize, &'static str, f64)> {
+    let bare_of =
+        |n: usize| rows.iter().find(|r| r.n_links == n && r.mode == baseline).map(BenchRow::loop_cpu_ns_per_step);
+    rows.iter()
+        .filter(|r| r.mode == FULL_CSV || r.mode == FULL_PARQUET)
+        .filter_map(|r| bare_of(r.n_links).map(|b| (r.n_links, r.mode, b / r.loop_cpu_ns_per_step())))
+        .collect()
+}
+
+/// How many rows the step loop can run ahead of the tables' writer thread in `mode`.
+fn lead_rows(mode: &str) -> usize {
+    use crate::record::{BATCH, PARQUET_POOL, offload::POOL};
+    if matches!(mode, FULL_PARQUET | FULL_PARQUET_INLINE) { PARQUET_POOL * BATCH } else { POOL * BATCH }
+}
+
 /// The benchmark as one JSON document (`simserpent bench --json`): the settings and, per
 /// snake size and mode, steps per wall second and the ratio to the bare engine with the same
 /// gait. A ratio, not a time, is what a regression guard on a shared machine compares.
 pub fn to_json(config: &Config, duration_secs: f64, repeats: usize, rows: &[BenchRow]) -> serde_json::Value {
     let ratios = pipeline_ratios(rows);
     let same_physics = same_physics_ratios(rows);
+    let cpu = cpu_ratios(rows, BARE_GAIT);
+    let cpu_same_physics = cpu_ratios(rows, BARE_GAIT_GROUND);
     let find = |list: &[(usize, &str, f64)], r: &BenchRow| {
         list.iter().find(|(n, m, _)| *n == r.n_links && *m == r.mode).map(|(_, _, x)| *x)
     };
@@ -204,6 +317,8 @@ pub fn to_json(config: &Config, duration_secs: f64, repeats: usize, rows: &[Benc
         .map(|r| {
             let ratio = find(&ratios, r);
             let ratio_same_physics = find(&same_physics, r);
+            let us = |ns: f64| ns * 1e-3;
+            let (waits, wait_secs) = r.loop_waits();
             serde_json::json!({
                 "n_links": r.n_links,
                 "mode": r.mode,
@@ -212,6 +327,24 @@ pub fn to_json(config: &Config, duration_secs: f64, repeats: usize, rows: &[Benc
                 "real_time_factor": r.steps_per_sec * config.general.timestep_secs,
                 "ratio_to_bare_gait": ratio,
                 "ratio_to_bare_gait_ground": ratio_same_physics,
+                "loop_cpu_us_per_step": us(r.loop_cpu_ns_per_step()),
+                "writer_cpu_us_per_step": us(r.writer_cpu_ns_per_step()),
+                "writer_threads": r.fastest.writer_threads,
+                "wall_us_per_step": 1e6 / r.steps_per_sec,
+                "cpu_ratio_to_bare_gait": find(&cpu, r),
+                "cpu_ratio_to_bare_gait_ground": find(&cpu_same_physics, r),
+                "loop_waits": waits,
+                "loop_wait_secs": wait_secs,
+                "writer_longest_batch_ms": r.repeats.iter().map(|m| m.writer_longest_batch_secs * 1e3).fold(0.0, f64::max),
+                "loop_lead_ms": (r.fastest.writer_threads > 0).then(|| us(r.loop_cpu_ns_per_step()) * 1e-3 * lead_rows(r.mode) as f64),
+                "repeats": r.repeats.iter().map(|m| serde_json::json!({
+                    "steps_per_sec": m.steps_per_sec,
+                    "loop_cpu_us_per_step": us(m.loop_cpu_ns_per_step),
+                    "writer_cpu_us_per_step": us(m.writer_cpu_ns_per_step),
+                    "loop_waits": m.loop_waits,
+                    "loop_wait_secs": m.loop_wait_secs,
+                    "writer_longest_batch_ms": m.writer_longest_batch_secs * 1e3,
+                })).collect::<Vec<_>>(),
             })
         })
         .collect();

@@ -16,6 +16,7 @@
 pub use simserpent_core::{config, control, estimation, model, state};
 
 pub mod bench;
+pub mod cpu_time;
 pub mod env;
 pub mod estimate;
 pub mod experiments;

@@ -244,10 +244,20 @@ enum Command {
         /// (the synchronous path) instead of on writer threads, interleaved with the others.
         #[arg(long)]
         inline_writers: bool,
+        /// Also measure the CSV pipeline with writer threads that drop the rows unwritten (a
+        /// dummy sink): the step-loop thread's CPU time with and without a busy writer thread.
+        #[arg(long)]
+        discard_rows: bool,
         /// Regression guard: exit with code 1 when any full-pipeline ratio (full pipeline /
         /// bare engine with the same gait) is below this value, e.g. 0.85.
         #[arg(long, value_name = "RATIO")]
         min_ratio: Option<f64>,
+        /// Regression guard on CPU time, which other processes' load does not lower: exit with
+        /// code 1 when, for CSV or Parquet, the step-loop thread's CPU time per step of the bare
+        /// engine with the same gait and ground model over that of the full pipeline is below
+        /// this value, e.g. 0.85.
+        #[arg(long, value_name = "RATIO")]
+        min_cpu_ratio: Option<f64>,
     },
     /// Accuracy study (issue 20): every case with RK4, implicitfast and Euler at 0.25 to 10 ms
     /// against RK4 at 0.1 ms; errors, cost, work-precision plots and a recommendation
@@ -757,31 +767,42 @@ fn bench(
     output_dir: &str,
     repeats: usize,
     json: bool,
-    min_ratio: Option<f64>,
-    inline_writers: bool,
+    (min_ratio, min_cpu_ratio): (Option<f64>, Option<f64>),
+    (inline_writers, discard_rows): (bool, bool),
 ) -> Result<(), Failure> {
-    if let Some(r) = min_ratio.filter(|r| !(r.is_finite() && *r > 0.0)) {
-        return Err(bad_input(anyhow::anyhow!("--min-ratio {r}: must be a number greater than 0 (e.g. 0.85)")));
+    for (flag, floor) in [("--min-ratio", min_ratio), ("--min-cpu-ratio", min_cpu_ratio)] {
+        if let Some(r) = floor.filter(|r| !(r.is_finite() && *r > 0.0)) {
+            return Err(bad_input(anyhow::anyhow!("{flag} {r}: must be a number greater than 0 (e.g. 0.85)")));
+        }
     }
     let (config, source) = load(args)?;
-    let rows = simserpent::bench::run_bench(&config, links, duration_secs, output_dir, repeats, inline_writers)
-        .map_err(failure)?;
-    let below: Vec<String> = simserpent::bench::pipeline_ratios(&rows)
-        .into_iter()
-        .filter(|(_, _, ratio)| min_ratio.is_some_and(|floor| *ratio < floor))
-        .map(|(n, mode, ratio)| format!("{n} links, {mode}: {ratio:.3}"))
-        .collect();
+    let rows =
+        simserpent::bench::run_bench(&config, links, duration_secs, output_dir, repeats, inline_writers, discard_rows)
+            .map_err(failure)?;
+    let below_of = |ratios: Vec<(usize, &str, f64)>, floor: Option<f64>| -> Vec<String> {
+        ratios
+            .into_iter()
+            .filter(|(_, _, ratio)| floor.is_some_and(|floor| *ratio < floor))
+            .map(|(n, mode, ratio)| format!("{n} links, {mode}: {ratio:.3}"))
+            .collect()
+    };
+    let below = below_of(simserpent::bench::pipeline_ratios(&rows), min_ratio);
+    let below_cpu = below_of(simserpent::bench::cpu_ratios(&rows, simserpent::bench::BARE_GAIT_GROUND), min_cpu_ratio);
     let guard = || -> Result<(), Failure> {
-        match (below.is_empty(), min_ratio) {
-            (false, Some(floor)) => Err(Failure {
-                code: 1,
-                error: anyhow::anyhow!(
-                    "full pipeline / bare engine below the floor {floor}: {} (see BENCHMARKS.md)",
-                    below.join("; ")
-                ),
-            }),
-            _ => Ok(()),
+        let mut failed = Vec::new();
+        if let (false, Some(floor)) = (below.is_empty(), min_ratio) {
+            failed.push(format!("full pipeline / bare engine below the floor {floor}: {}", below.join("; ")));
         }
+        if let (false, Some(floor)) = (below_cpu.is_empty(), min_cpu_ratio) {
+            failed.push(format!(
+                "step-loop CPU time per step, bare engine (gait + ground) / full pipeline, below the floor {floor}: {}",
+                below_cpu.join("; ")
+            ));
+        }
+        if failed.is_empty() {
+            return Ok(());
+        }
+        Err(Failure { code: 1, error: anyhow::anyhow!("{} (see BENCHMARKS.md)", failed.join("; ")) })
     };
     if json {
         let doc = simserpent::bench::to_json(&config, duration_secs, repeats, &rows);
@@ -794,23 +815,39 @@ fn bench(
         config.general.integrator,
         duration_secs
     );
-    outln!("| links | mode | steps/s | real-time factor | vs bare still | vs bare gait | vs bare gait + ground |");
-    outln!("|---|---|---|---|---|---|---|");
-    for chunk in rows.chunks(simserpent::bench::modes(inline_writers).len()) {
+    outln!(
+        "| links | mode | steps/s | real-time factor | vs bare still | vs bare gait | vs bare gait + ground \
+         | wall µs/step | loop CPU µs/step | writers' CPU µs/step | loop CPU: bare gait + ground / this \
+         | loop waits (s) |"
+    );
+    outln!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for chunk in rows.chunks(simserpent::bench::modes(inline_writers, discard_rows).len()) {
         let (still, gait, ground) = (chunk[0].steps_per_sec, chunk[1].steps_per_sec, chunk[2].steps_per_sec);
+        let ground_cpu = chunk[2].loop_cpu_ns_per_step();
         for r in chunk {
+            let (waits, wait_secs) = r.loop_waits();
             outln!(
-                "| {} | {} | {:.0} | {:.1} | {:.0}% | {:.0}% | {:.0}% |",
+                "| {} | {} | {:.0} | {:.1} | {:.0}% | {:.0}% | {:.0}% | {:.1} | {:.1} | {:.1} | {:.3} | {} ({:.3}) |",
                 r.n_links,
                 r.mode,
                 r.steps_per_sec,
                 r.steps_per_sec * config.general.timestep_secs,
                 100.0 * r.steps_per_sec / still,
                 100.0 * r.steps_per_sec / gait,
-                100.0 * r.steps_per_sec / ground
+                100.0 * r.steps_per_sec / ground,
+                1e6 / r.steps_per_sec,
+                r.loop_cpu_ns_per_step() * 1e-3,
+                r.writer_cpu_ns_per_step() * 1e-3,
+                ground_cpu / r.loop_cpu_ns_per_step(),
+                waits,
+                wait_secs
             );
         }
     }
+    outln!(
+        "(steps/s: the fastest of {repeats} repeats; CPU times: the least of the repeats; loop waits: for a writer \
+         thread, summed over the repeats)"
+    );
     guard()
 }
 
@@ -950,9 +987,27 @@ fn main() -> ExitCode {
         Some(Command::Model { config, output, scene_dir }) => model(&config, output.as_deref(), scene_dir.as_deref()),
         Some(Command::Check { config }) => check(&config),
         Some(Command::Convert { input, output, force }) => convert(&input, output.as_deref(), force),
-        Some(Command::Bench { config, links, duration_secs, output_dir, repeats, json, min_ratio, inline_writers }) => {
-            bench(&config, &links, duration_secs, &output_dir, repeats, json, min_ratio, inline_writers)
-        }
+        Some(Command::Bench {
+            config,
+            links,
+            duration_secs,
+            output_dir,
+            repeats,
+            json,
+            min_ratio,
+            min_cpu_ratio,
+            inline_writers,
+            discard_rows,
+        }) => bench(
+            &config,
+            &links,
+            duration_secs,
+            &output_dir,
+            repeats,
+            json,
+            (min_ratio, min_cpu_ratio),
+            (inline_writers, discard_rows),
+        ),
         Some(Command::Sweep { config, vary, sample, samples, seed, sweep_dir, threads, shard, quiet }) => {
             sweep(&config, &vary, sample, samples, seed, sweep_dir, threads, shard, quiet)
         }

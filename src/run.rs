@@ -111,6 +111,11 @@ pub struct RunSummary {
     pub steps_per_wall_sec: f64,
     /// Simulated seconds per wall second.
     pub real_time_factor: f64,
+    /// CPU time the step-loop thread used over the same interval as `steps_per_wall_sec`'s
+    /// wall time (s; `simserpent bench`; not stored in the manifest: it says nothing about the
+    /// run's physics and differs from run to run).
+    #[serde(skip)]
+    pub loop_cpu_secs: f64,
 }
 
 /// Builds the world described by `config` (and `options.robot`). Fails before anything is
@@ -293,6 +298,7 @@ fn run_simulation_tracked<C: Controller>(
     };
 
     let started = Instant::now();
+    let cpu_started = crate::cpu_time::thread_cpu_ns();
     let plan = LoopPlan { steps: total_steps, record_every_n_steps: config.recording.every_n_steps.max(1) };
     let mut totals = Totals::default();
     let mut interrupt = Every::new(crate::interrupt::CHECK_EVERY_N_STEPS, InterruptPoll);
@@ -336,9 +342,11 @@ fn run_simulation_tracked<C: Controller>(
             tracking: tracking.as_ref().and_then(|t| t.totals.report(&t.joint_names)),
             steps_per_wall_sec: 0.0,
             real_time_factor: 0.0,
+            loop_cpu_secs: 0.0,
         }
     });
     let wall = started.elapsed().as_secs_f64();
+    let loop_cpu_secs = crate::cpu_time::thread_cpu_ns().saturating_sub(cpu_started) as f64 * 1e-9;
     manifest.wall_time_secs = wall;
     manifest.steps = sim.steps();
     manifest.simulated_secs = sim.world().time_secs();
@@ -371,6 +379,7 @@ fn run_simulation_tracked<C: Controller>(
     };
     summary.steps_per_wall_sec = sim.steps() as f64 / wall.max(1e-9);
     summary.real_time_factor = sim.world().time_secs() / wall.max(1e-9);
+    summary.loop_cpu_secs = loop_cpu_secs;
     manifest.status = RunStatus::Complete;
     manifest.summary = Some(summary.clone());
     reserve.release();

@@ -104,6 +104,10 @@ pub struct Recorder {
 /// Rows per batch handed to the writer thread.
 pub use offload::BATCH;
 
+/// Batches of [`BATCH`] rows in flight to the tables' writer thread when Parquet is recorded
+/// (512 rows: the loop's lead over the writer must cover a row group written at once).
+pub const PARQUET_POOL: usize = 32;
+
 /// One recorded instant: its step number and snapshot.
 struct TableRow {
     step: u64,
@@ -198,7 +202,13 @@ impl Recorder {
         let (n_links, n_joints) = (index.links.len(), index.joints.len());
         // Every row buffer now: a recorded step allocates nothing (but more contacts than ever).
         let row = || TableRow { step: 0, snapshot: Snapshot::new(n_links, n_joints) };
-        let out = Offload::new(Tables { tables, names }, row, folder.join("tables"), threaded)?;
+        // Parquet writes a row group at once every `parquet_row_group_rows` rows: measured on
+        // the default job, that burst is ~30 ms of the writer thread's CPU time (10 links, ~100
+        // ms at 30), longer than the loop needs for the default pool's 128 steps, so the loop
+        // waited for it even with a free core (BENCHMARKS.md, issue 20, session 6). A pool of
+        // PARQUET_POOL batches lets it run ahead through the burst.
+        let batches = if flags.format.parquet() { PARQUET_POOL } else { offload::POOL };
+        let out = Offload::with_pool(Tables { tables, names }, row, folder.join("tables"), threaded, batches)?;
         Ok(Self { out })
     }
 

@@ -15,8 +15,9 @@
 //! (the synchronous path: for comparisons and tests; the files are byte for byte the same).
 
 use super::RecordError;
+use std::cell::RefCell;
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, SyncSender, sync_channel};
 use std::sync::{Arc, Mutex};
 
@@ -24,8 +25,80 @@ use std::sync::{Arc, Mutex};
 /// writer thread) per batch rather than per row.
 pub const BATCH: usize = 16;
 
-/// Batches in flight between the loop and the writer thread.
+/// Batches in flight between the loop and the writer thread (by default; see
+/// [`Offload::with_pool`]).
 pub const POOL: usize = 8;
+
+/// What the writer threads of a run cost, summed over them (`simserpent bench` reports it per
+/// step): their CPU time, and how often and how long the step loop waited for them. Writer
+/// threads started on a thread that has an account ([`account_writers`]) add to it when they end.
+#[derive(Debug, Default)]
+pub struct WriterAccount {
+    cpu_ns: AtomicU64,
+    threads: AtomicU64,
+    waits: AtomicU64,
+    wait_ns: AtomicU64,
+    longest_batch_ns: AtomicU64,
+    /// The writer threads drop the rows they receive instead of writing them (a dummy sink:
+    /// the bench measures the step loop's side of the hand-over without the writer's work).
+    discard: bool,
+}
+
+/// A snapshot of a [`WriterAccount`].
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct WriterTotals {
+    /// CPU time of all writer threads that ended, summed (ns).
+    pub cpu_ns: u64,
+    /// Writer threads that ended.
+    pub threads: u64,
+    /// Times the step loop found no free batch, or flushed, and so waited for a writer thread.
+    pub waits: u64,
+    /// Wall time the step loop spent in those waits (ns).
+    pub wait_ns: u64,
+    /// The most CPU time a writer thread spent on one batch of [`BATCH`] rows (ns): its longest
+    /// burst of work (say, a Parquet row group compressed and written at once). When it is
+    /// longer than the loop needs for `POOL × BATCH` steps, the loop waits even on a free core.
+    pub longest_batch_ns: u64,
+}
+
+impl WriterAccount {
+    /// An empty account; with `discard` its writer threads write nothing (see the field).
+    pub fn new(discard: bool) -> Self {
+        Self { discard, ..Self::default() }
+    }
+
+    /// What was added so far.
+    pub fn totals(&self) -> WriterTotals {
+        WriterTotals {
+            cpu_ns: self.cpu_ns.load(Ordering::Acquire),
+            threads: self.threads.load(Ordering::Acquire),
+            waits: self.waits.load(Ordering::Acquire),
+            wait_ns: self.wait_ns.load(Ordering::Acquire),
+            longest_batch_ns: self.longest_batch_ns.load(Ordering::Acquire),
+        }
+    }
+}
+
+thread_local! {
+    /// The account of writer threads started on this thread, if any.
+    static ACCOUNT: RefCell<Option<Arc<WriterAccount>>> = const { RefCell::new(None) };
+}
+
+/// Until the guard is dropped, writer threads started on the calling thread add to `account`
+/// (the account before is restored then).
+pub fn account_writers(account: Arc<WriterAccount>) -> AccountGuard {
+    AccountGuard(ACCOUNT.with(|a| a.borrow_mut().replace(account)))
+}
+
+/// See [`account_writers`].
+pub struct AccountGuard(Option<Arc<WriterAccount>>);
+
+impl Drop for AccountGuard {
+    fn drop(&mut self) {
+        let before = self.0.take();
+        ACCOUNT.with(|a| *a.borrow_mut() = before);
+    }
+}
 
 /// What the writer thread does with the rows of one file (or group of files).
 pub trait Sink: Send + 'static {
@@ -59,6 +132,10 @@ struct Threaded<S: Sink> {
     current: Option<Box<Batch<S::Row>>>,
     /// How often the loop found no free batch and waited (logged at the end).
     waits: u64,
+    /// Wall time of those waits and of flushes (ns).
+    wait_ns: u64,
+    /// Where the writer thread's cost goes, if anywhere.
+    account: Option<Arc<WriterAccount>>,
     writer: Option<std::thread::JoinHandle<S>>,
     /// The writer thread's first error, for the loop to take.
     error: Arc<Mutex<Option<RecordError>>>,
@@ -92,7 +169,9 @@ fn serve<S: Sink>(
     free: SyncSender<Box<Batch<S::Row>>>,
     error: &Mutex<Option<RecordError>>,
     failed: &AtomicBool,
+    account: Option<&WriterAccount>,
 ) -> S {
+    let discard = account.is_some_and(|a| a.discard);
     let fail = |e: RecordError| {
         if let Ok(mut slot) = error.lock() {
             slot.get_or_insert(e);
@@ -102,14 +181,21 @@ fn serve<S: Sink>(
     for message in rows {
         match message {
             ToWriter::Rows(mut batch) => {
+                // Only for an account (the bench): one clock read per batch.
+                let cpu_before = account.map(|_| crate::cpu_time::thread_cpu_ns());
                 for row in batch.rows.iter().take(batch.len) {
-                    if !failed.load(Ordering::Acquire)
+                    if !discard
+                        && !failed.load(Ordering::Acquire)
                         && let Err(e) = sink.write(row)
                     {
                         fail(e);
                     }
                 }
                 batch.len = 0;
+                if let (Some(a), Some(before)) = (account, cpu_before) {
+                    let spent = crate::cpu_time::thread_cpu_ns().saturating_sub(before);
+                    a.longest_batch_ns.fetch_max(spent, Ordering::AcqRel);
+                }
                 // The pool holds exactly the batches allocated: this never blocks.
                 let _ = free.try_send(batch);
             }
@@ -129,22 +215,53 @@ fn serve<S: Sink>(
 impl<S: Sink> Offload<S> {
     /// Starts the writer thread for `sink`; `row` makes the `POOL × BATCH` row buffers (all of
     /// them now). `what` names the work in errors (a file or `tables`).
-    pub fn spawn(sink: S, mut row: impl FnMut() -> S::Row, what: PathBuf) -> Result<Self, RecordError> {
-        let (to_writer, rows) = sync_channel(POOL);
-        let (give_back, free) = sync_channel(POOL);
-        for _ in 0..POOL {
+    pub fn spawn(sink: S, row: impl FnMut() -> S::Row, what: PathBuf) -> Result<Self, RecordError> {
+        Self::spawn_with_pool(sink, row, what, POOL)
+    }
+
+    /// [`Offload::spawn`] with `batches` batches in flight instead of [`POOL`] (at least 1): the
+    /// loop runs up to `batches × BATCH` rows ahead of the writer thread, which must cover the
+    /// writer's longest burst of work for the loop never to wait on a free core.
+    fn spawn_with_pool(
+        sink: S,
+        mut row: impl FnMut() -> S::Row,
+        what: PathBuf,
+        batches: usize,
+    ) -> Result<Self, RecordError> {
+        let batches = batches.max(1);
+        let (to_writer, rows) = sync_channel(batches);
+        let (give_back, free) = sync_channel(batches);
+        for _ in 0..batches {
             let rows = (0..BATCH).map(|_| row()).collect();
             let _ = give_back.try_send(Box::new(Batch { rows, len: 0 }));
         }
         let error = Arc::new(Mutex::new(None));
         let failed = Arc::new(AtomicBool::new(false));
         let (slot, flag) = (error.clone(), failed.clone());
+        let account = ACCOUNT.with(|a| a.borrow().clone());
+        let theirs = account.clone();
         let writer = std::thread::Builder::new()
             .name("simserpent-writer".into())
-            .spawn(move || serve(sink, rows, give_back, &slot, &flag))
+            .spawn(move || {
+                let sink = serve(sink, rows, give_back, &slot, &flag, theirs.as_deref());
+                if let Some(a) = theirs {
+                    a.cpu_ns.fetch_add(crate::cpu_time::thread_cpu_ns(), Ordering::AcqRel);
+                    a.threads.fetch_add(1, Ordering::AcqRel);
+                }
+                sink
+            })
             .map_err(|source| RecordError::Io { path: what.clone(), source })?;
-        let threaded =
-            Threaded { to_writer: Some(to_writer), free, current: None, waits: 0, writer: Some(writer), error, failed };
+        let threaded = Threaded {
+            to_writer: Some(to_writer),
+            free,
+            current: None,
+            waits: 0,
+            wait_ns: 0,
+            account,
+            writer: Some(writer),
+            error,
+            failed,
+        };
         Ok(Self { mode: Mode::Threaded(threaded), what })
     }
 
@@ -155,7 +272,19 @@ impl<S: Sink> Offload<S> {
 
     /// Either: on a writer thread (`threaded`) or on the calling thread.
     pub fn new(sink: S, row: impl FnMut() -> S::Row, what: PathBuf, threaded: bool) -> Result<Self, RecordError> {
-        if threaded { Self::spawn(sink, row, what) } else { Ok(Self::inline(sink, row, what)) }
+        Self::with_pool(sink, row, what, threaded, POOL)
+    }
+
+    /// [`Offload::new`] with `batches` batches in flight on the writer thread (see
+    /// [`Offload::spawn_with_pool`]; the inline path holds one row whatever `batches`).
+    pub fn with_pool(
+        sink: S,
+        row: impl FnMut() -> S::Row,
+        what: PathBuf,
+        threaded: bool,
+        batches: usize,
+    ) -> Result<Self, RecordError> {
+        if threaded { Self::spawn_with_pool(sink, row, what, batches) } else { Ok(Self::inline(sink, row, what)) }
     }
 
     /// The writer thread ended unexpectedly (it panicked).
@@ -176,7 +305,9 @@ impl<S: Sink> Offload<S> {
                         Ok(batch) => batch,
                         Err(_) => {
                             t.waits += 1;
+                            let waiting = std::time::Instant::now();
                             let Ok(batch) = t.free.recv() else { return Err(Self::writer_gone(&self.what)) };
+                            t.wait_ns += u64::try_from(waiting.elapsed().as_nanos()).unwrap_or(u64::MAX);
                             batch
                         }
                     };
@@ -225,9 +356,12 @@ impl<S: Sink> Offload<S> {
                 t.hand_over_partial().map_err(|()| Self::writer_gone(&self.what))?;
                 let (answer, reply) = sync_channel(1);
                 let Some(sender) = t.to_writer.as_ref() else { return Ok(()) };
+                let waiting = std::time::Instant::now();
                 if sender.send(ToWriter::Flush(answer)).is_err() || reply.recv().is_err() {
                     return Err(Self::writer_gone(&self.what));
                 }
+                t.waits += 1;
+                t.wait_ns += u64::try_from(waiting.elapsed().as_nanos()).unwrap_or(u64::MAX);
                 t.writer_error()
             }
         }
@@ -242,7 +376,16 @@ impl<S: Sink> Offload<S> {
             Mode::Threaded(mut t) => {
                 // The last rows (a send fails only when the writer thread is gone: joined below).
                 let _ = t.hand_over_partial();
-                log::debug!("{}: the step loop waited {} times for a free batch", self.what.display(), t.waits);
+                log::debug!(
+                    "{}: the step loop waited {} times ({:.3} s) for the writer thread",
+                    self.what.display(),
+                    t.waits,
+                    t.wait_ns as f64 * 1e-9
+                );
+                if let Some(a) = &t.account {
+                    a.waits.fetch_add(t.waits, Ordering::AcqRel);
+                    a.wait_ns.fetch_add(t.wait_ns, Ordering::AcqRel);
+                }
                 // Hanging up ends the writer thread after the rows in flight.
                 drop(t.to_writer.take());
                 let joined = t.writer.take().map(std::thread::JoinHandle::join);
@@ -316,7 +459,7 @@ mod tests {
         }
     }
 
-    fn push(o: &mut Offload<Collect>, n: u64) -> Result<(), RecordError> {
+    fn push<S: Sink<Row = u64>>(o: &mut Offload<S>, n: u64) -> Result<(), RecordError> {
         *o.slot()? = n;
         o.commit()
     }
@@ -338,6 +481,35 @@ mod tests {
             let sink = sink.expect("sink back");
             assert_eq!(sink.seen, (0..(3 * POOL * BATCH + 5) as u64).collect::<Vec<_>>());
             assert_eq!(sink.flushes, 1);
+        }
+    }
+
+    #[test]
+    fn a_larger_pool_lets_the_loop_run_that_far_ahead_of_a_stalled_writer() {
+        // The writer thread blocks in its first row until released: the loop fills the pool.
+        struct Stall(std::sync::mpsc::Receiver<()>);
+        impl Sink for Stall {
+            type Row = u64;
+            fn write(&mut self, _: &u64) -> Result<(), RecordError> {
+                let _ = self.0.recv();
+                Ok(())
+            }
+            fn flush(&mut self) -> Result<(), RecordError> {
+                Ok(())
+            }
+        }
+        for batches in [POOL, 4 * POOL] {
+            let (release, stalled) = sync_channel(0);
+            let mut o = Offload::with_pool(Stall(stalled), || 0, "t".into(), true, batches).expect("started");
+            // All batches but the one on the writer thread can be filled without waiting.
+            for n in 0..(batches * BATCH) as u64 {
+                push(&mut o, n).expect("row");
+            }
+            let Mode::Threaded(t) = &o.mode else { panic!("threaded") };
+            assert_eq!(t.waits, 0, "{batches} batches: the loop waited");
+            drop(release);
+            let (_, result) = o.finish();
+            result.expect("finished");
         }
     }
 

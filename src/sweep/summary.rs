@@ -509,6 +509,7 @@ mod tests {
             tracking: None,
             steps_per_wall_sec: 9.0,
             real_time_factor: 10.0,
+            loop_cpu_secs: 11.0,
         };
         let json = serde_json::to_value(&summary).expect("serialisable");
         for metric in METRICS {

@@ -3,8 +3,8 @@
 //! thread), and a write error on a writer thread still fails the run naming the file.
 
 use crate::common::{
-    assert_a_full_disk_fails_the_run_naming, default_config_with, manifest, signal_and_wait, spawn_run, text,
-    wait_for_rows,
+    assert_a_full_disk_fails_the_run_naming, default_config_with, manifest, signal_and_wait, simserpent, spawn_run,
+    text, wait_for_rows,
 };
 use simserpent::run::{self, RunOptions};
 use std::collections::BTreeMap;
@@ -113,4 +113,76 @@ fn an_interrupted_run_leaves_every_writer_thread_file_whole_and_consistent() {
     assert_eq!(clocks as u64, instants, "one /clock message per recorded instant");
     // Finished: the summary section is there (a bag cut off by a kill has none).
     assert!(mcap::Summary::read(&bag).unwrap().is_some(), "run.mcap has its summary");
+}
+
+/// `simserpent bench --json` reports the CPU time per step of the step-loop thread and of the
+/// writer threads: a CSV run's writer threads work (formatting every row), the same run with
+/// the rows discarded leaves them almost idle while the loop does the same work, and the bare
+/// engine has no writer threads.
+#[test]
+fn bench_reports_cpu_time_per_step_of_the_loop_and_of_the_writer_threads() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = simserpent(
+        dir.path(),
+        &[
+            "bench",
+            "--links",
+            "5",
+            "--duration-secs",
+            "0.5",
+            "--set",
+            "recording.every_n_steps=1",
+            "--discard-rows",
+            "--json",
+            "--output-dir",
+            "bench",
+        ],
+    );
+    assert!(out.status.success(), "{}", text(&out));
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let rows = doc["rows"].as_array().expect("rows");
+    let row = |mode: &str| rows.iter().find(|r| r["mode"] == mode).unwrap_or_else(|| panic!("no row {mode}"));
+    let num = |r: &serde_json::Value, key: &str| r[key].as_f64().unwrap_or_else(|| panic!("{key}: {r}"));
+    let (bare, csv, discarded) =
+        (row("bare, gait + ground"), row("full pipeline (CSV)"), row("full pipeline (CSV, rows discarded)"));
+    for r in [bare, csv, discarded] {
+        // A thread's CPU time per step is positive and, on a thread
+        // that never waits for a core, at most its wall time per step (plus clock granularity).
+        let (cpu, wall) = (num(r, "loop_cpu_us_per_step"), num(r, "wall_us_per_step"));
+        assert!(cpu > 0.0 && cpu <= wall * 1.05 + 1.0, "{}: loop CPU {cpu} µs, wall {wall} µs", r["mode"]);
+    }
+    assert_eq!(num(bare, "writer_cpu_us_per_step"), 0.0);
+    assert_eq!(bare["writer_threads"], 0);
+    // Tables and state.csv: two writer threads.
+    assert_eq!(csv["writer_threads"], 2, "{csv}");
+    let (formatting, idle) = (num(csv, "writer_cpu_us_per_step"), num(discarded, "writer_cpu_us_per_step"));
+    assert!(idle < 0.5 * formatting, "writers' CPU per step: {formatting} µs writing, {idle} µs discarding");
+    let ratio = num(csv, "cpu_ratio_to_bare_gait_ground");
+    let expected = num(bare, "loop_cpu_us_per_step") / num(csv, "loop_cpu_us_per_step");
+    assert!((ratio - expected).abs() < 1e-9, "{ratio} against {expected}");
+    assert!(num(csv, "writer_longest_batch_ms") > 0.0 && num(csv, "loop_lead_ms") > 0.0, "{csv}");
+}
+
+/// `--min-cpu-ratio` fails the bench (exit 1, naming the ratio) when the step loop's CPU time
+/// ratio is below the floor, and rejects a floor that is not a positive number (exit 2).
+#[test]
+fn the_cpu_ratio_guard_fails_below_its_floor_and_rejects_a_bad_floor() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let bench = |floor: &str| {
+        simserpent(
+            dir.path(),
+            &["bench", "--links", "3", "--duration-secs", "0.05", "--min-cpu-ratio", floor, "--output-dir", "bench"],
+        )
+    };
+    // No pipeline needs 1000 times less CPU per step than the bare engine.
+    let out = bench("1000");
+    assert_eq!(out.status.code(), Some(1), "{}", text(&out));
+    assert!(
+        text(&out).contains("step-loop CPU time per step") && text(&out).contains("below the floor 1000"),
+        "{}",
+        text(&out)
+    );
+    let out = bench("0");
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    assert!(text(&out).contains("--min-cpu-ratio 0: must be a number greater than 0"), "{}", text(&out));
 }

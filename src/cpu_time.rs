@@ -1,0 +1,40 @@
+//! CPU time of the calling thread: what `simserpent bench` compares besides wall time.
+//!
+//! Wall time on a shared machine measures the neighbours as much as the program; the CPU time a
+//! thread was actually given (`CLOCK_THREAD_CPUTIME_ID`: time on a core, not time waiting for
+//! one or blocked) does not depend on how many other processes want the cores. It still
+//! depends on what shares the caches and memory with the thread (another thread of the same
+//! process, another process on the sibling core).
+
+/// Nanoseconds of CPU time the calling thread has used since it started (0 if the clock cannot
+/// be read, which POSIX systems do not do for this clock).
+pub fn thread_cpu_ns() -> u64 {
+    let mut t = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: `clock_gettime` writes one `timespec` through a valid pointer to a local.
+    #[allow(unsafe_code)]
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) };
+    if rc != 0 {
+        return 0;
+    }
+    u64::try_from(t.tv_sec).unwrap_or(0) * 1_000_000_000 + u64::try_from(t.tv_nsec).unwrap_or(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_busy_thread_uses_cpu_time_and_a_sleeping_one_does_not() {
+        let start = thread_cpu_ns();
+        let mut x = 1u64;
+        let busy = std::time::Instant::now();
+        while busy.elapsed() < std::time::Duration::from_millis(30) {
+            x = std::hint::black_box(x.wrapping_mul(6364136223846793005).wrapping_add(1));
+        }
+        let after_busy = thread_cpu_ns();
+        assert!(after_busy - start >= 5_000_000, "busy 30 ms wall, {} ns CPU", after_busy - start);
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        let after_sleep = thread_cpu_ns();
+        assert!(after_sleep - after_busy < 10_000_000, "slept 50 ms, {} ns CPU", after_sleep - after_busy);
+    }
+}
