@@ -440,6 +440,12 @@ propagation = "progress"
 jam_window_secs = 4.0
 jam_min_progress_m = 0.03
 recovery_secs = 1.5
+heading_gain = 0.4
+goal_heading_deg = 10.0
+max_heading_offset_deg = 12.0
+wave_speed = "progress"
+drive_frequency_hz = 0.2
+speed_filter_secs = 0.8
 "#;
 
 fn all_fields_expected() -> Config {
@@ -755,6 +761,12 @@ fn all_fields_expected() -> Config {
         jam_window_secs: 4.0,
         jam_min_progress_m: 0.03,
         recovery_secs: 1.5,
+        heading_gain: 0.4,
+        goal_heading_deg: 10.0,
+        max_heading_offset_deg: 12.0,
+        wave_speed: WaveSpeed::Progress,
+        drive_frequency_hz: 0.2,
+        speed_filter_secs: 0.8,
     };
     c
 }

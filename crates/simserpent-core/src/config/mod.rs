@@ -1188,6 +1188,29 @@ pub struct ObstacleAided {
     pub jam_min_progress_m: f64,
     /// How long (s) the wave runs backward after a jam.
     pub recovery_secs: f64,
+    /// Heading gain k_θ: joint offset (rad) per radian of heading error from `goal_heading_deg`.
+    pub heading_gain: f64,
+    /// The direction (degrees from +x) the snake holds.
+    pub goal_heading_deg: f64,
+    /// Largest heading offset (degrees).
+    pub max_heading_offset_deg: f64,
+    /// How fast the wave's phase runs.
+    pub wave_speed: WaveSpeed,
+    /// With `wave_speed = "progress"`: the wave's frequency (Hz) when the snake does not advance.
+    pub drive_frequency_hz: f64,
+    /// Time constant (s) of the low-pass filter on the measured forward speed.
+    pub speed_filter_secs: f64,
+}
+
+/// `obstacle_aided.wave_speed`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WaveSpeed {
+    /// ψ̇ = ω of `[gait.sine_wave]`.
+    Fixed,
+    /// ψ̇ = min(ω, ω_d + δ·v/L): the wave's bends stay in place in the world while the body
+    /// advances at v, and run backward past it at the drive ω_d/δ links per second.
+    Progress,
 }
 
 /// `obstacle_aided.propagation`.

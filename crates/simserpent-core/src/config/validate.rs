@@ -245,6 +245,11 @@ impl Config {
         positive("obstacle_aided.jam_window_secs", o.jam_window_secs)?;
         non_negative("obstacle_aided.jam_min_progress_m", o.jam_min_progress_m)?;
         non_negative("obstacle_aided.recovery_secs", o.recovery_secs)?;
+        non_negative("obstacle_aided.heading_gain", o.heading_gain)?;
+        finite("obstacle_aided.goal_heading_deg", o.goal_heading_deg)?;
+        self.below_joint_range("obstacle_aided.max_heading_offset_deg", o.max_heading_offset_deg)?;
+        positive("obstacle_aided.drive_frequency_hz", o.drive_frequency_hz)?;
+        positive("obstacle_aided.speed_filter_secs", o.speed_filter_secs)?;
         if self.control.controller == ControllerKind::ObstacleAided {
             ensure(
                 self.gait.kind == GaitKind::SineWave,
