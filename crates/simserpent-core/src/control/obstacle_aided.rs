@@ -71,7 +71,7 @@
 //! o_j ← o_j·(1 − λΔt), are clamped to ±o_max and move toward the tail by σ joints per step
 //! (o_j ← (1 − σ)·o_j + σ·o_{j−1}, a first-order upwind shift): with `propagation =
 //! "progress"` σ = v·Δt/L, so a bend stays where the peg is while the body slides past it;
-//! with `"wave"` σ = (ω/δ)·Δt, the speed at which the wave's bends run down the body, so the
+//! with `"wave"` σ = (ψ̇/δ)·Δt (ψ̇ ≥ 0 the wave's phase rate: ω, or the progress rate), the speed at which the wave's bends run down the body, so the
 //! extra bend pressed on a peg travels with the wave's bend that presses it (in ideal lateral
 //! undulation among pegs the two speeds are equal: the body slides through the pegs at the
 //! wave's speed).
@@ -131,6 +131,8 @@ pub struct ObstacleAided {
     pub drive_angular_frequency_rad_per_s: f64,
     /// Time constant (s) of the forward-speed filter.
     pub speed_filter_secs: f64,
+    /// The wave's phase rate ψ̇ (rad/s) of the current step (ω with `WaveSpeed::Fixed`).
+    wave_phase_rate_rad_per_s: f64,
     /// Filtered forward speed v (m/s) and the previous centre of mass it differentiates.
     speed_m_per_s: f64,
     last_com_m: Option<[f64; 2]>,
@@ -205,6 +207,7 @@ impl ObstacleAided {
             drive_angular_frequency_rad_per_s: TAU * o.drive_frequency_hz,
             speed_filter_secs: o.speed_filter_secs,
             speed_m_per_s: 0.0,
+            wave_phase_rate_rad_per_s: TAU * w.frequency_hz,
             last_com_m: None,
             yaw_joint: yaw_joints(config, n_joints),
             method: config.control.method,
@@ -262,7 +265,9 @@ impl ObstacleAided {
         let joints_per_s = match self.propagation {
             Propagation::None => 0.0,
             Propagation::Progress => forward_speed_m_per_s.max(0.0) / self.link_length_m,
-            Propagation::Wave if self.phase_lag_rad > 0.0 => self.angular_frequency_rad_per_s / self.phase_lag_rad,
+            Propagation::Wave if self.phase_lag_rad > 0.0 => {
+                self.wave_phase_rate_rad_per_s.max(0.0) / self.phase_lag_rad
+            }
             Propagation::Wave => 0.0,
         };
         if joints_per_s > 0.0 && n_joints > 0 {
@@ -382,6 +387,14 @@ impl ObstacleAided {
         }
         let recovering = t < self.recovering_until_secs;
         let direction = if recovering { -1.0 } else { 1.0 };
+        let phase_rate = match self.wave_speed {
+            WaveSpeed::Fixed => self.angular_frequency_rad_per_s,
+            WaveSpeed::Progress if recovering => self.angular_frequency_rad_per_s,
+            WaveSpeed::Progress => (self.drive_angular_frequency_rad_per_s
+                + self.phase_lag_rad * forward_speed / self.link_length_m)
+                .min(self.angular_frequency_rad_per_s),
+        } * direction;
+        self.wave_phase_rate_rad_per_s = phase_rate;
         let (propulsive, resistive) = if recovering {
             self.force_law(&ContactEstimates::default(), &[], mean_heading, 0.0, dt)
         } else {
@@ -390,13 +403,6 @@ impl ObstacleAided {
             self.heading_rad = heading;
             counts
         };
-        let phase_rate = match self.wave_speed {
-            WaveSpeed::Fixed => self.angular_frequency_rad_per_s,
-            WaveSpeed::Progress if recovering => self.angular_frequency_rad_per_s,
-            WaveSpeed::Progress => (self.drive_angular_frequency_rad_per_s
-                + self.phase_lag_rad * forward_speed / self.link_length_m)
-                .min(self.angular_frequency_rad_per_s),
-        } * direction;
         self.phase_rad = (self.phase_rad + phase_rate * dt) % (1e3 * TAU);
         // Heading control (as path following): a positive offset turns the snake clockwise.
         let heading_offset = (self.heading_gain * wrap_angle_rad(mean_heading - self.goal_heading_rad))
