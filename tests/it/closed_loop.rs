@@ -3,6 +3,7 @@
 
 use simserpent::config::{Config, ControllerKind, FloorFriction, GroundModel, PegLayout, TerrainKind};
 use simserpent::control::PathFollowing;
+use simserpent::experiments::hoal::{DENSITIES, field_config, score_run};
 use simserpent::sim::{LoopPlan, Observer, SimError, Simulation, StepView, World};
 
 /// The default snake on SimSerpent's stick–slip floor, no obstacles.
@@ -192,4 +193,30 @@ fn obstacle_aided_controller_moves_through_a_peg_field_on_isotropic_friction() {
     eprintln!("obstacle-aided among pegs: {pegs_m:.3} m; open loop on the bare floor: {bare_m:.3} m in {secs} s");
     assert!(pegs_m > 0.2, "the obstacle-aided snake advanced only {pegs_m:.3} m in {secs} s");
     assert!(pegs_m > bare_m + 0.15, "pegs {pegs_m:.3} m against bare floor {bare_m:.3} m");
+}
+
+/// The obstacle-aided controller with its default config (its own 50° / 60° wave whose phase
+/// follows the measured progress, `wave_speed = "progress"`, heading held along +x) and
+/// estimated contacts moves the snake forward on the `hoal` experiment's isotropic floor among
+/// random pegs, on fields nobody tuned on (seeds 40–42, the medium density, 10 s; hoal's speed:
+/// the centre of mass along +x from the end of the ramp). Measured 2026-11-23 (debug build):
+/// 11.1, 12.1 and 5.4 mm/s; seed 42 trips hoal's jam rule once (5 s without 2 cm), so at most
+/// one jam of the three is allowed (hoal's target: ≤ 10 % of runs). The open-loop sine waves
+/// drift backward on most fields of this scene (BENCHMARKS, "Obstacle-aided locomotion
+/// (issue 15)"). This is slow, and most of it is not the pegs' doing: the same wave advances
+/// about as fast on the bare floor.
+#[test]
+fn obstacle_aided_controller_advances_on_unseen_peg_fields() {
+    let mut jams = 0;
+    for seed in 40..=42 {
+        let mut c = field_config(&Config::default(), DENSITIES[1].1, seed);
+        c.general.duration_secs = 10.0;
+        c.control.controller = ControllerKind::ObstacleAided;
+        c.estimation.enabled = true;
+        let (speed_m_per_s, jammed) = score_run(&c).unwrap();
+        eprintln!("seed {seed}: {:.1} mm/s, jammed {jammed}", 1e3 * speed_m_per_s);
+        jams += usize::from(jammed);
+        assert!(speed_m_per_s > 0.004, "seed {seed}: {:.1} mm/s", 1e3 * speed_m_per_s);
+    }
+    assert!(jams <= 1, "{jams} of 3 fields jammed");
 }

@@ -1172,6 +1172,10 @@ pub struct PathFollowing {
 pub struct ObstacleAided {
     /// Which contacts the law reads: the estimates of `[estimation]` or the simulator's truth.
     pub contacts: ContactSource,
+    /// The controller's own wave: amplitude α (degrees) and phase lag δ between joints
+    /// (degrees); the frequency is `gait.sine_wave.frequency_hz`.
+    pub amplitude_deg: f64,
+    pub phase_lag_deg: f64,
     /// Normal force (N) the body keeps on a peg that pushes it forward.
     pub target_force_n: f64,
     /// Integral gain of the force law: joint offset (rad) per newton of force error and second.

@@ -238,6 +238,9 @@ impl Config {
 
     fn validate_obstacle_aided(&self) -> Check {
         let o = &self.obstacle_aided;
+        self.below_joint_range("obstacle_aided.amplitude_deg", o.amplitude_deg)?;
+        positive("obstacle_aided.phase_lag_deg", o.phase_lag_deg)?;
+        ensure(o.phase_lag_deg < 180.0, "obstacle_aided.phase_lag_deg", fmt_f(o.phase_lag_deg), "must be below 180")?;
         positive("obstacle_aided.target_force_n", o.target_force_n)?;
         non_negative("obstacle_aided.force_gain_rad_per_n_s", o.force_gain_rad_per_n_s)?;
         self.below_joint_range("obstacle_aided.max_offset_deg", o.max_offset_deg)?;

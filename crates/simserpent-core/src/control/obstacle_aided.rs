@@ -21,7 +21,8 @@
 //! φ_j,ref = r(t)·α·sin(ψ − j δ) + o_j,       ψ̇ = ±ω
 //! ```
 //!
-//! with α, ω = 2πf, δ from `[gait.sine_wave]`, r(t) the ramp-in of `gait.ramp_secs`, ψ the
+//! with α = `amplitude_deg`, δ = `phase_lag_deg` (the controller's own), ω = 2πf from
+//! `gait.sine_wave.frequency_hz`, r(t) the ramp-in of `gait.ramp_secs`, ψ the
 //! wave's phase and o_j the contact offset of joint j plus the heading offset r(t)·φ_h.
 //! With `wave_speed = "fixed"` ψ̇ = +ω (the wave travels to the tail and the snake forward);
 //! with `"progress"`
@@ -179,15 +180,15 @@ pub struct ObstacleAidedState {
 }
 
 impl ObstacleAided {
-    /// The controller of `config` (`[obstacle_aided]`, `[gait.sine_wave]`, `[control]`) for
+    /// The controller of `config` (`[obstacle_aided]`, `gait.sine_wave.frequency_hz`, `[control]`) for
     /// `n_joints` joints.
     pub fn from_config(config: &Config, n_joints: usize) -> Self {
         let w = &config.gait.sine_wave;
         let o = &config.obstacle_aided;
         Self {
-            amplitude_rad: w.amplitude_deg.to_radians(),
+            amplitude_rad: o.amplitude_deg.to_radians(),
             angular_frequency_rad_per_s: TAU * w.frequency_hz,
-            phase_lag_rad: w.phase_lag_deg.to_radians(),
+            phase_lag_rad: o.phase_lag_deg.to_radians(),
             ramp_secs: config.gait.ramp_secs,
             target_force_n: o.target_force_n,
             force_gain_rad_per_n_s: o.force_gain_rad_per_n_s,
@@ -638,7 +639,7 @@ mod tests {
         let mut c = Config::default();
         c.gait.ramp_secs = 0.0;
         c.gait.sine_wave.frequency_hz = 0.5;
-        c.gait.sine_wave.phase_lag_deg = 30.0;
+        c.obstacle_aided.phase_lag_deg = 30.0;
         c.obstacle_aided.wave_speed = WaveSpeed::Progress;
         c.obstacle_aided.drive_frequency_hz = 0.05;
         c.obstacle_aided.speed_filter_secs = 0.2;
