@@ -3,6 +3,7 @@
 
 use simserpent::config::{Config, ControllerKind, FloorFriction, GroundModel, PegLayout, TerrainKind};
 use simserpent::control::PathFollowing;
+use simserpent::experiments::hoal::{DENSITIES, field_config, score_run};
 use simserpent::sim::{LoopPlan, Observer, SimError, Simulation, StepView, World};
 
 /// The default snake on SimSerpent's stick–slip floor, no obstacles.
@@ -178,7 +179,11 @@ fn com_x_path(config: &Config, secs: f64) -> Vec<f64> {
 /// −0.75 … +1.10 m (mean +0.21 m), and the open-loop wave among the same pegs −0.26 … +0.51 m
 /// (mean +0.07 m): the spread between peg fields is larger than any controller effect, and
 /// `simserpent experiment hoal` reports the same (2 of 5 checks). Run it with
-/// `cargo test --test it closed_loop -- --ignored`.
+/// `cargo test --test it closed_loop -- --ignored`. With the session-6 defaults (own 50°/60° wave
+/// paced by the measured progress, heading control; the scene's `[gait.sine_wave]` amplitude and
+/// lag no longer apply) seed 1 advances 0.112 m (open loop on the bare floor −0.380 m): forward,
+/// but below this test's 0.2 m, and about what the same wave gains on the bare floor — see
+/// `obstacle_aided_controller_advances_on_unseen_peg_fields` for what it does achieve.
 #[test]
 #[ignore = "issue 15: the obstacle-aided controller does not yet beat open loop reliably (seed 1: -0.285 m); see the doc comment"]
 fn obstacle_aided_controller_moves_through_a_peg_field_on_isotropic_friction() {
@@ -192,4 +197,30 @@ fn obstacle_aided_controller_moves_through_a_peg_field_on_isotropic_friction() {
     eprintln!("obstacle-aided among pegs: {pegs_m:.3} m; open loop on the bare floor: {bare_m:.3} m in {secs} s");
     assert!(pegs_m > 0.2, "the obstacle-aided snake advanced only {pegs_m:.3} m in {secs} s");
     assert!(pegs_m > bare_m + 0.15, "pegs {pegs_m:.3} m against bare floor {bare_m:.3} m");
+}
+
+/// The obstacle-aided controller with its default config (its own 50° / 60° wave whose phase
+/// follows the measured progress, `wave_speed = "progress"`, heading held along +x) and
+/// estimated contacts moves the snake forward on the `hoal` experiment's isotropic floor among
+/// random pegs, on fields nobody tuned on (seeds 40–42, the medium density, 10 s; hoal's speed:
+/// the centre of mass along +x from the end of the ramp). Measured 2026-11-23 (debug build):
+/// 11.1, 12.1 and 5.4 mm/s; seed 42 trips hoal's jam rule once (5 s without 2 cm), so at most
+/// one jam of the three is allowed (hoal's target: ≤ 10 % of runs). The open-loop sine waves
+/// drift backward on most fields of this scene (BENCHMARKS, "Obstacle-aided locomotion
+/// (issue 15)"). This is slow, and most of it is not the pegs' doing: the same wave advances
+/// about as fast on the bare floor.
+#[test]
+fn obstacle_aided_controller_advances_on_unseen_peg_fields() {
+    let mut jams = 0;
+    for seed in 40..=42 {
+        let mut c = field_config(&Config::default(), DENSITIES[1].1, seed);
+        c.general.duration_secs = 10.0;
+        c.control.controller = ControllerKind::ObstacleAided;
+        c.estimation.enabled = true;
+        let (speed_m_per_s, jammed) = score_run(&c).unwrap();
+        eprintln!("seed {seed}: {:.1} mm/s, jammed {jammed}", 1e3 * speed_m_per_s);
+        jams += usize::from(jammed);
+        assert!(speed_m_per_s > 0.004, "seed {seed}: {:.1} mm/s", 1e3 * speed_m_per_s);
+    }
+    assert!(jams <= 1, "{jams} of 3 fields jammed");
 }

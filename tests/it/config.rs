@@ -432,6 +432,8 @@ acceptance_radius_m = 0.4
 
 [obstacle_aided]
 contacts = "true"
+amplitude_deg = 40.0
+phase_lag_deg = 45.0
 target_force_n = 4.5
 force_gain_rad_per_n_s = 0.2
 max_offset_deg = 25.0
@@ -440,6 +442,12 @@ propagation = "progress"
 jam_window_secs = 4.0
 jam_min_progress_m = 0.03
 recovery_secs = 1.5
+heading_gain = 0.4
+goal_heading_deg = 10.0
+max_heading_offset_deg = 12.0
+wave_speed = "fixed"
+drive_frequency_hz = 0.2
+speed_filter_secs = 0.8
 "#;
 
 fn all_fields_expected() -> Config {
@@ -747,6 +755,8 @@ fn all_fields_expected() -> Config {
     };
     c.obstacle_aided = ObstacleAided {
         contacts: ContactSource::True,
+        amplitude_deg: 40.0,
+        phase_lag_deg: 45.0,
         target_force_n: 4.5,
         force_gain_rad_per_n_s: 0.2,
         max_offset_deg: 25.0,
@@ -755,6 +765,12 @@ fn all_fields_expected() -> Config {
         jam_window_secs: 4.0,
         jam_min_progress_m: 0.03,
         recovery_secs: 1.5,
+        heading_gain: 0.4,
+        goal_heading_deg: 10.0,
+        max_heading_offset_deg: 12.0,
+        wave_speed: WaveSpeed::Fixed,
+        drive_frequency_hz: 0.2,
+        speed_filter_secs: 0.8,
     };
     c
 }

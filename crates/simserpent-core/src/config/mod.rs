@@ -1172,6 +1172,10 @@ pub struct PathFollowing {
 pub struct ObstacleAided {
     /// Which contacts the law reads: the estimates of `[estimation]` or the simulator's truth.
     pub contacts: ContactSource,
+    /// The controller's own wave: amplitude α (degrees) and phase lag δ between joints
+    /// (degrees); the frequency is `gait.sine_wave.frequency_hz`.
+    pub amplitude_deg: f64,
+    pub phase_lag_deg: f64,
     /// Normal force (N) the body keeps on a peg that pushes it forward.
     pub target_force_n: f64,
     /// Integral gain of the force law: joint offset (rad) per newton of force error and second.
@@ -1188,6 +1192,29 @@ pub struct ObstacleAided {
     pub jam_min_progress_m: f64,
     /// How long (s) the wave runs backward after a jam.
     pub recovery_secs: f64,
+    /// Heading gain k_θ: joint offset (rad) per radian of heading error from `goal_heading_deg`.
+    pub heading_gain: f64,
+    /// The direction (degrees from +x) the snake holds.
+    pub goal_heading_deg: f64,
+    /// Largest heading offset (degrees).
+    pub max_heading_offset_deg: f64,
+    /// How fast the wave's phase runs.
+    pub wave_speed: WaveSpeed,
+    /// With `wave_speed = "progress"`: the wave's frequency (Hz) when the snake does not advance.
+    pub drive_frequency_hz: f64,
+    /// Time constant (s) of the low-pass filter on the measured forward speed.
+    pub speed_filter_secs: f64,
+}
+
+/// `obstacle_aided.wave_speed`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WaveSpeed {
+    /// ψ̇ = ω of `[gait.sine_wave]`.
+    Fixed,
+    /// ψ̇ = min(ω, ω_d + δ·v/L): the wave's bends stay in place in the world while the body
+    /// advances at v, and run backward past it at the drive ω_d/δ links per second.
+    Progress,
 }
 
 /// `obstacle_aided.propagation`.

@@ -238,6 +238,9 @@ impl Config {
 
     fn validate_obstacle_aided(&self) -> Check {
         let o = &self.obstacle_aided;
+        self.below_joint_range("obstacle_aided.amplitude_deg", o.amplitude_deg)?;
+        positive("obstacle_aided.phase_lag_deg", o.phase_lag_deg)?;
+        ensure(o.phase_lag_deg < 180.0, "obstacle_aided.phase_lag_deg", fmt_f(o.phase_lag_deg), "must be below 180")?;
         positive("obstacle_aided.target_force_n", o.target_force_n)?;
         non_negative("obstacle_aided.force_gain_rad_per_n_s", o.force_gain_rad_per_n_s)?;
         self.below_joint_range("obstacle_aided.max_offset_deg", o.max_offset_deg)?;
@@ -245,6 +248,11 @@ impl Config {
         positive("obstacle_aided.jam_window_secs", o.jam_window_secs)?;
         non_negative("obstacle_aided.jam_min_progress_m", o.jam_min_progress_m)?;
         non_negative("obstacle_aided.recovery_secs", o.recovery_secs)?;
+        non_negative("obstacle_aided.heading_gain", o.heading_gain)?;
+        finite("obstacle_aided.goal_heading_deg", o.goal_heading_deg)?;
+        self.below_joint_range("obstacle_aided.max_heading_offset_deg", o.max_heading_offset_deg)?;
+        positive("obstacle_aided.drive_frequency_hz", o.drive_frequency_hz)?;
+        positive("obstacle_aided.speed_filter_secs", o.speed_filter_secs)?;
         if self.control.controller == ControllerKind::ObstacleAided {
             ensure(
                 self.gait.kind == GaitKind::SineWave,

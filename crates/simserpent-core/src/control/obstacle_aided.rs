@@ -21,9 +21,25 @@
 //! φ_j,ref = r(t)·α·sin(ψ − j δ) + o_j,       ψ̇ = ±ω
 //! ```
 //!
-//! with α, ω = 2πf, δ from `[gait.sine_wave]`, r(t) the ramp-in of `gait.ramp_secs`, ψ the
-//! wave's phase (ψ̇ = +ω: the wave travels to the tail and the snake forward; −ω during jam
-//! recovery) and o_j the contact offset of joint j.
+//! with α = `amplitude_deg`, δ = `phase_lag_deg` (the controller's own), ω = 2πf from
+//! `gait.sine_wave.frequency_hz`, r(t) the ramp-in of `gait.ramp_secs`, ψ the
+//! wave's phase and o_j the contact offset of joint j plus the heading offset r(t)·φ_h.
+//! With `wave_speed = "fixed"` ψ̇ = +ω (the wave travels to the tail and the snake forward);
+//! with `"progress"`
+//!
+//! ```text
+//! ψ̇ = min(ω, ω_d + δ·v/L)
+//! ```
+//!
+//! (v the measured forward speed below, ω_d = 2π·`drive_frequency_hz`): the wave's bends run
+//! down the body at v, i.e. they stay in place in the world while the body advances (Kano et
+//! al.'s follow-the-leader shape propagation, *Local reflexive mechanisms essential for snakes'
+//! scaffold-based locomotion*, Bioinspir. Biomim. 7, 2012), and press backward at ω_d/δ joints
+//! per second when the snake does not advance. During jam recovery ψ̇ = −ω.
+//!
+//! **Heading control** (as path following, `control::path`): every joint gets
+//! φ_h = clamp(k_θ·wrap(θ̄ − θ_g), ±φ_h,max) with θ_g = `goal_heading_deg`; the forward
+//! speed counts along θ_g.
 //!
 //! **What the controller measures.** Link headings θ₀ = head yaw (the head gyro's yaw rate
 //! integrated from the starting heading), θᵢ = θᵢ₋₁ + qᵢ₋₁ (encoders; our joint angle is the
@@ -33,7 +49,9 @@
 //! flag, the horizontal obstacle force f on the link and the contact point a along it (signed
 //! distance from the centre, + toward the head). The centre of mass (for the jam rule) follows
 //! from the head's position (a tracking system, as for path following) and the chain; the
-//! forward speed v = max(0, v_head·û) from the head's velocity.
+//! forward speed v = max(0, v_head·û) from the head's velocity — or, with heading control
+//! (k_θ > 0) or `wave_speed = "progress"`, v = max(0, v̄) with v̄ the centre of mass's velocity
+//! along θ_g through a first-order low-pass filter of time constant `speed_filter_secs`.
 //!
 //! **The force law** (every link i with a contact; f_n = f·n̂ᵢ the force across the link,
 //! f_fwd = f·û its forward part; the peg is on the side s = −sign(f_n)):
@@ -54,7 +72,7 @@
 //! o_j ← o_j·(1 − λΔt), are clamped to ±o_max and move toward the tail by σ joints per step
 //! (o_j ← (1 − σ)·o_j + σ·o_{j−1}, a first-order upwind shift): with `propagation =
 //! "progress"` σ = v·Δt/L, so a bend stays where the peg is while the body slides past it;
-//! with `"wave"` σ = (ω/δ)·Δt, the speed at which the wave's bends run down the body, so the
+//! with `"wave"` σ = (ψ̇/δ)·Δt (ψ̇ ≥ 0 the wave's phase rate: ω, or the progress rate), the speed at which the wave's bends run down the body, so the
 //! extra bend pressed on a peg travels with the wave's bend that presses it (in ideal lateral
 //! undulation among pegs the two speeds are equal: the body slides through the pegs at the
 //! wave's speed).
@@ -71,7 +89,7 @@ use super::gait::ramp;
 use super::{
     Command, Controller, Observation, Pid, command_joint, joint_pid, planar_chain, wrap_angle_rad, yaw_joints,
 };
-use crate::config::{Config, ContactSource, ControlMethod, Propagation};
+use crate::config::{Config, ContactSource, ControlMethod, Propagation, WaveSpeed};
 use crate::estimation::ContactEstimates;
 use crate::state::Snapshot;
 use std::f64::consts::TAU;
@@ -105,6 +123,20 @@ pub struct ObstacleAided {
     /// With `source = True`: a link touches a peg when the true horizontal obstacle force reaches
     /// this (N; the estimator's detection threshold).
     pub true_threshold_n: f64,
+    /// Heading control: k_θ (rad per rad), goal heading θ_g (rad), largest offset (rad).
+    pub heading_gain: f64,
+    pub goal_heading_rad: f64,
+    pub max_heading_offset_rad: f64,
+    /// How fast the phase runs; the drive ω_d (rad/s) of `WaveSpeed::Progress`.
+    pub wave_speed: WaveSpeed,
+    pub drive_angular_frequency_rad_per_s: f64,
+    /// Time constant (s) of the forward-speed filter.
+    pub speed_filter_secs: f64,
+    /// The wave's phase rate ψ̇ (rad/s) of the current step (ω with `WaveSpeed::Fixed`).
+    wave_phase_rate_rad_per_s: f64,
+    /// Filtered forward speed v (m/s) and the previous centre of mass it differentiates.
+    speed_m_per_s: f64,
+    last_com_m: Option<[f64; 2]>,
     yaw_joint: Vec<bool>,
     method: ControlMethod,
     pids: Vec<Pid>,
@@ -139,20 +171,24 @@ pub struct ObstacleAidedState {
     pub resistive_contacts: usize,
     /// Whether the wave runs backward (jam recovery).
     pub recovering: bool,
+    /// The heading offset φ_h (rad) on every joint.
+    pub heading_offset_rad: f64,
+    /// The wave's phase rate ψ̇ (rad/s).
+    pub phase_rate_rad_per_s: f64,
     /// Jams detected so far.
     pub jams: usize,
 }
 
 impl ObstacleAided {
-    /// The controller of `config` (`[obstacle_aided]`, `[gait.sine_wave]`, `[control]`) for
+    /// The controller of `config` (`[obstacle_aided]`, `gait.sine_wave.frequency_hz`, `[control]`) for
     /// `n_joints` joints.
     pub fn from_config(config: &Config, n_joints: usize) -> Self {
         let w = &config.gait.sine_wave;
         let o = &config.obstacle_aided;
         Self {
-            amplitude_rad: w.amplitude_deg.to_radians(),
+            amplitude_rad: o.amplitude_deg.to_radians(),
             angular_frequency_rad_per_s: TAU * w.frequency_hz,
-            phase_lag_rad: w.phase_lag_deg.to_radians(),
+            phase_lag_rad: o.phase_lag_deg.to_radians(),
             ramp_secs: config.gait.ramp_secs,
             target_force_n: o.target_force_n,
             force_gain_rad_per_n_s: o.force_gain_rad_per_n_s,
@@ -165,6 +201,15 @@ impl ObstacleAided {
             link_length_m: config.snake.link_length_m,
             source: o.contacts,
             true_threshold_n: config.estimation.detection_threshold_n,
+            heading_gain: o.heading_gain,
+            goal_heading_rad: o.goal_heading_deg.to_radians(),
+            max_heading_offset_rad: o.max_heading_offset_deg.to_radians(),
+            wave_speed: o.wave_speed,
+            drive_angular_frequency_rad_per_s: TAU * o.drive_frequency_hz,
+            speed_filter_secs: o.speed_filter_secs,
+            speed_m_per_s: 0.0,
+            wave_phase_rate_rad_per_s: TAU * w.frequency_hz,
+            last_com_m: None,
             yaw_joint: yaw_joints(config, n_joints),
             method: config.control.method,
             pids: vec![joint_pid(config); n_joints],
@@ -221,7 +266,9 @@ impl ObstacleAided {
         let joints_per_s = match self.propagation {
             Propagation::None => 0.0,
             Propagation::Progress => forward_speed_m_per_s.max(0.0) / self.link_length_m,
-            Propagation::Wave if self.phase_lag_rad > 0.0 => self.angular_frequency_rad_per_s / self.phase_lag_rad,
+            Propagation::Wave if self.phase_lag_rad > 0.0 => {
+                self.wave_phase_rate_rad_per_s.max(0.0) / self.phase_lag_rad
+            }
             Propagation::Wave => 0.0,
         };
         if joints_per_s > 0.0 && n_joints > 0 {
@@ -303,8 +350,22 @@ impl ObstacleAided {
             wrap_angle_rad(self.head_yaw_rad + obs.imu_gyro_rad_per_s.first().map_or(0.0, |g| g[2]) * dt);
         let (mean_heading, com) = self.chain(obs);
         let u = [mean_heading.cos(), mean_heading.sin()];
-        let v = obs.head_velocity_m_per_s;
-        let forward_speed = (v[0] * u[0] + v[1] * u[1]).max(0.0);
+        let forward_speed = if self.heading_gain > 0.0 || self.wave_speed == WaveSpeed::Progress {
+            // The centre of mass's velocity along the goal direction, low-pass filtered.
+            let goal = [self.goal_heading_rad.cos(), self.goal_heading_rad.sin()];
+            if let Some(last) = self.last_com_m
+                && dt > 0.0
+            {
+                let raw = ((com[0] - last[0]) * goal[0] + (com[1] - last[1]) * goal[1]) / dt;
+                let k = (dt / self.speed_filter_secs).min(1.0);
+                self.speed_m_per_s += k * (raw - self.speed_m_per_s);
+            }
+            self.last_com_m = Some(com);
+            self.speed_m_per_s.max(0.0)
+        } else {
+            let v = obs.head_velocity_m_per_s;
+            (v[0] * u[0] + v[1] * u[1]).max(0.0)
+        };
 
         // Jam rule.
         let recovering = t < self.recovering_until_secs;
@@ -327,6 +388,14 @@ impl ObstacleAided {
         }
         let recovering = t < self.recovering_until_secs;
         let direction = if recovering { -1.0 } else { 1.0 };
+        let phase_rate = match self.wave_speed {
+            WaveSpeed::Fixed => self.angular_frequency_rad_per_s,
+            WaveSpeed::Progress if recovering => self.angular_frequency_rad_per_s,
+            WaveSpeed::Progress => (self.drive_angular_frequency_rad_per_s
+                + self.phase_lag_rad * forward_speed / self.link_length_m)
+                .min(self.angular_frequency_rad_per_s),
+        } * direction;
+        self.wave_phase_rate_rad_per_s = phase_rate;
         let (propulsive, resistive) = if recovering {
             self.force_law(&ContactEstimates::default(), &[], mean_heading, 0.0, dt)
         } else {
@@ -335,7 +404,10 @@ impl ObstacleAided {
             self.heading_rad = heading;
             counts
         };
-        self.phase_rad = (self.phase_rad + direction * self.angular_frequency_rad_per_s * dt) % (1e3 * TAU);
+        self.phase_rad = (self.phase_rad + phase_rate * dt) % (1e3 * TAU);
+        // Heading control (as path following): a positive offset turns the snake clockwise.
+        let heading_offset = (self.heading_gain * wrap_angle_rad(mean_heading - self.goal_heading_rad))
+            .clamp(-self.max_heading_offset_rad, self.max_heading_offset_rad);
         self.last = ObstacleAidedState {
             mean_heading_rad: mean_heading,
             centre_of_mass_m: com,
@@ -343,14 +415,15 @@ impl ObstacleAided {
             propulsive_contacts: propulsive,
             resistive_contacts: resistive,
             recovering,
+            heading_offset_rad: heading_offset,
+            phase_rate_rad_per_s: phase_rate,
             jams: self.last.jams,
         };
 
         let (r, dr) = ramp(t, self.ramp_secs);
-        let phase_rate = direction * self.angular_frequency_rad_per_s;
         for j in 0..obs.joint_angle_rad.len().min(cmd.position_rad.len()).min(self.offset_rad.len()) {
             let phase = self.phase_rad - j as f64 * self.phase_lag_rad;
-            let offset = if self.yaw_joint[j] { self.offset_rad[j] } else { 0.0 };
+            let offset = if self.yaw_joint[j] { self.offset_rad[j] + r * heading_offset } else { 0.0 };
             let wave = self.amplitude_rad * phase.sin();
             let angle = r * wave + offset;
             let velocity = dr * wave + r * self.amplitude_rad * phase_rate * phase.cos();
@@ -381,6 +454,8 @@ impl Controller for ObstacleAided {
         self.started = false;
         self.checkpoint = None;
         self.recovering_until_secs = f64::NEG_INFINITY;
+        self.speed_m_per_s = 0.0;
+        self.last_com_m = None;
         self.last = ObstacleAidedState::default();
     }
 
@@ -527,5 +602,67 @@ mod tests {
             oa.update(&obs, &mut cmd);
         }
         assert_eq!(oa.last.jams, 0);
+    }
+
+    #[test]
+    fn heading_control_offsets_every_joint_against_the_heading_error_and_clamps() {
+        // Straight snake (joints 0) turned 0.2 rad left of the goal (+x): θ̄ = 0.2, φ_h =
+        // k_θ·0.2 = 0.1 rad (positive: turns the snake clockwise, back toward the goal), and the
+        // joints are sent the wave plus 0.1 rad once the ramp is over.
+        let mut c = Config::default();
+        c.gait.ramp_secs = 0.0;
+        c.obstacle_aided.heading_gain = 0.5;
+        c.obstacle_aided.max_heading_offset_deg = 10.0;
+        c.control.method = ControlMethod::Position;
+        let mut oa = ObstacleAided::from_config(&c, 3);
+        let mut obs = Observation::new(4, 3);
+        let yaw = 0.2f64;
+        obs.head_quat = [(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()];
+        let mut cmd = Command::new(3);
+        oa.update(&obs, &mut cmd);
+        assert!((oa.last.mean_heading_rad - 0.2).abs() < 1e-12, "{:?}", oa.last);
+        assert!((oa.last.heading_offset_rad - 0.1).abs() < 1e-12, "{:?}", oa.last);
+        for j in 0..3 {
+            let wave = oa.amplitude_rad * (oa.phase_rad - j as f64 * oa.phase_lag_rad).sin();
+            assert!((cmd.position_rad[j] - wave - 0.1).abs() < 1e-9, "joint {j}: {:?}", cmd.position_rad);
+        }
+        // 0.6 rad to the right: −0.3 rad, clamped to −10°.
+        let mut oa = ObstacleAided::from_config(&c, 3);
+        let yaw = -0.6f64;
+        obs.head_quat = [(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()];
+        oa.update(&obs, &mut cmd);
+        assert!((oa.last.heading_offset_rad + 10f64.to_radians()).abs() < 1e-12, "{:?}", oa.last);
+    }
+
+    #[test]
+    fn the_progress_wave_runs_at_the_drive_when_stuck_and_follows_the_measured_speed() {
+        let mut c = Config::default();
+        c.gait.ramp_secs = 0.0;
+        c.gait.sine_wave.frequency_hz = 0.5;
+        c.obstacle_aided.phase_lag_deg = 30.0;
+        c.obstacle_aided.wave_speed = WaveSpeed::Progress;
+        c.obstacle_aided.drive_frequency_hz = 0.05;
+        c.obstacle_aided.speed_filter_secs = 0.2;
+        c.obstacle_aided.jam_window_secs = 100.0;
+        let l = c.snake.link_length_m;
+        let run = |speed: f64| {
+            let mut oa = ObstacleAided::from_config(&c, 3);
+            let mut obs = Observation::new(4, 3);
+            obs.head_quat = [1.0, 0.0, 0.0, 0.0];
+            let mut cmd = Command::new(3);
+            for k in 0..300 {
+                obs.time_secs = k as f64 * 0.01;
+                obs.head_position_m[0] = speed * obs.time_secs;
+                oa.update(&obs, &mut cmd);
+            }
+            oa.last.phase_rate_rad_per_s
+        };
+        // Stuck: ψ̇ = ω_d = 2π·0.05.
+        assert!((run(0.0) - TAU * 0.05).abs() < 1e-9, "{}", run(0.0));
+        // 0.1 m/s (the filter has settled after 15 time constants): ω_d + δ·v/L.
+        let expected = TAU * 0.05 + 30f64.to_radians() * 0.1 / l;
+        assert!((run(0.1) - expected).abs() < 1e-3 * expected, "{} vs {expected}", run(0.1));
+        // Fast: capped at ω.
+        assert!((run(2.0) - TAU * 0.5).abs() < 1e-9, "{}", run(2.0));
     }
 }
