@@ -440,6 +440,22 @@ propagation = "progress"
 jam_window_secs = 4.0
 jam_min_progress_m = 0.03
 recovery_secs = 1.5
+
+[rail]
+contacts = "true"
+amplitude_deg = 40.0
+wavelength_m = 1.8
+drive_speed_m_per_s = 0.5
+progress_gain = 0.8
+progress_filter_secs = 0.2
+heading_gain = 0.7
+lookahead_m = 1.5
+max_steer_deg = 25.0
+wrap_deg = 10.0
+jam_window_secs = 4.0
+jam_min_progress_m = 0.03
+backoff_m = 0.4
+backoff_speed_m_per_s = 0.3
 "#;
 
 fn all_fields_expected() -> Config {
@@ -755,6 +771,22 @@ fn all_fields_expected() -> Config {
         jam_window_secs: 4.0,
         jam_min_progress_m: 0.03,
         recovery_secs: 1.5,
+    };
+    c.rail = Rail {
+        contacts: ContactSource::True,
+        amplitude_deg: 40.0,
+        wavelength_m: 1.8,
+        drive_speed_m_per_s: 0.5,
+        progress_gain: 0.8,
+        progress_filter_secs: 0.2,
+        heading_gain: 0.7,
+        lookahead_m: 1.5,
+        max_steer_deg: 25.0,
+        wrap_deg: 10.0,
+        jam_window_secs: 4.0,
+        jam_min_progress_m: 0.03,
+        backoff_m: 0.4,
+        backoff_speed_m_per_s: 0.3,
     };
     c
 }

@@ -86,6 +86,8 @@ pub struct Rail {
     pub max_steer_rad: f64,
     /// q_wrap (rad).
     pub wrap_rad: f64,
+    /// Experimental: 1 = turn away from a peg on the far side, −1 = toward it as well.
+    pub yield_sign: f64,
     /// Jam rule: window (s), progress (m), back-off distance (m) and speed (m/s).
     pub jam_window_secs: f64,
     pub jam_min_progress_m: f64,
@@ -164,6 +166,7 @@ impl Rail {
             lookahead_m: r.lookahead_m,
             max_steer_rad: r.max_steer_deg.to_radians(),
             wrap_rad: r.wrap_deg.to_radians(),
+            yield_sign: 1.0,
             jam_window_secs: r.jam_window_secs,
             jam_min_progress_m: r.jam_min_progress_m,
             backoff_m: r.backoff_m,
@@ -329,8 +332,12 @@ impl Rail {
         let reference = -(com[1] / self.lookahead_m).atan();
         let steer = (self.heading_gain * wrap_angle_rad(path_heading - reference))
             .clamp(-self.max_steer_rad, self.max_steer_rad);
+        // Wrap toward a peg on the side the head heads to (it ends up inside the bend, on the
+        // bend's propulsive flank); turn away from one on the other side (it would hold back).
+        let toward =
+            if peg_side * wrap_angle_rad(self.head_yaw_rad - reference) >= 0.0 { 1.0 } else { -self.yield_sign };
         let head_command = self.amplitude_rad * (self.wavenumber_rad_per_m * self.arc_m + self.phase_rad).sin() + steer
-            - peg_side * self.wrap_rad;
+            - toward * peg_side * self.wrap_rad;
 
         // Shift the path.
         match self.backoff_to_m {
@@ -424,5 +431,129 @@ impl Controller for Rail {
         let contacts = std::mem::take(&mut self.true_contacts);
         self.step(obs, &contacts, cmd);
         self.true_contacts = contacts;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn controller(n_joints: usize) -> Rail {
+        let mut c = Config::default();
+        c.control.method = ControlMethod::Position;
+        Rail::from_config(&c, n_joints)
+    }
+
+    /// An observation of a straight snake whose head points along `yaw_rad`, its centre of
+    /// mass on the line y = 0.
+    fn straight(n_joints: usize, yaw_rad: f64, link_length_m: f64) -> Observation {
+        let mut obs = Observation::new(n_joints + 1, n_joints);
+        obs.head_quat = [(0.5 * yaw_rad).cos(), 0.0, 0.0, (0.5 * yaw_rad).sin()];
+        let half_body_m = 0.5 * (n_joints + 1) as f64 * link_length_m;
+        obs.head_position_m = [half_body_m * yaw_rad.cos(), half_body_m * yaw_rad.sin(), 0.0];
+        obs
+    }
+
+    #[test]
+    fn joints_repeat_the_head_command_one_link_length_later() {
+        let mut r = controller(4);
+        let l = r.link_length_m;
+        // The head draws q(S) = S (rad per m) for 1 m of path.
+        let steps = 200;
+        for k in 1..=steps {
+            let s = k as f64 * 1.0 / steps as f64;
+            r.advance_to(s, s, 0.0);
+        }
+        let s = r.arc_m;
+        for j in 1..4 {
+            let back = s - j as f64 * l;
+            let got = r.path_command_rad(back, 99.0);
+            assert!((got - back).abs() < 2.0 * SAMPLE_SPACING_M, "joint {j}: {got} against {back}");
+        }
+        // Before the start of the path the body is straight; ahead of it, the head's command now.
+        assert_eq!(r.path_command_rad(-0.3, 99.0), 0.0);
+        assert_eq!(r.path_command_rad(s + 0.1, 99.0), 99.0);
+    }
+
+    #[test]
+    fn backing_off_retraces_the_path_then_the_head_draws_a_new_one() {
+        let mut r = controller(4);
+        for k in 1..=100 {
+            let s = k as f64 * 0.01;
+            r.advance_to(s, s, 0.0);
+        }
+        // Back off 0.3 m: the samples there are the old ones.
+        r.arc_m = 0.7;
+        assert!((r.path_command_rad(0.75, -5.0) - 0.75).abs() < 0.02);
+        r.truncate_path();
+        // Going forward again overwrites what lies ahead.
+        r.advance_to(0.9, -5.0, 0.0);
+        assert_eq!(r.path_command_rad(0.85, 0.0), -5.0);
+        assert!((r.path_command_rad(0.5, 0.0) - 0.5).abs() < 0.02);
+    }
+
+    #[test]
+    fn peg_side_is_opposite_to_the_push() {
+        let mut c = ContactEstimates::new(5);
+        let heading = [0.0; 5];
+        assert_eq!(Rail::head_peg_side(&c, &heading), 0.0);
+        // A force along the head's left normal (+y for heading 0): the peg is on its right.
+        c.contact[0] = true;
+        c.obstacle_force_n[0] = [0.0, 4.0, 0.0];
+        assert_eq!(Rail::head_peg_side(&c, &heading), -1.0);
+        c.obstacle_force_n[0] = [1.0, -4.0, 0.0];
+        assert_eq!(Rail::head_peg_side(&c, &heading), 1.0);
+        // Links behind the second do not count.
+        c.contact[0] = false;
+        c.contact[3] = true;
+        c.obstacle_force_n[3] = [0.0, 4.0, 0.0];
+        assert_eq!(Rail::head_peg_side(&c, &heading), 0.0);
+    }
+
+    #[test]
+    fn heading_left_of_the_goal_turns_the_head_right() {
+        let mut r = controller(9);
+        r.amplitude_rad = 0.0;
+        r.wrap_rad = 0.0;
+        let yaw = 0.3;
+        let obs = straight(9, yaw, r.link_length_m);
+        let mut cmd = Command::new(9);
+        r.update(&obs, &mut cmd);
+        // A positive joint angle turns the head clockwise relative to the body.
+        let expected = (r.heading_gain * yaw).min(r.max_steer_rad);
+        assert!((cmd.position_rad[0] - expected).abs() < 1e-6, "{} against {expected}", cmd.position_rad[0]);
+        // Mirrored heading, mirrored turn.
+        let mut r = controller(9);
+        r.amplitude_rad = 0.0;
+        r.wrap_rad = 0.0;
+        r.update(&straight(9, -yaw, r.link_length_m), &mut cmd);
+        assert!((cmd.position_rad[0] + expected).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_head_wraps_toward_a_peg_ahead_and_turns_away_from_one_behind() {
+        let run = |yaw: f64, force_y_n: f64| {
+            let mut r = controller(9);
+            r.amplitude_rad = 0.0;
+            r.heading_gain = 0.0;
+            let mut obs = straight(9, yaw, r.link_length_m);
+            obs.contacts = ContactEstimates::new(10);
+            obs.contacts.active = true;
+            obs.contacts.contact[0] = true;
+            obs.contacts.obstacle_force_n[0] = [-yaw.sin() * force_y_n, yaw.cos() * force_y_n, 0.0];
+            let mut cmd = Command::new(9);
+            r.update(&obs, &mut cmd);
+            (cmd.position_rad[0], r.wrap_rad)
+        };
+        // Heading left (yaw > 0) with a peg on the left (pushed right): turn left, toward it
+        // (a negative joint angle turns the head counter-clockwise).
+        let (q, wrap) = run(0.2, -4.0);
+        assert!((q + wrap).abs() < 1e-9, "{q}");
+        // Heading left with a peg on the right: turn left, away from it.
+        let (q, wrap) = run(0.2, 4.0);
+        assert!((q + wrap).abs() < 1e-9, "{q}");
+        // Heading right with a peg on the right: turn right, toward it.
+        let (q, wrap) = run(-0.2, 4.0);
+        assert!((q - wrap).abs() < 1e-9, "{q}");
     }
 }
