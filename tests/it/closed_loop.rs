@@ -193,3 +193,32 @@ fn obstacle_aided_controller_moves_through_a_peg_field_on_isotropic_friction() {
     assert!(pegs_m > 0.2, "the obstacle-aided snake advanced only {pegs_m:.3} m in {secs} s");
     assert!(pegs_m > bare_m + 0.15, "pegs {pegs_m:.3} m against bare floor {bare_m:.3} m");
 }
+
+/// The follow-the-leader ("rail") controller with its default `[rail]` values and estimated
+/// contacts, on fields of `simserpent experiment hoal` that nobody tuned on (seeds 40–42 at the
+/// three densities, 10 s; forward speed and jams as the experiment scores them): most runs
+/// advance along +x and the median speed is well above what any open-loop wave reaches on
+/// the tuning fields (the best median there, 50°/30°, is below zero: BENCHMARKS.md).
+#[test]
+fn rail_controller_advances_through_unseen_peg_fields() {
+    use simserpent::config::ContactSource;
+    use simserpent::experiments::hoal::{DENSITIES, field_config, score_run};
+    let mut speeds = Vec::new();
+    for (_, density) in DENSITIES {
+        for seed in 40..=42 {
+            let mut c = field_config(&Config::default(), density, seed);
+            c.general.duration_secs = 10.0;
+            c.control.controller = ControllerKind::Rail;
+            c.rail.contacts = ContactSource::Estimated;
+            c.estimation.enabled = true;
+            let (speed, _jammed) = score_run(&c).unwrap();
+            speeds.push(speed);
+        }
+    }
+    eprintln!("rail on seeds 40-42 (sparse, medium, dense; m/s): {speeds:.3?}");
+    let advancing = speeds.iter().filter(|v| **v > 0.0).count();
+    speeds.sort_by(f64::total_cmp);
+    let median = speeds[speeds.len() / 2];
+    assert!(advancing >= 6, "only {advancing} of 9 runs advanced: {speeds:.3?}");
+    assert!(median > 0.03, "median forward speed {median:.3} m/s");
+}

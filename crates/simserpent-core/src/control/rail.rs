@@ -14,15 +14,19 @@
 //! head joint (joint 0) is commanded
 //!
 //! ```text
-//! q_head(S) = α·sin(2π S/λ + φ) + clamp(k_θ·wrap(θ̄_λ − θ_ref), ±q_steer,max) − s_peg·q_wrap
+//! q_head(S) = α·sin(2π S/λ + φ) + clamp(k_θ·wrap(θ̄_λ − θ_ref), ±q_steer,max) − σ·s_peg·q_wrap
+//! σ = +1 if s_peg·wrap(θ₀ − θ_ref) ≥ 0, else −1
 //! ```
 //!
 //! (α, λ the spatial sine's amplitude and wavelength; φ the phase the jam rule turns; θ̄_λ the
 //! mean heading of the head over the last wavelength of path, from a ring of the head's yaw
 //! against S; θ_ref = −arctan(y_c/Δ), the line of sight to the line y = 0 along +x from the
 //! centre of mass' y_c; s_peg = +1 (left) / −1 (right) the side of a peg that the head or the
-//! link behind it touches, 0 without one: the head turns toward it, so the peg ends up inside
-//! the bend the body then follows). Our joint angle is the child link's heading minus the
+//! link behind it touches, 0 without one). σ = +1 when the head heads toward the peg's side
+//! (relative to θ_ref): the head turns toward the peg, which ends up inside the bend the body
+//! then follows, on the head side of the bend's apex, where its push on the body has a forward
+//! component; σ = −1 when the head heads away from it: the head turns away (the peg would sit
+//! on the bend's tail-side flank and hold the body back). Our joint angle is the child link's heading minus the
 //! parent's, so a positive q_head turns the head clockwise relative to the body.
 //!
 //! The head's commands are written into a ring indexed by S (one sample per
@@ -86,8 +90,6 @@ pub struct Rail {
     pub max_steer_rad: f64,
     /// q_wrap (rad).
     pub wrap_rad: f64,
-    /// Experimental: 1 = turn away from a peg on the far side, −1 = toward it as well.
-    pub yield_sign: f64,
     /// Jam rule: window (s), progress (m), back-off distance (m) and speed (m/s).
     pub jam_window_secs: f64,
     pub jam_min_progress_m: f64,
@@ -166,7 +168,6 @@ impl Rail {
             lookahead_m: r.lookahead_m,
             max_steer_rad: r.max_steer_deg.to_radians(),
             wrap_rad: r.wrap_deg.to_radians(),
-            yield_sign: 1.0,
             jam_window_secs: r.jam_window_secs,
             jam_min_progress_m: r.jam_min_progress_m,
             backoff_m: r.backoff_m,
@@ -334,8 +335,7 @@ impl Rail {
             .clamp(-self.max_steer_rad, self.max_steer_rad);
         // Wrap toward a peg on the side the head heads to (it ends up inside the bend, on the
         // bend's propulsive flank); turn away from one on the other side (it would hold back).
-        let toward =
-            if peg_side * wrap_angle_rad(self.head_yaw_rad - reference) >= 0.0 { 1.0 } else { -self.yield_sign };
+        let toward = if peg_side * wrap_angle_rad(self.head_yaw_rad - reference) >= 0.0 { 1.0 } else { -1.0 };
         let head_command = self.amplitude_rad * (self.wavenumber_rad_per_m * self.arc_m + self.phase_rad).sin() + steer
             - toward * peg_side * self.wrap_rad;
 
