@@ -448,6 +448,22 @@ max_heading_offset_deg = 12.0
 wave_speed = "fixed"
 drive_frequency_hz = 0.2
 speed_filter_secs = 0.8
+
+[rail]
+contacts = "true"
+amplitude_deg = 40.0
+wavelength_m = 1.8
+drive_speed_m_per_s = 0.5
+progress_gain = 0.8
+progress_filter_secs = 0.2
+heading_gain = 0.7
+lookahead_m = 1.5
+max_steer_deg = 25.0
+wrap_deg = 10.0
+jam_window_secs = 4.0
+jam_min_progress_m = 0.03
+backoff_m = 0.4
+backoff_speed_m_per_s = 0.3
 "#;
 
 fn all_fields_expected() -> Config {
@@ -772,6 +788,22 @@ fn all_fields_expected() -> Config {
         drive_frequency_hz: 0.2,
         speed_filter_secs: 0.8,
     };
+    c.rail = Rail {
+        contacts: ContactSource::True,
+        amplitude_deg: 40.0,
+        wavelength_m: 1.8,
+        drive_speed_m_per_s: 0.5,
+        progress_gain: 0.8,
+        progress_filter_secs: 0.2,
+        heading_gain: 0.7,
+        lookahead_m: 1.5,
+        max_steer_deg: 25.0,
+        wrap_deg: 10.0,
+        jam_window_secs: 4.0,
+        jam_min_progress_m: 0.03,
+        backoff_m: 0.4,
+        backoff_speed_m_per_s: 0.3,
+    };
     c
 }
 
@@ -965,6 +997,11 @@ const RULES: &[(&[&str], &str)] = &[
     (&["terrain.cylinder_path.n_pairs=0"], "terrain.cylinder_path.n_pairs"),
     (&["terrain.cylinder_path.spacing_m=0"], "terrain.cylinder_path.spacing_m"),
     (&["terrain.cylinder_path.radius_m=0"], "terrain.cylinder_path.radius_m"),
+    (&["rail.wavelength_m=0"], "rail.wavelength_m"),
+    (&["rail.amplitude_deg=90"], "rail.amplitude_deg"),
+    (&["rail.backoff_speed_m_per_s=0"], "rail.backoff_speed_m_per_s"),
+    (&["rail.drive_speed_m_per_s=-0.1"], "rail.drive_speed_m_per_s"),
+    (&["control.controller=\"rail\"", "estimation.enabled=false"], "rail.contacts"),
     (&["terrain.cylinder_path.width_m=0.1"], "terrain.cylinder_path.width_m"),
     (&["terrain.cylinder_path.width_m=0.15"], "terrain.cylinder_path.width_m"),
     (&["terrain.cylinder_path.start_m=nan"], "terrain.cylinder_path.start_m"),

@@ -185,6 +185,7 @@ pub struct Config {
     pub estimation: Estimation,
     pub path_following: PathFollowing,
     pub obstacle_aided: ObstacleAided,
+    pub rail: Rail,
 }
 
 /// How the original tool's geometry is reproduced (`[legacy]`; README "The original tool").
@@ -475,6 +476,8 @@ pub enum ControllerKind {
     PathFollowing,
     /// Obstacle-aided locomotion with force feedback (`control::ObstacleAided`, `[obstacle_aided]`).
     ObstacleAided,
+    /// Follow-the-leader obstacle-aided locomotion (`control::Rail`, `[rail]`).
+    Rail,
 }
 
 /// Which actuator kind the controller drives.
@@ -1215,6 +1218,38 @@ pub enum WaveSpeed {
     /// ψ̇ = min(ω, ω_d + δ·v/L): the wave's bends stay in place in the world while the body
     /// advances at v, and run backward past it at the drive ω_d/δ links per second.
     Progress,
+}
+
+/// The follow-the-leader ("rail") obstacle-aided controller (`[rail]`; `control::Rail`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rail {
+    /// Which contacts the reflexes read: the estimates of `[estimation]` or the simulator's truth.
+    pub contacts: ContactSource,
+    /// Amplitude of the head joint's spatial sine (degrees).
+    pub amplitude_deg: f64,
+    /// Wavelength of the head joint's spatial sine along the path (m).
+    pub wavelength_m: f64,
+    /// Slip speed (m/s) added to the measured progress when shifting the shape down the body.
+    pub drive_speed_m_per_s: f64,
+    /// Gain on the measured progress when shifting the shape (1 = exactly the measured speed).
+    pub progress_gain: f64,
+    /// Time constant (s) of the low-pass filter on the measured progress speed.
+    pub progress_filter_secs: f64,
+    /// Heading hold: joint offset of the head (rad) per rad of heading error.
+    pub heading_gain: f64,
+    /// Line-of-sight look-ahead (m) toward the line y = 0 along +x.
+    pub lookahead_m: f64,
+    /// Largest steering offset of the head joint (degrees).
+    pub max_steer_deg: f64,
+    /// Head wrap: offset (degrees) that turns the head toward a peg it touches.
+    pub wrap_deg: f64,
+    /// Jam: less than `jam_min_progress_m` (m) of progress along +x within `jam_window_secs` (s).
+    pub jam_window_secs: f64,
+    pub jam_min_progress_m: f64,
+    /// Jam recovery: back off this far along the path (m) at `backoff_speed_m_per_s` (m/s).
+    pub backoff_m: f64,
+    pub backoff_speed_m_per_s: f64,
 }
 
 /// `obstacle_aided.propagation`.

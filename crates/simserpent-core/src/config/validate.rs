@@ -222,7 +222,8 @@ impl Config {
         self.validate_env()?;
         self.validate_estimation()?;
         self.validate_path_following()?;
-        self.validate_obstacle_aided()
+        self.validate_obstacle_aided()?;
+        self.validate_rail()
     }
 
     /// A controller's joint offset (deg) must stay inside the joint's range.
@@ -263,6 +264,44 @@ impl Config {
             ensure(
                 o.contacts == ContactSource::True || self.estimation.enabled,
                 "obstacle_aided.contacts",
+                "\"estimated\"",
+                "reads the step loop's contact estimates: set estimation.enabled = true (or contacts = \"true\")",
+            )?;
+        }
+        Ok(())
+    }
+
+    fn validate_rail(&self) -> Check {
+        let r = &self.rail;
+        non_negative("rail.amplitude_deg", r.amplitude_deg)?;
+        ensure(
+            r.amplitude_deg < self.snake.joint_range_deg,
+            "rail.amplitude_deg",
+            fmt_f(r.amplitude_deg),
+            format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
+        )?;
+        positive("rail.wavelength_m", r.wavelength_m)?;
+        non_negative("rail.drive_speed_m_per_s", r.drive_speed_m_per_s)?;
+        non_negative("rail.progress_gain", r.progress_gain)?;
+        positive("rail.progress_filter_secs", r.progress_filter_secs)?;
+        non_negative("rail.heading_gain", r.heading_gain)?;
+        positive("rail.lookahead_m", r.lookahead_m)?;
+        self.below_joint_range("rail.max_steer_deg", r.max_steer_deg)?;
+        non_negative("rail.wrap_deg", r.wrap_deg)?;
+        ensure(
+            r.wrap_deg < self.snake.joint_range_deg,
+            "rail.wrap_deg",
+            fmt_f(r.wrap_deg),
+            format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
+        )?;
+        positive("rail.jam_window_secs", r.jam_window_secs)?;
+        non_negative("rail.jam_min_progress_m", r.jam_min_progress_m)?;
+        non_negative("rail.backoff_m", r.backoff_m)?;
+        positive("rail.backoff_speed_m_per_s", r.backoff_speed_m_per_s)?;
+        if self.control.controller == ControllerKind::Rail {
+            ensure(
+                r.contacts == ContactSource::True || self.estimation.enabled,
+                "rail.contacts",
                 "\"estimated\"",
                 "reads the step loop's contact estimates: set estimation.enabled = true (or contacts = \"true\")",
             )?;

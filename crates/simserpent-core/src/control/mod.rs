@@ -8,6 +8,7 @@ mod gait;
 mod obstacle_aided;
 mod path;
 mod pid;
+mod rail;
 
 pub use gait::{
     FormClosureShift, Hold, JointTrajectory, SineWave, Still, TwoPlaneWave, serpenoid, trajectory_from_config,
@@ -15,6 +16,7 @@ pub use gait::{
 pub use obstacle_aided::{ObstacleAided, ObstacleAidedState};
 pub use path::{Guidance, PathFollowing};
 pub use pid::Pid;
+pub use rail::{Rail, RailState};
 
 use crate::config::{Config, ControlMethod, JointAxes};
 
@@ -210,11 +212,13 @@ impl Controller for HeldCommand {
 
 /// The controller that `config.control.controller` selects, for `n_joints` joints: the gait
 /// ([`TrajectoryController`]), path following ([`PathFollowing`]) or obstacle-aided locomotion
-/// ([`ObstacleAided`]; validation requires the sine wave for it). Path following steers the
+/// ([`ObstacleAided`]; validation requires the sine wave for it) or follow-the-leader
+/// obstacle-aided locomotion ([`Rail`], any gait). Path following steers the
 /// sine wave; with another `gait.kind` (none, serpenoid, form closure, …) the gait runs open
 /// loop.
 pub fn controller_from_config(config: &Config, n_joints: usize) -> Box<dyn Controller> {
     match (config.control.controller, config.gait.kind) {
+        (crate::config::ControllerKind::Rail, _) => Box::new(Rail::from_config(config, n_joints)),
         (crate::config::ControllerKind::PathFollowing, crate::config::GaitKind::SineWave) => {
             Box::new(PathFollowing::from_config(config, n_joints))
         }

@@ -1,0 +1,559 @@
+//! Follow-the-leader ("rail") obstacle-aided locomotion: the body follows the path its head
+//! draws, so the bends stay where they are in the world and the pegs inside them keep pushing.
+//!
+//! Sources: follow-the-leader ("shift") control of snake robots, in which the joint angles are a
+//! function of arc length along the path and are shifted down the body as it advances (H.
+//! Choset and W. Henning, *A follow-the-leader approach to serpentine robot motion planning*,
+//! J. Aerospace Engineering 12(2), 1999; the body-shape propagation of A. A. Transeth et al.,
+//! *Snake robot obstacle-aided locomotion: modeling, simulations, and experiments*, IEEE Trans.
+//! Robotics 24(1), 2008, and P. Liljebäck et al., *Snake Robots*, Springer 2013, ch. 10–11:
+//! a peg that sits inside a bend pushes the body forward while the bend stays at the peg);
+//! the heading hold is the line-of-sight law of `control::PathFollowing`.
+//!
+//! **The path.** S(t) is the arc length the head has advanced along its path (odometry). The
+//! head joint (joint 0) is commanded
+//!
+//! ```text
+//! q_head(S) = α·sin(2π S/λ + φ) + clamp(k_θ·wrap(θ̄_λ − θ_ref), ±q_steer,max) − σ·s_peg·q_wrap
+//! σ = +1 if s_peg·wrap(θ₀ − θ_ref) ≥ 0, else −1
+//! ```
+//!
+//! (α, λ the spatial sine's amplitude and wavelength; φ the phase the jam rule turns; θ̄_λ the
+//! mean heading of the head over the last wavelength of path, from a ring of the head's yaw
+//! against S; θ_ref = −arctan(y_c/Δ), the line of sight to the line y = 0 along +x from the
+//! centre of mass' y_c; s_peg = +1 (left) / −1 (right) the side of a peg that the head or the
+//! link behind it touches, 0 without one). σ = +1 when the head heads toward the peg's side
+//! (relative to θ_ref): the head turns toward the peg, which ends up inside the bend the body
+//! then follows, on the head side of the bend's apex, where its push on the body has a forward
+//! component; σ = −1 when the head heads away from it: the head turns away (the peg would sit
+//! on the bend's tail-side flank and hold the body back). Our joint angle is the child link's heading minus the
+//! parent's, so a positive q_head turns the head clockwise relative to the body.
+//!
+//! The head's commands are written into a ring indexed by S (one sample per
+//! [`SAMPLE_SPACING_M`]); joint j (whose centre of rotation is j link lengths L behind joint 0)
+//! is commanded the sample at S − j·L (linear interpolation):
+//!
+//! ```text
+//! q_j(t) = q_head(S(t) − j·L)
+//! ```
+//!
+//! so the body's shape in the world stays put while the body slides along it ("a train on
+//! rails"): a bend pressed around a peg stays at the peg.
+//!
+//! **The odometry.** Ṡ = g·max(0, v̄) + v_drive, where v̄ is the head's velocity along its own
+//! heading (`head_velocity_m_per_s` · (cos θ₀, sin θ₀), the tracking system's velocity and the
+//! gyro-integrated head yaw θ₀) low-pass filtered with time constant τ, g the progress gain
+//! and v_drive a small slip speed: the shape runs down the body slightly faster than the body
+//! moves, so each bend presses on the pegs that hold it.
+//!
+//! **Jam recovery.** Every `jam_window_secs` T the controller compares the centre of mass (head
+//! position and encoders) with the previous checkpoint; if it advanced less than
+//! `jam_min_progress_m` along +x, the snake is jammed: S runs backward at `backoff_speed_m_per_s`
+//! until it is `backoff_m` back (every joint retraces the path it came along: the body backs
+//! out of the pegs the way it entered), then the phase φ turns by a quarter wave (π/2) and the
+//! head draws a new path from there (the old samples ahead are overwritten).
+//!
+//! What the controller reads: the encoders, the head gyro (yaw), the head's position and
+//! velocity (a tracking system, as path following) and the contact estimates
+//! (`Observation::contacts`; the simulator's truth only with `contacts = "true"`). Nothing
+//! allocates after construction.
+
+use super::{
+    Command, Controller, Observation, Pid, command_joint, joint_pid, planar_chain, wrap_angle_rad, yaw_joints,
+};
+use crate::config::{Config, ContactSource, ControlMethod};
+use crate::estimation::ContactEstimates;
+use crate::state::Snapshot;
+use std::f64::consts::{FRAC_PI_2, TAU};
+
+/// Spacing (m) of the path samples along S.
+pub const SAMPLE_SPACING_M: f64 = 0.005;
+
+/// The rail controller (module documentation).
+#[derive(Debug, Clone)]
+pub struct Rail {
+    /// α (rad).
+    pub amplitude_rad: f64,
+    /// 2π/λ (rad/m).
+    pub wavenumber_rad_per_m: f64,
+    /// λ (m).
+    pub wavelength_m: f64,
+    /// v_drive (m/s).
+    pub drive_speed_m_per_s: f64,
+    /// g.
+    pub progress_gain: f64,
+    /// τ (s).
+    pub progress_filter_secs: f64,
+    /// k_θ (rad/rad), Δ (m), q_steer,max (rad).
+    pub heading_gain: f64,
+    pub lookahead_m: f64,
+    pub max_steer_rad: f64,
+    /// q_wrap (rad).
+    pub wrap_rad: f64,
+    /// Jam rule: window (s), progress (m), back-off distance (m) and speed (m/s).
+    pub jam_window_secs: f64,
+    pub jam_min_progress_m: f64,
+    pub backoff_m: f64,
+    pub backoff_speed_m_per_s: f64,
+    /// L (m).
+    pub link_length_m: f64,
+    /// Where the contacts come from.
+    pub source: ContactSource,
+    /// With `source = True`: a link touches a peg when the true horizontal obstacle force reaches
+    /// this (N; the estimator's detection threshold).
+    pub true_threshold_n: f64,
+    yaw_joint: Vec<bool>,
+    method: ControlMethod,
+    pids: Vec<Pid>,
+    dt_secs: f64,
+    /// The head joint's command per path sample (ring indexed by sample mod length).
+    path_rad: Vec<f64>,
+    /// The head's yaw per path sample (same ring).
+    path_yaw_rad: Vec<f64>,
+    /// Index of the last written sample (samples below 0 are the straight start).
+    written: i64,
+    /// S (m).
+    arc_m: f64,
+    phase_rad: f64,
+    speed_m_per_s: f64,
+    head_yaw_rad: f64,
+    last_time_secs: f64,
+    started: bool,
+    checkpoint: Option<(f64, f64)>,
+    /// During a back-off: the S at which it ends.
+    backoff_to_m: Option<f64>,
+    heading_rad: Vec<f64>,
+    target_rad: Vec<f64>,
+    true_contacts: ContactEstimates,
+    /// Latest values, for logging and tests.
+    pub last: RailState,
+}
+
+/// What the rail controller did in its latest update.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RailState {
+    /// S (m).
+    pub arc_m: f64,
+    /// v̄ (m/s), filtered.
+    pub progress_speed_m_per_s: f64,
+    /// q_head (rad).
+    pub head_command_rad: f64,
+    /// θ̄_λ (rad).
+    pub path_heading_rad: f64,
+    /// Centre of mass (x, y; m) from the chain.
+    pub centre_of_mass_m: [f64; 2],
+    /// s_peg (−1, 0, +1).
+    pub peg_side: f64,
+    /// Whether the body is backing off (jam recovery).
+    pub backing_off: bool,
+    /// Jams detected so far.
+    pub jams: usize,
+}
+
+impl Rail {
+    /// The controller of `config` (`[rail]`, `[control]`) for `n_joints` joints.
+    pub fn from_config(config: &Config, n_joints: usize) -> Self {
+        let r = &config.rail;
+        let l = config.snake.link_length_m;
+        let reach_m = n_joints as f64 * l + r.backoff_m + r.wavelength_m + 0.5;
+        let samples = (reach_m / SAMPLE_SPACING_M).ceil() as usize + 4;
+        Self {
+            amplitude_rad: r.amplitude_deg.to_radians(),
+            wavenumber_rad_per_m: TAU / r.wavelength_m,
+            wavelength_m: r.wavelength_m,
+            drive_speed_m_per_s: r.drive_speed_m_per_s,
+            progress_gain: r.progress_gain,
+            progress_filter_secs: r.progress_filter_secs,
+            heading_gain: r.heading_gain,
+            lookahead_m: r.lookahead_m,
+            max_steer_rad: r.max_steer_deg.to_radians(),
+            wrap_rad: r.wrap_deg.to_radians(),
+            jam_window_secs: r.jam_window_secs,
+            jam_min_progress_m: r.jam_min_progress_m,
+            backoff_m: r.backoff_m,
+            backoff_speed_m_per_s: r.backoff_speed_m_per_s,
+            link_length_m: l,
+            source: r.contacts,
+            true_threshold_n: config.estimation.detection_threshold_n,
+            yaw_joint: yaw_joints(config, n_joints),
+            method: config.control.method,
+            pids: vec![joint_pid(config); n_joints],
+            dt_secs: config.general.timestep_secs,
+            path_rad: vec![0.0; samples],
+            path_yaw_rad: vec![0.0; samples],
+            written: -1,
+            arc_m: 0.0,
+            phase_rad: 0.0,
+            speed_m_per_s: 0.0,
+            head_yaw_rad: 0.0,
+            last_time_secs: 0.0,
+            started: false,
+            checkpoint: None,
+            backoff_to_m: None,
+            heading_rad: vec![0.0; n_joints + 1],
+            target_rad: vec![0.0; n_joints],
+            true_contacts: ContactEstimates::new(n_joints + 1),
+            last: RailState::default(),
+        }
+    }
+
+    fn slot(&self, k: i64) -> usize {
+        k.rem_euclid(self.path_rad.len() as i64) as usize
+    }
+
+    /// The sample k of a ring: 0 (or the start yaw) before the start, `current` beyond the
+    /// last written one.
+    fn sample(&self, ring: &[f64], k: i64, before: f64, current: f64) -> f64 {
+        if k < 0 {
+            before
+        } else if k > self.written {
+            current
+        } else {
+            ring[self.slot(k)]
+        }
+    }
+
+    /// The head command at arc length `s_m` (m) along the path: the written samples,
+    /// interpolated; `current` (the head's command now) beyond the last one; 0 before the start.
+    pub fn path_command_rad(&self, s_m: f64, current: f64) -> f64 {
+        let x = s_m / SAMPLE_SPACING_M;
+        let k = x.floor();
+        let frac = x - k;
+        let k = k as i64;
+        let a = self.sample(&self.path_rad, k, 0.0, current);
+        let b = self.sample(&self.path_rad, k + 1, 0.0, current);
+        a + frac * (b - a)
+    }
+
+    /// Moves S to `s_m`, writing the head's command and yaw into every sample passed going
+    /// forward (samples already written are kept while backing off: see [`Rail::step`]).
+    pub fn advance_to(&mut self, s_m: f64, command_rad: f64, yaw_rad: f64) {
+        let k_new = (s_m / SAMPLE_SPACING_M).floor() as i64;
+        let first = (self.written + 1).max(k_new - self.path_rad.len() as i64 + 1);
+        for k in first..=k_new {
+            let i = self.slot(k);
+            self.path_rad[i] = command_rad;
+            self.path_yaw_rad[i] = yaw_rad;
+        }
+        if k_new > self.written {
+            self.written = k_new;
+        }
+        self.arc_m = s_m;
+    }
+
+    /// Forgets the samples ahead of S (the head draws a new path from here).
+    pub fn truncate_path(&mut self) {
+        self.written = self.written.min((self.arc_m / SAMPLE_SPACING_M).floor() as i64);
+    }
+
+    /// θ̄_λ: the mean head yaw over the last wavelength of path (rad; `current` for samples not
+    /// yet written, `start` before the start).
+    pub fn path_heading_rad(&self, start: f64, current: f64) -> f64 {
+        let k_end = (self.arc_m / SAMPLE_SPACING_M).floor() as i64;
+        let n = ((self.wavelength_m / SAMPLE_SPACING_M).round() as i64).clamp(1, self.path_rad.len() as i64 - 1);
+        let mut sum = 0.0;
+        for k in (k_end - n + 1)..=k_end {
+            sum += self.sample(&self.path_yaw_rad, k, start, current);
+        }
+        sum / n as f64
+    }
+
+    /// The side (+1 left, −1 right, 0 none) of a peg touching link 0 or 1: the obstacle force
+    /// pushes the link away from the peg, so the peg is on the side opposite to the force's
+    /// component along the link's left normal (θᵢ the link headings).
+    pub fn head_peg_side(contacts: &ContactEstimates, heading_rad: &[f64]) -> f64 {
+        let mut normal_sum = 0.0;
+        for (i, heading) in heading_rad.iter().enumerate().take(2.min(contacts.n_links())) {
+            if !contacts.contact[i] {
+                continue;
+            }
+            let f = contacts.obstacle_force_n[i];
+            let (s, c) = heading.sin_cos();
+            normal_sum += -s * f[0] + c * f[1];
+        }
+        if normal_sum > 0.0 {
+            -1.0
+        } else if normal_sum < 0.0 {
+            1.0
+        } else {
+            0.0
+        }
+    }
+
+    fn step(&mut self, obs: &Observation, contacts: &ContactEstimates, cmd: &mut Command) {
+        let t = obs.time_secs;
+        if !self.started {
+            // The starting heading is known (calibration); from then on the gyro integrates it.
+            self.head_yaw_rad = crate::state::yaw_rad(obs.head_quat);
+            self.last_time_secs = t;
+            self.started = true;
+            let yaw = self.head_yaw_rad;
+            self.path_yaw_rad.fill(yaw);
+        }
+        let dt = (t - self.last_time_secs).max(0.0);
+        self.last_time_secs = t;
+        // Unwrapped: the path heading averages it.
+        self.head_yaw_rad += obs.imu_gyro_rad_per_s.first().map_or(0.0, |g| g[2]) * dt;
+        let head = [obs.head_position_m[0], obs.head_position_m[1]];
+        let (_, com) = planar_chain(
+            self.head_yaw_rad,
+            head,
+            &obs.joint_angle_rad,
+            &self.yaw_joint,
+            self.link_length_m,
+            &mut self.heading_rad,
+        );
+
+        // Odometry.
+        let (s, c) = self.head_yaw_rad.sin_cos();
+        let v = obs.head_velocity_m_per_s;
+        let along = v[0] * c + v[1] * s;
+        let alpha = (dt / self.progress_filter_secs).clamp(0.0, 1.0);
+        self.speed_m_per_s += alpha * (along - self.speed_m_per_s);
+
+        // Jam rule.
+        if self.backoff_to_m.is_none() {
+            match self.checkpoint {
+                None => self.checkpoint = Some((t, com[0])),
+                Some((t0, x0)) if t - t0 >= self.jam_window_secs => {
+                    if com[0] - x0 < self.jam_min_progress_m && self.backoff_m > 0.0 {
+                        self.backoff_to_m = Some((self.arc_m - self.backoff_m).max(0.0));
+                        self.last.jams += 1;
+                    }
+                    self.checkpoint = Some((t, com[0]));
+                }
+                Some(_) => {}
+            }
+        }
+
+        // The head's command.
+        let peg_side = Self::head_peg_side(contacts, &self.heading_rad);
+        let start_yaw = self.path_yaw_rad[self.slot(-1)];
+        let path_heading = self.path_heading_rad(start_yaw, self.head_yaw_rad);
+        let reference = -(com[1] / self.lookahead_m).atan();
+        let steer = (self.heading_gain * wrap_angle_rad(path_heading - reference))
+            .clamp(-self.max_steer_rad, self.max_steer_rad);
+        // Wrap toward a peg on the side the head heads to (it ends up inside the bend, on the
+        // bend's propulsive flank); turn away from one on the other side (it would hold back).
+        let toward = if peg_side * wrap_angle_rad(self.head_yaw_rad - reference) >= 0.0 { 1.0 } else { -1.0 };
+        let head_command = self.amplitude_rad * (self.wavenumber_rad_per_m * self.arc_m + self.phase_rad).sin() + steer
+            - toward * peg_side * self.wrap_rad;
+
+        // Shift the path.
+        match self.backoff_to_m {
+            Some(to) => {
+                let s_new = self.arc_m - self.backoff_speed_m_per_s * dt;
+                if s_new <= to {
+                    self.arc_m = to;
+                    self.truncate_path();
+                    self.backoff_to_m = None;
+                    self.phase_rad = (self.phase_rad + FRAC_PI_2) % TAU;
+                    self.checkpoint = Some((t, com[0]));
+                } else {
+                    self.arc_m = s_new;
+                }
+            }
+            None => {
+                let rate = self.progress_gain * self.speed_m_per_s.max(0.0) + self.drive_speed_m_per_s;
+                let yaw = self.head_yaw_rad;
+                self.advance_to(self.arc_m + rate * dt, head_command, yaw);
+            }
+        }
+
+        self.last = RailState {
+            arc_m: self.arc_m,
+            progress_speed_m_per_s: self.speed_m_per_s,
+            head_command_rad: head_command,
+            path_heading_rad: path_heading,
+            centre_of_mass_m: com,
+            peg_side,
+            backing_off: self.backoff_to_m.is_some(),
+            jams: self.last.jams,
+        };
+
+        let n = obs.joint_angle_rad.len().min(cmd.position_rad.len()).min(self.target_rad.len());
+        for j in 0..n {
+            let target = if self.yaw_joint[j] {
+                self.path_command_rad(self.arc_m - j as f64 * self.link_length_m, head_command)
+            } else {
+                0.0
+            };
+            let velocity = if dt > 0.0 { (target - self.target_rad[j]) / dt } else { 0.0 };
+            self.target_rad[j] = target;
+            command_joint(self.method, cmd, j, target, velocity, obs, &mut self.pids[j], self.dt_secs);
+        }
+    }
+
+    /// Fills the contacts of `source = True` from the simulator's state.
+    fn fill_true_contacts(&mut self, state: &Snapshot) {
+        let c = &mut self.true_contacts;
+        c.active = true;
+        for i in 0..c.n_links().min(state.link_obstacle_force_n.len()) {
+            let f = state.link_obstacle_force_n[i];
+            let f = [f[0], f[1], 0.0];
+            c.obstacle_force_n[i] = f;
+            c.contact[i] = f[0].hypot(f[1]) >= self.true_threshold_n;
+            c.contact_point_m[i] = state.link_obstacle_point_m[i];
+            c.contact_point_along_m[i] = state.link_obstacle_point_m[i].map(|p| state.along_link_axis_m(i, p));
+        }
+    }
+}
+
+impl Controller for Rail {
+    fn reset(&mut self) {
+        self.pids.iter_mut().for_each(Pid::reset);
+        self.path_rad.fill(0.0);
+        self.written = -1;
+        self.arc_m = 0.0;
+        self.phase_rad = 0.0;
+        self.speed_m_per_s = 0.0;
+        self.started = false;
+        self.checkpoint = None;
+        self.backoff_to_m = None;
+        self.target_rad.fill(0.0);
+        self.last = RailState::default();
+    }
+
+    fn update(&mut self, obs: &Observation, cmd: &mut Command) {
+        match self.source {
+            ContactSource::Estimated => self.step(obs, &obs.contacts, cmd),
+            // Without the simulator's state (a caller that does not pass it) nothing is felt.
+            ContactSource::True => self.step(obs, &ContactEstimates::default(), cmd),
+        }
+    }
+
+    fn needs_full_state(&self) -> bool {
+        self.source == ContactSource::True
+    }
+
+    fn update_with_state(&mut self, obs: &Observation, state: &Snapshot, cmd: &mut Command) {
+        self.fill_true_contacts(state);
+        let contacts = std::mem::take(&mut self.true_contacts);
+        self.step(obs, &contacts, cmd);
+        self.true_contacts = contacts;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn controller(n_joints: usize) -> Rail {
+        let mut c = Config::default();
+        c.control.method = ControlMethod::Position;
+        Rail::from_config(&c, n_joints)
+    }
+
+    /// An observation of a straight snake whose head points along `yaw_rad`, its centre of
+    /// mass on the line y = 0.
+    fn straight(n_joints: usize, yaw_rad: f64, link_length_m: f64) -> Observation {
+        let mut obs = Observation::new(n_joints + 1, n_joints);
+        obs.head_quat = [(0.5 * yaw_rad).cos(), 0.0, 0.0, (0.5 * yaw_rad).sin()];
+        let half_body_m = 0.5 * (n_joints + 1) as f64 * link_length_m;
+        obs.head_position_m = [half_body_m * yaw_rad.cos(), half_body_m * yaw_rad.sin(), 0.0];
+        obs
+    }
+
+    #[test]
+    fn joints_repeat_the_head_command_one_link_length_later() {
+        let mut r = controller(4);
+        let l = r.link_length_m;
+        // The head draws q(S) = S (rad per m) for 1 m of path.
+        let steps = 200;
+        for k in 1..=steps {
+            let s = k as f64 * 1.0 / steps as f64;
+            r.advance_to(s, s, 0.0);
+        }
+        let s = r.arc_m;
+        for j in 1..4 {
+            let back = s - j as f64 * l;
+            let got = r.path_command_rad(back, 99.0);
+            assert!((got - back).abs() < 2.0 * SAMPLE_SPACING_M, "joint {j}: {got} against {back}");
+        }
+        // Before the start of the path the body is straight; ahead of it, the head's command now.
+        assert_eq!(r.path_command_rad(-0.3, 99.0), 0.0);
+        assert_eq!(r.path_command_rad(s + 0.1, 99.0), 99.0);
+    }
+
+    #[test]
+    fn backing_off_retraces_the_path_then_the_head_draws_a_new_one() {
+        let mut r = controller(4);
+        for k in 1..=100 {
+            let s = k as f64 * 0.01;
+            r.advance_to(s, s, 0.0);
+        }
+        // Back off 0.3 m: the samples there are the old ones.
+        r.arc_m = 0.7;
+        assert!((r.path_command_rad(0.75, -5.0) - 0.75).abs() < 0.02);
+        r.truncate_path();
+        // Going forward again overwrites what lies ahead.
+        r.advance_to(0.9, -5.0, 0.0);
+        assert_eq!(r.path_command_rad(0.85, 0.0), -5.0);
+        assert!((r.path_command_rad(0.5, 0.0) - 0.5).abs() < 0.02);
+    }
+
+    #[test]
+    fn peg_side_is_opposite_to_the_push() {
+        let mut c = ContactEstimates::new(5);
+        let heading = [0.0; 5];
+        assert_eq!(Rail::head_peg_side(&c, &heading), 0.0);
+        // A force along the head's left normal (+y for heading 0): the peg is on its right.
+        c.contact[0] = true;
+        c.obstacle_force_n[0] = [0.0, 4.0, 0.0];
+        assert_eq!(Rail::head_peg_side(&c, &heading), -1.0);
+        c.obstacle_force_n[0] = [1.0, -4.0, 0.0];
+        assert_eq!(Rail::head_peg_side(&c, &heading), 1.0);
+        // Links behind the second do not count.
+        c.contact[0] = false;
+        c.contact[3] = true;
+        c.obstacle_force_n[3] = [0.0, 4.0, 0.0];
+        assert_eq!(Rail::head_peg_side(&c, &heading), 0.0);
+    }
+
+    #[test]
+    fn heading_left_of_the_goal_turns_the_head_right() {
+        let mut r = controller(9);
+        r.amplitude_rad = 0.0;
+        r.wrap_rad = 0.0;
+        let yaw = 0.3;
+        let obs = straight(9, yaw, r.link_length_m);
+        let mut cmd = Command::new(9);
+        r.update(&obs, &mut cmd);
+        // A positive joint angle turns the head clockwise relative to the body.
+        let expected = (r.heading_gain * yaw).min(r.max_steer_rad);
+        assert!((cmd.position_rad[0] - expected).abs() < 1e-6, "{} against {expected}", cmd.position_rad[0]);
+        // Mirrored heading, mirrored turn.
+        let mut r = controller(9);
+        r.amplitude_rad = 0.0;
+        r.wrap_rad = 0.0;
+        r.update(&straight(9, -yaw, r.link_length_m), &mut cmd);
+        assert!((cmd.position_rad[0] + expected).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_head_wraps_toward_a_peg_ahead_and_turns_away_from_one_behind() {
+        let run = |yaw: f64, force_y_n: f64| {
+            let mut r = controller(9);
+            r.amplitude_rad = 0.0;
+            r.heading_gain = 0.0;
+            let mut obs = straight(9, yaw, r.link_length_m);
+            obs.contacts = ContactEstimates::new(10);
+            obs.contacts.active = true;
+            obs.contacts.contact[0] = true;
+            obs.contacts.obstacle_force_n[0] = [-yaw.sin() * force_y_n, yaw.cos() * force_y_n, 0.0];
+            let mut cmd = Command::new(9);
+            r.update(&obs, &mut cmd);
+            (cmd.position_rad[0], r.wrap_rad)
+        };
+        // Heading left (yaw > 0) with a peg on the left (pushed right): turn left, toward it
+        // (a negative joint angle turns the head counter-clockwise).
+        let (q, wrap) = run(0.2, -4.0);
+        assert!((q + wrap).abs() < 1e-9, "{q}");
+        // Heading left with a peg on the right: turn left, away from it.
+        let (q, wrap) = run(0.2, 4.0);
+        assert!((q + wrap).abs() < 1e-9, "{q}");
+        // Heading right with a peg on the right: turn right, toward it.
+        let (q, wrap) = run(-0.2, 4.0);
+        assert!((q - wrap).abs() < 1e-9, "{q}");
+    }
+}
