@@ -430,20 +430,6 @@ impl ObstacleAided {
             command_joint(self.method, cmd, j, angle, velocity, obs, &mut self.pids[j], self.dt_secs);
         }
     }
-
-    /// Fills the contacts of `source = True` from the simulator's state.
-    fn fill_true_contacts(&mut self, state: &Snapshot) {
-        let c = &mut self.true_contacts;
-        c.active = true;
-        for i in 0..c.n_links().min(state.link_obstacle_force_n.len()) {
-            let f = state.link_obstacle_force_n[i];
-            let f = [f[0], f[1], 0.0];
-            c.obstacle_force_n[i] = f;
-            c.contact[i] = f[0].hypot(f[1]) >= self.true_threshold_n;
-            c.contact_point_m[i] = state.link_obstacle_point_m[i];
-            c.contact_point_along_m[i] = state.link_obstacle_point_m[i].map(|p| state.along_link_axis_m(i, p));
-        }
-    }
 }
 
 impl Controller for ObstacleAided {
@@ -472,7 +458,7 @@ impl Controller for ObstacleAided {
     }
 
     fn update_with_state(&mut self, obs: &Observation, state: &Snapshot, cmd: &mut Command) {
-        self.fill_true_contacts(state);
+        self.true_contacts.fill_from_truth(state, self.true_threshold_n);
         let contacts = std::mem::take(&mut self.true_contacts);
         self.step(obs, &contacts, cmd);
         self.true_contacts = contacts;

@@ -86,6 +86,21 @@ pub struct ContactEstimates {
 }
 
 impl ContactEstimates {
+    /// The simulator's true contacts in the estimates' form, for controllers compared on the
+    /// truth (`contacts = "true"`): per link the horizontal obstacle force, the contact flag (its
+    /// magnitude at least `threshold_n`, the estimator's detection threshold) and the point.
+    pub fn fill_from_truth(&mut self, state: &crate::state::Snapshot, threshold_n: f64) {
+        self.active = true;
+        for i in 0..self.n_links().min(state.link_obstacle_force_n.len()) {
+            let f = state.link_obstacle_force_n[i];
+            let f = [f[0], f[1], 0.0];
+            self.obstacle_force_n[i] = f;
+            self.contact[i] = f[0].hypot(f[1]) >= threshold_n;
+            self.contact_point_m[i] = state.link_obstacle_point_m[i];
+            self.contact_point_along_m[i] = state.link_obstacle_point_m[i].map(|p| state.along_link_axis_m(i, p));
+        }
+    }
+
     /// Estimates for `n_links` links (inactive until filled).
     pub fn new(n_links: usize) -> Self {
         Self {
