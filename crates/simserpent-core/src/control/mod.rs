@@ -358,6 +358,62 @@ impl Controller for TrajectoryController {
     }
 }
 
+/// Where a contact-feeling controller (`ObstacleAided`, `Rail`) gets its contacts: the step
+/// loop's estimates in the observation, or, with `ContactSource::True` (for comparison), the
+/// simulator's truth, which needs the full state (`Controller::update_with_state`).
+#[derive(Debug, Clone)]
+pub struct ContactFeed {
+    /// Where the contacts come from.
+    pub source: crate::config::ContactSource,
+    /// With `source = True`: a link touches a peg when the true horizontal obstacle force reaches
+    /// this (N; the estimator's detection threshold).
+    pub true_threshold_n: f64,
+    /// The true contacts, filled each step (no allocation after construction).
+    truth: crate::estimation::ContactEstimates,
+}
+
+impl ContactFeed {
+    /// The feed of `source` for `n_links` links, with `config`'s detection threshold.
+    pub fn new(config: &Config, source: crate::config::ContactSource, n_links: usize) -> Self {
+        Self {
+            source,
+            true_threshold_n: config.estimation.detection_threshold_n,
+            truth: crate::estimation::ContactEstimates::new(n_links),
+        }
+    }
+
+    /// Whether the controller needs the simulator's state (the true contacts).
+    pub fn needs_full_state(&self) -> bool {
+        self.source == crate::config::ContactSource::True
+    }
+}
+
+/// One update of the contact-feeling controller `ctl` (its feed reached through `feed`): calls
+/// `step` with this instant's contacts — the observation's estimates; the truth of `state` with
+/// `source = True`; nothing (inactive estimates) with `source = True` and no state.
+pub(crate) fn feel<C>(
+    ctl: &mut C,
+    feed: fn(&mut C) -> &mut ContactFeed,
+    step: fn(&mut C, &Observation, &crate::estimation::ContactEstimates, &mut Command),
+    obs: &Observation,
+    state: Option<&crate::state::Snapshot>,
+    cmd: &mut Command,
+) {
+    use crate::config::ContactSource;
+    let f = feed(ctl);
+    match (f.source, state) {
+        (ContactSource::Estimated, _) => step(ctl, obs, &obs.contacts, cmd),
+        (ContactSource::True, None) => step(ctl, obs, &crate::estimation::ContactEstimates::default(), cmd),
+        (ContactSource::True, Some(state)) => {
+            let threshold_n = f.true_threshold_n;
+            let mut truth = std::mem::take(&mut f.truth);
+            truth.fill_from_truth(state, threshold_n);
+            step(ctl, obs, &truth, cmd);
+            feed(ctl).truth = truth;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

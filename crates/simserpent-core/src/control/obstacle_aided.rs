@@ -87,7 +87,8 @@
 
 use super::gait::ramp;
 use super::{
-    Command, Controller, Observation, Pid, command_joint, joint_pid, planar_chain, wrap_angle_rad, yaw_joints,
+    Command, ContactFeed, Controller, Observation, Pid, command_joint, feel, joint_pid, planar_chain, wrap_angle_rad,
+    yaw_joints,
 };
 use crate::config::{Config, ContactSource, ControlMethod, Propagation, WaveSpeed};
 use crate::estimation::ContactEstimates;
@@ -118,11 +119,8 @@ pub struct ObstacleAided {
     pub recovery_secs: f64,
     /// L (m).
     pub link_length_m: f64,
-    /// Where the contacts come from.
-    pub source: ContactSource,
-    /// With `source = True`: a link touches a peg when the true horizontal obstacle force reaches
-    /// this (N; the estimator's detection threshold).
-    pub true_threshold_n: f64,
+    /// Where the contacts come from (estimates or, for comparison, the truth).
+    pub contacts: ContactFeed,
     /// Heading control: k_θ (rad per rad), goal heading θ_g (rad), largest offset (rad).
     pub heading_gain: f64,
     pub goal_heading_rad: f64,
@@ -145,8 +143,6 @@ pub struct ObstacleAided {
     offset_rad: Vec<f64>,
     /// θᵢ (rad), scratch.
     heading_rad: Vec<f64>,
-    /// The contacts of `source = True`, filled from the snapshot.
-    true_contacts: ContactEstimates,
     phase_rad: f64,
     last_time_secs: f64,
     head_yaw_rad: f64,
@@ -199,8 +195,7 @@ impl ObstacleAided {
             jam_min_progress_m: o.jam_min_progress_m,
             recovery_secs: o.recovery_secs,
             link_length_m: config.snake.link_length_m,
-            source: o.contacts,
-            true_threshold_n: config.estimation.detection_threshold_n,
+            contacts: ContactFeed::new(config, o.contacts, n_joints + 1),
             heading_gain: o.heading_gain,
             goal_heading_rad: o.goal_heading_deg.to_radians(),
             max_heading_offset_rad: o.max_heading_offset_deg.to_radians(),
@@ -216,7 +211,6 @@ impl ObstacleAided {
             dt_secs: config.general.timestep_secs,
             offset_rad: vec![0.0; n_joints],
             heading_rad: vec![0.0; n_joints + 1],
-            true_contacts: ContactEstimates::new(n_joints + 1),
             phase_rad: 0.0,
             last_time_secs: 0.0,
             head_yaw_rad: 0.0,
@@ -279,7 +273,7 @@ impl ObstacleAided {
             self.offset_rad[0] *= 1.0 - sigma;
         }
         let (mut propulsive, mut resistive) = (0, 0);
-        if contacts.active || self.source == ContactSource::True {
+        if contacts.active || self.contacts.source == ContactSource::True {
             let u = [mean_heading_rad.cos(), mean_heading_rad.sin()];
             let n_links = contacts.n_links().min(heading_rad.len()).min(n_joints + 1);
             for (i, heading) in heading_rad.iter().enumerate().take(n_links) {
@@ -446,22 +440,15 @@ impl Controller for ObstacleAided {
     }
 
     fn update(&mut self, obs: &Observation, cmd: &mut Command) {
-        match self.source {
-            ContactSource::Estimated => self.step(obs, &obs.contacts, cmd),
-            // Without the simulator's state (a caller that does not pass it) nothing is felt.
-            ContactSource::True => self.step(obs, &ContactEstimates::default(), cmd),
-        }
+        feel(self, |c| &mut c.contacts, Self::step, obs, None, cmd);
     }
 
     fn needs_full_state(&self) -> bool {
-        self.source == ContactSource::True
+        self.contacts.needs_full_state()
     }
 
     fn update_with_state(&mut self, obs: &Observation, state: &Snapshot, cmd: &mut Command) {
-        self.true_contacts.fill_from_truth(state, self.true_threshold_n);
-        let contacts = std::mem::take(&mut self.true_contacts);
-        self.step(obs, &contacts, cmd);
-        self.true_contacts = contacts;
+        feel(self, |c| &mut c.contacts, Self::step, obs, Some(state), cmd);
     }
 }
 

@@ -59,9 +59,10 @@
 //! allocates after construction.
 
 use super::{
-    Command, Controller, Observation, Pid, command_joint, joint_pid, planar_chain, wrap_angle_rad, yaw_joints,
+    Command, ContactFeed, Controller, Observation, Pid, command_joint, feel, joint_pid, planar_chain, wrap_angle_rad,
+    yaw_joints,
 };
-use crate::config::{Config, ContactSource, ControlMethod};
+use crate::config::{Config, ControlMethod};
 use crate::estimation::ContactEstimates;
 use crate::state::Snapshot;
 use std::f64::consts::{FRAC_PI_2, TAU};
@@ -97,11 +98,8 @@ pub struct Rail {
     pub backoff_speed_m_per_s: f64,
     /// L (m).
     pub link_length_m: f64,
-    /// Where the contacts come from.
-    pub source: ContactSource,
-    /// With `source = True`: a link touches a peg when the true horizontal obstacle force reaches
-    /// this (N; the estimator's detection threshold).
-    pub true_threshold_n: f64,
+    /// Where the contacts come from (estimates or, for comparison, the truth).
+    pub contacts: ContactFeed,
     yaw_joint: Vec<bool>,
     method: ControlMethod,
     pids: Vec<Pid>,
@@ -124,7 +122,6 @@ pub struct Rail {
     backoff_to_m: Option<f64>,
     heading_rad: Vec<f64>,
     target_rad: Vec<f64>,
-    true_contacts: ContactEstimates,
     /// Latest values, for logging and tests.
     pub last: RailState,
 }
@@ -173,8 +170,7 @@ impl Rail {
             backoff_m: r.backoff_m,
             backoff_speed_m_per_s: r.backoff_speed_m_per_s,
             link_length_m: l,
-            source: r.contacts,
-            true_threshold_n: config.estimation.detection_threshold_n,
+            contacts: ContactFeed::new(config, r.contacts, n_joints + 1),
             yaw_joint: yaw_joints(config, n_joints),
             method: config.control.method,
             pids: vec![joint_pid(config); n_joints],
@@ -192,7 +188,6 @@ impl Rail {
             backoff_to_m: None,
             heading_rad: vec![0.0; n_joints + 1],
             target_rad: vec![0.0; n_joints],
-            true_contacts: ContactEstimates::new(n_joints + 1),
             last: RailState::default(),
         }
     }
@@ -401,22 +396,15 @@ impl Controller for Rail {
     }
 
     fn update(&mut self, obs: &Observation, cmd: &mut Command) {
-        match self.source {
-            ContactSource::Estimated => self.step(obs, &obs.contacts, cmd),
-            // Without the simulator's state (a caller that does not pass it) nothing is felt.
-            ContactSource::True => self.step(obs, &ContactEstimates::default(), cmd),
-        }
+        feel(self, |c| &mut c.contacts, Self::step, obs, None, cmd);
     }
 
     fn needs_full_state(&self) -> bool {
-        self.source == ContactSource::True
+        self.contacts.needs_full_state()
     }
 
     fn update_with_state(&mut self, obs: &Observation, state: &Snapshot, cmd: &mut Command) {
-        self.true_contacts.fill_from_truth(state, self.true_threshold_n);
-        let contacts = std::mem::take(&mut self.true_contacts);
-        self.step(obs, &contacts, cmd);
-        self.true_contacts = contacts;
+        feel(self, |c| &mut c.contacts, Self::step, obs, Some(state), cmd);
     }
 }
 
