@@ -204,14 +204,13 @@ fn obstacle_aided_controller_moves_through_a_peg_field_on_isotropic_friction() {
 /// estimated contacts moves the snake forward on the `hoal` experiment's isotropic floor among
 /// random pegs, on fields nobody tuned on (seeds 40–42, the medium density, 10 s; hoal's speed:
 /// the centre of mass along +x from the end of the ramp). Measured 2026-11-23 (debug build):
-/// 11.1, 12.1 and 5.4 mm/s; seed 42 trips hoal's jam rule once (5 s without 2 cm), so at most
-/// one jam of the three is allowed (hoal's target: ≤ 10 % of runs). The open-loop sine waves
-/// drift backward on most fields of this scene (BENCHMARKS, "Obstacle-aided locomotion
-/// (issue 15)"). This is slow, and most of it is not the pegs' doing: the same wave advances
-/// about as fast on the bare floor.
+/// 11.1, 12.1 and 5.4 mm/s. Jams are not asserted here: seed 42 trips hoal's jam rule (5 s
+/// without 2 cm), and `simserpent experiment hoal` fails its jam check on this controller (6 of
+/// 30 runs; target ≤ 10 %), as it should. This is slow, and most of it is not the pegs' doing:
+/// the same wave advances about as fast on the bare floor, and the open-loop wave running toward
+/// the head is faster (BENCHMARKS, "Obstacle-aided locomotion (issue 15)").
 #[test]
 fn obstacle_aided_controller_advances_on_unseen_peg_fields() {
-    let mut jams = 0;
     for seed in 40..=42 {
         let mut c = field_config(&Config::default(), DENSITIES[1].1, seed);
         c.general.duration_secs = 10.0;
@@ -219,10 +218,8 @@ fn obstacle_aided_controller_advances_on_unseen_peg_fields() {
         c.estimation.enabled = true;
         let (speed_m_per_s, jammed) = score_run(&c).unwrap();
         eprintln!("seed {seed}: {:.1} mm/s, jammed {jammed}", 1e3 * speed_m_per_s);
-        jams += usize::from(jammed);
         assert!(speed_m_per_s > 0.004, "seed {seed}: {:.1} mm/s", 1e3 * speed_m_per_s);
     }
-    assert!(jams <= 1, "{jams} of 3 fields jammed");
 }
 
 /// The follow-the-leader ("rail") controller with its default `[rail]` values and estimated
