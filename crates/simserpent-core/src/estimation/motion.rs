@@ -567,7 +567,7 @@ const IDENTIFY_SCALE_RANGE: [f64; 2] = [0.2, 5.0];
 /// The support gate: the simulated floor bounds its friction with the normal force of an earlier
 /// evaluation, so at a step where the support jumps the force is not `μ·N` (the true floor force
 /// over the model's at the true coefficients: 0.68 where N changed by more than 12 % in a step,
-/// 0.99 where it changed by less than 2 %; such jumps are frequent while the snake settles in its
+/// 0.99 where it changed by less than 3.5 %; such jumps are frequent while the snake settles in its
 /// first two seconds).
 #[derive(Debug, Clone, PartialEq)]
 pub struct FrictionFit {
@@ -1253,7 +1253,7 @@ mod tests {
         // support is.
         let n = 0.3 * 9.81;
         let jumping = |k: usize| {
-            let nk = if k % 2 == 0 { n } else { 1.3 * n };
+            let nk = if k.is_multiple_of(2) { n } else { 1.3 * n };
             [0.0, -nk, nk]
         };
         let (mu, samples) = identify_one_link(jumping, 100);
