@@ -62,7 +62,7 @@ use super::{
     Command, ContactFeed, Controller, Observation, Pid, command_joint, feel, joint_pid, planar_chain, wrap_angle_rad,
     yaw_joints,
 };
-use crate::config::{Config, ControlMethod};
+use crate::config::{Config, ControlMethod, RailGait};
 use crate::estimation::ContactEstimates;
 use crate::state::Snapshot;
 use std::f64::consts::{FRAC_PI_2, TAU};
@@ -100,6 +100,34 @@ pub struct Rail {
     pub link_length_m: f64,
     /// Where the contacts come from (estimates or, for comparison, the truth).
     pub contacts: ContactFeed,
+    /// Whether the contact terms (head wrap, gait switch) act.
+    pub use_contacts: bool,
+    /// The drift gait: A_d (rad), δ_d (rad), ω (rad/s), ramp-in (s).
+    pub drift_amplitude_rad: f64,
+    pub drift_phase_lag_rad: f64,
+    pub drift_angular_frequency_rad_per_s: f64,
+    pub ramp_secs: f64,
+    /// Gait switch: filter τ_c (s), thresholds (N) and times (s).
+    pub contact_filter_secs: f64,
+    pub propel_force_n: f64,
+    pub no_peg_secs: f64,
+    pub resist_force_n: f64,
+    pub drift_min_secs: f64,
+    pub blend_secs: f64,
+    initial_gait: RailGait,
+    gait: RailGait,
+    /// Blend b ∈ [0, 1]: 0 all rail, 1 all drift.
+    blend: f64,
+    /// When the current gait started (s).
+    gait_since_secs: f64,
+    /// Since when the propelling force has been below its threshold (s).
+    quiet_since_secs: Option<f64>,
+    /// Filtered propelling and resisting obstacle forces (N).
+    propel_n: f64,
+    resist_n: f64,
+    drift_target_rad: Vec<f64>,
+    dbg: [f64; 4],
+    dbg_next: f64,
     yaw_joint: Vec<bool>,
     method: ControlMethod,
     pids: Vec<Pid>,
@@ -145,6 +173,14 @@ pub struct RailState {
     pub backing_off: bool,
     /// Jams detected so far.
     pub jams: usize,
+    /// The gait (rail or drift) and the blend toward drift (0..1).
+    pub drift: bool,
+    pub blend: f64,
+    /// Filtered propelling and resisting obstacle forces (N).
+    pub propel_force_n: f64,
+    pub resist_force_n: f64,
+    /// Gait switches so far.
+    pub switches: usize,
 }
 
 impl Rail {
@@ -171,6 +207,32 @@ impl Rail {
             backoff_speed_m_per_s: r.backoff_speed_m_per_s,
             link_length_m: l,
             contacts: ContactFeed::new(config, r.contacts, n_joints + 1),
+            use_contacts: r.use_contacts,
+            drift_amplitude_rad: r.drift_amplitude_deg.to_radians(),
+            drift_phase_lag_rad: r.drift_phase_lag_deg.to_radians(),
+            drift_angular_frequency_rad_per_s: TAU * r.drift_frequency_hz,
+            ramp_secs: config.gait.ramp_secs,
+            contact_filter_secs: r.contact_filter_secs,
+            propel_force_n: r.propel_force_n,
+            no_peg_secs: r.no_peg_secs,
+            resist_force_n: r.resist_force_n,
+            drift_min_secs: r.drift_min_secs,
+            blend_secs: r.blend_secs,
+            initial_gait: r.initial_gait,
+            gait: r.initial_gait,
+            blend: if r.initial_gait == RailGait::Drift { 1.0 } else { 0.0 },
+            gait_since_secs: 0.0,
+            quiet_since_secs: None,
+            propel_n: 0.0,
+            resist_n: 0.0,
+            drift_target_rad: vec![0.0; n_joints],
+            dbg: [
+                std::env::var("RAIL_DEBUG").ok().and_then(|v| v.parse().ok()).unwrap_or(0.0),
+                std::env::var("RAIL_NET").ok().and_then(|v| v.parse().ok()).unwrap_or(0.0),
+                std::env::var("RAIL_JAM").ok().and_then(|v| v.parse().ok()).unwrap_or(0.0),
+                std::env::var("RAIL_X").ok().and_then(|v| v.parse().ok()).unwrap_or(0.0),
+            ],
+            dbg_next: 0.0,
             yaw_joint: yaw_joints(config, n_joints),
             method: config.control.method,
             pids: vec![joint_pid(config); n_joints],
@@ -275,6 +337,50 @@ impl Rail {
         }
     }
 
+    /// The filtered propelling force P (sum over links in contact of the obstacle force's +x
+    /// component, world) and resisting force R (of its −x component), both ≥ 0 (N), before
+    /// filtering.
+    pub fn propelling_and_resisting_n(contacts: &ContactEstimates) -> (f64, f64) {
+        let mut propel = 0.0;
+        let mut resist = 0.0;
+        for i in 0..contacts.n_links() {
+            if !contacts.contact[i] {
+                continue;
+            }
+            let fx = contacts.obstacle_force_n[i][0];
+            if fx > 0.0 {
+                propel += fx;
+            } else {
+                resist -= fx;
+            }
+        }
+        (propel, resist)
+    }
+
+    /// Loads the body's current shape `q_rad` (joint targets) into the path behind S, so that
+    /// the rail gait continues from it (joint j sits j link lengths behind the head's sample).
+    /// The head's yaw fills the samples the path heading averages.
+    fn load_shape(&mut self, q_rad: &[f64], yaw_rad: f64) {
+        let n = q_rad.len();
+        let l = self.link_length_m;
+        let reach_m = self.wavelength_m.max(n as f64 * l) + 2.0 * SAMPLE_SPACING_M;
+        let s0 = self.arc_m.max(reach_m);
+        let k_end = (s0 / SAMPLE_SPACING_M).floor() as i64;
+        let k_lo = ((s0 - reach_m) / SAMPLE_SPACING_M).floor() as i64;
+        for k in k_lo.max(0)..=k_end {
+            let u = ((s0 - k as f64 * SAMPLE_SPACING_M) / l).clamp(0.0, (n.max(1) - 1) as f64);
+            let j = (u.floor() as usize).min(n.saturating_sub(1));
+            let frac = u - j as f64;
+            let a = q_rad.get(j).copied().unwrap_or(0.0);
+            let b = q_rad.get(j + 1).copied().unwrap_or(a);
+            let i = self.slot(k);
+            self.path_rad[i] = a + frac * (b - a);
+            self.path_yaw_rad[i] = yaw_rad;
+        }
+        self.written = k_end;
+        self.arc_m = s0;
+    }
+
     fn step(&mut self, obs: &Observation, contacts: &ContactEstimates, cmd: &mut Command) {
         let t = obs.time_secs;
         if !self.started {
@@ -284,6 +390,7 @@ impl Rail {
             self.started = true;
             let yaw = self.head_yaw_rad;
             self.path_yaw_rad.fill(yaw);
+            self.gait_since_secs = t;
         }
         let dt = (t - self.last_time_secs).max(0.0);
         self.last_time_secs = t;
@@ -306,23 +413,99 @@ impl Rail {
         let alpha = (dt / self.progress_filter_secs).clamp(0.0, 1.0);
         self.speed_m_per_s += alpha * (along - self.speed_m_per_s);
 
+        // What the pegs do along +x.
+        let (propel, resist) =
+            if self.use_contacts { Self::propelling_and_resisting_n(contacts) } else { (0.0, 0.0) };
+        let alpha_c = (dt / self.contact_filter_secs).clamp(0.0, 1.0);
+        self.propel_n += alpha_c * (propel - self.propel_n);
+        self.resist_n += alpha_c * (resist - self.resist_n);
+
         // Jam rule.
+        let mut jammed = false;
         if self.backoff_to_m.is_none() {
             match self.checkpoint {
                 None => self.checkpoint = Some((t, com[0])),
                 Some((t0, x0)) if t - t0 >= self.jam_window_secs => {
-                    if com[0] - x0 < self.jam_min_progress_m && self.backoff_m > 0.0 {
-                        self.backoff_to_m = Some((self.arc_m - self.backoff_m).max(0.0));
+                    if com[0] - x0 < self.jam_min_progress_m {
+                        jammed = true;
                         self.last.jams += 1;
+                        if self.gait == RailGait::Rail && self.backoff_m > 0.0 {
+                            self.backoff_to_m = Some((self.arc_m - self.backoff_m).max(0.0));
+                        }
                     }
                     self.checkpoint = Some((t, com[0]));
                 }
                 Some(_) => {}
             }
         }
+        if jammed && self.dbg[2] > 0.0 && self.use_contacts {
+            // Experimental: a jam switches the gait (rail backs off first).
+            if self.gait == RailGait::Drift {
+                self.gait_since_secs = f64::NEG_INFINITY;
+                self.resist_n = self.resist_n.max(self.resist_force_n + 1.0);
+            } else {
+                self.quiet_since_secs = Some(f64::NEG_INFINITY);
+                self.propel_n = self.propel_n.min(self.propel_force_n - 1.0);
+            }
+        }
+        if self.dbg[0] > 0.0 && t >= self.dbg_next {
+            self.dbg_next = t + self.dbg[0];
+            eprintln!(
+                "{:?} t {t:5.2} x {:6.3} y {:6.3} gait {:?} b {:.2} P {propel:5.1} R {resist:5.1} Pf {:5.1} Rf {:5.1} jams {} bo {}",
+                std::thread::current().id(), com[0], com[1], self.gait, self.blend, self.propel_n, self.resist_n, self.last.jams, self.backoff_to_m.is_some()
+            );
+        }
+
+        // Gait switch.
+        let mut switch_to = None;
+        if self.use_contacts && self.backoff_to_m.is_none() {
+            match self.gait {
+                RailGait::Rail => {
+                    let p = if self.dbg[1] > 0.0 { self.propel_n - self.resist_n } else { self.propel_n };
+                    if p < self.propel_force_n {
+                        let since = *self.quiet_since_secs.get_or_insert(t);
+                        if t - since >= self.no_peg_secs {
+                            switch_to = Some(RailGait::Drift);
+                        }
+                    } else {
+                        self.quiet_since_secs = None;
+                    }
+                }
+                RailGait::Drift => {
+                    if t - self.gait_since_secs >= self.drift_min_secs && self.resist_n > self.resist_force_n {
+                        switch_to = Some(RailGait::Rail);
+                    }
+                }
+            }
+        }
+        if let Some(gait) = switch_to {
+            self.gait = gait;
+            self.gait_since_secs = t;
+            self.quiet_since_secs = None;
+            self.checkpoint = Some((t, com[0]));
+            self.last.switches += 1;
+            if gait == RailGait::Rail {
+                let shape = std::mem::take(&mut self.target_rad);
+                let yaw = self.head_yaw_rad;
+                self.load_shape(&shape, yaw);
+                self.target_rad = shape;
+                // Continue the head's sine from the head joint's command now, on the branch
+                // whose slope has the drift wave's sign there.
+                let q0 = self.target_rad.first().copied().unwrap_or(0.0);
+                let x = if self.amplitude_rad > 0.0 { (q0 / self.amplitude_rad).clamp(-1.0, 1.0) } else { 0.0 };
+                let rising = (self.drift_angular_frequency_rad_per_s * t).cos() >= 0.0;
+                let theta = if rising { x.asin() } else { std::f64::consts::PI - x.asin() };
+                self.phase_rad = (theta - self.wavenumber_rad_per_m * self.arc_m).rem_euclid(TAU);
+            }
+        }
+        let step_b = if self.blend_secs > 0.0 { dt / self.blend_secs } else { 1.0 };
+        self.blend = match self.gait {
+            RailGait::Drift => (self.blend + step_b).min(1.0),
+            RailGait::Rail => (self.blend - step_b).max(0.0),
+        };
 
         // The head's command.
-        let peg_side = Self::head_peg_side(contacts, &self.heading_rad);
+        let peg_side = if self.use_contacts { Self::head_peg_side(contacts, &self.heading_rad) } else { 0.0 };
         let start_yaw = self.path_yaw_rad[self.slot(-1)];
         let path_heading = self.path_heading_rad(start_yaw, self.head_yaw_rad);
         let reference = -(com[1] / self.lookahead_m).atan();
@@ -334,25 +517,34 @@ impl Rail {
         let head_command = self.amplitude_rad * (self.wavenumber_rad_per_m * self.arc_m + self.phase_rad).sin() + steer
             - toward * peg_side * self.wrap_rad;
 
-        // Shift the path.
-        match self.backoff_to_m {
-            Some(to) => {
-                let s_new = self.arc_m - self.backoff_speed_m_per_s * dt;
-                if s_new <= to {
-                    self.arc_m = to;
-                    self.truncate_path();
-                    self.backoff_to_m = None;
-                    self.phase_rad = (self.phase_rad + FRAC_PI_2) % TAU;
-                    self.checkpoint = Some((t, com[0]));
-                } else {
-                    self.arc_m = s_new;
+        // Shift the path (while the rail gait has any weight).
+        if self.blend < 1.0 {
+            match self.backoff_to_m {
+                Some(to) => {
+                    let s_new = self.arc_m - self.backoff_speed_m_per_s * dt;
+                    if s_new <= to {
+                        self.arc_m = to;
+                        self.truncate_path();
+                        self.backoff_to_m = None;
+                        self.phase_rad = (self.phase_rad + FRAC_PI_2) % TAU;
+                        self.checkpoint = Some((t, com[0]));
+                    } else {
+                        self.arc_m = s_new;
+                    }
+                }
+                None => {
+                    let rate = self.progress_gain * self.speed_m_per_s.max(0.0) + self.drive_speed_m_per_s;
+                    let yaw = self.head_yaw_rad;
+                    self.advance_to(self.arc_m + rate * dt, head_command, yaw);
                 }
             }
-            None => {
-                let rate = self.progress_gain * self.speed_m_per_s.max(0.0) + self.drive_speed_m_per_s;
-                let yaw = self.head_yaw_rad;
-                self.advance_to(self.arc_m + rate * dt, head_command, yaw);
-            }
+        }
+
+        // The drift gait's targets.
+        let (r, _) = super::gait::ramp(t, self.ramp_secs);
+        let psi = self.drift_angular_frequency_rad_per_s * t;
+        for (j, q) in self.drift_target_rad.iter_mut().enumerate() {
+            *q = r * self.drift_amplitude_rad * (psi - j as f64 * self.drift_phase_lag_rad).sin();
         }
 
         self.last = RailState {
@@ -364,12 +556,23 @@ impl Rail {
             peg_side,
             backing_off: self.backoff_to_m.is_some(),
             jams: self.last.jams,
+            drift: self.gait == RailGait::Drift,
+            blend: self.blend,
+            propel_force_n: self.propel_n,
+            resist_force_n: self.resist_n,
+            switches: self.last.switches,
         };
 
+        let b = self.blend;
         let n = obs.joint_angle_rad.len().min(cmd.position_rad.len()).min(self.target_rad.len());
         for j in 0..n {
             let target = if self.yaw_joint[j] {
-                self.path_command_rad(self.arc_m - j as f64 * self.link_length_m, head_command)
+                let rail = if b < 1.0 {
+                    self.path_command_rad(self.arc_m - j as f64 * self.link_length_m, head_command)
+                } else {
+                    0.0
+                };
+                (1.0 - b) * rail + b * self.drift_target_rad.get(j).copied().unwrap_or(0.0)
             } else {
                 0.0
             };
@@ -392,6 +595,13 @@ impl Controller for Rail {
         self.checkpoint = None;
         self.backoff_to_m = None;
         self.target_rad.fill(0.0);
+        self.gait = self.initial_gait;
+        self.blend = if self.initial_gait == RailGait::Drift { 1.0 } else { 0.0 };
+        self.gait_since_secs = 0.0;
+        self.quiet_since_secs = None;
+        self.propel_n = 0.0;
+        self.resist_n = 0.0;
+        self.drift_target_rad.fill(0.0);
         self.last = RailState::default();
     }
 
