@@ -46,12 +46,48 @@
 //! and v_drive a small slip speed: the shape runs down the body slightly faster than the body
 //! moves, so each bend presses on the pegs that hold it.
 //!
+//! **The gait switch (session 7).** Where pegs are few the rail gait has nothing to push on: its
+//! wave runs toward the tail, and on an isotropic floor a snake drifts the way its wave runs,
+//! so it stalls or drifts backward. The controller therefore has a second gait, the floor-drift
+//! wave running toward the head,
+//!
+//! ```text
+//! q_j,drift(t) = r(t)·A_d·sin(ω t − j δ_d),   δ_d < 0,   ω = 2π·0.5 Hz
+//! ```
+//!
+//! (r(t) the ramp-in of `gait.ramp_secs`; 65°/−60° is hoal's best open-loop wave on the sparse
+//! and medium fields), and switches between the two on what the contact estimates say the pegs
+//! do along +x (world):
+//!
+//! ```text
+//! P = Σ_i max(0,  F_obs,i,x),   R = Σ_i max(0, −F_obs,i,x)   (links with a detected contact)
+//! P̄, R̄ low-pass filtered with time constant τ_c
+//! rail  → drift when P̄ < P_min for T_quiet        (no peg pushes the body forward)
+//! drift → rail  when R̄ > R_min after ≥ T_drift,min (pegs inside the bends hold the drift back:
+//!                                                   the rail gait can press on them instead)
+//! ```
+//!
+//! The joints blend linearly from one gait's targets to the other's over `blend_secs`. When the
+//! rail gait takes over, the body's current shape is loaded into the path behind S (joint j's
+//! target at S − j·L) and the head's sine continues from the head joint's angle, so the body
+//! keeps its shape in the world and slides along it. Both gaits run at 0.5 Hz: the drift wave's
+//! `drift_frequency_hz` and the rail wave's `drive_speed_m_per_s / wavelength_m` (1.2 m / 2.4 m
+//! without progress), the frequency of hoal's open-loop sweep, so the comparison is fair.
+//! `use_contacts = false` turns off every contact term (head wrap and the contact-driven
+//! switches; the jam switch below stays): the comparison without contacts.
+//!
 //! **Jam recovery.** Every `jam_window_secs` T the controller compares the centre of mass (head
 //! position and encoders) with the previous checkpoint; if it advanced less than
-//! `jam_min_progress_m` along +x, the snake is jammed: S runs backward at `backoff_speed_m_per_s`
-//! until it is `backoff_m` back (every joint retraces the path it came along: the body backs
-//! out of the pegs the way it entered), then the phase φ turns by a quarter wave (π/2) and the
-//! head draws a new path from there (the old samples ahead are overwritten).
+//! `jam_min_progress_m` along +x, the snake is jammed. In the rail gait S first runs backward at
+//! `backoff_speed_m_per_s` until it is `backoff_m` back (every joint retraces the path it came
+//! along), the phase φ turns by a quarter wave (π/2) and the old samples ahead are forgotten;
+//! then, in either gait, the controller switches to the other gait. Why (hoal's fields, true
+//! and estimated forces logged per run): a rail jam is one of two things. Where pegs are few the
+//! body is not pinned at all — it stalls with no peg in a bend (P̄ ≈ R̄ ≈ 0–3 N) and backing off
+//! and redrawing the same kind of path stalls again. Where pegs are many the body is wedged:
+//! P̄ ≈ R̄ ≈ 50 N, equal and opposite, and they stay so while it backs off 0.3 m along the same
+//! shape, because the shape is what wedges it. The drift wave has a different shape (1.2 m
+//! wavelength, 65°) and moves the body the other way along the pegs, which frees it.
 //!
 //! What the controller reads: the encoders, the head gyro (yaw), the head's position and
 //! velocity (a tracking system, as path following) and the contact estimates
@@ -126,8 +162,8 @@ pub struct Rail {
     propel_n: f64,
     resist_n: f64,
     drift_target_rad: Vec<f64>,
-    dbg: [f64; 4],
-    dbg_next: f64,
+    /// A jam was detected: switch the gait once the back-off (if any) is over.
+    jam_pending: bool,
     yaw_joint: Vec<bool>,
     method: ControlMethod,
     pids: Vec<Pid>,
@@ -226,13 +262,7 @@ impl Rail {
             propel_n: 0.0,
             resist_n: 0.0,
             drift_target_rad: vec![0.0; n_joints],
-            dbg: [
-                std::env::var("RAIL_DEBUG").ok().and_then(|v| v.parse().ok()).unwrap_or(0.0),
-                std::env::var("RAIL_NET").ok().and_then(|v| v.parse().ok()).unwrap_or(0.0),
-                std::env::var("RAIL_JAM").ok().and_then(|v| v.parse().ok()).unwrap_or(0.0),
-                std::env::var("RAIL_X").ok().and_then(|v| v.parse().ok()).unwrap_or(0.0),
-            ],
-            dbg_next: 0.0,
+            jam_pending: false,
             yaw_joint: yaw_joints(config, n_joints),
             method: config.control.method,
             pids: vec![joint_pid(config); n_joints],
@@ -414,8 +444,7 @@ impl Rail {
         self.speed_m_per_s += alpha * (along - self.speed_m_per_s);
 
         // What the pegs do along +x.
-        let (propel, resist) =
-            if self.use_contacts { Self::propelling_and_resisting_n(contacts) } else { (0.0, 0.0) };
+        let (propel, resist) = if self.use_contacts { Self::propelling_and_resisting_n(contacts) } else { (0.0, 0.0) };
         let alpha_c = (dt / self.contact_filter_secs).clamp(0.0, 1.0);
         self.propel_n += alpha_c * (propel - self.propel_n);
         self.resist_n += alpha_c * (resist - self.resist_n);
@@ -438,31 +467,22 @@ impl Rail {
                 Some(_) => {}
             }
         }
-        if jammed && self.dbg[2] > 0.0 && self.use_contacts {
-            // Experimental: a jam switches the gait (rail backs off first).
-            if self.gait == RailGait::Drift {
-                self.gait_since_secs = f64::NEG_INFINITY;
-                self.resist_n = self.resist_n.max(self.resist_force_n + 1.0);
-            } else {
-                self.quiet_since_secs = Some(f64::NEG_INFINITY);
-                self.propel_n = self.propel_n.min(self.propel_force_n - 1.0);
-            }
-        }
-        if self.dbg[0] > 0.0 && t >= self.dbg_next {
-            self.dbg_next = t + self.dbg[0];
-            eprintln!(
-                "{:?} t {t:5.2} x {:6.3} y {:6.3} gait {:?} b {:.2} P {propel:5.1} R {resist:5.1} Pf {:5.1} Rf {:5.1} jams {} bo {}",
-                std::thread::current().id(), com[0], com[1], self.gait, self.blend, self.propel_n, self.resist_n, self.last.jams, self.backoff_to_m.is_some()
-            );
-        }
-
         // Gait switch.
+        // A jam switches the gait (the rail gait first backs off); so do the contacts.
         let mut switch_to = None;
-        if self.use_contacts && self.backoff_to_m.is_none() {
+        if jammed {
+            self.jam_pending = true;
+        }
+        if self.jam_pending && self.backoff_to_m.is_none() {
+            self.jam_pending = false;
+            switch_to = Some(match self.gait {
+                RailGait::Rail => RailGait::Drift,
+                RailGait::Drift => RailGait::Rail,
+            });
+        } else if self.use_contacts && self.backoff_to_m.is_none() {
             match self.gait {
                 RailGait::Rail => {
-                    let p = if self.dbg[1] > 0.0 { self.propel_n - self.resist_n } else { self.propel_n };
-                    if p < self.propel_force_n {
+                    if self.propel_n < self.propel_force_n {
                         let since = *self.quiet_since_secs.get_or_insert(t);
                         if t - since >= self.no_peg_secs {
                             switch_to = Some(RailGait::Drift);
@@ -602,6 +622,7 @@ impl Controller for Rail {
         self.propel_n = 0.0;
         self.resist_n = 0.0;
         self.drift_target_rad.fill(0.0);
+        self.jam_pending = false;
         self.last = RailState::default();
     }
 
@@ -625,7 +646,153 @@ mod tests {
     fn controller(n_joints: usize) -> Rail {
         let mut c = Config::default();
         c.control.method = ControlMethod::Position;
+        c.rail.initial_gait = RailGait::Rail;
         Rail::from_config(&c, n_joints)
+    }
+
+    fn drift_controller(n_joints: usize) -> Rail {
+        let mut c = Config::default();
+        c.control.method = ControlMethod::Position;
+        c.rail.initial_gait = RailGait::Drift;
+        Rail::from_config(&c, n_joints)
+    }
+
+    /// Runs `r` on `obs` from `t0` to `t1` (s) at 10 ms steps, with `obs.contacts` as given.
+    fn run_for(r: &mut Rail, obs: &mut Observation, t0: f64, t1: f64, cmd: &mut Command) {
+        let steps = ((t1 - t0) / 0.01).round() as usize;
+        for k in 1..=steps {
+            obs.time_secs = t0 + k as f64 * 0.01;
+            r.update(obs, cmd);
+        }
+    }
+
+    /// Contact estimates with one link pushed along `force_x_n` (world x).
+    fn pushed_along_x(n_links: usize, link: usize, force_x_n: f64) -> ContactEstimates {
+        let mut c = ContactEstimates::new(n_links);
+        c.active = true;
+        c.contact[link] = true;
+        c.obstacle_force_n[link] = [force_x_n, 0.0, 0.0];
+        c
+    }
+
+    #[test]
+    fn propelling_and_resisting_forces_split_by_the_sign_along_x() {
+        let mut c = ContactEstimates::new(5);
+        c.active = true;
+        c.contact[1] = true;
+        c.obstacle_force_n[1] = [3.0, 7.0, 0.0];
+        c.contact[2] = true;
+        c.obstacle_force_n[2] = [-2.0, -9.0, 0.0];
+        c.contact[3] = true;
+        c.obstacle_force_n[3] = [4.0, 0.0, 0.0];
+        // Link 4 has a force but no detected contact: it does not count.
+        c.obstacle_force_n[4] = [-50.0, 0.0, 0.0];
+        assert_eq!(Rail::propelling_and_resisting_n(&c), (7.0, 2.0));
+    }
+
+    #[test]
+    fn the_drift_gait_is_a_wave_running_toward_the_head() {
+        let mut r = drift_controller(9);
+        let mut obs = straight(9, 0.0, r.link_length_m);
+        let mut cmd = Command::new(9);
+        run_for(&mut r, &mut obs, 0.0, 3.0, &mut cmd);
+        assert!(r.last.drift);
+        let a = r.drift_amplitude_rad;
+        let lag = r.drift_phase_lag_rad;
+        assert!(lag < 0.0);
+        let omega = r.drift_angular_frequency_rad_per_s;
+        for j in 0..9 {
+            let expected = a * (omega * 3.0 - j as f64 * lag).sin();
+            assert!(
+                (cmd.position_rad[j] - expected).abs() < 1e-9,
+                "joint {j}: {} against {expected}",
+                cmd.position_rad[j]
+            );
+        }
+        // Toward the head: joint j + 1 (nearer the tail) shows now what joint j shows |δ|/ω
+        // later.
+        let later = a * (omega * (3.0 - lag / omega)).sin();
+        assert!((cmd.position_rad[1] - later).abs() < 1e-9);
+    }
+
+    #[test]
+    fn rail_switches_to_drift_when_no_peg_propels_and_back_when_pegs_resist() {
+        let mut r = controller(9);
+        // No jam rule here: the switch is the contacts' doing.
+        r.jam_window_secs = 1e9;
+        let mut obs = straight(9, 0.0, r.link_length_m);
+        let mut cmd = Command::new(9);
+        let (quiet, blend) = (r.no_peg_secs, r.blend_secs);
+        // A peg propelling the body (along +x) keeps the rail gait.
+        obs.contacts = pushed_along_x(10, 5, 20.0);
+        run_for(&mut r, &mut obs, 0.0, 5.0, &mut cmd);
+        assert!(!r.last.drift, "{:?}", r.last);
+        assert!(r.last.propel_force_n > r.propel_force_n);
+        // No contacts: after the filter decays and T_quiet passes, the drift gait.
+        obs.contacts = ContactEstimates::new(10);
+        obs.contacts.active = true;
+        run_for(&mut r, &mut obs, 5.0, 5.0 + quiet, &mut cmd);
+        assert!(!r.last.drift, "too early: {:?}", r.last);
+        run_for(&mut r, &mut obs, 5.0 + quiet, 5.0 + quiet + 3.0 + blend, &mut cmd);
+        assert!(r.last.drift, "{:?}", r.last);
+        assert_eq!(r.last.blend, 1.0);
+        assert_eq!(r.last.switches, 1);
+        // A peg holding the body back (along −x) brings the rail gait back.
+        let t = 5.0 + quiet + 3.0 + blend;
+        obs.contacts = pushed_along_x(10, 5, -20.0);
+        run_for(&mut r, &mut obs, t, t + 0.5, &mut cmd);
+        assert!(!r.last.drift, "{:?}", r.last);
+        assert_eq!(r.last.switches, 2);
+        // With the contact terms off nothing of this happens.
+        let mut r = controller(9);
+        r.jam_window_secs = 1e9;
+        r.use_contacts = false;
+        obs.contacts = ContactEstimates::new(10);
+        obs.contacts.active = true;
+        run_for(&mut r, &mut obs, 0.0, 10.0, &mut cmd);
+        assert!(!r.last.drift);
+        assert_eq!(r.last.switches, 0);
+    }
+
+    #[test]
+    fn a_jam_switches_the_gait() {
+        // The snake does not move at all (the same observation every step).
+        let mut r = drift_controller(9);
+        r.use_contacts = false;
+        let mut obs = straight(9, 0.0, r.link_length_m);
+        let mut cmd = Command::new(9);
+        let window = r.jam_window_secs;
+        let backoff_secs = r.backoff_m / r.backoff_speed_m_per_s;
+        run_for(&mut r, &mut obs, 0.0, window + 0.5, &mut cmd);
+        assert_eq!(r.last.jams, 1);
+        assert!(!r.last.drift, "a jam in the drift gait switches to rail: {:?}", r.last);
+        // In the rail gait a jam first backs off, then switches to drift.
+        let t = window + 0.5;
+        run_for(&mut r, &mut obs, t, t + window, &mut cmd);
+        assert_eq!(r.last.jams, 2);
+        assert!(r.last.backing_off);
+        assert!(!r.last.drift);
+        run_for(&mut r, &mut obs, t + window, t + window + backoff_secs + 0.1, &mut cmd);
+        assert!(!r.last.backing_off);
+        assert!(r.last.drift, "{:?}", r.last);
+    }
+
+    #[test]
+    fn switching_to_rail_keeps_the_body_shape() {
+        let mut r = controller(9);
+        let shape: Vec<f64> = (0..9).map(|j| 0.1 * j as f64 - 0.3).collect();
+        r.arc_m = 0.4;
+        r.load_shape(&shape, 0.0);
+        let l = r.link_length_m;
+        // (The head's own sample is interpolated toward the head's command now: shape[0] when
+        // the rail gait takes over.)
+        for (j, q) in shape.iter().enumerate() {
+            let got = r.path_command_rad(r.arc_m - j as f64 * l, shape[0]);
+            assert!((got - q).abs() < 1e-9, "joint {j}: {got} against {q}");
+        }
+        // Between joints: linear.
+        let mid = r.path_command_rad(r.arc_m - 2.5 * l, shape[0]);
+        assert!((mid - 0.5 * (shape[2] + shape[3])).abs() < 1e-3, "{mid}");
     }
 
     /// An observation of a straight snake whose head points along `yaw_rad`, its centre of
