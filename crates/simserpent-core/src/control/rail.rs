@@ -81,8 +81,8 @@
 //! `jam_min_progress_m` along +x, the snake is jammed. In the rail gait S first runs backward at
 //! `backoff_speed_m_per_s` until it is `backoff_m` back (every joint retraces the path it came
 //! along), the phase φ turns by a quarter wave (π/2) and the old samples ahead are forgotten;
-//! then, in either gait, the controller switches to the other gait. Why (hoal's fields, true
-//! and estimated forces logged per run): a rail jam is one of two things. Where pegs are few the
+//! then, in either gait, the controller switches to the other gait. Why (hoal's fields, the
+//! estimated forces and the centre of mass logged every 0.5 s in single runs): a rail jam is one of two things. Where pegs are few the
 //! body is not pinned at all — it stalls with no peg in a bend (P̄ ≈ R̄ ≈ 0–3 N) and backing off
 //! and redrawing the same kind of path stalls again. Where pegs are many the body is wedged:
 //! P̄ ≈ R̄ ≈ 50 N, equal and opposite, and they stay so while it backs off 0.3 m along the same
