@@ -464,6 +464,17 @@ jam_window_secs = 4.0
 jam_min_progress_m = 0.03
 backoff_m = 0.4
 backoff_speed_m_per_s = 0.3
+use_contacts = false
+initial_gait = "rail"
+drift_amplitude_deg = 55.0
+drift_phase_lag_deg = -45.0
+drift_frequency_hz = 0.6
+contact_filter_secs = 0.7
+propel_force_n = 4.0
+no_peg_secs = 3.0
+resist_force_n = 2.5
+drift_min_secs = 1.5
+blend_secs = 0.8
 "#;
 
 fn all_fields_expected() -> Config {
@@ -803,6 +814,17 @@ fn all_fields_expected() -> Config {
         jam_min_progress_m: 0.03,
         backoff_m: 0.4,
         backoff_speed_m_per_s: 0.3,
+        use_contacts: false,
+        initial_gait: RailGait::Rail,
+        drift_amplitude_deg: 55.0,
+        drift_phase_lag_deg: -45.0,
+        drift_frequency_hz: 0.6,
+        contact_filter_secs: 0.7,
+        propel_force_n: 4.0,
+        no_peg_secs: 3.0,
+        resist_force_n: 2.5,
+        drift_min_secs: 1.5,
+        blend_secs: 0.8,
     };
     c
 }
@@ -1001,6 +1023,15 @@ const RULES: &[(&[&str], &str)] = &[
     (&["rail.amplitude_deg=90"], "rail.amplitude_deg"),
     (&["rail.backoff_speed_m_per_s=0"], "rail.backoff_speed_m_per_s"),
     (&["rail.drive_speed_m_per_s=-0.1"], "rail.drive_speed_m_per_s"),
+    (&["rail.drift_amplitude_deg=90"], "rail.drift_amplitude_deg"),
+    (&["rail.drift_phase_lag_deg=-200"], "rail.drift_phase_lag_deg"),
+    (&["rail.drift_frequency_hz=0"], "rail.drift_frequency_hz"),
+    (&["rail.contact_filter_secs=0"], "rail.contact_filter_secs"),
+    (&["rail.propel_force_n=-1"], "rail.propel_force_n"),
+    (&["rail.no_peg_secs=0"], "rail.no_peg_secs"),
+    (&["rail.resist_force_n=-1"], "rail.resist_force_n"),
+    (&["rail.drift_min_secs=-1"], "rail.drift_min_secs"),
+    (&["rail.blend_secs=0"], "rail.blend_secs"),
     (&["control.controller=\"rail\"", "estimation.enabled=false"], "rail.contacts"),
     (&["terrain.cylinder_path.width_m=0.1"], "terrain.cylinder_path.width_m"),
     (&["terrain.cylinder_path.width_m=0.15"], "terrain.cylinder_path.width_m"),

@@ -1250,6 +1250,38 @@ pub struct Rail {
     /// Jam recovery: back off this far along the path (m) at `backoff_speed_m_per_s` (m/s).
     pub backoff_m: f64,
     pub backoff_speed_m_per_s: f64,
+    /// Whether the contact terms act (head wrap and the gait switch); `false` for the
+    /// comparison without them.
+    pub use_contacts: bool,
+    /// The gait the controller starts with.
+    pub initial_gait: RailGait,
+    /// The floor-drift gait (a sine wave running toward the head): amplitude (degrees), phase
+    /// lag between joints (degrees; < 0 runs toward the head) and temporal frequency (Hz).
+    pub drift_amplitude_deg: f64,
+    pub drift_phase_lag_deg: f64,
+    pub drift_frequency_hz: f64,
+    /// Time constant (s) of the low-pass filters on the propelling and resisting obstacle forces.
+    pub contact_filter_secs: f64,
+    /// Rail → drift when the filtered propelling force stays below `propel_force_n` (N) for
+    /// `no_peg_secs` (s).
+    pub propel_force_n: f64,
+    pub no_peg_secs: f64,
+    /// Drift → rail when, after at least `drift_min_secs` (s) of drift, the filtered resisting
+    /// force exceeds `resist_force_n` (N).
+    pub resist_force_n: f64,
+    pub drift_min_secs: f64,
+    /// Time (s) over which the joints blend from one gait to the other.
+    pub blend_secs: f64,
+}
+
+/// `rail.initial_gait`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RailGait {
+    /// Follow-the-leader along the head's path.
+    Rail,
+    /// The floor-drift sine wave running toward the head.
+    Drift,
 }
 
 /// `obstacle_aided.propagation`.

@@ -298,6 +298,26 @@ impl Config {
         non_negative("rail.jam_min_progress_m", r.jam_min_progress_m)?;
         non_negative("rail.backoff_m", r.backoff_m)?;
         positive("rail.backoff_speed_m_per_s", r.backoff_speed_m_per_s)?;
+        non_negative("rail.drift_amplitude_deg", r.drift_amplitude_deg)?;
+        ensure(
+            r.drift_amplitude_deg < self.snake.joint_range_deg,
+            "rail.drift_amplitude_deg",
+            fmt_f(r.drift_amplitude_deg),
+            format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
+        )?;
+        ensure(
+            r.drift_phase_lag_deg.is_finite() && r.drift_phase_lag_deg.abs() <= 180.0,
+            "rail.drift_phase_lag_deg",
+            fmt_f(r.drift_phase_lag_deg),
+            "must be within -180..180",
+        )?;
+        positive("rail.drift_frequency_hz", r.drift_frequency_hz)?;
+        positive("rail.contact_filter_secs", r.contact_filter_secs)?;
+        non_negative("rail.propel_force_n", r.propel_force_n)?;
+        positive("rail.no_peg_secs", r.no_peg_secs)?;
+        non_negative("rail.resist_force_n", r.resist_force_n)?;
+        non_negative("rail.drift_min_secs", r.drift_min_secs)?;
+        positive("rail.blend_secs", r.blend_secs)?;
         if self.control.controller == ControllerKind::Rail {
             ensure(
                 r.contacts == ContactSource::True || self.estimation.enabled,

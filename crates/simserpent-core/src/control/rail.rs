@@ -46,12 +46,48 @@
 //! and v_drive a small slip speed: the shape runs down the body slightly faster than the body
 //! moves, so each bend presses on the pegs that hold it.
 //!
+//! **The gait switch (session 7).** Where pegs are few the rail gait has nothing to push on: its
+//! wave runs toward the tail, and on an isotropic floor a snake drifts the way its wave runs,
+//! so it stalls or drifts backward. The controller therefore has a second gait, the floor-drift
+//! wave running toward the head,
+//!
+//! ```text
+//! q_j,drift(t) = r(t)·A_d·sin(ω t − j δ_d),   δ_d < 0,   ω = 2π·0.5 Hz
+//! ```
+//!
+//! (r(t) the ramp-in of `gait.ramp_secs`; 65°/−60° is hoal's best open-loop wave on the sparse
+//! and medium fields), and switches between the two on what the contact estimates say the pegs
+//! do along +x (world):
+//!
+//! ```text
+//! P = Σ_i max(0,  F_obs,i,x),   R = Σ_i max(0, −F_obs,i,x)   (links with a detected contact)
+//! P̄, R̄ low-pass filtered with time constant τ_c
+//! rail  → drift when P̄ < P_min for T_quiet        (no peg pushes the body forward)
+//! drift → rail  when R̄ > R_min after ≥ T_drift,min (pegs inside the bends hold the drift back:
+//!                                                   the rail gait can press on them instead)
+//! ```
+//!
+//! The joints blend linearly from one gait's targets to the other's over `blend_secs`. When the
+//! rail gait takes over, the body's current shape is loaded into the path behind S (joint j's
+//! target at S − j·L) and the head's sine continues from the head joint's angle, so the body
+//! keeps its shape in the world and slides along it. Both gaits run at 0.5 Hz: the drift wave's
+//! `drift_frequency_hz` and the rail wave's `drive_speed_m_per_s / wavelength_m` (1.2 m / 2.4 m
+//! without progress), the frequency of hoal's open-loop sweep, so the comparison is fair.
+//! `use_contacts = false` turns off every contact term (head wrap and the contact-driven
+//! switches; the jam switch below stays): the comparison without contacts.
+//!
 //! **Jam recovery.** Every `jam_window_secs` T the controller compares the centre of mass (head
 //! position and encoders) with the previous checkpoint; if it advanced less than
-//! `jam_min_progress_m` along +x, the snake is jammed: S runs backward at `backoff_speed_m_per_s`
-//! until it is `backoff_m` back (every joint retraces the path it came along: the body backs
-//! out of the pegs the way it entered), then the phase φ turns by a quarter wave (π/2) and the
-//! head draws a new path from there (the old samples ahead are overwritten).
+//! `jam_min_progress_m` along +x, the snake is jammed. In the rail gait S first runs backward at
+//! `backoff_speed_m_per_s` until it is `backoff_m` back (every joint retraces the path it came
+//! along), the phase φ turns by a quarter wave (π/2) and the old samples ahead are forgotten;
+//! then, in either gait, the controller switches to the other gait. Why (hoal's fields, the
+//! estimated forces and the centre of mass logged every 0.5 s in single runs): a rail jam is one of two things. Where pegs are few the
+//! body is not pinned at all — it stalls with no peg in a bend (P̄ ≈ R̄ ≈ 0–3 N) and backing off
+//! and redrawing the same kind of path stalls again. Where pegs are many the body is wedged:
+//! P̄ ≈ R̄ ≈ 50 N, equal and opposite, and they stay so while it backs off 0.3 m along the same
+//! shape, because the shape is what wedges it. The drift wave has a different shape (1.2 m
+//! wavelength, 65°) and moves the body the other way along the pegs, which frees it.
 //!
 //! What the controller reads: the encoders, the head gyro (yaw), the head's position and
 //! velocity (a tracking system, as path following) and the contact estimates
@@ -62,7 +98,7 @@ use super::{
     Command, ContactFeed, Controller, Observation, Pid, command_joint, feel, joint_pid, planar_chain, wrap_angle_rad,
     yaw_joints,
 };
-use crate::config::{Config, ControlMethod};
+use crate::config::{Config, ControlMethod, RailGait};
 use crate::estimation::ContactEstimates;
 use crate::state::Snapshot;
 use std::f64::consts::{FRAC_PI_2, TAU};
@@ -100,6 +136,34 @@ pub struct Rail {
     pub link_length_m: f64,
     /// Where the contacts come from (estimates or, for comparison, the truth).
     pub contacts: ContactFeed,
+    /// Whether the contact terms (head wrap, gait switch) act.
+    pub use_contacts: bool,
+    /// The drift gait: A_d (rad), δ_d (rad), ω (rad/s), ramp-in (s).
+    pub drift_amplitude_rad: f64,
+    pub drift_phase_lag_rad: f64,
+    pub drift_angular_frequency_rad_per_s: f64,
+    pub ramp_secs: f64,
+    /// Gait switch: filter τ_c (s), thresholds (N) and times (s).
+    pub contact_filter_secs: f64,
+    pub propel_force_n: f64,
+    pub no_peg_secs: f64,
+    pub resist_force_n: f64,
+    pub drift_min_secs: f64,
+    pub blend_secs: f64,
+    initial_gait: RailGait,
+    gait: RailGait,
+    /// Blend b ∈ [0, 1]: 0 all rail, 1 all drift.
+    blend: f64,
+    /// When the current gait started (s).
+    gait_since_secs: f64,
+    /// Since when the propelling force has been below its threshold (s).
+    quiet_since_secs: Option<f64>,
+    /// Filtered propelling and resisting obstacle forces (N).
+    propel_n: f64,
+    resist_n: f64,
+    drift_target_rad: Vec<f64>,
+    /// A jam was detected: switch the gait once the back-off (if any) is over.
+    jam_pending: bool,
     yaw_joint: Vec<bool>,
     method: ControlMethod,
     pids: Vec<Pid>,
@@ -145,6 +209,14 @@ pub struct RailState {
     pub backing_off: bool,
     /// Jams detected so far.
     pub jams: usize,
+    /// The gait (rail or drift) and the blend toward drift (0..1).
+    pub drift: bool,
+    pub blend: f64,
+    /// Filtered propelling and resisting obstacle forces (N).
+    pub propel_force_n: f64,
+    pub resist_force_n: f64,
+    /// Gait switches so far.
+    pub switches: usize,
 }
 
 impl Rail {
@@ -171,6 +243,26 @@ impl Rail {
             backoff_speed_m_per_s: r.backoff_speed_m_per_s,
             link_length_m: l,
             contacts: ContactFeed::new(config, r.contacts, n_joints + 1),
+            use_contacts: r.use_contacts,
+            drift_amplitude_rad: r.drift_amplitude_deg.to_radians(),
+            drift_phase_lag_rad: r.drift_phase_lag_deg.to_radians(),
+            drift_angular_frequency_rad_per_s: TAU * r.drift_frequency_hz,
+            ramp_secs: config.gait.ramp_secs,
+            contact_filter_secs: r.contact_filter_secs,
+            propel_force_n: r.propel_force_n,
+            no_peg_secs: r.no_peg_secs,
+            resist_force_n: r.resist_force_n,
+            drift_min_secs: r.drift_min_secs,
+            blend_secs: r.blend_secs,
+            initial_gait: r.initial_gait,
+            gait: r.initial_gait,
+            blend: if r.initial_gait == RailGait::Drift { 1.0 } else { 0.0 },
+            gait_since_secs: 0.0,
+            quiet_since_secs: None,
+            propel_n: 0.0,
+            resist_n: 0.0,
+            drift_target_rad: vec![0.0; n_joints],
+            jam_pending: false,
             yaw_joint: yaw_joints(config, n_joints),
             method: config.control.method,
             pids: vec![joint_pid(config); n_joints],
@@ -275,6 +367,50 @@ impl Rail {
         }
     }
 
+    /// The filtered propelling force P (sum over links in contact of the obstacle force's +x
+    /// component, world) and resisting force R (of its −x component), both ≥ 0 (N), before
+    /// filtering.
+    pub fn propelling_and_resisting_n(contacts: &ContactEstimates) -> (f64, f64) {
+        let mut propel = 0.0;
+        let mut resist = 0.0;
+        for i in 0..contacts.n_links() {
+            if !contacts.contact[i] {
+                continue;
+            }
+            let fx = contacts.obstacle_force_n[i][0];
+            if fx > 0.0 {
+                propel += fx;
+            } else {
+                resist -= fx;
+            }
+        }
+        (propel, resist)
+    }
+
+    /// Loads the body's current shape `q_rad` (joint targets) into the path behind S, so that
+    /// the rail gait continues from it (joint j sits j link lengths behind the head's sample).
+    /// The head's yaw fills the samples the path heading averages.
+    fn load_shape(&mut self, q_rad: &[f64], yaw_rad: f64) {
+        let n = q_rad.len();
+        let l = self.link_length_m;
+        let reach_m = self.wavelength_m.max(n as f64 * l) + 2.0 * SAMPLE_SPACING_M;
+        let s0 = self.arc_m.max(reach_m);
+        let k_end = (s0 / SAMPLE_SPACING_M).floor() as i64;
+        let k_lo = ((s0 - reach_m) / SAMPLE_SPACING_M).floor() as i64;
+        for k in k_lo.max(0)..=k_end {
+            let u = ((s0 - k as f64 * SAMPLE_SPACING_M) / l).clamp(0.0, (n.max(1) - 1) as f64);
+            let j = (u.floor() as usize).min(n.saturating_sub(1));
+            let frac = u - j as f64;
+            let a = q_rad.get(j).copied().unwrap_or(0.0);
+            let b = q_rad.get(j + 1).copied().unwrap_or(a);
+            let i = self.slot(k);
+            self.path_rad[i] = a + frac * (b - a);
+            self.path_yaw_rad[i] = yaw_rad;
+        }
+        self.written = k_end;
+        self.arc_m = s0;
+    }
+
     fn step(&mut self, obs: &Observation, contacts: &ContactEstimates, cmd: &mut Command) {
         let t = obs.time_secs;
         if !self.started {
@@ -284,6 +420,7 @@ impl Rail {
             self.started = true;
             let yaw = self.head_yaw_rad;
             self.path_yaw_rad.fill(yaw);
+            self.gait_since_secs = t;
         }
         let dt = (t - self.last_time_secs).max(0.0);
         self.last_time_secs = t;
@@ -306,23 +443,89 @@ impl Rail {
         let alpha = (dt / self.progress_filter_secs).clamp(0.0, 1.0);
         self.speed_m_per_s += alpha * (along - self.speed_m_per_s);
 
+        // What the pegs do along +x.
+        let (propel, resist) = if self.use_contacts { Self::propelling_and_resisting_n(contacts) } else { (0.0, 0.0) };
+        let alpha_c = (dt / self.contact_filter_secs).clamp(0.0, 1.0);
+        self.propel_n += alpha_c * (propel - self.propel_n);
+        self.resist_n += alpha_c * (resist - self.resist_n);
+
         // Jam rule.
+        let mut jammed = false;
         if self.backoff_to_m.is_none() {
             match self.checkpoint {
                 None => self.checkpoint = Some((t, com[0])),
                 Some((t0, x0)) if t - t0 >= self.jam_window_secs => {
-                    if com[0] - x0 < self.jam_min_progress_m && self.backoff_m > 0.0 {
-                        self.backoff_to_m = Some((self.arc_m - self.backoff_m).max(0.0));
+                    if com[0] - x0 < self.jam_min_progress_m {
+                        jammed = true;
                         self.last.jams += 1;
+                        if self.gait == RailGait::Rail && self.backoff_m > 0.0 {
+                            self.backoff_to_m = Some((self.arc_m - self.backoff_m).max(0.0));
+                        }
                     }
                     self.checkpoint = Some((t, com[0]));
                 }
                 Some(_) => {}
             }
         }
+        // Gait switch.
+        // A jam switches the gait (the rail gait first backs off); so do the contacts.
+        let mut switch_to = None;
+        if jammed {
+            self.jam_pending = true;
+        }
+        if self.jam_pending && self.backoff_to_m.is_none() {
+            self.jam_pending = false;
+            switch_to = Some(match self.gait {
+                RailGait::Rail => RailGait::Drift,
+                RailGait::Drift => RailGait::Rail,
+            });
+        } else if self.use_contacts && self.backoff_to_m.is_none() {
+            match self.gait {
+                RailGait::Rail => {
+                    if self.propel_n < self.propel_force_n {
+                        let since = *self.quiet_since_secs.get_or_insert(t);
+                        if t - since >= self.no_peg_secs {
+                            switch_to = Some(RailGait::Drift);
+                        }
+                    } else {
+                        self.quiet_since_secs = None;
+                    }
+                }
+                RailGait::Drift => {
+                    if t - self.gait_since_secs >= self.drift_min_secs && self.resist_n > self.resist_force_n {
+                        switch_to = Some(RailGait::Rail);
+                    }
+                }
+            }
+        }
+        if let Some(gait) = switch_to {
+            self.gait = gait;
+            self.gait_since_secs = t;
+            self.quiet_since_secs = None;
+            self.checkpoint = Some((t, com[0]));
+            self.last.switches += 1;
+            if gait == RailGait::Rail {
+                let shape = std::mem::take(&mut self.target_rad);
+                let yaw = self.head_yaw_rad;
+                self.load_shape(&shape, yaw);
+                self.target_rad = shape;
+                // Continue the head's sine from the head joint's command now, on the branch
+                // whose slope has the drift wave's sign there.
+                let q0 = self.target_rad.first().copied().unwrap_or(0.0);
+                let x = if self.amplitude_rad > 0.0 { (q0 / self.amplitude_rad).clamp(-1.0, 1.0) } else { 0.0 };
+                let rising = (self.drift_angular_frequency_rad_per_s * t).cos() >= 0.0;
+                let theta = if rising { x.asin() } else { std::f64::consts::PI - x.asin() };
+                self.phase_rad = (theta - self.wavenumber_rad_per_m * self.arc_m).rem_euclid(TAU);
+            }
+        }
+        let step_b = if self.blend_secs > 0.0 { dt / self.blend_secs } else { 1.0 };
+        self.blend = match self.gait {
+            RailGait::Drift => (self.blend + step_b).min(1.0),
+            RailGait::Rail => (self.blend - step_b).max(0.0),
+        };
 
         // The head's command.
-        let peg_side = Self::head_peg_side(contacts, &self.heading_rad);
+        let peg_side = if self.use_contacts { Self::head_peg_side(contacts, &self.heading_rad) } else { 0.0 };
         let start_yaw = self.path_yaw_rad[self.slot(-1)];
         let path_heading = self.path_heading_rad(start_yaw, self.head_yaw_rad);
         let reference = -(com[1] / self.lookahead_m).atan();
@@ -334,25 +537,34 @@ impl Rail {
         let head_command = self.amplitude_rad * (self.wavenumber_rad_per_m * self.arc_m + self.phase_rad).sin() + steer
             - toward * peg_side * self.wrap_rad;
 
-        // Shift the path.
-        match self.backoff_to_m {
-            Some(to) => {
-                let s_new = self.arc_m - self.backoff_speed_m_per_s * dt;
-                if s_new <= to {
-                    self.arc_m = to;
-                    self.truncate_path();
-                    self.backoff_to_m = None;
-                    self.phase_rad = (self.phase_rad + FRAC_PI_2) % TAU;
-                    self.checkpoint = Some((t, com[0]));
-                } else {
-                    self.arc_m = s_new;
+        // Shift the path (while the rail gait has any weight).
+        if self.blend < 1.0 {
+            match self.backoff_to_m {
+                Some(to) => {
+                    let s_new = self.arc_m - self.backoff_speed_m_per_s * dt;
+                    if s_new <= to {
+                        self.arc_m = to;
+                        self.truncate_path();
+                        self.backoff_to_m = None;
+                        self.phase_rad = (self.phase_rad + FRAC_PI_2) % TAU;
+                        self.checkpoint = Some((t, com[0]));
+                    } else {
+                        self.arc_m = s_new;
+                    }
+                }
+                None => {
+                    let rate = self.progress_gain * self.speed_m_per_s.max(0.0) + self.drive_speed_m_per_s;
+                    let yaw = self.head_yaw_rad;
+                    self.advance_to(self.arc_m + rate * dt, head_command, yaw);
                 }
             }
-            None => {
-                let rate = self.progress_gain * self.speed_m_per_s.max(0.0) + self.drive_speed_m_per_s;
-                let yaw = self.head_yaw_rad;
-                self.advance_to(self.arc_m + rate * dt, head_command, yaw);
-            }
+        }
+
+        // The drift gait's targets.
+        let (r, _) = super::gait::ramp(t, self.ramp_secs);
+        let psi = self.drift_angular_frequency_rad_per_s * t;
+        for (j, q) in self.drift_target_rad.iter_mut().enumerate() {
+            *q = r * self.drift_amplitude_rad * (psi - j as f64 * self.drift_phase_lag_rad).sin();
         }
 
         self.last = RailState {
@@ -364,12 +576,23 @@ impl Rail {
             peg_side,
             backing_off: self.backoff_to_m.is_some(),
             jams: self.last.jams,
+            drift: self.gait == RailGait::Drift,
+            blend: self.blend,
+            propel_force_n: self.propel_n,
+            resist_force_n: self.resist_n,
+            switches: self.last.switches,
         };
 
+        let b = self.blend;
         let n = obs.joint_angle_rad.len().min(cmd.position_rad.len()).min(self.target_rad.len());
         for j in 0..n {
             let target = if self.yaw_joint[j] {
-                self.path_command_rad(self.arc_m - j as f64 * self.link_length_m, head_command)
+                let rail = if b < 1.0 {
+                    self.path_command_rad(self.arc_m - j as f64 * self.link_length_m, head_command)
+                } else {
+                    0.0
+                };
+                (1.0 - b) * rail + b * self.drift_target_rad.get(j).copied().unwrap_or(0.0)
             } else {
                 0.0
             };
@@ -392,6 +615,14 @@ impl Controller for Rail {
         self.checkpoint = None;
         self.backoff_to_m = None;
         self.target_rad.fill(0.0);
+        self.gait = self.initial_gait;
+        self.blend = if self.initial_gait == RailGait::Drift { 1.0 } else { 0.0 };
+        self.gait_since_secs = 0.0;
+        self.quiet_since_secs = None;
+        self.propel_n = 0.0;
+        self.resist_n = 0.0;
+        self.drift_target_rad.fill(0.0);
+        self.jam_pending = false;
         self.last = RailState::default();
     }
 
@@ -415,7 +646,153 @@ mod tests {
     fn controller(n_joints: usize) -> Rail {
         let mut c = Config::default();
         c.control.method = ControlMethod::Position;
+        c.rail.initial_gait = RailGait::Rail;
         Rail::from_config(&c, n_joints)
+    }
+
+    fn drift_controller(n_joints: usize) -> Rail {
+        let mut c = Config::default();
+        c.control.method = ControlMethod::Position;
+        c.rail.initial_gait = RailGait::Drift;
+        Rail::from_config(&c, n_joints)
+    }
+
+    /// Runs `r` on `obs` from `t0` to `t1` (s) at 10 ms steps, with `obs.contacts` as given.
+    fn run_for(r: &mut Rail, obs: &mut Observation, t0: f64, t1: f64, cmd: &mut Command) {
+        let steps = ((t1 - t0) / 0.01).round() as usize;
+        for k in 1..=steps {
+            obs.time_secs = t0 + k as f64 * 0.01;
+            r.update(obs, cmd);
+        }
+    }
+
+    /// Contact estimates with one link pushed along `force_x_n` (world x).
+    fn pushed_along_x(n_links: usize, link: usize, force_x_n: f64) -> ContactEstimates {
+        let mut c = ContactEstimates::new(n_links);
+        c.active = true;
+        c.contact[link] = true;
+        c.obstacle_force_n[link] = [force_x_n, 0.0, 0.0];
+        c
+    }
+
+    #[test]
+    fn propelling_and_resisting_forces_split_by_the_sign_along_x() {
+        let mut c = ContactEstimates::new(5);
+        c.active = true;
+        c.contact[1] = true;
+        c.obstacle_force_n[1] = [3.0, 7.0, 0.0];
+        c.contact[2] = true;
+        c.obstacle_force_n[2] = [-2.0, -9.0, 0.0];
+        c.contact[3] = true;
+        c.obstacle_force_n[3] = [4.0, 0.0, 0.0];
+        // Link 4 has a force but no detected contact: it does not count.
+        c.obstacle_force_n[4] = [-50.0, 0.0, 0.0];
+        assert_eq!(Rail::propelling_and_resisting_n(&c), (7.0, 2.0));
+    }
+
+    #[test]
+    fn the_drift_gait_is_a_wave_running_toward_the_head() {
+        let mut r = drift_controller(9);
+        let mut obs = straight(9, 0.0, r.link_length_m);
+        let mut cmd = Command::new(9);
+        run_for(&mut r, &mut obs, 0.0, 3.0, &mut cmd);
+        assert!(r.last.drift);
+        let a = r.drift_amplitude_rad;
+        let lag = r.drift_phase_lag_rad;
+        assert!(lag < 0.0);
+        let omega = r.drift_angular_frequency_rad_per_s;
+        for j in 0..9 {
+            let expected = a * (omega * 3.0 - j as f64 * lag).sin();
+            assert!(
+                (cmd.position_rad[j] - expected).abs() < 1e-9,
+                "joint {j}: {} against {expected}",
+                cmd.position_rad[j]
+            );
+        }
+        // Toward the head: joint j + 1 (nearer the tail) shows now what joint j shows |δ|/ω
+        // later.
+        let later = a * (omega * (3.0 - lag / omega)).sin();
+        assert!((cmd.position_rad[1] - later).abs() < 1e-9);
+    }
+
+    #[test]
+    fn rail_switches_to_drift_when_no_peg_propels_and_back_when_pegs_resist() {
+        let mut r = controller(9);
+        // No jam rule here: the switch is the contacts' doing.
+        r.jam_window_secs = 1e9;
+        let mut obs = straight(9, 0.0, r.link_length_m);
+        let mut cmd = Command::new(9);
+        let (quiet, blend) = (r.no_peg_secs, r.blend_secs);
+        // A peg propelling the body (along +x) keeps the rail gait.
+        obs.contacts = pushed_along_x(10, 5, 20.0);
+        run_for(&mut r, &mut obs, 0.0, 5.0, &mut cmd);
+        assert!(!r.last.drift, "{:?}", r.last);
+        assert!(r.last.propel_force_n > r.propel_force_n);
+        // No contacts: after the filter decays and T_quiet passes, the drift gait.
+        obs.contacts = ContactEstimates::new(10);
+        obs.contacts.active = true;
+        run_for(&mut r, &mut obs, 5.0, 5.0 + quiet, &mut cmd);
+        assert!(!r.last.drift, "too early: {:?}", r.last);
+        run_for(&mut r, &mut obs, 5.0 + quiet, 5.0 + quiet + 3.0 + blend, &mut cmd);
+        assert!(r.last.drift, "{:?}", r.last);
+        assert_eq!(r.last.blend, 1.0);
+        assert_eq!(r.last.switches, 1);
+        // A peg holding the body back (along −x) brings the rail gait back.
+        let t = 5.0 + quiet + 3.0 + blend;
+        obs.contacts = pushed_along_x(10, 5, -20.0);
+        run_for(&mut r, &mut obs, t, t + 0.5, &mut cmd);
+        assert!(!r.last.drift, "{:?}", r.last);
+        assert_eq!(r.last.switches, 2);
+        // With the contact terms off nothing of this happens.
+        let mut r = controller(9);
+        r.jam_window_secs = 1e9;
+        r.use_contacts = false;
+        obs.contacts = ContactEstimates::new(10);
+        obs.contacts.active = true;
+        run_for(&mut r, &mut obs, 0.0, 10.0, &mut cmd);
+        assert!(!r.last.drift);
+        assert_eq!(r.last.switches, 0);
+    }
+
+    #[test]
+    fn a_jam_switches_the_gait() {
+        // The snake does not move at all (the same observation every step).
+        let mut r = drift_controller(9);
+        r.use_contacts = false;
+        let mut obs = straight(9, 0.0, r.link_length_m);
+        let mut cmd = Command::new(9);
+        let window = r.jam_window_secs;
+        let backoff_secs = r.backoff_m / r.backoff_speed_m_per_s;
+        run_for(&mut r, &mut obs, 0.0, window + 0.5, &mut cmd);
+        assert_eq!(r.last.jams, 1);
+        assert!(!r.last.drift, "a jam in the drift gait switches to rail: {:?}", r.last);
+        // In the rail gait a jam first backs off, then switches to drift.
+        let t = window + 0.5;
+        run_for(&mut r, &mut obs, t, t + window, &mut cmd);
+        assert_eq!(r.last.jams, 2);
+        assert!(r.last.backing_off);
+        assert!(!r.last.drift);
+        run_for(&mut r, &mut obs, t + window, t + window + backoff_secs + 0.1, &mut cmd);
+        assert!(!r.last.backing_off);
+        assert!(r.last.drift, "{:?}", r.last);
+    }
+
+    #[test]
+    fn switching_to_rail_keeps_the_body_shape() {
+        let mut r = controller(9);
+        let shape: Vec<f64> = (0..9).map(|j| 0.1 * j as f64 - 0.3).collect();
+        r.arc_m = 0.4;
+        r.load_shape(&shape, 0.0);
+        let l = r.link_length_m;
+        // (The head's own sample is interpolated toward the head's command now: shape[0] when
+        // the rail gait takes over.)
+        for (j, q) in shape.iter().enumerate() {
+            let got = r.path_command_rad(r.arc_m - j as f64 * l, shape[0]);
+            assert!((got - q).abs() < 1e-9, "joint {j}: {got} against {q}");
+        }
+        // Between joints: linear.
+        let mid = r.path_command_rad(r.arc_m - 2.5 * l, shape[0]);
+        assert!((mid - 0.5 * (shape[2] + shape[3])).abs() < 1e-3, "{mid}");
     }
 
     /// An observation of a straight snake whose head points along `yaw_rad`, its centre of
