@@ -1181,8 +1181,14 @@ pub struct ObstacleAided {
     pub phase_lag_deg: f64,
     /// Normal force (N) the body keeps on a peg that pushes it forward.
     pub target_force_n: f64,
-    /// Integral gain of the force law: joint offset (rad) per newton of force error and second.
+    /// Integral gain of the force law on a propelling peg: joint offset (rad) per newton of
+    /// force error and second.
     pub force_gain_rad_per_n_s: f64,
+    /// Integral gain of the force law on a resisting peg: joint offset (rad) per newton of
+    /// normal force and second, away from the peg.
+    pub yield_gain_rad_per_n_s: f64,
+    /// Whether the contacts feed the law (false: the same controller without its contact terms).
+    pub contact_feedback: bool,
     /// Largest contact offset of one joint (degrees).
     pub max_offset_deg: f64,
     /// Rate (1/s) at which the offsets relax toward zero.
@@ -1193,20 +1199,39 @@ pub struct ObstacleAided {
     pub jam_window_secs: f64,
     /// Forward progress (m) that counts as moving.
     pub jam_min_progress_m: f64,
-    /// How long (s) the wave runs backward after a jam.
+    /// How long (s) a jam recovery lasts.
     pub recovery_secs: f64,
+    /// What the wave does during a jam recovery.
+    pub recovery: Recovery,
+    /// The wave's amplitude (degrees) during a jam recovery with `recovery = "amplitude"`.
+    pub recovery_amplitude_deg: f64,
     /// Heading gain k_θ: joint offset (rad) per radian of heading error from `goal_heading_deg`.
     pub heading_gain: f64,
     /// The direction (degrees from +x) the snake holds.
     pub goal_heading_deg: f64,
     /// Largest heading offset (degrees).
     pub max_heading_offset_deg: f64,
+    /// Time constant (s) of the low-pass filter on the mean heading the heading control reads
+    /// (0: unfiltered).
+    pub heading_filter_secs: f64,
     /// How fast the wave's phase runs.
     pub wave_speed: WaveSpeed,
     /// With `wave_speed = "progress"`: the wave's frequency (Hz) when the snake does not advance.
     pub drive_frequency_hz: f64,
     /// Time constant (s) of the low-pass filter on the measured forward speed.
     pub speed_filter_secs: f64,
+}
+
+/// `obstacle_aided.recovery`: what the wave does for `recovery_secs` after a jam.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Recovery {
+    /// The phase runs backward (ψ̇ = −ω): the wave travels the other way along the body.
+    Reverse,
+    /// The phase stops (ψ̇ = 0): the body holds its shape.
+    Pause,
+    /// The wave goes on at `recovery_amplitude_deg`.
+    Amplitude,
 }
 
 /// `obstacle_aided.wave_speed`.
