@@ -440,17 +440,17 @@ force_gain_rad_per_n_s = 0.2
 yield_gain_rad_per_n_s = 0.15
 max_offset_deg = 25.0
 release_per_s = 0.5
-propagation = "progress"
+propagation = "wave"
 jam_window_secs = 4.0
 jam_min_progress_m = 0.03
 recovery_secs = 1.5
 recovery = "amplitude"
-recovery_amplitude_deg = 75.0
+recovery_amplitude_deg = 55.0
 heading_gain = 0.4
 goal_heading_deg = 10.0
 max_heading_offset_deg = 12.0
 heading_filter_secs = 1.5
-wave_speed = "fixed"
+wave_speed = "progress"
 drive_frequency_hz = 0.2
 speed_filter_secs = 0.8
 
@@ -784,17 +784,17 @@ fn all_fields_expected() -> Config {
         yield_gain_rad_per_n_s: 0.15,
         max_offset_deg: 25.0,
         release_per_s: 0.5,
-        propagation: Propagation::Progress,
+        propagation: Propagation::Wave,
         jam_window_secs: 4.0,
         jam_min_progress_m: 0.03,
         recovery_secs: 1.5,
         recovery: Recovery::Amplitude,
-        recovery_amplitude_deg: 75.0,
+        recovery_amplitude_deg: 55.0,
         heading_gain: 0.4,
         goal_heading_deg: 10.0,
         max_heading_offset_deg: 12.0,
         heading_filter_secs: 1.5,
-        wave_speed: WaveSpeed::Fixed,
+        wave_speed: WaveSpeed::Progress,
         drive_frequency_hz: 0.2,
         speed_filter_secs: 0.8,
     };
