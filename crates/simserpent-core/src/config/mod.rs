@@ -1176,7 +1176,9 @@ pub struct ObstacleAided {
     /// Which contacts the law reads: the estimates of `[estimation]` or the simulator's truth.
     pub contacts: ContactSource,
     /// The controller's own wave: amplitude α (degrees) and phase lag δ between joints
-    /// (degrees); the frequency is `gait.sine_wave.frequency_hz`.
+    /// (degrees; > 0: the wave runs from the head toward the tail, < 0: from the tail toward
+    /// the head, the forward gait on isotropic friction); the frequency is
+    /// `gait.sine_wave.frequency_hz`.
     pub amplitude_deg: f64,
     pub phase_lag_deg: f64,
     /// Normal force (N) the body keeps on a peg that pushes it forward.
@@ -1193,7 +1195,7 @@ pub struct ObstacleAided {
     pub max_offset_deg: f64,
     /// Rate (1/s) at which the offsets relax toward zero.
     pub release_per_s: f64,
-    /// How the offsets move toward the tail.
+    /// How the offsets move along the body.
     pub propagation: Propagation,
     /// A jam: less than `jam_min_progress_m` of forward progress within `jam_window_secs` (s).
     pub jam_window_secs: f64,
@@ -1283,10 +1285,11 @@ pub struct Rail {
 pub enum Propagation {
     /// They stay at their joints.
     None,
-    /// At the snake's forward speed (a peg the body slides past stays at its bend).
+    /// Toward the tail at the snake's forward speed (a peg the body slides past stays at its
+    /// bend).
     Progress,
-    /// At the wave's speed along the body, ω/δ joints per second (a bend pressed on a peg
-    /// travels with the wave's bend).
+    /// With the wave's bends, ψ̇/δ joints per second (toward the head when δ < 0): a bend
+    /// pressed on a peg travels with the wave's bend.
     Wave,
 }
 
