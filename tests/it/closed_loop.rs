@@ -183,7 +183,11 @@ fn com_x_path(config: &Config, secs: f64) -> Vec<f64> {
 /// paced by the measured progress, heading control; the scene's `[gait.sine_wave]` amplitude and
 /// lag no longer apply) seed 1 advances 0.112 m (open loop on the bare floor −0.380 m): forward,
 /// but below this test's 0.2 m, and about what the same wave gains on the bare floor — see
-/// `obstacle_aided_controller_advances_on_unseen_peg_fields` for what it does achieve.
+/// `obstacle_aided_controller_advances_on_unseen_peg_fields` for what it does achieve. With the
+/// session-7 defaults (the 65°/−60° wave toward the head) seed 1 advances 0.560 m and the test
+/// passes, but it stays ignored: its bare-floor run uses the scene's ordinary 50°/30° wave
+/// (−0.380 m), while the controller's own wave advances faster on the bare floor than among
+/// pegs (51 mm/s against 28–50 mm/s on hoal's fields), so "the pegs help" is not what it shows.
 #[test]
 #[ignore = "issue 15: the obstacle-aided controller does not yet beat open loop reliably (seed 1: -0.285 m); see the doc comment"]
 fn obstacle_aided_controller_moves_through_a_peg_field_on_isotropic_friction() {
@@ -199,16 +203,18 @@ fn obstacle_aided_controller_moves_through_a_peg_field_on_isotropic_friction() {
     assert!(pegs_m > bare_m + 0.15, "pegs {pegs_m:.3} m against bare floor {bare_m:.3} m");
 }
 
-/// The obstacle-aided controller with its default config (its own 50° / 60° wave whose phase
-/// follows the measured progress, `wave_speed = "progress"`, heading held along +x) and
-/// estimated contacts moves the snake forward on the `hoal` experiment's isotropic floor among
-/// random pegs, on fields nobody tuned on (seeds 40–42, the medium density, 10 s; hoal's speed:
-/// the centre of mass along +x from the end of the ramp). Measured 2026-11-23 (debug build):
-/// 11.1, 12.1 and 5.4 mm/s. Jams are not asserted here: seed 42 trips hoal's jam rule (5 s
-/// without 2 cm), and `simserpent experiment hoal` fails its jam check on this controller (6 of
-/// 30 runs; target ≤ 10 %), as it should. This is slow, and most of it is not the pegs' doing:
-/// the same wave advances about as fast on the bare floor, and the open-loop wave running toward
-/// the head is faster (BENCHMARKS, "Obstacle-aided locomotion (issue 15)").
+/// The obstacle-aided controller with its default config (its own 65° / −60° wave at a fixed
+/// 0.5 Hz, running toward the head, the forward gait on isotropic friction; pressing on
+/// propelling and yielding at resisting pegs from the estimated contacts; no heading control,
+/// no jam recovery) moves the snake forward on the `hoal` experiment's floor among random pegs,
+/// on fields nobody tuned on (seeds 40–42, the medium density, 10 s; hoal's speed: the centre
+/// of mass along +x from the end of the ramp), at least 20 mm/s and without a jam by hoal's
+/// rule (5 s without 2 cm). Measured 2026-11-24 (release build): 28, 50 and 37 mm/s; the
+/// session-6 defaults (a slow progress-paced wave toward the tail) made 11, 12 and 5 mm/s.
+/// What this does not show: that the contacts help. The same controller with
+/// `contact_feedback = false` made 29, 49 and 35 mm/s, and on the bare floor (no pegs) it makes
+/// 51 mm/s: on this floor the pegs only hinder the reversed wave, and no contact term tried in
+/// session 7 recovered that loss (BENCHMARKS.md, "Obstacle-aided locomotion (issue 15)").
 #[test]
 fn obstacle_aided_controller_advances_on_unseen_peg_fields() {
     for seed in 40..=42 {
@@ -218,7 +224,8 @@ fn obstacle_aided_controller_advances_on_unseen_peg_fields() {
         c.estimation.enabled = true;
         let (speed_m_per_s, jammed) = score_run(&c).unwrap();
         eprintln!("seed {seed}: {:.1} mm/s, jammed {jammed}", 1e3 * speed_m_per_s);
-        assert!(speed_m_per_s > 0.004, "seed {seed}: {:.1} mm/s", 1e3 * speed_m_per_s);
+        assert!(speed_m_per_s > 0.020, "seed {seed}: {:.1} mm/s", 1e3 * speed_m_per_s);
+        assert!(!jammed, "seed {seed} jammed");
     }
 }
 

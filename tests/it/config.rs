@@ -432,20 +432,25 @@ acceptance_radius_m = 0.4
 
 [obstacle_aided]
 contacts = "true"
+contact_feedback = false
 amplitude_deg = 40.0
 phase_lag_deg = 45.0
 target_force_n = 4.5
 force_gain_rad_per_n_s = 0.2
+yield_gain_rad_per_n_s = 0.15
 max_offset_deg = 25.0
 release_per_s = 0.5
-propagation = "progress"
+propagation = "wave"
 jam_window_secs = 4.0
 jam_min_progress_m = 0.03
 recovery_secs = 1.5
+recovery = "amplitude"
+recovery_amplitude_deg = 55.0
 heading_gain = 0.4
 goal_heading_deg = 10.0
 max_heading_offset_deg = 12.0
-wave_speed = "fixed"
+heading_filter_secs = 1.5
+wave_speed = "progress"
 drive_frequency_hz = 0.2
 speed_filter_secs = 0.8
 
@@ -782,20 +787,25 @@ fn all_fields_expected() -> Config {
     };
     c.obstacle_aided = ObstacleAided {
         contacts: ContactSource::True,
+        contact_feedback: false,
         amplitude_deg: 40.0,
         phase_lag_deg: 45.0,
         target_force_n: 4.5,
         force_gain_rad_per_n_s: 0.2,
+        yield_gain_rad_per_n_s: 0.15,
         max_offset_deg: 25.0,
         release_per_s: 0.5,
-        propagation: Propagation::Progress,
+        propagation: Propagation::Wave,
         jam_window_secs: 4.0,
         jam_min_progress_m: 0.03,
         recovery_secs: 1.5,
+        recovery: Recovery::Amplitude,
+        recovery_amplitude_deg: 55.0,
         heading_gain: 0.4,
         goal_heading_deg: 10.0,
         max_heading_offset_deg: 12.0,
-        wave_speed: WaveSpeed::Fixed,
+        heading_filter_secs: 1.5,
+        wave_speed: WaveSpeed::Progress,
         drive_frequency_hz: 0.2,
         speed_filter_secs: 0.8,
     };
@@ -1019,6 +1029,12 @@ const RULES: &[(&[&str], &str)] = &[
     (&["terrain.cylinder_path.n_pairs=0"], "terrain.cylinder_path.n_pairs"),
     (&["terrain.cylinder_path.spacing_m=0"], "terrain.cylinder_path.spacing_m"),
     (&["terrain.cylinder_path.radius_m=0"], "terrain.cylinder_path.radius_m"),
+    (&["obstacle_aided.phase_lag_deg=0"], "obstacle_aided.phase_lag_deg"),
+    (&["obstacle_aided.phase_lag_deg=-180"], "obstacle_aided.phase_lag_deg"),
+    (&["obstacle_aided.wave_speed=\"progress\"", "obstacle_aided.phase_lag_deg=-60"], "obstacle_aided.wave_speed"),
+    (&["obstacle_aided.yield_gain_rad_per_n_s=-0.1"], "obstacle_aided.yield_gain_rad_per_n_s"),
+    (&["obstacle_aided.recovery_amplitude_deg=90"], "obstacle_aided.recovery_amplitude_deg"),
+    (&["obstacle_aided.heading_filter_secs=-1"], "obstacle_aided.heading_filter_secs"),
     (&["rail.wavelength_m=0"], "rail.wavelength_m"),
     (&["rail.amplitude_deg=90"], "rail.amplitude_deg"),
     (&["rail.backoff_speed_m_per_s=0"], "rail.backoff_speed_m_per_s"),

@@ -1176,37 +1176,64 @@ pub struct ObstacleAided {
     /// Which contacts the law reads: the estimates of `[estimation]` or the simulator's truth.
     pub contacts: ContactSource,
     /// The controller's own wave: amplitude α (degrees) and phase lag δ between joints
-    /// (degrees); the frequency is `gait.sine_wave.frequency_hz`.
+    /// (degrees; > 0: the wave runs from the head toward the tail, < 0: from the tail toward
+    /// the head, the forward gait on isotropic friction); the frequency is
+    /// `gait.sine_wave.frequency_hz`.
     pub amplitude_deg: f64,
     pub phase_lag_deg: f64,
     /// Normal force (N) the body keeps on a peg that pushes it forward.
     pub target_force_n: f64,
-    /// Integral gain of the force law: joint offset (rad) per newton of force error and second.
+    /// Integral gain of the force law on a propelling peg: joint offset (rad) per newton of
+    /// force error and second.
     pub force_gain_rad_per_n_s: f64,
+    /// Integral gain of the force law on a resisting peg: joint offset (rad) per newton of
+    /// normal force and second, away from the peg.
+    pub yield_gain_rad_per_n_s: f64,
+    /// Whether the contacts feed the law (false: the same controller without its contact terms).
+    pub contact_feedback: bool,
     /// Largest contact offset of one joint (degrees).
     pub max_offset_deg: f64,
     /// Rate (1/s) at which the offsets relax toward zero.
     pub release_per_s: f64,
-    /// How the offsets move toward the tail.
+    /// How the offsets move along the body.
     pub propagation: Propagation,
     /// A jam: less than `jam_min_progress_m` of forward progress within `jam_window_secs` (s).
     pub jam_window_secs: f64,
     /// Forward progress (m) that counts as moving.
     pub jam_min_progress_m: f64,
-    /// How long (s) the wave runs backward after a jam.
+    /// How long (s) a jam recovery lasts.
     pub recovery_secs: f64,
+    /// What the wave does during a jam recovery.
+    pub recovery: Recovery,
+    /// The wave's amplitude (degrees) during a jam recovery with `recovery = "amplitude"`.
+    pub recovery_amplitude_deg: f64,
     /// Heading gain k_θ: joint offset (rad) per radian of heading error from `goal_heading_deg`.
     pub heading_gain: f64,
     /// The direction (degrees from +x) the snake holds.
     pub goal_heading_deg: f64,
     /// Largest heading offset (degrees).
     pub max_heading_offset_deg: f64,
+    /// Time constant (s) of the low-pass filter on the mean heading the heading control reads
+    /// (0: unfiltered).
+    pub heading_filter_secs: f64,
     /// How fast the wave's phase runs.
     pub wave_speed: WaveSpeed,
     /// With `wave_speed = "progress"`: the wave's frequency (Hz) when the snake does not advance.
     pub drive_frequency_hz: f64,
     /// Time constant (s) of the low-pass filter on the measured forward speed.
     pub speed_filter_secs: f64,
+}
+
+/// `obstacle_aided.recovery`: what the wave does for `recovery_secs` after a jam.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Recovery {
+    /// The phase runs backward (ψ̇ = −ω): the wave travels the other way along the body.
+    Reverse,
+    /// The phase stops (ψ̇ = 0): the body holds its shape.
+    Pause,
+    /// The wave goes on at `recovery_amplitude_deg`.
+    Amplitude,
 }
 
 /// `obstacle_aided.wave_speed`.
@@ -1290,10 +1317,11 @@ pub enum RailGait {
 pub enum Propagation {
     /// They stay at their joints.
     None,
-    /// At the snake's forward speed (a peg the body slides past stays at its bend).
+    /// Toward the tail at the snake's forward speed (a peg the body slides past stays at its
+    /// bend).
     Progress,
-    /// At the wave's speed along the body, ω/δ joints per second (a bend pressed on a peg
-    /// travels with the wave's bend).
+    /// With the wave's bends, ψ̇/δ joints per second (toward the head when δ < 0): a bend
+    /// pressed on a peg travels with the wave's bend.
     Wave,
 }
 

@@ -20,6 +20,7 @@
 use super::surfaces::{self, FrictionSource, SurfaceShape};
 use super::{
     Config, ConfigError, ContactSource, ControllerKind, GaitKind, GroundModel, JointAxes, LegacyGeometry, TerrainKind,
+    WaveSpeed,
 };
 
 /// The most surfaces a config may have (`ground.surfaces`).
@@ -240,10 +241,24 @@ impl Config {
     fn validate_obstacle_aided(&self) -> Check {
         let o = &self.obstacle_aided;
         self.below_joint_range("obstacle_aided.amplitude_deg", o.amplitude_deg)?;
-        positive("obstacle_aided.phase_lag_deg", o.phase_lag_deg)?;
-        ensure(o.phase_lag_deg < 180.0, "obstacle_aided.phase_lag_deg", fmt_f(o.phase_lag_deg), "must be below 180")?;
+        finite("obstacle_aided.phase_lag_deg", o.phase_lag_deg)?;
+        ensure(
+            o.phase_lag_deg != 0.0 && o.phase_lag_deg.abs() < 180.0,
+            "obstacle_aided.phase_lag_deg",
+            fmt_f(o.phase_lag_deg),
+            "must be between -180 and 180 and not 0 (> 0: the wave runs toward the tail, < 0: toward the head)",
+        )?;
+        ensure(
+            o.wave_speed == WaveSpeed::Fixed || o.phase_lag_deg > 0.0,
+            "obstacle_aided.wave_speed",
+            "\"progress\"",
+            "paces a wave that runs toward the tail: it needs obstacle_aided.phase_lag_deg > 0 (or wave_speed = \"fixed\")",
+        )?;
         positive("obstacle_aided.target_force_n", o.target_force_n)?;
         non_negative("obstacle_aided.force_gain_rad_per_n_s", o.force_gain_rad_per_n_s)?;
+        non_negative("obstacle_aided.yield_gain_rad_per_n_s", o.yield_gain_rad_per_n_s)?;
+        self.below_joint_range("obstacle_aided.recovery_amplitude_deg", o.recovery_amplitude_deg)?;
+        non_negative("obstacle_aided.heading_filter_secs", o.heading_filter_secs)?;
         self.below_joint_range("obstacle_aided.max_offset_deg", o.max_offset_deg)?;
         non_negative("obstacle_aided.release_per_s", o.release_per_s)?;
         positive("obstacle_aided.jam_window_secs", o.jam_window_secs)?;

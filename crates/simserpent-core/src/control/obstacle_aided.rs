@@ -18,14 +18,20 @@
 //! **The wave.** Joint j (0 right behind the head) follows
 //!
 //! ```text
-//! φ_j,ref = r(t)·α·sin(ψ − j δ) + o_j,       ψ̇ = ±ω
+//! φ_j,ref = r(t)·α·sin(ψ − j δ) + o_j,       ψ̇ = ω (or as below)
 //! ```
 //!
 //! with α = `amplitude_deg`, δ = `phase_lag_deg` (the controller's own), ω = 2πf from
-//! `gait.sine_wave.frequency_hz`, r(t) the ramp-in of `gait.ramp_secs`, ψ the
-//! wave's phase and o_j the contact offset of joint j plus the heading offset r(t)·φ_h.
-//! With `wave_speed = "fixed"` ψ̇ = +ω (the wave travels to the tail and the snake forward);
-//! with `"progress"`
+//! `gait.sine_wave.frequency_hz` (0.5 Hz in `hoal`, the frequency of its open-loop sweep, so
+//! the comparison is fair), r(t) the ramp-in of `gait.ramp_secs`, ψ the wave's phase and o_j
+//! the contact offset of joint j plus the heading offset r(t)·φ_h. **The sign of δ is the
+//! wave's direction**: δ > 0 makes the wave run from the head toward the tail (ordinary
+//! lateral undulation), δ < 0 from the tail toward the head. On an isotropic Coulomb floor a
+//! snake drifts the way its wave runs, so there δ < 0 is the forward gait (the default,
+//! 65°/−60°, is `hoal`'s best open-loop wave on sparse and medium fields); among pegs on that
+//! wave the bends push the pegs forward and the pegs push the body back (they resist), the
+//! reverse of obstacle-aided undulation on an ordinary wave.
+//! With `wave_speed = "fixed"` ψ̇ = +ω; with `"progress"` (only for δ > 0)
 //!
 //! ```text
 //! ψ̇ = min(ω, ω_d + δ·v/L)
@@ -35,11 +41,16 @@
 //! down the body at v, i.e. they stay in place in the world while the body advances (Kano et
 //! al.'s follow-the-leader shape propagation, *Local reflexive mechanisms essential for snakes'
 //! scaffold-based locomotion*, Bioinspir. Biomim. 7, 2012), and press backward at ω_d/δ joints
-//! per second when the snake does not advance. During jam recovery ψ̇ = −ω.
+//! per second when the snake does not advance. During a jam recovery see below.
 //!
 //! **Heading control** (as path following, `control::path`): every joint gets
-//! φ_h = clamp(k_θ·wrap(θ̄ − θ_g), ±φ_h,max) with θ_g = `goal_heading_deg`; the forward
-//! speed counts along θ_g.
+//! φ_h = clamp(sign(δ)·k_θ·wrap(θ̃ − θ_g), ±φ_h,max) with θ_g = `goal_heading_deg` and θ̃ the
+//! mean heading θ̄ through a first-order low-pass filter of time constant
+//! `heading_filter_secs` (θ̄ swings with the wave). A positive joint offset turns a snake on an
+//! ordinary wave clockwise, one on a wave running toward the head counterclockwise (measured on
+//! `hoal`'s fields: with path following's sign the reversed wave turned away from the goal,
+//! 5 mm/s against 42 mm/s without heading control), hence sign(δ). The forward speed counts
+//! along θ_g.
 //!
 //! **What the controller measures.** Link headings θ₀ = head yaw (the head gyro's yaw rate
 //! integrated from the starting heading), θᵢ = θᵢ₋₁ + qᵢ₋₁ (encoders; our joint angle is the
@@ -54,13 +65,16 @@
 //! along θ_g through a first-order low-pass filter of time constant `speed_filter_secs`.
 //!
 //! **The force law** (every link i with a contact; f_n = f·n̂ᵢ the force across the link,
-//! f_fwd = f·û its forward part; the peg is on the side s = −sign(f_n)):
+//! f_fwd = f·ĝ its component along the goal direction ĝ = (cos θ_g, sin θ_g) in the world;
+//! the peg is on the side s = −sign(f_n)):
 //!
 //! ```text
-//! g_i = k_f·(F_ref − |f_n|)·Δt    if f_fwd > 0   (the peg propels: press on it until |f_n| = F_ref)
-//! g_i = −k_f·|f_n|·Δt              if f_fwd ≤ 0   (the peg holds the snake back: yield)
+//! g_i = k_p·(F_ref − |f_n|)·Δt    if f_fwd > 0   (the peg propels: press on it until |f_n| = F_ref)
+//! g_i = −k_y·|f_n|·Δt              if f_fwd ≤ 0   (the peg resists: yield, lower that bend)
 //! ```
 //!
+//! (k_p = `force_gain_rad_per_n_s`, k_y = `yield_gain_rad_per_n_s`; `contact_feedback = false`
+//! switches the law off: the same controller without its contact terms.)
 //! g_i > 0 deepens a bend whose apex, the joint at the contact, moves toward the peg: a bend
 //! with its apex at joint k toward side s is the joint pattern (Δo_{k−1}, Δo_k, Δo_{k+1}) =
 //! s·g·(−1, +2, −1) (link k turns toward s going tailward, link k+1 back: joint k moves toward s
@@ -69,19 +83,30 @@
 //! (w = ½ without a contact point). This is force control across the contact (the offset
 //! integrates the force error) and position control along the body (the wave's angles are
 //! untouched where nothing pushes). Every step the offsets then relax,
-//! o_j ← o_j·(1 − λΔt), are clamped to ±o_max and move toward the tail by σ joints per step
-//! (o_j ← (1 − σ)·o_j + σ·o_{j−1}, a first-order upwind shift): with `propagation =
-//! "progress"` σ = v·Δt/L, so a bend stays where the peg is while the body slides past it;
-//! with `"wave"` σ = (ψ̇/δ)·Δt (ψ̇ ≥ 0 the wave's phase rate: ω, or the progress rate), the speed at which the wave's bends run down the body, so the
-//! extra bend pressed on a peg travels with the wave's bend that presses it (in ideal lateral
-//! undulation among pegs the two speeds are equal: the body slides through the pegs at the
-//! wave's speed).
+//! o_j ← o_j·(1 − λΔt), are clamped to ±o_max and move along the body by σ joints per step
+//! (a first-order upwind shift, o_j ← (1 − σ)·o_j + σ·o_{j∓1}): with `propagation =
+//! "progress"` toward the tail at σ = v·Δt/L, so a bend stays where the peg is while the body
+//! slides past it; with `"wave"` at the speed of the wave's bends, ψ̇/δ joints per second
+//! (toward the head when it is negative), so the extra bend pressed on a peg travels with the
+//! wave's bend that presses it; with `"none"` not at all.
 //!
 //! **Jam recovery.** Every `jam_window_secs` T (from the end of the ramp) the controller
 //! compares the centre of mass with the previous checkpoint: if it advanced less than
-//! `jam_min_progress_m` along the checkpoint's û, the snake is jammed: the wave runs backward
-//! (ψ̇ = −ω; the snake backs off the pegs that block it) for `recovery_secs`, the contact
-//! offsets are cleared, and the next window starts when it goes forward again.
+//! `jam_min_progress_m` along the checkpoint's û, the snake is jammed: the contact offsets are
+//! cleared and for `recovery_secs` (0: never) the wave, by `recovery`, runs the other way
+//! (`"reverse"`, ψ̇ = −ω: on an ordinary wave the snake backs off the pegs; on a wave toward
+//! the head this is the ordinary wave), stops (`"pause"`, ψ̇ = 0) or goes on at
+//! `recovery_amplitude_deg` (`"amplitude"`); the next window starts when it ends.
+//! On `hoal`'s fields with the wave toward the head none of the three freed the body more
+//! often than no recovery at all (BENCHMARKS.md, session 7, helper i15g), so the default is
+//! `recovery_secs = 0`.
+//!
+//! **What is measured (session 7).** On `hoal`'s fields with the defaults the controller is as
+//! fast as the open-loop 65°/−60° wave and jams as often; with `contact_feedback = false` it is
+//! as fast (the yield and press terms sit within the field-to-field noise), and on the bare
+//! floor it is faster than among any pegs. The pegs only hinder a wave toward the head on
+//! isotropic friction. Details and the on/off log: BENCHMARKS.md, "Obstacle-aided locomotion
+//! (issue 15)".
 //!
 //! Nothing allocates after construction.
 
@@ -90,7 +115,7 @@ use super::{
     Command, ContactFeed, Controller, Observation, Pid, command_joint, feel, joint_pid, planar_chain, wrap_angle_rad,
     yaw_joints,
 };
-use crate::config::{Config, ContactSource, ControlMethod, Propagation, WaveSpeed};
+use crate::config::{Config, ContactSource, ControlMethod, Propagation, Recovery, WaveSpeed};
 use crate::estimation::ContactEstimates;
 use crate::state::Snapshot;
 use std::f64::consts::TAU;
@@ -105,18 +130,26 @@ pub struct ObstacleAided {
     pub ramp_secs: f64,
     /// F_ref (N).
     pub target_force_n: f64,
-    /// k_f (rad per N and s).
+    /// k_p (rad per N and s): pressing on propelling pegs.
     pub force_gain_rad_per_n_s: f64,
+    /// k_y (rad per N and s): yielding at resisting pegs.
+    pub yield_gain_rad_per_n_s: f64,
+    /// Whether the contacts feed the law at all (false: the same controller without its
+    /// contact terms).
+    pub contact_feedback: bool,
     /// o_max (rad).
     pub max_offset_rad: f64,
     /// λ (1/s).
     pub release_per_s: f64,
-    /// How the offsets move toward the tail.
+    /// How the offsets move along the body.
     pub propagation: Propagation,
-    /// Jam rule: window T (s), progress (m), backward time (s).
+    /// Jam rule: window T (s), progress (m), recovery time (s).
     pub jam_window_secs: f64,
     pub jam_min_progress_m: f64,
     pub recovery_secs: f64,
+    /// What the wave does during a jam recovery, and the amplitude (rad) of `Recovery::Amplitude`.
+    pub recovery: Recovery,
+    pub recovery_amplitude_rad: f64,
     /// L (m).
     pub link_length_m: f64,
     /// Where the contacts come from (estimates or, for comparison, the truth).
@@ -125,6 +158,9 @@ pub struct ObstacleAided {
     pub heading_gain: f64,
     pub goal_heading_rad: f64,
     pub max_heading_offset_rad: f64,
+    /// Time constant (s) of the low-pass filter on the mean heading (0: none).
+    pub heading_filter_secs: f64,
+    filtered_heading_rad: Option<f64>,
     /// How fast the phase runs; the drive ω_d (rad/s) of `WaveSpeed::Progress`.
     pub wave_speed: WaveSpeed,
     pub drive_angular_frequency_rad_per_s: f64,
@@ -165,7 +201,7 @@ pub struct ObstacleAidedState {
     /// Links with a contact that propels / that holds back.
     pub propulsive_contacts: usize,
     pub resistive_contacts: usize,
-    /// Whether the wave runs backward (jam recovery).
+    /// Whether a jam recovery runs.
     pub recovering: bool,
     /// The heading offset φ_h (rad) on every joint.
     pub heading_offset_rad: f64,
@@ -188,17 +224,23 @@ impl ObstacleAided {
             ramp_secs: config.gait.ramp_secs,
             target_force_n: o.target_force_n,
             force_gain_rad_per_n_s: o.force_gain_rad_per_n_s,
+            yield_gain_rad_per_n_s: o.yield_gain_rad_per_n_s,
+            contact_feedback: o.contact_feedback,
             max_offset_rad: o.max_offset_deg.to_radians(),
             release_per_s: o.release_per_s,
             propagation: o.propagation,
             jam_window_secs: o.jam_window_secs,
             jam_min_progress_m: o.jam_min_progress_m,
             recovery_secs: o.recovery_secs,
+            recovery: o.recovery,
+            recovery_amplitude_rad: o.recovery_amplitude_deg.to_radians(),
             link_length_m: config.snake.link_length_m,
             contacts: ContactFeed::new(config, o.contacts, n_joints + 1),
             heading_gain: o.heading_gain,
             goal_heading_rad: o.goal_heading_deg.to_radians(),
             max_heading_offset_rad: o.max_heading_offset_deg.to_radians(),
+            heading_filter_secs: o.heading_filter_secs,
+            filtered_heading_rad: None,
             wave_speed: o.wave_speed,
             drive_angular_frequency_rad_per_s: TAU * o.drive_frequency_hz,
             speed_filter_secs: o.speed_filter_secs,
@@ -249,7 +291,7 @@ impl ObstacleAided {
         &mut self,
         contacts: &ContactEstimates,
         heading_rad: &[f64],
-        mean_heading_rad: f64,
+        forward_rad: f64,
         forward_speed_m_per_s: f64,
         dt_secs: f64,
     ) -> (usize, usize) {
@@ -257,24 +299,30 @@ impl ObstacleAided {
         // Relax, then move toward the tail with the body's progress past the pegs.
         let keep = (1.0 - self.release_per_s * dt_secs).clamp(0.0, 1.0);
         self.offset_rad.iter_mut().for_each(|o| *o *= keep);
+        // Joints per second toward the tail (negative: toward the head).
         let joints_per_s = match self.propagation {
             Propagation::None => 0.0,
             Propagation::Progress => forward_speed_m_per_s.max(0.0) / self.link_length_m,
-            Propagation::Wave if self.phase_lag_rad > 0.0 => {
-                self.wave_phase_rate_rad_per_s.max(0.0) / self.phase_lag_rad
-            }
+            Propagation::Wave if self.phase_lag_rad != 0.0 => self.wave_phase_rate_rad_per_s / self.phase_lag_rad,
             Propagation::Wave => 0.0,
         };
-        if joints_per_s > 0.0 && n_joints > 0 {
-            let sigma = (joints_per_s * dt_secs).clamp(0.0, 1.0);
-            for j in (1..n_joints).rev() {
-                self.offset_rad[j] = (1.0 - sigma) * self.offset_rad[j] + sigma * self.offset_rad[j - 1];
+        if n_joints > 0 && joints_per_s != 0.0 {
+            let sigma = (joints_per_s.abs() * dt_secs).clamp(0.0, 1.0);
+            if joints_per_s > 0.0 {
+                for j in (1..n_joints).rev() {
+                    self.offset_rad[j] = (1.0 - sigma) * self.offset_rad[j] + sigma * self.offset_rad[j - 1];
+                }
+                self.offset_rad[0] *= 1.0 - sigma;
+            } else {
+                for j in 0..n_joints - 1 {
+                    self.offset_rad[j] = (1.0 - sigma) * self.offset_rad[j] + sigma * self.offset_rad[j + 1];
+                }
+                self.offset_rad[n_joints - 1] *= 1.0 - sigma;
             }
-            self.offset_rad[0] *= 1.0 - sigma;
         }
         let (mut propulsive, mut resistive) = (0, 0);
-        if contacts.active || self.contacts.source == ContactSource::True {
-            let u = [mean_heading_rad.cos(), mean_heading_rad.sin()];
+        if self.contact_feedback && (contacts.active || self.contacts.source == ContactSource::True) {
+            let u = [forward_rad.cos(), forward_rad.sin()];
             let n_links = contacts.n_links().min(heading_rad.len()).min(n_joints + 1);
             for (i, heading) in heading_rad.iter().enumerate().take(n_links) {
                 if !contacts.contact[i] {
@@ -292,7 +340,7 @@ impl ObstacleAided {
                     self.force_gain_rad_per_n_s * (self.target_force_n - f_normal.abs()) * dt_secs
                 } else {
                     resistive += 1;
-                    -self.force_gain_rad_per_n_s * f_normal.abs() * dt_secs
+                    -self.yield_gain_rad_per_n_s * f_normal.abs() * dt_secs
                 };
                 let side = -f_normal.signum();
                 let front = contacts
@@ -381,27 +429,45 @@ impl ObstacleAided {
             }
         }
         let recovering = t < self.recovering_until_secs;
-        let direction = if recovering { -1.0 } else { 1.0 };
         let phase_rate = match self.wave_speed {
+            _ if recovering => match self.recovery {
+                Recovery::Reverse => -self.angular_frequency_rad_per_s,
+                Recovery::Pause => 0.0,
+                Recovery::Amplitude => self.angular_frequency_rad_per_s,
+            },
             WaveSpeed::Fixed => self.angular_frequency_rad_per_s,
-            WaveSpeed::Progress if recovering => self.angular_frequency_rad_per_s,
             WaveSpeed::Progress => (self.drive_angular_frequency_rad_per_s
                 + self.phase_lag_rad * forward_speed / self.link_length_m)
                 .min(self.angular_frequency_rad_per_s),
-        } * direction;
+        };
+        let amplitude = if recovering && self.recovery == Recovery::Amplitude {
+            self.recovery_amplitude_rad
+        } else {
+            self.amplitude_rad
+        };
         self.wave_phase_rate_rad_per_s = phase_rate;
         let (propulsive, resistive) = if recovering {
-            self.force_law(&ContactEstimates::default(), &[], mean_heading, 0.0, dt)
+            self.force_law(&ContactEstimates::default(), &[], self.goal_heading_rad, 0.0, dt)
         } else {
             let heading = std::mem::take(&mut self.heading_rad);
-            let counts = self.force_law(contacts, &heading, mean_heading, forward_speed, dt);
+            let counts = self.force_law(contacts, &heading, self.goal_heading_rad, forward_speed, dt);
             self.heading_rad = heading;
             counts
         };
         self.phase_rad = (self.phase_rad + phase_rate * dt) % (1e3 * TAU);
         // Heading control (as path following): a positive offset turns the snake clockwise.
-        let heading_offset = (self.heading_gain * wrap_angle_rad(mean_heading - self.goal_heading_rad))
-            .clamp(-self.max_heading_offset_rad, self.max_heading_offset_rad);
+        // Heading control on the filtered mean heading. A positive offset turns the snake
+        // clockwise when the wave runs toward the tail (δ > 0, as path following) and
+        // counterclockwise when it runs toward the head (δ < 0): hence the sign of δ.
+        let k = if self.heading_filter_secs > 0.0 { (dt / self.heading_filter_secs).min(1.0) } else { 1.0 };
+        let filtered = match self.filtered_heading_rad {
+            None => mean_heading,
+            Some(f) => wrap_angle_rad(f + k * wrap_angle_rad(mean_heading - f)),
+        };
+        self.filtered_heading_rad = Some(filtered);
+        let heading_offset =
+            (self.phase_lag_rad.signum() * self.heading_gain * wrap_angle_rad(filtered - self.goal_heading_rad))
+                .clamp(-self.max_heading_offset_rad, self.max_heading_offset_rad);
         self.last = ObstacleAidedState {
             mean_heading_rad: mean_heading,
             centre_of_mass_m: com,
@@ -418,9 +484,9 @@ impl ObstacleAided {
         for j in 0..obs.joint_angle_rad.len().min(cmd.position_rad.len()).min(self.offset_rad.len()) {
             let phase = self.phase_rad - j as f64 * self.phase_lag_rad;
             let offset = if self.yaw_joint[j] { self.offset_rad[j] + r * heading_offset } else { 0.0 };
-            let wave = self.amplitude_rad * phase.sin();
+            let wave = amplitude * phase.sin();
             let angle = r * wave + offset;
-            let velocity = dr * wave + r * self.amplitude_rad * phase_rate * phase.cos();
+            let velocity = dr * wave + r * amplitude * phase_rate * phase.cos();
             command_joint(self.method, cmd, j, angle, velocity, obs, &mut self.pids[j], self.dt_secs);
         }
     }
@@ -436,6 +502,7 @@ impl Controller for ObstacleAided {
         self.recovering_until_secs = f64::NEG_INFINITY;
         self.speed_m_per_s = 0.0;
         self.last_com_m = None;
+        self.filtered_heading_rad = None;
         self.last = ObstacleAidedState::default();
     }
 
@@ -461,6 +528,7 @@ mod tests {
         c.obstacle_aided.release_per_s = 0.0;
         c.obstacle_aided.propagation = Propagation::None;
         c.obstacle_aided.force_gain_rad_per_n_s = 0.1;
+        c.obstacle_aided.yield_gain_rad_per_n_s = 0.1;
         c.obstacle_aided.target_force_n = 3.0;
         ObstacleAided::from_config(&c, n_joints)
     }
@@ -512,6 +580,38 @@ mod tests {
     }
 
     #[test]
+    fn yield_and_press_have_their_own_gains_and_contact_feedback_off_ignores_the_contacts() {
+        // The blocking peg of the test above with the yield gain 0: nothing; the propelling
+        // peg of the first test with the press gain 0: nothing.
+        let mut oa = controller(9);
+        oa.yield_gain_rad_per_n_s = 0.0;
+        let (p, r) = oa.force_law(&one_contact(10, 5, [-1.0, 2.0, 0.0], Some(0.0)), &[0.0; 10], 0.0, 0.0, 0.25);
+        assert_eq!((p, r), (0, 1));
+        assert!(oa.offsets_rad().iter().all(|o| *o == 0.0), "{:?}", oa.offsets_rad());
+        let mut oa = controller(9);
+        oa.force_gain_rad_per_n_s = 0.0;
+        oa.force_law(&one_contact(10, 3, [0.5, 1.0, 0.0], Some(-0.1)), &[0.0; 10], 0.0, 0.0, 0.5);
+        assert!(oa.offsets_rad().iter().all(|o| *o == 0.0), "{:?}", oa.offsets_rad());
+        // With contact_feedback off neither counts nor offsets, whatever the gains.
+        let mut oa = controller(9);
+        oa.contact_feedback = false;
+        let (p, r) = oa.force_law(&one_contact(10, 5, [-1.0, 2.0, 0.0], Some(0.0)), &[0.0; 10], 0.0, 0.0, 0.25);
+        assert_eq!((p, r), (0, 0));
+        assert!(oa.offsets_rad().iter().all(|o| *o == 0.0), "{:?}", oa.offsets_rad());
+    }
+
+    #[test]
+    fn forward_is_the_goal_direction_not_the_body_heading() {
+        // A straight snake along +x, a peg force along −x and +y on link 5: resistive when
+        // the goal is +x (forward = 0), propulsive when the goal is −x (forward = π).
+        let contacts = one_contact(10, 5, [-1.0, 2.0, 0.0], Some(0.0));
+        let mut oa = controller(9);
+        assert_eq!(oa.force_law(&contacts, &[0.0; 10], 0.0, 0.0, 0.25), (0, 1));
+        let mut oa = controller(9);
+        assert_eq!(oa.force_law(&contacts, &[0.0; 10], std::f64::consts::PI, 0.0, 0.25), (1, 0));
+    }
+
+    #[test]
     fn the_law_works_in_the_link_frame_whatever_the_heading() {
         // The same contact as the first test with the whole snake and the force turned by 90°:
         // the same offsets.
@@ -544,21 +644,45 @@ mod tests {
     }
 
     #[test]
+    fn with_a_headward_wave_the_offsets_travel_toward_the_head_at_the_wave_speed() {
+        // δ = −60°, ω = π rad/s: ψ̇/δ = −3 joints per second; Δt = 0.1 s: σ = 0.3 toward the head.
+        let mut c = Config::default();
+        c.obstacle_aided.release_per_s = 0.0;
+        c.obstacle_aided.propagation = Propagation::Wave;
+        c.obstacle_aided.phase_lag_deg = -60.0;
+        c.obstacle_aided.wave_speed = WaveSpeed::Fixed;
+        c.gait.sine_wave.frequency_hz = 0.5;
+        let mut oa = ObstacleAided::from_config(&c, 4);
+        oa.offset_rad.copy_from_slice(&[0.0, 0.0, 0.1, 0.2]);
+        oa.force_law(&ContactEstimates::default(), &[], 0.0, 0.0, 0.1);
+        let expected = [0.0, 0.03, 0.7 * 0.1 + 0.3 * 0.2, 0.7 * 0.2];
+        for (o, e) in oa.offsets_rad().iter().zip(expected) {
+            assert!((o - e).abs() < 1e-12, "{:?} vs {expected:?}", oa.offsets_rad());
+        }
+    }
+
+    #[test]
     fn no_progress_for_a_window_reverses_the_wave_for_the_recovery_time() {
         let mut c = Config::default();
         c.gait.ramp_secs = 0.0;
         c.obstacle_aided.jam_window_secs = 1.0;
         c.obstacle_aided.jam_min_progress_m = 0.05;
         c.obstacle_aided.recovery_secs = 0.5;
+        c.obstacle_aided.recovery = Recovery::Reverse;
+        c.obstacle_aided.wave_speed = WaveSpeed::Fixed;
+        c.obstacle_aided.phase_lag_deg = -60.0;
         let mut oa = ObstacleAided::from_config(&c, 3);
         let mut obs = Observation::new(4, 3);
         obs.head_quat = [1.0, 0.0, 0.0, 0.0];
         let mut cmd = Command::new(3);
         let mut recovering_at = Vec::new();
+        let omega = TAU * c.gait.sine_wave.frequency_hz;
         for k in 0..200 {
             obs.time_secs = k as f64 * 0.01;
             oa.update(&obs, &mut cmd);
             recovering_at.push((obs.time_secs, oa.last.recovering));
+            let expected = if oa.last.recovering { -omega } else { omega };
+            assert_eq!(oa.last.phase_rate_rad_per_s, expected, "t = {}", obs.time_secs);
         }
         // Stuck at the origin: jam at t = 1 s, backward until 1.5 s, a new window from then.
         assert_eq!(oa.last.jams, 1);
@@ -578,33 +702,92 @@ mod tests {
     }
 
     #[test]
+    fn pause_and_amplitude_recoveries_stop_the_phase_or_enlarge_the_wave() {
+        let mut c = Config::default();
+        c.gait.ramp_secs = 0.0;
+        c.control.method = ControlMethod::Position;
+        c.obstacle_aided.jam_window_secs = 1.0;
+        c.obstacle_aided.recovery_secs = 0.5;
+        c.obstacle_aided.recovery_amplitude_deg = 80.0;
+        c.obstacle_aided.wave_speed = WaveSpeed::Fixed;
+        for recovery in [Recovery::Pause, Recovery::Amplitude] {
+            c.obstacle_aided.recovery = recovery;
+            let mut oa = ObstacleAided::from_config(&c, 3);
+            let mut obs = Observation::new(4, 3);
+            obs.head_quat = [1.0, 0.0, 0.0, 0.0];
+            let mut cmd = Command::new(3);
+            let mut largest_command = 0.0f64;
+            for k in 0..140 {
+                obs.time_secs = k as f64 * 0.01;
+                oa.update(&obs, &mut cmd);
+                if oa.last.recovering {
+                    largest_command = largest_command.max(cmd.position_rad[0].abs());
+                    let rate = if recovery == Recovery::Pause { 0.0 } else { oa.angular_frequency_rad_per_s };
+                    assert_eq!(oa.last.phase_rate_rad_per_s, rate, "{recovery:?}");
+                }
+            }
+            assert_eq!(oa.last.jams, 1, "{recovery:?}");
+            if recovery == Recovery::Amplitude {
+                // 0.4 s of a 0.5-Hz wave sweep past a crest of joint 0: above the 65° wave.
+                assert!(largest_command > 70f64.to_radians(), "{largest_command}");
+            }
+        }
+    }
+
+    #[test]
     fn heading_control_offsets_every_joint_against_the_heading_error_and_clamps() {
-        // Straight snake (joints 0) turned 0.2 rad left of the goal (+x): θ̄ = 0.2, φ_h =
-        // k_θ·0.2 = 0.1 rad (positive: turns the snake clockwise, back toward the goal), and the
-        // joints are sent the wave plus 0.1 rad once the ramp is over.
+        // Straight snake (joints 0) turned 0.2 rad left of the goal (+x): θ̄ = 0.2. With an
+        // ordinary wave (δ > 0) φ_h = k_θ·0.2 = 0.1 rad (positive: turns that snake clockwise,
+        // back toward the goal); with a wave toward the head (δ < 0) the sign flips.
+        for (lag_deg, sign) in [(60.0, 1.0), (-60.0, -1.0)] {
+            let mut c = Config::default();
+            c.gait.ramp_secs = 0.0;
+            c.obstacle_aided.phase_lag_deg = lag_deg;
+            c.obstacle_aided.wave_speed = WaveSpeed::Fixed;
+            c.obstacle_aided.heading_gain = 0.5;
+            c.obstacle_aided.heading_filter_secs = 0.0;
+            c.obstacle_aided.max_heading_offset_deg = 10.0;
+            c.control.method = ControlMethod::Position;
+            let mut oa = ObstacleAided::from_config(&c, 3);
+            let mut obs = Observation::new(4, 3);
+            let yaw = 0.2f64;
+            obs.head_quat = [(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()];
+            let mut cmd = Command::new(3);
+            oa.update(&obs, &mut cmd);
+            assert!((oa.last.mean_heading_rad - 0.2).abs() < 1e-12, "{:?}", oa.last);
+            assert!((oa.last.heading_offset_rad - sign * 0.1).abs() < 1e-12, "{:?}", oa.last);
+            for j in 0..3 {
+                let wave = oa.amplitude_rad * (oa.phase_rad - j as f64 * oa.phase_lag_rad).sin();
+                assert!((cmd.position_rad[j] - wave - sign * 0.1).abs() < 1e-9, "joint {j}: {:?}", cmd.position_rad);
+            }
+            // 0.6 rad to the right: ∓0.3 rad, clamped to ∓10°.
+            let mut oa = ObstacleAided::from_config(&c, 3);
+            let yaw = -0.6f64;
+            obs.head_quat = [(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()];
+            oa.update(&obs, &mut cmd);
+            assert!((oa.last.heading_offset_rad + sign * 10f64.to_radians()).abs() < 1e-12, "{:?}", oa.last);
+        }
+    }
+
+    #[test]
+    fn the_heading_filter_lags_a_heading_step() {
+        // The filter starts at the first heading (0) and follows a step to 0.2 rad with time
+        // constant 1 s: after one 0.1-s step 0.2·0.1 = 0.02 rad of it, so φ_h = −0.5·0.02.
         let mut c = Config::default();
         c.gait.ramp_secs = 0.0;
         c.obstacle_aided.heading_gain = 0.5;
-        c.obstacle_aided.max_heading_offset_deg = 10.0;
-        c.control.method = ControlMethod::Position;
+        c.obstacle_aided.heading_filter_secs = 1.0;
         let mut oa = ObstacleAided::from_config(&c, 3);
         let mut obs = Observation::new(4, 3);
-        let yaw = 0.2f64;
-        obs.head_quat = [(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()];
+        obs.head_quat = [1.0, 0.0, 0.0, 0.0];
         let mut cmd = Command::new(3);
         oa.update(&obs, &mut cmd);
-        assert!((oa.last.mean_heading_rad - 0.2).abs() < 1e-12, "{:?}", oa.last);
-        assert!((oa.last.heading_offset_rad - 0.1).abs() < 1e-12, "{:?}", oa.last);
-        for j in 0..3 {
-            let wave = oa.amplitude_rad * (oa.phase_rad - j as f64 * oa.phase_lag_rad).sin();
-            assert!((cmd.position_rad[j] - wave - 0.1).abs() < 1e-9, "joint {j}: {:?}", cmd.position_rad);
-        }
-        // 0.6 rad to the right: −0.3 rad, clamped to −10°.
-        let mut oa = ObstacleAided::from_config(&c, 3);
-        let yaw = -0.6f64;
-        obs.head_quat = [(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()];
+        assert_eq!(oa.last.heading_offset_rad, 0.0);
+        obs.time_secs = 0.1;
+        obs.imu_gyro_rad_per_s[0] = [0.0, 0.0, 2.0];
         oa.update(&obs, &mut cmd);
-        assert!((oa.last.heading_offset_rad + 10f64.to_radians()).abs() < 1e-12, "{:?}", oa.last);
+        assert!((oa.last.mean_heading_rad - 0.2).abs() < 1e-12, "{:?}", oa.last);
+        assert!((oa.last.heading_offset_rad + 0.5 * 0.02).abs() < 1e-12, "{:?}", oa.last);
     }
 
     #[test]
