@@ -5,7 +5,8 @@
 //! several seeds each. On every field:
 //!
 //! - each closed-loop controller of [`CLOSED_LOOP`] (`control::ObstacleAided`, the wave with
-//!   hybrid position/force feedback; `control::Rail`, follow-the-leader) with its own default
+//!   hybrid position/force feedback; `control::Rail`, the floor-drift wave switching to
+//!   follow-the-leader on the contact estimates) with its own default
 //!   settings, fed the contact estimates of the step loop (measured sensors, default noise);
 //! - the same controllers fed the simulator's true contacts;
 //! - the open-loop sine wave for every amplitude × phase lag of a sweep (same frequency, same
@@ -532,9 +533,11 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
              servos kp {SERVO_KP_NM_PER_RAD} N·m/rad, kv {SERVO_KV_NM_S_PER_RAD} N·m·s/rad, ±{TORQUE_LIMIT_NM} N·m (as in `oal`), default sensor noise. Random peg fields (peg radius 0.05 m, centres ≥ {SPACING_M} m apart, in x ∈ \
              [{x0}, {x1}] m, y ∈ [{y0}, {y1}] m = {area} m², none on the starting snake) at {densities}; seeds 0..{seeds} \
              (the same fields for every controller). {duration_secs} s per run, wave frequency {FREQUENCY_HZ} Hz, ramp-in \
-             {ramp_secs} s. Closed loop: `control.controller = \"obstacle_aided\"` (a wave paced by the measured progress, heading \
-             control, hybrid position/force law at the contacts) and `\"rail\"` (follow-the-leader: the body follows the head's \
-             path, the head holds its heading and turns toward the pegs it touches), each with its default settings, fed the \
+             {ramp_secs} s. Closed loop: `control.controller = \"obstacle_aided\"` (the wave running toward the head, 0.5 Hz, with a \
+             hybrid position/force law at the contacts: press on pegs that push forward, yield at pegs that resist) and \
+             `\"rail\"` (starts in the floor-drift wave running toward the head and switches on the contact estimates to \
+             follow-the-leader, where the body follows the head's path and the head turns toward the pegs it touches, and \
+             back; a jam also switches), each with its default settings, fed the \
              step loop's contact estimates (measured sensors, head IMU + encoders) or the simulator's true contacts. Open loop: \
              the sine wave for A ∈ {AMPLITUDES_DEG:?}° × δ ∈ {PHASE_LAGS_DEG:?}° (δ < 0: the wave runs toward the head; on an \
              isotropic floor the snake drifts the way its wave runs, so these are the open loop's forward gaits); per density \
