@@ -8,7 +8,7 @@
 //!   hybrid position/force feedback; `control::Rail`, the floor-drift wave switching to
 //!   follow-the-leader on the contact estimates) with its own default
 //!   settings, fed the contact estimates of the step loop (measured sensors, default noise);
-//! - the same controllers fed the simulator's true contacts;
+//! - the same controllers fed the simulator's true contacts, and with their contact terms off;
 //! - the open-loop sine wave for every amplitude × phase lag of a sweep (same frequency, same
 //!   duration, same fields); per density the wave with the highest median speed is "the best
 //!   open-loop gait". The sweep has waves running toward the tail (δ > 0, ordinary lateral
@@ -81,6 +81,10 @@ const MIN_SPEED_MM_PER_S: f64 = 1.0;
 enum Variant {
     /// The closed-loop controller `CLOSED_LOOP[k]` with the given contacts.
     Closed(usize, ContactSource),
+    /// The closed-loop controller `CLOSED_LOOP[k]` with its contact terms switched off
+    /// (`obstacle_aided.contact_feedback = false`, `rail.use_contacts = false`): what the
+    /// contacts add.
+    Blind(usize),
     /// The open-loop sine wave (amplitude, phase lag; degrees).
     Open(f64, f64),
 }
@@ -185,6 +189,15 @@ fn case_config(base: &Config, case: &Case, duration_secs: f64) -> Config {
             // The true-contact runs need no estimator.
             c.estimation.enabled = source == ContactSource::Estimated;
         }
+        Variant::Blind(k) => {
+            c.control.controller = CLOSED_LOOP[k].0;
+            c.obstacle_aided.contact_feedback = false;
+            c.rail.use_contacts = false;
+            // The same run as with estimated contacts but for the switch.
+            c.obstacle_aided.contacts = ContactSource::Estimated;
+            c.rail.contacts = ContactSource::Estimated;
+            c.estimation.enabled = true;
+        }
         Variant::Open(amplitude, lag) => {
             c.control.controller = ControllerKind::Gait;
             c.gait.sine_wave.amplitude_deg = amplitude;
@@ -255,6 +268,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
     for k in 0..CLOSED_LOOP.len() {
         variants.push(Variant::Closed(k, ContactSource::Estimated));
         variants.push(Variant::Closed(k, ContactSource::True));
+        variants.push(Variant::Blind(k));
     }
     let mut cases = Vec::new();
     for density in 0..DENSITIES.len() {
@@ -265,7 +279,9 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
         }
     }
     // The bare floor: the sweep and the closed loops with estimated contacts, once each.
-    for &variant in variants.iter().filter(|v| !matches!(v, Variant::Closed(_, ContactSource::True))) {
+    for &variant in
+        variants.iter().filter(|v| matches!(v, Variant::Open(..) | Variant::Closed(_, ContactSource::Estimated)))
+    {
         cases.push(Case { density: BARE, seed: 0, variant });
     }
     let total = cases.len();
@@ -349,6 +365,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
                 (CLOSED_LOOP[c].1, "estimated", String::new(), String::new())
             }
             Variant::Closed(c, ContactSource::True) => (CLOSED_LOOP[c].1, "true", String::new(), String::new()),
+            Variant::Blind(c) => (CLOSED_LOOP[c].1, "off", String::new(), String::new()),
             Variant::Open(a, d) => ("open_loop", "", a.to_string(), d.to_string()),
         };
         let (dname, dens) = DENSITIES.get(case.density).copied().unwrap_or(("bare", 0.0));
@@ -385,12 +402,14 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
         for (k, (_, cname)) in CLOSED_LOOP.iter().enumerate() {
             let (est, tru) = (speeds_of(d, estimated(k)), speeds_of(d, truth(k)));
             let (m_est, m_true) = (median(&est), median(&tru));
+            let m_blind = median(&speeds_of(d, Variant::Blind(k)));
             rows.push(vec![
                 format!("{dname} ({dens} pegs/m²)"),
                 format!("`{cname}`"),
                 seeds.to_string(),
                 sig(1000.0 * m_est),
                 sig(1000.0 * m_true),
+                sig(1000.0 * m_blind),
                 format!("{} (A {best_a}°, δ {best_l}°)", sig(1000.0 * m_open)),
                 if m_open > 0.0 { sig(m_est / m_open) } else { "open loop does not advance".to_string() },
                 format!("{} of {seeds}", jams_of(d, estimated(k))),
@@ -489,6 +508,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
             (DENSITIES.len() as u64 * seeds).to_string(),
             sig(1000.0 * m_est),
             sig(1000.0 * m_true),
+            sig(1000.0 * median(&all(Variant::Blind(k)))),
             String::new(),
             String::new(),
             format!("{jams} of {}", all_est.len()),
@@ -509,6 +529,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
                 format!("`{cname}`"),
                 "1".to_string(),
                 sig(1000.0 * m),
+                String::new(),
                 String::new(),
                 format!("{} (A {a}°, δ {l}°)", sig(1000.0 * bare_best_speed)),
                 if bare_best_speed > 0.0 { sig(m / bare_best_speed) } else { String::new() },
@@ -538,7 +559,9 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
              `\"rail\"` (starts in the floor-drift wave running toward the head and switches on the contact estimates to \
              follow-the-leader, where the body follows the head's path and the head turns toward the pegs it touches, and \
              back; a jam also switches), each with its default settings, fed the \
-             step loop's contact estimates (measured sensors, head IMU + encoders) or the simulator's true contacts. Open loop: \
+             step loop's contact estimates (measured sensors, head IMU + encoders) or the simulator's true contacts, and with its \
+             contact terms switched off (`obstacle_aided.contact_feedback = false`, `rail.use_contacts = false`: what the \
+             contacts add). Open loop: \
              the sine wave for A ∈ {AMPLITUDES_DEG:?}° × δ ∈ {PHASE_LAGS_DEG:?}° (δ < 0: the wave runs toward the head; on an \
              isotropic floor the snake drifts the way its wave runs, so these are the open loop's forward gaits); per density \
              the wave with the highest median speed is the best open-loop gait; it runs again on as many fields it was not \
@@ -568,6 +591,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
                     "seeds",
                     "median speed, estimated contacts (mm/s)",
                     "median speed, true contacts (mm/s)",
+                    "median speed, contact terms off (mm/s)",
                     "best open loop median (mm/s)",
                     "ratio estimated / open loop",
                     "jams, estimated contacts",
