@@ -804,3 +804,45 @@ fn push_motion_checks(
         "",
     ));
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A static trace of two links: link 0 pushed by a peg (true obstacle force 1 N), its
+    /// horizontal external force 1.6 N on a normal force of 3 N; link 1 free. The estimate is the
+    /// exact one plus ±0.1 N alternating along x.
+    fn pinch_trace(steps: usize) -> Trace {
+        let mut t = Trace::default();
+        for k in 0..steps {
+            let noise = if k % 2 == 0 { 0.1 } else { -0.1 };
+            let total = vec![[1.6, 0.0, 3.0], [0.5, 0.0, 3.0]];
+            t.time_s.push(k as f64 * 0.001);
+            t.truth_obstacle_n.push(vec![[1.0, 0.0, 0.0], [0.0; 3]]);
+            t.exact_estimate_n.push(total.clone());
+            t.estimate_n.push(total.iter().map(|f| [f[0] + noise, f[1], f[2]]).collect());
+            t.truth_total_n.push(total);
+        }
+        t
+    }
+
+    #[test]
+    fn static_friction_margin_is_the_excess_over_mu_n_where_a_peg_pushes() {
+        let t = pinch_trace(10);
+        // μ = 0.5: excess 1.6 − 1.5 = 0.1 N on the pushed link only; noise rms 0.1 N.
+        let note = static_friction_margin(&t, 0.5, 0.8);
+        assert!(note.contains("by 0.1000 N"), "{note}");
+        assert!(note.contains("is 0.1000 N per step"), "{note}");
+        assert!(note.contains("cannot pass"), "{note}");
+        // With μ = 0.1 the excess (1.3 N) clears the threshold: no claim that it cannot pass.
+        let note = static_friction_margin(&t, 0.1, 0.8);
+        assert!(note.contains("by 1.300 N"), "{note}");
+        assert!(!note.contains("cannot pass"), "{note}");
+        // No pushed link: nothing to say.
+        let mut free = t.clone();
+        for row in &mut free.truth_obstacle_n {
+            row[0] = [0.0; 3];
+        }
+        assert!(static_friction_margin(&free, 0.5, 0.8).is_empty());
+    }
+}
