@@ -249,6 +249,13 @@ pub fn wrap_angle_rad(a: f64) -> f64 {
     (a + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
 }
 
+/// The gain k of a first-order low-pass filter over one step, `x += k·(input − x)`:
+/// `k = min(Δt/τ, 1)` (the explicit Euler step of `τ·ẋ = input − x`, never overshooting);
+/// `τ ≤ 0` means no filter (k = 1).
+pub fn low_pass_gain(dt_secs: f64, tau_secs: f64) -> f64 {
+    if tau_secs > 0.0 { (dt_secs / tau_secs).clamp(0.0, 1.0) } else { 1.0 }
+}
+
 /// The snake in the ground plane from what the robot knows: the head's yaw and position (a
 /// tracking system) and the encoders. Link i's heading is θ₀ = `head_yaw_rad`, θᵢ = θᵢ₋₁ +
 /// qᵢ₋₁ over the yaw joints (our joint angle is the child's heading minus the parent's); link i
@@ -417,6 +424,21 @@ pub(crate) fn feel<C>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn low_pass_gain_is_dt_over_tau_capped_at_one() {
+        assert!((low_pass_gain(0.002, 0.5) - 0.004).abs() < 1e-15);
+        // A step longer than τ, or no filter, passes the input through.
+        assert_eq!(low_pass_gain(1.0, 0.5), 1.0);
+        assert_eq!(low_pass_gain(0.002, 0.0), 1.0);
+        assert_eq!(low_pass_gain(0.0, 0.0), 1.0);
+        // The filtered value approaches a constant input as 1 − (1 − k)^n.
+        let (mut x, k) = (0.0, low_pass_gain(0.01, 0.1));
+        for _ in 0..10 {
+            x += k * (1.0 - x);
+        }
+        assert!((x - (1.0 - 0.9f64.powi(10))).abs() < 1e-12);
+    }
 
     #[test]
     fn position_method_sends_trajectory_angles() {

@@ -112,8 +112,8 @@
 
 use super::gait::ramp;
 use super::{
-    Command, ContactFeed, Controller, Observation, Pid, command_joint, feel, joint_pid, planar_chain, wrap_angle_rad,
-    yaw_joints,
+    Command, ContactFeed, Controller, Observation, Pid, command_joint, feel, joint_pid, low_pass_gain, planar_chain,
+    wrap_angle_rad, yaw_joints,
 };
 use crate::config::{Config, ContactSource, ControlMethod, Propagation, Recovery, WaveSpeed};
 use crate::estimation::ContactEstimates;
@@ -399,7 +399,7 @@ impl ObstacleAided {
                 && dt > 0.0
             {
                 let raw = ((com[0] - last[0]) * goal[0] + (com[1] - last[1]) * goal[1]) / dt;
-                let k = (dt / self.speed_filter_secs).min(1.0);
+                let k = low_pass_gain(dt, self.speed_filter_secs);
                 self.speed_m_per_s += k * (raw - self.speed_m_per_s);
             }
             self.last_com_m = Some(com);
@@ -455,11 +455,10 @@ impl ObstacleAided {
             counts
         };
         self.phase_rad = (self.phase_rad + phase_rate * dt) % (1e3 * TAU);
-        // Heading control (as path following): a positive offset turns the snake clockwise.
         // Heading control on the filtered mean heading. A positive offset turns the snake
         // clockwise when the wave runs toward the tail (δ > 0, as path following) and
         // counterclockwise when it runs toward the head (δ < 0): hence the sign of δ.
-        let k = if self.heading_filter_secs > 0.0 { (dt / self.heading_filter_secs).min(1.0) } else { 1.0 };
+        let k = low_pass_gain(dt, self.heading_filter_secs);
         let filtered = match self.filtered_heading_rad {
             None => mean_heading,
             Some(f) => wrap_angle_rad(f + k * wrap_angle_rad(mean_heading - f)),

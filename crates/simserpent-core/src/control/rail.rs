@@ -95,8 +95,8 @@
 //! allocates after construction.
 
 use super::{
-    Command, ContactFeed, Controller, Observation, Pid, command_joint, feel, joint_pid, planar_chain, wrap_angle_rad,
-    yaw_joints,
+    Command, ContactFeed, Controller, Observation, Pid, command_joint, feel, joint_pid, low_pass_gain, planar_chain,
+    wrap_angle_rad, yaw_joints,
 };
 use crate::config::{Config, ControlMethod, RailGait};
 use crate::estimation::ContactEstimates;
@@ -440,12 +440,12 @@ impl Rail {
         let (s, c) = self.head_yaw_rad.sin_cos();
         let v = obs.head_velocity_m_per_s;
         let along = v[0] * c + v[1] * s;
-        let alpha = (dt / self.progress_filter_secs).clamp(0.0, 1.0);
+        let alpha = low_pass_gain(dt, self.progress_filter_secs);
         self.speed_m_per_s += alpha * (along - self.speed_m_per_s);
 
         // What the pegs do along +x.
         let (propel, resist) = if self.use_contacts { Self::propelling_and_resisting_n(contacts) } else { (0.0, 0.0) };
-        let alpha_c = (dt / self.contact_filter_secs).clamp(0.0, 1.0);
+        let alpha_c = low_pass_gain(dt, self.contact_filter_secs);
         self.propel_n += alpha_c * (propel - self.propel_n);
         self.resist_n += alpha_c * (resist - self.resist_n);
 
