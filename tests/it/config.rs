@@ -480,6 +480,12 @@ no_peg_secs = 3.0
 resist_force_n = 2.5
 drift_min_secs = 1.5
 blend_secs = 0.8
+force_clip_n = 80.0
+wedge_force_n = 30.0
+wedge_secs = 0.7
+relax_secs = 2.5
+relax_amplitude_deg = 45.0
+relax_phase_lag_deg = -50.0
 "#;
 
 fn all_fields_expected() -> Config {
@@ -835,6 +841,12 @@ fn all_fields_expected() -> Config {
         resist_force_n: 2.5,
         drift_min_secs: 1.5,
         blend_secs: 0.8,
+        force_clip_n: 80.0,
+        wedge_force_n: 30.0,
+        wedge_secs: 0.7,
+        relax_secs: 2.5,
+        relax_amplitude_deg: 45.0,
+        relax_phase_lag_deg: -50.0,
     };
     c
 }
@@ -1048,6 +1060,11 @@ const RULES: &[(&[&str], &str)] = &[
     (&["rail.resist_force_n=-1"], "rail.resist_force_n"),
     (&["rail.drift_min_secs=-1"], "rail.drift_min_secs"),
     (&["rail.blend_secs=0"], "rail.blend_secs"),
+    (&["rail.force_clip_n=0"], "rail.force_clip_n"),
+    (&["rail.wedge_secs=0"], "rail.wedge_secs"),
+    (&["rail.relax_secs=-1"], "rail.relax_secs"),
+    (&["rail.relax_amplitude_deg=95"], "rail.relax_amplitude_deg"),
+    (&["rail.relax_phase_lag_deg=200"], "rail.relax_phase_lag_deg"),
     (&["control.controller=\"rail\"", "estimation.enabled=false"], "rail.contacts"),
     (&["terrain.cylinder_path.width_m=0.1"], "terrain.cylinder_path.width_m"),
     (&["terrain.cylinder_path.width_m=0.15"], "terrain.cylinder_path.width_m"),

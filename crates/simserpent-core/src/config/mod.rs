@@ -1299,6 +1299,19 @@ pub struct Rail {
     pub drift_min_secs: f64,
     /// Time (s) over which the joints blend from one gait to the other.
     pub blend_secs: f64,
+    /// Each link's obstacle-force component along x is clipped to ±`force_clip_n` (N) before
+    /// the propelling and resisting sums (the raw estimates spike).
+    pub force_clip_n: f64,
+    /// Wedged: both filtered forces (propelling and resisting) above `wedge_force_n` (N) for
+    /// `wedge_secs` (s); handled as a jam (without waiting for the jam window).
+    pub wedge_force_n: f64,
+    pub wedge_secs: f64,
+    /// Jam recovery by a change of shape: for `relax_secs` (s; 0 = off) after a jam the
+    /// drift gait runs the wave of `relax_amplitude_deg` (degrees) and `relax_phase_lag_deg`
+    /// (degrees) instead of switching to the rail gait.
+    pub relax_secs: f64,
+    pub relax_amplitude_deg: f64,
+    pub relax_phase_lag_deg: f64,
 }
 
 /// `rail.initial_gait`.

@@ -333,6 +333,23 @@ impl Config {
         non_negative("rail.resist_force_n", r.resist_force_n)?;
         non_negative("rail.drift_min_secs", r.drift_min_secs)?;
         positive("rail.blend_secs", r.blend_secs)?;
+        positive("rail.force_clip_n", r.force_clip_n)?;
+        non_negative("rail.wedge_force_n", r.wedge_force_n)?;
+        positive("rail.wedge_secs", r.wedge_secs)?;
+        non_negative("rail.relax_secs", r.relax_secs)?;
+        non_negative("rail.relax_amplitude_deg", r.relax_amplitude_deg)?;
+        ensure(
+            r.relax_amplitude_deg < self.snake.joint_range_deg,
+            "rail.relax_amplitude_deg",
+            fmt_f(r.relax_amplitude_deg),
+            format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
+        )?;
+        ensure(
+            r.relax_phase_lag_deg.is_finite() && r.relax_phase_lag_deg.abs() <= 180.0,
+            "rail.relax_phase_lag_deg",
+            fmt_f(r.relax_phase_lag_deg),
+            "must be within -180..180",
+        )?;
         if self.control.controller == ControllerKind::Rail {
             ensure(
                 r.contacts == ContactSource::True || self.estimation.enabled,

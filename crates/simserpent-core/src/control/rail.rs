@@ -150,6 +150,21 @@ pub struct Rail {
     pub resist_force_n: f64,
     pub drift_min_secs: f64,
     pub blend_secs: f64,
+    /// Per-link clip of the force along x (N).
+    pub force_clip_n: f64,
+    /// Wedge rule: both filtered forces above this (N) for this long (s).
+    pub wedge_force_n: f64,
+    pub wedge_secs: f64,
+    /// Relax recovery: duration (s; 0 = off), the relax wave's amplitude (rad) and lag (rad).
+    pub relax_secs: f64,
+    pub relax_amplitude_rad: f64,
+    pub relax_phase_lag_rad: f64,
+    /// Since when both filtered forces have been above the wedge threshold (s).
+    wedged_since_secs: Option<f64>,
+    /// Until when the drift gait runs the relax wave (s).
+    relax_until_secs: f64,
+    /// Mix m ∈ [0, 1] of the relax wave into the drift gait.
+    relax_mix: f64,
     initial_gait: RailGait,
     gait: RailGait,
     /// Blend b ∈ [0, 1]: 0 all rail, 1 all drift.
@@ -217,6 +232,10 @@ pub struct RailState {
     pub resist_force_n: f64,
     /// Gait switches so far.
     pub switches: usize,
+    /// Wedges detected so far (also counted in `jams`).
+    pub wedges: usize,
+    /// Mix of the relax wave into the drift gait (0..1).
+    pub relax_mix: f64,
 }
 
 impl Rail {
@@ -254,6 +273,15 @@ impl Rail {
             resist_force_n: r.resist_force_n,
             drift_min_secs: r.drift_min_secs,
             blend_secs: r.blend_secs,
+            force_clip_n: r.force_clip_n,
+            wedge_force_n: r.wedge_force_n,
+            wedge_secs: r.wedge_secs,
+            relax_secs: r.relax_secs,
+            relax_amplitude_rad: r.relax_amplitude_deg.to_radians(),
+            relax_phase_lag_rad: r.relax_phase_lag_deg.to_radians(),
+            wedged_since_secs: None,
+            relax_until_secs: f64::NEG_INFINITY,
+            relax_mix: 0.0,
             initial_gait: r.initial_gait,
             gait: r.initial_gait,
             blend: if r.initial_gait == RailGait::Drift { 1.0 } else { 0.0 },
@@ -370,14 +398,15 @@ impl Rail {
     /// The filtered propelling force P (sum over links in contact of the obstacle force's +x
     /// component, world) and resisting force R (of its −x component), both ≥ 0 (N), before
     /// filtering.
-    pub fn propelling_and_resisting_n(contacts: &ContactEstimates) -> (f64, f64) {
+    /// Each link's component is clipped to ±`clip_n` first.
+    pub fn propelling_and_resisting_n(contacts: &ContactEstimates, clip_n: f64) -> (f64, f64) {
         let mut propel = 0.0;
         let mut resist = 0.0;
         for i in 0..contacts.n_links() {
             if !contacts.contact[i] {
                 continue;
             }
-            let fx = contacts.obstacle_force_n[i][0];
+            let fx = contacts.obstacle_force_n[i][0].clamp(-clip_n, clip_n);
             if fx > 0.0 {
                 propel += fx;
             } else {
@@ -444,7 +473,8 @@ impl Rail {
         self.speed_m_per_s += alpha * (along - self.speed_m_per_s);
 
         // What the pegs do along +x.
-        let (propel, resist) = if self.use_contacts { Self::propelling_and_resisting_n(contacts) } else { (0.0, 0.0) };
+        let (propel, resist) =
+            if self.use_contacts { Self::propelling_and_resisting_n(contacts, self.force_clip_n) } else { (0.0, 0.0) };
         let alpha_c = low_pass_gain(dt, self.contact_filter_secs);
         self.propel_n += alpha_c * (propel - self.propel_n);
         self.resist_n += alpha_c * (resist - self.resist_n);
@@ -467,19 +497,46 @@ impl Rail {
                 Some(_) => {}
             }
         }
+        // Wedge rule: both filtered forces large (the body pressed from ahead and behind).
+        let relaxing = t < self.relax_until_secs;
+        if self.use_contacts && self.propel_n.min(self.resist_n) > self.wedge_force_n {
+            let since = *self.wedged_since_secs.get_or_insert(t);
+            if t - since >= self.wedge_secs && !jammed && self.backoff_to_m.is_none() && !self.jam_pending && !relaxing
+            {
+                jammed = true;
+                self.wedged_since_secs = None;
+                self.last.jams += 1;
+                self.last.wedges += 1;
+                self.checkpoint = Some((t, com[0]));
+                if self.gait == RailGait::Rail && self.backoff_m > 0.0 {
+                    self.backoff_to_m = Some((self.arc_m - self.backoff_m).max(0.0));
+                }
+            }
+        } else {
+            self.wedged_since_secs = None;
+        }
         // Gait switch.
-        // A jam switches the gait (the rail gait first backs off); so do the contacts.
+        // A jam switches the gait (the rail gait first backs off); so do the contacts. With the
+        // relax recovery a jam in the drift gait changes the drift wave instead, and a jam in
+        // the rail gait switches to the drift gait with the relax wave.
         let mut switch_to = None;
         if jammed {
             self.jam_pending = true;
         }
         if self.jam_pending && self.backoff_to_m.is_none() {
             self.jam_pending = false;
-            switch_to = Some(match self.gait {
-                RailGait::Rail => RailGait::Drift,
-                RailGait::Drift => RailGait::Rail,
-            });
-        } else if self.use_contacts && self.backoff_to_m.is_none() {
+            if self.relax_secs > 0.0 {
+                self.relax_until_secs = t + self.relax_secs;
+                if self.gait == RailGait::Rail {
+                    switch_to = Some(RailGait::Drift);
+                }
+            } else {
+                switch_to = Some(match self.gait {
+                    RailGait::Rail => RailGait::Drift,
+                    RailGait::Drift => RailGait::Rail,
+                });
+            }
+        } else if self.use_contacts && self.backoff_to_m.is_none() && !relaxing {
             match self.gait {
                 RailGait::Rail => {
                     if self.propel_n < self.propel_force_n {
@@ -560,11 +617,20 @@ impl Rail {
             }
         }
 
-        // The drift gait's targets.
+        // The drift gait's targets: its own wave, mixed with the relax wave while relaxing.
+        let step_m = if self.blend_secs > 0.0 { dt / self.blend_secs } else { 1.0 };
+        self.relax_mix = if t < self.relax_until_secs {
+            (self.relax_mix + step_m).min(1.0)
+        } else {
+            (self.relax_mix - step_m).max(0.0)
+        };
+        let m = self.relax_mix;
         let (r, _) = super::gait::ramp(t, self.ramp_secs);
         let psi = self.drift_angular_frequency_rad_per_s * t;
         for (j, q) in self.drift_target_rad.iter_mut().enumerate() {
-            *q = r * self.drift_amplitude_rad * (psi - j as f64 * self.drift_phase_lag_rad).sin();
+            let own = self.drift_amplitude_rad * (psi - j as f64 * self.drift_phase_lag_rad).sin();
+            let relax = self.relax_amplitude_rad * (psi - j as f64 * self.relax_phase_lag_rad).sin();
+            *q = r * ((1.0 - m) * own + m * relax);
         }
 
         self.last = RailState {
@@ -581,6 +647,8 @@ impl Rail {
             propel_force_n: self.propel_n,
             resist_force_n: self.resist_n,
             switches: self.last.switches,
+            wedges: self.last.wedges,
+            relax_mix: self.relax_mix,
         };
 
         let b = self.blend;
@@ -623,6 +691,9 @@ impl Controller for Rail {
         self.resist_n = 0.0;
         self.drift_target_rad.fill(0.0);
         self.jam_pending = false;
+        self.wedged_since_secs = None;
+        self.relax_until_secs = f64::NEG_INFINITY;
+        self.relax_mix = 0.0;
         self.last = RailState::default();
     }
 
@@ -687,7 +758,10 @@ mod tests {
         c.obstacle_force_n[3] = [4.0, 0.0, 0.0];
         // Link 4 has a force but no detected contact: it does not count.
         c.obstacle_force_n[4] = [-50.0, 0.0, 0.0];
-        assert_eq!(Rail::propelling_and_resisting_n(&c), (7.0, 2.0));
+        assert_eq!(Rail::propelling_and_resisting_n(&c, 1e9), (7.0, 2.0));
+        // Clipped per link: a spike counts as the clip.
+        c.obstacle_force_n[3] = [400.0, 0.0, 0.0];
+        assert_eq!(Rail::propelling_and_resisting_n(&c, 10.0), (13.0, 2.0));
     }
 
     #[test]
@@ -775,6 +849,87 @@ mod tests {
         run_for(&mut r, &mut obs, t + window, t + window + backoff_secs + 0.1, &mut cmd);
         assert!(!r.last.backing_off);
         assert!(r.last.drift, "{:?}", r.last);
+    }
+
+    /// Contact estimates with link 3 pushed forward and link 6 back, `force_n` each (world x).
+    fn wedged(force_n: f64) -> ContactEstimates {
+        let mut c = pushed_along_x(10, 3, force_n);
+        c.contact[6] = true;
+        c.obstacle_force_n[6] = [-force_n, 0.0, 0.0];
+        c
+    }
+
+    #[test]
+    fn a_wedge_is_a_jam_detected_from_the_forces() {
+        let mut r = drift_controller(9);
+        // Only the wedge rule can fire here.
+        r.jam_window_secs = 1e9;
+        r.wedge_force_n = 30.0;
+        r.wedge_secs = 1.0;
+        r.drift_min_secs = 1e9;
+        let mut obs = straight(9, 0.0, r.link_length_m);
+        let mut cmd = Command::new(9);
+        // Pressed from ahead only: no wedge.
+        obs.contacts = pushed_along_x(10, 3, 60.0);
+        run_for(&mut r, &mut obs, 0.0, 6.0, &mut cmd);
+        assert_eq!(r.last.wedges, 0, "{:?}", r.last);
+        // Pressed from ahead and behind by 60 N each: the filtered forces pass 30 N after
+        // τ_c·ln 2 and the wedge fires wedge_secs later, then the jam switch acts (drift → rail).
+        obs.contacts = wedged(60.0);
+        let fires = 6.0 + r.contact_filter_secs * 2f64.ln() + r.wedge_secs;
+        run_for(&mut r, &mut obs, 6.0, fires - 0.1, &mut cmd);
+        assert_eq!(r.last.wedges, 0, "too early: {:?}", r.last);
+        run_for(&mut r, &mut obs, fires - 0.1, fires + 0.1, &mut cmd);
+        assert_eq!(r.last.wedges, 1, "{:?}", r.last);
+        assert_eq!(r.last.jams, 1);
+        assert!(!r.last.drift, "{:?}", r.last);
+        // Spikes clipped per link: 20 N a link never reaches the 30-N wedge threshold.
+        let mut r = drift_controller(9);
+        r.jam_window_secs = 1e9;
+        r.wedge_force_n = 30.0;
+        r.force_clip_n = 20.0;
+        obs.contacts = wedged(500.0);
+        run_for(&mut r, &mut obs, 0.0, 10.0, &mut cmd);
+        assert_eq!(r.last.wedges, 0, "{:?}", r.last);
+        assert!((r.last.propel_force_n - 20.0).abs() < 0.1, "{:?}", r.last);
+    }
+
+    #[test]
+    fn the_relax_recovery_changes_the_drift_wave_for_a_while() {
+        let mut r = drift_controller(9);
+        r.use_contacts = false;
+        r.relax_secs = 4.0;
+        r.relax_amplitude_rad = 50f64.to_radians();
+        r.relax_phase_lag_rad = (-60f64).to_radians();
+        let mut obs = straight(9, 0.0, r.link_length_m);
+        let mut cmd = Command::new(9);
+        let window = r.jam_window_secs;
+        // The snake does not move: a jam after the window; the gait stays drift and the relax
+        // wave blends in over blend_secs.
+        let t1 = window + r.blend_secs + 0.2;
+        run_for(&mut r, &mut obs, 0.0, t1, &mut cmd);
+        assert_eq!(r.last.jams, 1);
+        assert!(r.last.drift, "{:?}", r.last);
+        assert_eq!(r.last.relax_mix, 1.0);
+        let omega = r.drift_angular_frequency_rad_per_s;
+        for j in 0..9 {
+            let expected = r.relax_amplitude_rad * (omega * t1 - j as f64 * r.relax_phase_lag_rad).sin();
+            assert!(
+                (cmd.position_rad[j] - expected).abs() < 1e-9,
+                "joint {j}: {} against {expected}",
+                cmd.position_rad[j]
+            );
+        }
+        // relax_secs after the jam the own wave blends back.
+        let t2 = window + r.relax_secs + r.blend_secs + 0.1;
+        // (No second jam: only the first one's relax_secs count here.)
+        r.jam_window_secs = 1e9;
+        run_for(&mut r, &mut obs, t1, t2, &mut cmd);
+        assert_eq!(r.last.relax_mix, 0.0, "{:?}", r.last);
+        for j in 0..9 {
+            let expected = r.drift_amplitude_rad * (omega * t2 - j as f64 * r.drift_phase_lag_rad).sin();
+            assert!((cmd.position_rad[j] - expected).abs() < 1e-9, "joint {j}");
+        }
     }
 
     #[test]
