@@ -165,6 +165,8 @@ pub struct Rail {
     relax_until_secs: f64,
     /// Mix m ∈ [0, 1] of the relax wave into the drift gait.
     relax_mix: f64,
+    /// A jam in the drift gait: relaxing, then the switch to the rail gait.
+    relax_pending: bool,
     initial_gait: RailGait,
     gait: RailGait,
     /// Blend b ∈ [0, 1]: 0 all rail, 1 all drift.
@@ -282,6 +284,7 @@ impl Rail {
             wedged_since_secs: None,
             relax_until_secs: f64::NEG_INFINITY,
             relax_mix: 0.0,
+            relax_pending: false,
             initial_gait: r.initial_gait,
             gait: r.initial_gait,
             blend: if r.initial_gait == RailGait::Drift { 1.0 } else { 0.0 },
@@ -481,7 +484,7 @@ impl Rail {
 
         // Jam rule.
         let mut jammed = false;
-        if self.backoff_to_m.is_none() {
+        if self.backoff_to_m.is_none() && !self.relax_pending {
             match self.checkpoint {
                 None => self.checkpoint = Some((t, com[0])),
                 Some((t0, x0)) if t - t0 >= self.jam_window_secs => {
@@ -498,7 +501,7 @@ impl Rail {
             }
         }
         // Wedge rule: both filtered forces large (the body pressed from ahead and behind).
-        let relaxing = t < self.relax_until_secs;
+        let relaxing = self.relax_pending && t < self.relax_until_secs;
         if self.use_contacts && self.propel_n.min(self.resist_n) > self.wedge_force_n {
             let since = *self.wedged_since_secs.get_or_insert(t);
             if t - since >= self.wedge_secs && !jammed && self.backoff_to_m.is_none() && !self.jam_pending && !relaxing
@@ -517,26 +520,29 @@ impl Rail {
         }
         // Gait switch.
         // A jam switches the gait (the rail gait first backs off); so do the contacts. With the
-        // relax recovery a jam in the drift gait changes the drift wave instead, and a jam in
-        // the rail gait switches to the drift gait with the relax wave.
+        // relax recovery a jam in the drift gait first runs the relax wave for relax_secs, then
+        // switches (the rail gait then starts from the relaxed shape).
         let mut switch_to = None;
         if jammed {
             self.jam_pending = true;
         }
         if self.jam_pending && self.backoff_to_m.is_none() {
             self.jam_pending = false;
-            if self.relax_secs > 0.0 {
+            if self.relax_secs > 0.0 && self.gait == RailGait::Drift {
                 self.relax_until_secs = t + self.relax_secs;
-                if self.gait == RailGait::Rail {
-                    switch_to = Some(RailGait::Drift);
-                }
+                self.relax_pending = true;
             } else {
                 switch_to = Some(match self.gait {
                     RailGait::Rail => RailGait::Drift,
                     RailGait::Drift => RailGait::Rail,
                 });
             }
-        } else if self.use_contacts && self.backoff_to_m.is_none() && !relaxing {
+        } else if self.relax_pending {
+            if !relaxing {
+                self.relax_pending = false;
+                switch_to = Some(RailGait::Rail);
+            }
+        } else if self.use_contacts && self.backoff_to_m.is_none() {
             match self.gait {
                 RailGait::Rail => {
                     if self.propel_n < self.propel_force_n {
@@ -619,7 +625,10 @@ impl Rail {
 
         // The drift gait's targets: its own wave, mixed with the relax wave while relaxing.
         let step_m = if self.blend_secs > 0.0 { dt / self.blend_secs } else { 1.0 };
-        self.relax_mix = if t < self.relax_until_secs {
+        // (The relaxed shape is held while the rail gait blends in from it.)
+        self.relax_mix = if self.gait == RailGait::Rail {
+            if self.blend > 0.0 { self.relax_mix } else { 0.0 }
+        } else if t < self.relax_until_secs {
             (self.relax_mix + step_m).min(1.0)
         } else {
             (self.relax_mix - step_m).max(0.0)
@@ -694,6 +703,7 @@ impl Controller for Rail {
         self.wedged_since_secs = None;
         self.relax_until_secs = f64::NEG_INFINITY;
         self.relax_mix = 0.0;
+        self.relax_pending = false;
         self.last = RailState::default();
     }
 
@@ -895,7 +905,7 @@ mod tests {
     }
 
     #[test]
-    fn the_relax_recovery_changes_the_drift_wave_for_a_while() {
+    fn the_relax_recovery_changes_the_drift_wave_then_switches() {
         let mut r = drift_controller(9);
         r.use_contacts = false;
         r.relax_secs = 4.0;
@@ -904,8 +914,8 @@ mod tests {
         let mut obs = straight(9, 0.0, r.link_length_m);
         let mut cmd = Command::new(9);
         let window = r.jam_window_secs;
-        // The snake does not move: a jam after the window; the gait stays drift and the relax
-        // wave blends in over blend_secs.
+        // The snake does not move: a jam after the window; the gait stays drift for relax_secs
+        // and the relax wave blends in over blend_secs.
         let t1 = window + r.blend_secs + 0.2;
         run_for(&mut r, &mut obs, 0.0, t1, &mut cmd);
         assert_eq!(r.last.jams, 1);
@@ -920,16 +930,28 @@ mod tests {
                 cmd.position_rad[j]
             );
         }
-        // relax_secs after the jam the own wave blends back.
-        let t2 = window + r.relax_secs + r.blend_secs + 0.1;
-        // (No second jam: only the first one's relax_secs count here.)
-        r.jam_window_secs = 1e9;
+        // relax_secs after the jam the gait switches to rail, starting from the relaxed shape.
+        let t2 = window + r.relax_secs + 0.05;
         run_for(&mut r, &mut obs, t1, t2, &mut cmd);
-        assert_eq!(r.last.relax_mix, 0.0, "{:?}", r.last);
+        assert!(!r.last.drift, "{:?}", r.last);
+        assert_eq!(r.last.switches, 1);
+        assert_eq!(r.last.jams, 1);
+        assert_eq!(r.last.relax_mix, 1.0, "held while the rail gait blends in: {:?}", r.last);
+        let blend = r.last.blend;
+        assert!(blend > 0.9, "{:?}", r.last);
         for j in 0..9 {
-            let expected = r.drift_amplitude_rad * (omega * t2 - j as f64 * r.drift_phase_lag_rad).sin();
-            assert!((cmd.position_rad[j] - expected).abs() < 1e-9, "joint {j}");
+            let relaxed = r.relax_amplitude_rad * (omega * t2 - j as f64 * r.relax_phase_lag_rad).sin();
+            assert!(
+                (cmd.position_rad[j] - relaxed).abs() < 0.1,
+                "joint {j}: {} against {relaxed}",
+                cmd.position_rad[j]
+            );
         }
+        // Without the relax recovery the same jam switches at once.
+        let mut r = drift_controller(9);
+        r.use_contacts = false;
+        run_for(&mut r, &mut obs, 0.0, window + 0.05, &mut cmd);
+        assert!(!r.last.drift, "{:?}", r.last);
     }
 
     #[test]
