@@ -467,6 +467,7 @@ max_steer_deg = 25.0
 wrap_deg = 10.0
 jam_window_secs = 4.0
 jam_min_progress_m = 0.03
+sliding_jam_window = true
 backoff_m = 0.4
 backoff_speed_m_per_s = 0.3
 use_contacts = false
@@ -828,6 +829,7 @@ fn all_fields_expected() -> Config {
         wrap_deg: 10.0,
         jam_window_secs: 4.0,
         jam_min_progress_m: 0.03,
+        sliding_jam_window: true,
         backoff_m: 0.4,
         backoff_speed_m_per_s: 0.3,
         use_contacts: false,

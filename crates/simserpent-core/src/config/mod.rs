@@ -1274,6 +1274,9 @@ pub struct Rail {
     /// Jam: less than `jam_min_progress_m` (m) of progress along +x within `jam_window_secs` (s).
     pub jam_window_secs: f64,
     pub jam_min_progress_m: f64,
+    /// Whether the jam window slides (the progress over the last `jam_window_secs`, sampled
+    /// 30 times a window) rather than restarting every `jam_window_secs`.
+    pub sliding_jam_window: bool,
     /// Jam recovery: back off this far along the path (m) at `backoff_speed_m_per_s` (m/s).
     pub backoff_m: f64,
     pub backoff_speed_m_per_s: f64,

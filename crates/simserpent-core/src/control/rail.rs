@@ -106,6 +106,9 @@ use std::f64::consts::{FRAC_PI_2, TAU};
 /// Spacing (m) of the path samples along S.
 pub const SAMPLE_SPACING_M: f64 = 0.005;
 
+/// Samples of the centre of mass per jam window (sliding window).
+pub const JAM_WINDOW_SAMPLES: usize = 30;
+
 /// The rail controller (module documentation).
 #[derive(Debug, Clone)]
 pub struct Rail {
@@ -199,6 +202,13 @@ pub struct Rail {
     last_time_secs: f64,
     started: bool,
     checkpoint: Option<(f64, f64)>,
+    /// Whether the jam window slides (every T/30) rather than restarting every T.
+    pub sliding_jam_window: bool,
+    /// The sliding window's samples of the centre of mass' x (m; ring), their count since the
+    /// last restart and the time of the next one (s).
+    jam_x_m: Vec<f64>,
+    jam_samples: usize,
+    jam_next_secs: f64,
     /// During a back-off: the S at which it ends.
     backoff_to_m: Option<f64>,
     heading_rad: Vec<f64>,
@@ -308,6 +318,10 @@ impl Rail {
             last_time_secs: 0.0,
             started: false,
             checkpoint: None,
+            sliding_jam_window: r.sliding_jam_window,
+            jam_x_m: vec![0.0; JAM_WINDOW_SAMPLES + 1],
+            jam_samples: 0,
+            jam_next_secs: 0.0,
             backoff_to_m: None,
             heading_rad: vec![0.0; n_joints + 1],
             target_rad: vec![0.0; n_joints],
@@ -443,6 +457,28 @@ impl Rail {
         self.arc_m = s0;
     }
 
+    /// Starts the jam window afresh at time `t` (s) and centre-of-mass x `x_m` (m).
+    fn restart_jam_window(&mut self, t: f64, x_m: f64) {
+        self.checkpoint = Some((t, x_m));
+        self.jam_samples = 0;
+        self.jam_next_secs = t;
+    }
+
+    /// The sliding jam window: samples x every T/[`JAM_WINDOW_SAMPLES`]; true when the newest
+    /// sample is less than the progress threshold ahead of the one T before it.
+    fn slide_jam_window(&mut self, t: f64, x_m: f64) -> bool {
+        if t < self.jam_next_secs {
+            return false;
+        }
+        let n = self.jam_x_m.len();
+        let h = self.jam_window_secs / JAM_WINDOW_SAMPLES as f64;
+        self.jam_next_secs = if self.jam_samples == 0 { t + h } else { (self.jam_next_secs + h).max(t) };
+        self.jam_x_m[self.jam_samples % n] = x_m;
+        self.jam_samples += 1;
+        // The oldest sample, T before this one (the slot written next).
+        self.jam_samples >= n && x_m - self.jam_x_m[self.jam_samples % n] < self.jam_min_progress_m
+    }
+
     fn step(&mut self, obs: &Observation, contacts: &ContactEstimates, cmd: &mut Command) {
         let t = obs.time_secs;
         if !self.started {
@@ -485,19 +521,29 @@ impl Rail {
         // Jam rule.
         let mut jammed = false;
         if self.backoff_to_m.is_none() && !self.relax_pending {
-            match self.checkpoint {
-                None => self.checkpoint = Some((t, com[0])),
-                Some((t0, x0)) if t - t0 >= self.jam_window_secs => {
-                    if com[0] - x0 < self.jam_min_progress_m {
-                        jammed = true;
-                        self.last.jams += 1;
-                        if self.gait == RailGait::Rail && self.backoff_m > 0.0 {
-                            self.backoff_to_m = Some((self.arc_m - self.backoff_m).max(0.0));
-                        }
+            let stalled = if self.sliding_jam_window {
+                self.slide_jam_window(t, com[0])
+            } else {
+                match self.checkpoint {
+                    None => {
+                        self.restart_jam_window(t, com[0]);
+                        false
                     }
-                    self.checkpoint = Some((t, com[0]));
+                    Some((t0, x0)) if t - t0 >= self.jam_window_secs => {
+                        let stalled = com[0] - x0 < self.jam_min_progress_m;
+                        self.restart_jam_window(t, com[0]);
+                        stalled
+                    }
+                    Some(_) => false,
                 }
-                Some(_) => {}
+            };
+            if stalled {
+                jammed = true;
+                self.last.jams += 1;
+                self.restart_jam_window(t, com[0]);
+                if self.gait == RailGait::Rail && self.backoff_m > 0.0 {
+                    self.backoff_to_m = Some((self.arc_m - self.backoff_m).max(0.0));
+                }
             }
         }
         // Wedge rule: both filtered forces large (the body pressed from ahead and behind).
@@ -510,7 +556,7 @@ impl Rail {
                 self.wedged_since_secs = None;
                 self.last.jams += 1;
                 self.last.wedges += 1;
-                self.checkpoint = Some((t, com[0]));
+                self.restart_jam_window(t, com[0]);
                 if self.gait == RailGait::Rail && self.backoff_m > 0.0 {
                     self.backoff_to_m = Some((self.arc_m - self.backoff_m).max(0.0));
                 }
@@ -565,7 +611,7 @@ impl Rail {
             self.gait = gait;
             self.gait_since_secs = t;
             self.quiet_since_secs = None;
-            self.checkpoint = Some((t, com[0]));
+            self.restart_jam_window(t, com[0]);
             self.last.switches += 1;
             if gait == RailGait::Rail {
                 let shape = std::mem::take(&mut self.target_rad);
@@ -610,7 +656,7 @@ impl Rail {
                         self.truncate_path();
                         self.backoff_to_m = None;
                         self.phase_rad = (self.phase_rad + FRAC_PI_2) % TAU;
-                        self.checkpoint = Some((t, com[0]));
+                        self.restart_jam_window(t, com[0]);
                     } else {
                         self.arc_m = s_new;
                     }
@@ -690,6 +736,8 @@ impl Controller for Rail {
         self.speed_m_per_s = 0.0;
         self.started = false;
         self.checkpoint = None;
+        self.jam_samples = 0;
+        self.jam_next_secs = 0.0;
         self.backoff_to_m = None;
         self.target_rad.fill(0.0);
         self.gait = self.initial_gait;
@@ -952,6 +1000,33 @@ mod tests {
         r.use_contacts = false;
         run_for(&mut r, &mut obs, 0.0, window + 0.05, &mut cmd);
         assert!(!r.last.drift, "{:?}", r.last);
+    }
+
+    #[test]
+    fn the_sliding_jam_window_sees_a_stall_one_window_after_it_starts() {
+        // The body advances 0.1 m/s for 4 s, then stops. T = 3 s, 5 cm: the progress over the
+        // last T falls below 5 cm at t = 6.5 s. Windows restarting every T check at 3 s
+        // (0.3 m), 6 s (0.1 m) and 9 s: they see the stall only at 9 s.
+        let run = |sliding: bool, until_secs: f64| {
+            let mut r = drift_controller(9);
+            r.use_contacts = false;
+            r.sliding_jam_window = sliding;
+            let mut obs = straight(9, 0.0, r.link_length_m);
+            let x0 = obs.head_position_m[0];
+            let mut cmd = Command::new(9);
+            let steps = (until_secs / 0.01).round() as usize;
+            for k in 1..=steps {
+                let t = k as f64 * 0.01;
+                obs.time_secs = t;
+                obs.head_position_m[0] = x0 + 0.1 * t.min(4.0);
+                r.update(&obs, &mut cmd);
+            }
+            r.last.jams
+        };
+        assert_eq!(run(true, 6.4), 0);
+        assert_eq!(run(true, 6.7), 1);
+        assert_eq!(run(false, 8.9), 0);
+        assert_eq!(run(false, 9.1), 1);
     }
 
     #[test]
