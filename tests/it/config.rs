@@ -475,6 +475,8 @@ initial_gait = "rail"
 drift_amplitude_deg = 55.0
 drift_phase_lag_deg = -45.0
 drift_frequency_hz = 0.6
+drift_heading_gain = -0.4
+drift_heading_filter_secs = 1.5
 contact_filter_secs = 0.7
 propel_force_n = 4.0
 no_peg_secs = 3.0
@@ -837,6 +839,8 @@ fn all_fields_expected() -> Config {
         drift_amplitude_deg: 55.0,
         drift_phase_lag_deg: -45.0,
         drift_frequency_hz: 0.6,
+        drift_heading_gain: -0.4,
+        drift_heading_filter_secs: 1.5,
         contact_filter_secs: 0.7,
         propel_force_n: 4.0,
         no_peg_secs: 3.0,

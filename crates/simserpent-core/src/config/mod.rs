@@ -1290,6 +1290,11 @@ pub struct Rail {
     pub drift_amplitude_deg: f64,
     pub drift_phase_lag_deg: f64,
     pub drift_frequency_hz: f64,
+    /// Heading hold of the drift gait: every joint is offset by
+    /// clamp(`drift_heading_gain`·(θ̄_body − θ_ref), ±`max_steer_deg`) (rad per rad; 0 = off),
+    /// θ̄_body the body's mean heading low-pass filtered with `drift_heading_filter_secs` (s).
+    pub drift_heading_gain: f64,
+    pub drift_heading_filter_secs: f64,
     /// Time constant (s) of the low-pass filters on the propelling and resisting obstacle forces.
     pub contact_filter_secs: f64,
     /// Rail → drift when the filtered propelling force stays below `propel_force_n` (N) for

@@ -327,6 +327,13 @@ impl Config {
             "must be within -180..180",
         )?;
         positive("rail.drift_frequency_hz", r.drift_frequency_hz)?;
+        ensure(
+            r.drift_heading_gain.is_finite() && r.drift_heading_gain.abs() <= 5.0,
+            "rail.drift_heading_gain",
+            fmt_f(r.drift_heading_gain),
+            "must be within -5..5",
+        )?;
+        positive("rail.drift_heading_filter_secs", r.drift_heading_filter_secs)?;
         positive("rail.contact_filter_secs", r.contact_filter_secs)?;
         non_negative("rail.propel_force_n", r.propel_force_n)?;
         positive("rail.no_peg_secs", r.no_peg_secs)?;

@@ -89,6 +89,23 @@
 //! shape, because the shape is what wedges it. The drift wave has a different shape (1.2 m
 //! wavelength, 65°) and moves the body the other way along the pegs, which frees it.
 //!
+//! **Session-8 options (all off by default; measured on hoal's seeds 20–39, none won —
+//! BENCHMARKS.md, "session 8, helper i15r").**
+//!
+//! ```text
+//! F_x,i ← clamp(F_x,i, ±F_clip)                          before P and R (force_clip_n)
+//! wedged: min(P̄, R̄) > F_wedge for T_wedge                → handled as a jam (wedge_force_n, wedge_secs)
+//! relax:  a drift jam → for T_relax the drift wave blends into A_r·sin(ωt − j δ_r), then rail
+//!         q_j,drift = r(t)·[(1 − m)·A_d·sin(ωt − j δ_d) + m·A_r·sin(ωt − j δ_r)],  ṁ = ±1/blend_secs
+//! sliding jam window: x_c(t) − x_c(t − T) < d, x_c sampled every T/30 (sliding_jam_window)
+//! ```
+//!
+//! The per-link clip keeps single spikes of the raw estimates (100–980 N) out of P̄ and R̄;
+//! the wedge rule sees a wedge (both forces large) before the progress-based jam rule; the
+//! relax recovery changes the body's shape (e.g. straightens it to 25°) before the rail gait
+//! loads it, instead of loading the wedged shape; the sliding window sees a stall one window
+//! after it begins, where the restarting windows see it one to two windows after.
+//!
 //! What the controller reads: the encoders, the head gyro (yaw), the head's position and
 //! velocity (a tracking system, as path following) and the contact estimates
 //! (`Observation::contacts`; the simulator's truth only with `contacts = "true"`). Nothing
@@ -162,6 +179,11 @@ pub struct Rail {
     pub relax_secs: f64,
     pub relax_amplitude_rad: f64,
     pub relax_phase_lag_rad: f64,
+    /// Drift heading hold: gain (rad/rad; signed) and filter of the body's mean heading (s).
+    pub drift_heading_gain: f64,
+    pub drift_heading_filter_secs: f64,
+    body_heading_rad: f64,
+    body_heading_set: bool,
     /// Since when both filtered forces have been above the wedge threshold (s).
     wedged_since_secs: Option<f64>,
     /// Until when the drift gait runs the relax wave (s).
@@ -292,6 +314,10 @@ impl Rail {
             relax_amplitude_rad: r.relax_amplitude_deg.to_radians(),
             relax_phase_lag_rad: r.relax_phase_lag_deg.to_radians(),
             wedged_since_secs: None,
+            drift_heading_gain: r.drift_heading_gain,
+            drift_heading_filter_secs: r.drift_heading_filter_secs,
+            body_heading_rad: 0.0,
+            body_heading_set: false,
             relax_until_secs: f64::NEG_INFINITY,
             relax_mix: 0.0,
             relax_pending: false,
@@ -495,7 +521,7 @@ impl Rail {
         // Unwrapped: the path heading averages it.
         self.head_yaw_rad += obs.imu_gyro_rad_per_s.first().map_or(0.0, |g| g[2]) * dt;
         let head = [obs.head_position_m[0], obs.head_position_m[1]];
-        let (_, com) = planar_chain(
+        let (mean_heading, com) = planar_chain(
             self.head_yaw_rad,
             head,
             &obs.joint_angle_rad,
@@ -503,6 +529,13 @@ impl Rail {
             self.link_length_m,
             &mut self.heading_rad,
         );
+
+        if !self.body_heading_set {
+            self.body_heading_rad = mean_heading;
+            self.body_heading_set = true;
+        }
+        self.body_heading_rad +=
+            low_pass_gain(dt, self.drift_heading_filter_secs) * (mean_heading - self.body_heading_rad);
 
         // Odometry.
         let (s, c) = self.head_yaw_rad.sin_cos();
@@ -682,10 +715,13 @@ impl Rail {
         let m = self.relax_mix;
         let (r, _) = super::gait::ramp(t, self.ramp_secs);
         let psi = self.drift_angular_frequency_rad_per_s * t;
+        // Heading hold of the drift gait: one offset on every joint (the body curves).
+        let drift_steer = (self.drift_heading_gain * wrap_angle_rad(self.body_heading_rad - reference))
+            .clamp(-self.max_steer_rad, self.max_steer_rad);
         for (j, q) in self.drift_target_rad.iter_mut().enumerate() {
             let own = self.drift_amplitude_rad * (psi - j as f64 * self.drift_phase_lag_rad).sin();
             let relax = self.relax_amplitude_rad * (psi - j as f64 * self.relax_phase_lag_rad).sin();
-            *q = r * ((1.0 - m) * own + m * relax);
+            *q = r * ((1.0 - m) * own + m * relax + drift_steer);
         }
 
         self.last = RailState {
@@ -752,6 +788,7 @@ impl Controller for Rail {
         self.relax_until_secs = f64::NEG_INFINITY;
         self.relax_mix = 0.0;
         self.relax_pending = false;
+        self.body_heading_set = false;
         self.last = RailState::default();
     }
 
