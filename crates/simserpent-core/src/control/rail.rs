@@ -885,6 +885,30 @@ mod tests {
     }
 
     #[test]
+    fn the_drift_heading_hold_offsets_every_joint_by_the_heading_error() {
+        for (gain, yaw) in [(0.5, 0.3), (0.5, -0.3), (-0.5, 0.3), (2.0, 0.3)] {
+            let mut r = drift_controller(9);
+            r.use_contacts = false;
+            r.drift_heading_gain = gain;
+            // Straight along `yaw`, centre of mass on y = 0: the line of sight is along +x.
+            let mut obs = straight(9, yaw, r.link_length_m);
+            let mut cmd = Command::new(9);
+            run_for(&mut r, &mut obs, 0.0, 2.5, &mut cmd);
+            let omega = r.drift_angular_frequency_rad_per_s;
+            let offset = (gain * yaw).clamp(-r.max_steer_rad, r.max_steer_rad);
+            for j in 0..9 {
+                let wave = r.drift_amplitude_rad * (omega * 2.5 - j as f64 * r.drift_phase_lag_rad).sin();
+                assert!(
+                    (cmd.position_rad[j] - wave - offset).abs() < 1e-9,
+                    "gain {gain}, yaw {yaw}, joint {j}: {} against {}",
+                    cmd.position_rad[j],
+                    wave + offset
+                );
+            }
+        }
+    }
+
+    #[test]
     fn rail_switches_to_drift_when_no_peg_propels_and_back_when_pegs_resist() {
         let mut r = controller(9);
         // No jam rule here: the switch is the contacts' doing.
