@@ -718,10 +718,18 @@ impl Rail {
         // Heading hold of the drift gait: one offset on every joint (the body curves).
         let drift_steer = (self.drift_heading_gain * wrap_angle_rad(self.body_heading_rad - reference))
             .clamp(-self.max_steer_rad, self.max_steer_rad);
+        // (With the options off this is exactly r·A_d·sin(ωt − j δ_d), rounding included: the
+        // runs are chaotic, and a last-bit difference changes single fields' results.)
         for (j, q) in self.drift_target_rad.iter_mut().enumerate() {
-            let own = self.drift_amplitude_rad * (psi - j as f64 * self.drift_phase_lag_rad).sin();
-            let relax = self.relax_amplitude_rad * (psi - j as f64 * self.relax_phase_lag_rad).sin();
-            *q = r * ((1.0 - m) * own + m * relax + drift_steer);
+            let own = (psi - j as f64 * self.drift_phase_lag_rad).sin();
+            *q = r * self.drift_amplitude_rad * own;
+            if m > 0.0 {
+                let relax = self.relax_amplitude_rad * (psi - j as f64 * self.relax_phase_lag_rad).sin();
+                *q += r * m * (relax - self.drift_amplitude_rad * own);
+            }
+            if drift_steer != 0.0 {
+                *q += r * drift_steer;
+            }
         }
 
         self.last = RailState {
