@@ -98,13 +98,17 @@
 //! relax:  a drift jam → for T_relax the drift wave blends into A_r·sin(ωt − j δ_r), then rail
 //!         q_j,drift = r(t)·[(1 − m)·A_d·sin(ωt − j δ_d) + m·A_r·sin(ωt − j δ_r)],  ṁ = ±1/blend_secs
 //! sliding jam window: x_c(t) − x_c(t − T) < d, x_c sampled every T/30 (sliding_jam_window)
+//! drift heading hold: q_j,drift += r(t)·clamp(k_d·wrap(θ̄_body − θ_ref), ±q_steer,max)
+//!         θ̄_body the body's mean heading, low-pass filtered (drift_heading_gain, _filter_secs)
 //! ```
 //!
 //! The per-link clip keeps single spikes of the raw estimates (100–980 N) out of P̄ and R̄;
 //! the wedge rule sees a wedge (both forces large) before the progress-based jam rule; the
 //! relax recovery changes the body's shape (e.g. straightens it to 25°) before the rail gait
 //! loads it, instead of loading the wedged shape; the sliding window sees a stall one window
-//! after it begins, where the restarting windows see it one to two windows after.
+//! after it begins, where the restarting windows see it one to two windows after. The runs
+//! are chaotic (a last-bit rounding change of the drift targets moves single fields by tens of
+//! mm/s), so with every option off the targets are computed exactly as before.
 //!
 //! What the controller reads: the encoders, the head gyro (yaw), the head's position and
 //! velocity (a tracking system, as path following) and the contact estimates
