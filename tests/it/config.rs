@@ -1071,6 +1071,8 @@ const RULES: &[(&[&str], &str)] = &[
     (&["rail.relax_secs=-1"], "rail.relax_secs"),
     (&["rail.relax_amplitude_deg=95"], "rail.relax_amplitude_deg"),
     (&["rail.relax_phase_lag_deg=200"], "rail.relax_phase_lag_deg"),
+    (&["rail.drift_heading_gain=9"], "rail.drift_heading_gain"),
+    (&["rail.drift_heading_filter_secs=0"], "rail.drift_heading_filter_secs"),
     (&["control.controller=\"rail\"", "estimation.enabled=false"], "rail.contacts"),
     (&["terrain.cylinder_path.width_m=0.1"], "terrain.cylinder_path.width_m"),
     (&["terrain.cylinder_path.width_m=0.15"], "terrain.cylinder_path.width_m"),
