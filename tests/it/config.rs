@@ -460,6 +460,7 @@ contact_filter_secs = 0.7
 switch_force_n = 6.5
 switch_max_speed_m_per_s = 0.04
 switch_secs = 2.5
+switch_exit = "stall"
 blend_secs = 0.3
 straighten = true
 straighten_force_n = 3.5
@@ -826,6 +827,7 @@ fn all_fields_expected() -> Config {
         switch_force_n: 6.5,
         switch_max_speed_m_per_s: 0.04,
         switch_secs: 2.5,
+        switch_exit: SwitchExit::Stall,
         blend_secs: 0.3,
         straighten: true,
         straighten_force_n: 3.5,

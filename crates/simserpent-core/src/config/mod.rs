@@ -1234,9 +1234,10 @@ pub struct ObstacleAided {
     pub switch_force_n: f64,
     /// ... while the filtered forward speed is below this (m/s).
     pub switch_max_speed_m_per_s: f64,
-    /// The second wave runs at least this long (s); then the first returns once the filtered
-    /// resisting force is below `switch_force_n`.
+    /// The second wave runs at least this long (s); then the first returns by `switch_exit`.
     pub switch_secs: f64,
+    /// When the first wave returns after `switch_secs`.
+    pub switch_exit: SwitchExit,
     /// Time (s) over which the joints blend from one wave to the other.
     pub blend_secs: f64,
     /// Full yield: the wave's bends next to a link whose resisting force (against the goal
@@ -1257,6 +1258,18 @@ pub enum WaveSwitch {
     /// direction, summed over the links) above `switch_force_n` while the filtered forward
     /// speed is below `switch_max_speed_m_per_s`.
     Resist,
+}
+
+/// `obstacle_aided.switch_exit`: when the first wave returns (after `switch_secs`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SwitchExit {
+    /// Once the filtered resisting force is at most `switch_force_n` (the second wave is an
+    /// escape from a peg).
+    Resist,
+    /// Once the filtered forward speed is below `switch_max_speed_m_per_s` (the second wave
+    /// stays while it makes progress).
+    Stall,
 }
 
 /// `obstacle_aided.recovery`: what the wave does for `recovery_secs` after a jam.

@@ -115,7 +115,7 @@ use super::{
     Command, ContactFeed, Controller, Observation, Pid, command_joint, feel, joint_pid, low_pass_gain, planar_chain,
     wrap_angle_rad, yaw_joints,
 };
-use crate::config::{Config, ContactSource, ControlMethod, Propagation, Recovery, WaveSpeed, WaveSwitch};
+use crate::config::{Config, ContactSource, ControlMethod, Propagation, Recovery, SwitchExit, WaveSpeed, WaveSwitch};
 use crate::estimation::ContactEstimates;
 use crate::state::Snapshot;
 use std::f64::consts::TAU;
@@ -174,6 +174,7 @@ pub struct ObstacleAided {
     pub switch_force_n: f64,
     pub switch_max_speed_m_per_s: f64,
     pub switch_secs: f64,
+    pub switch_exit: SwitchExit,
     pub blend_secs: f64,
     /// Full yield (module documentation, "Full yield").
     pub straighten: bool,
@@ -279,6 +280,7 @@ impl ObstacleAided {
             switch_force_n: o.switch_force_n,
             switch_max_speed_m_per_s: o.switch_max_speed_m_per_s,
             switch_secs: o.switch_secs,
+            switch_exit: o.switch_exit,
             blend_secs: o.blend_secs,
             straighten: o.straighten,
             straighten_force_n: o.straighten_force_n,
@@ -438,7 +440,10 @@ impl ObstacleAided {
                 self.switched_since_secs = t;
             } else if self.switched
                 && t - self.switched_since_secs >= self.switch_secs
-                && self.resist_force_n <= self.switch_force_n
+                && match self.switch_exit {
+                    SwitchExit::Resist => self.resist_force_n <= self.switch_force_n,
+                    SwitchExit::Stall => self.speed_m_per_s < self.switch_max_speed_m_per_s,
+                }
             {
                 self.switched = false;
             }
@@ -1002,6 +1007,39 @@ mod tests {
         assert!((2.0..2.15).contains(&off), "back at {off}");
         assert_eq!(oa.last.switches, 1);
         assert_eq!(oa.last.blend, 0.0);
+    }
+
+    #[test]
+    fn with_the_stall_exit_the_second_wave_stays_while_it_moves_whatever_the_force() {
+        // Switched by a resisting 8 N at rest; the force stays, and from t = 0.5 s the snake
+        // advances at 0.1 m/s: the second wave stays (the speed is above 0.03 m/s once the
+        // 0.5-s filter has followed), and when the snake stops again at t = 3 s the first wave
+        // returns within the filter's lag although the force is still there.
+        let mut c = switch_config();
+        c.obstacle_aided.switch_exit = SwitchExit::Stall;
+        let mut oa = ObstacleAided::from_config(&c, 9);
+        let mut obs = Observation::new(10, 9);
+        obs.head_quat = [1.0, 0.0, 0.0, 0.0];
+        let mut cmd = Command::new(9);
+        let push = one_contact(10, 4, [-8.0, 1.0, 0.0], Some(0.0));
+        let mut back_at = None;
+        for k in 0..450 {
+            let t = k as f64 * 0.01;
+            obs.time_secs = t;
+            obs.head_position_m[0] = 0.1 * (t.clamp(0.5, 3.0) - 0.5);
+            oa.step(&obs, &push, &mut cmd);
+            if (0.2..3.0).contains(&t) {
+                assert!(oa.last.switched, "t = {t}: {:?}", oa.last);
+            }
+            if t > 3.0 && !oa.last.switched && back_at.is_none() {
+                back_at = Some(t);
+            }
+        }
+        // v decays from 0.1 as e^(−(t − 3)/0.5): below 0.03 after 0.5·ln(10/3) ≈ 0.6 s.
+        let back = back_at.expect("never switched back");
+        assert!((3.55..3.7).contains(&back), "back at {back}");
+        // With the force still on and the snake at rest the second wave comes again.
+        assert!(oa.last.switched && oa.last.switches == 2, "{:?}", oa.last);
     }
 
     #[test]
