@@ -1234,7 +1234,8 @@ pub struct ObstacleAided {
     pub switch_force_n: f64,
     /// ... while the filtered forward speed is below this (m/s).
     pub switch_max_speed_m_per_s: f64,
-    /// The second wave runs at least this long (s); then the first returns by `switch_exit`.
+    /// Either wave, once selected, runs at least this long (s); then the first returns by
+    /// `switch_exit`, and the second comes again by its trigger.
     pub switch_secs: f64,
     /// When the first wave returns after `switch_secs`.
     pub switch_exit: SwitchExit,

@@ -182,7 +182,8 @@ pub struct ObstacleAided {
     pub straighten_secs: f64,
     /// Filtered resisting force R (N).
     resist_force_n: f64,
-    /// Whether the second wave is selected, since when (s), and the blend b ∈ [0, 1].
+    /// Whether the second wave is selected, since when (s) either wave runs, and the blend
+    /// b ∈ [0, 1].
     switched: bool,
     switched_since_secs: f64,
     blend: f64,
@@ -287,7 +288,7 @@ impl ObstacleAided {
             straighten_secs: o.straighten_secs,
             resist_force_n: 0.0,
             switched: false,
-            switched_since_secs: 0.0,
+            switched_since_secs: f64::NEG_INFINITY,
             blend: 0.0,
             flatten: vec![0.0; n_joints],
             flatten_target: vec![0.0; n_joints],
@@ -433,6 +434,7 @@ impl ObstacleAided {
         self.resist_force_n += low_pass_gain(dt, self.contact_filter_secs) * (resist - self.resist_force_n);
         if self.switch == WaveSwitch::Resist && t >= self.ramp_secs {
             if !self.switched
+                && t - self.switched_since_secs >= self.switch_secs
                 && self.resist_force_n > self.switch_force_n
                 && self.speed_m_per_s < self.switch_max_speed_m_per_s
             {
@@ -446,6 +448,7 @@ impl ObstacleAided {
                 }
             {
                 self.switched = false;
+                self.switched_since_secs = t;
             }
         }
         let target = if self.switched { 1.0 } else { 0.0 };
@@ -590,15 +593,17 @@ impl ObstacleAided {
             let phase = self.phase_rad - j as f64 * self.phase_lag_rad;
             let offset = if self.yaw_joint[j] { self.offset_rad[j] + r * heading_offset } else { 0.0 };
             let keep = 1.0 - self.flatten[j];
-            let (mut wave, mut wave_rate) = ((1.0 - b) * amplitude * phase.sin(), (1.0 - b) * amplitude * phase.cos());
+            // (Written so that with b = 0 and s_j = 0 the arithmetic is the single wave's.)
+            let (mut wave, mut rate) =
+                ((1.0 - b) * amplitude * phase.sin(), r * ((1.0 - b) * amplitude) * phase_rate * phase.cos());
             if b > 0.0 {
                 let phase2 = self.phase_rad - j as f64 * self.switch_phase_lag_rad;
                 wave += b * a2 * phase2.sin();
-                wave_rate += b * a2 * phase2.cos();
+                rate += r * (b * a2) * phase_rate * phase2.cos();
             }
-            let (wave, wave_rate) = (keep * wave, keep * wave_rate);
+            let wave = keep * wave;
             let angle = r * wave + offset;
-            let velocity = dr * wave + r * phase_rate * wave_rate;
+            let velocity = dr * wave + keep * rate;
             command_joint(self.method, cmd, j, angle, velocity, obs, &mut self.pids[j], self.dt_secs);
         }
     }
@@ -639,7 +644,7 @@ impl Controller for ObstacleAided {
         self.filtered_heading_rad = None;
         self.resist_force_n = 0.0;
         self.switched = false;
-        self.switched_since_secs = 0.0;
+        self.switched_since_secs = f64::NEG_INFINITY;
         self.blend = 0.0;
         self.flatten.fill(0.0);
         self.last = ObstacleAidedState::default();
@@ -1023,7 +1028,7 @@ mod tests {
         let mut cmd = Command::new(9);
         let push = one_contact(10, 4, [-8.0, 1.0, 0.0], Some(0.0));
         let mut back_at = None;
-        for k in 0..450 {
+        for k in 0..470 {
             let t = k as f64 * 0.01;
             obs.time_secs = t;
             obs.head_position_m[0] = 0.1 * (t.clamp(0.5, 3.0) - 0.5);
@@ -1038,7 +1043,8 @@ mod tests {
         // v decays from 0.1 as e^(−(t − 3)/0.5): below 0.03 after 0.5·ln(10/3) ≈ 0.6 s.
         let back = back_at.expect("never switched back");
         assert!((3.55..3.7).contains(&back), "back at {back}");
-        // With the force still on and the snake at rest the second wave comes again.
+        // With the force still on and the snake at rest the second wave comes again once the
+        // first has run for switch_secs (1 s).
         assert!(oa.last.switched && oa.last.switches == 2, "{:?}", oa.last);
     }
 
