@@ -101,6 +101,31 @@
 //! often than no recovery at all (BENCHMARKS.md, session 7, helper i15g), so the default is
 //! `recovery_secs = 0`.
 //!
+//! **The second wave** (`switch = "resist"`; session 8). The estimates give the resisting
+//! force R = Σ_i max(0, −f_i·ĝ) over the links in contact (what the pegs push against the goal
+//! direction), low-pass filtered with `contact_filter_secs`. When R > `switch_force_n` while
+//! the filtered forward speed v̄ (the centre of mass along ĝ, `speed_filter_secs`) is below
+//! `switch_max_speed_m_per_s`, the joints blend linearly over `blend_secs` to a second wave
+//! (α₂ = `switch_amplitude_deg`, δ₂ = `switch_phase_lag_deg`, the same phase ψ):
+//!
+//! ```text
+//! φ_j,ref = r(t)·(1 − s_j)·[(1 − b)·α·sin(ψ − jδ) + b·α₂·sin(ψ − jδ₂)] + o_j
+//! ```
+//!
+//! (b ∈ [0, 1] the blend). Either wave, once selected, runs at least `switch_secs`; then the
+//! first returns by `switch_exit`: `"resist"` once R ≤ `switch_force_n` (the second wave is an
+//! escape from a peg, e.g. the 50°/−60° wave that jams least), `"stall"` once v̄ is below
+//! `switch_max_speed_m_per_s` (the second wave stays while it moves, e.g. the ordinary wave
+//! 65°/+30° that the pegs propel where they resist the wave toward the head).
+//!
+//! **Full yield** (`straighten = true`; session 8). s_j ∈ [0, 1] above flattens the wave at
+//! joint j: at the two joints of a link whose force against the goal, −f_i·ĝ, exceeds
+//! `straighten_force_n` its target is 1, elsewhere 0; every step s first moves along the body
+//! with the wave's bends (the upwind shift below, ψ̇/δ joints per second) and then approaches
+//! its target with time constant `straighten_secs`. The bend that presses a resisting peg goes
+//! flat for as long as the contact lasts, and the flattening travels with the wave.
+//! `contact_feedback = false` switches both off (they read the contacts).
+//!
 //! **What is measured (session 7).** On `hoal`'s fields with the defaults the controller is as
 //! fast as the open-loop 65°/−60° wave and jams as often; with `contact_feedback = false` it is
 //! as fast (the yield and press terms sit within the field-to-field noise), and on the bare
