@@ -460,6 +460,7 @@ contact_filter_secs = 0.7
 switch_force_n = 6.5
 switch_max_speed_m_per_s = 0.04
 switch_secs = 2.5
+first_wave_secs = 3.5
 switch_exit = "stall"
 blend_secs = 0.3
 straighten = true
@@ -827,6 +828,7 @@ fn all_fields_expected() -> Config {
         switch_force_n: 6.5,
         switch_max_speed_m_per_s: 0.04,
         switch_secs: 2.5,
+        first_wave_secs: 3.5,
         switch_exit: SwitchExit::Stall,
         blend_secs: 0.3,
         straighten: true,

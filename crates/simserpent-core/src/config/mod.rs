@@ -1234,9 +1234,12 @@ pub struct ObstacleAided {
     pub switch_force_n: f64,
     /// ... while the filtered forward speed is below this (m/s).
     pub switch_max_speed_m_per_s: f64,
-    /// Either wave, once selected, runs at least this long (s); then the first returns by
-    /// `switch_exit`, and the second comes again by its trigger.
+    /// The second wave, once selected, runs at least this long (s); then the first returns by
+    /// `switch_exit`.
     pub switch_secs: f64,
+    /// The first wave, once it has returned, runs at least this long (s) before the second can
+    /// come again.
+    pub first_wave_secs: f64,
     /// When the first wave returns after `switch_secs`.
     pub switch_exit: SwitchExit,
     /// Time (s) over which the joints blend from one wave to the other.

@@ -281,6 +281,7 @@ impl Config {
         positive("obstacle_aided.switch_force_n", o.switch_force_n)?;
         positive("obstacle_aided.switch_max_speed_m_per_s", o.switch_max_speed_m_per_s)?;
         non_negative("obstacle_aided.switch_secs", o.switch_secs)?;
+        non_negative("obstacle_aided.first_wave_secs", o.first_wave_secs)?;
         non_negative("obstacle_aided.blend_secs", o.blend_secs)?;
         positive("obstacle_aided.straighten_force_n", o.straighten_force_n)?;
         positive("obstacle_aided.straighten_secs", o.straighten_secs)?;

@@ -112,8 +112,8 @@
 //! φ_j,ref = r(t)·(1 − s_j)·[(1 − b)·α·sin(ψ − jδ) + b·α₂·sin(ψ − jδ₂)] + o_j
 //! ```
 //!
-//! (b ∈ [0, 1] the blend). Either wave, once selected, runs at least `switch_secs`; then the
-//! first returns by `switch_exit`: `"resist"` once R ≤ `switch_force_n` (the second wave is an
+//! (b ∈ [0, 1] the blend). The second wave, once selected, runs at least `switch_secs`, the
+//! first, once back, at least `first_wave_secs`; the first returns by `switch_exit`: `"resist"` once R ≤ `switch_force_n` (the second wave is an
 //! escape from a peg, e.g. the 50°/−60° wave that jams least), `"stall"` once v̄ is below
 //! `switch_max_speed_m_per_s` (the second wave stays while it moves, e.g. the ordinary wave
 //! 65°/+30° that the pegs propel where they resist the wave toward the head).
@@ -199,6 +199,7 @@ pub struct ObstacleAided {
     pub switch_force_n: f64,
     pub switch_max_speed_m_per_s: f64,
     pub switch_secs: f64,
+    pub first_wave_secs: f64,
     pub switch_exit: SwitchExit,
     pub blend_secs: f64,
     /// Full yield (module documentation, "Full yield").
@@ -306,6 +307,7 @@ impl ObstacleAided {
             switch_force_n: o.switch_force_n,
             switch_max_speed_m_per_s: o.switch_max_speed_m_per_s,
             switch_secs: o.switch_secs,
+            first_wave_secs: o.first_wave_secs,
             switch_exit: o.switch_exit,
             blend_secs: o.blend_secs,
             straighten: o.straighten,
@@ -459,7 +461,7 @@ impl ObstacleAided {
         self.resist_force_n += low_pass_gain(dt, self.contact_filter_secs) * (resist - self.resist_force_n);
         if self.switch == WaveSwitch::Resist && t >= self.ramp_secs {
             if !self.switched
-                && t - self.switched_since_secs >= self.switch_secs
+                && t - self.switched_since_secs >= self.first_wave_secs
                 && self.resist_force_n > self.switch_force_n
                 && self.speed_m_per_s < self.switch_max_speed_m_per_s
             {
@@ -992,6 +994,7 @@ mod tests {
         c.obstacle_aided.switch_force_n = 5.0;
         c.obstacle_aided.switch_max_speed_m_per_s = 0.03;
         c.obstacle_aided.switch_secs = 1.0;
+        c.obstacle_aided.first_wave_secs = 1.0;
         c.obstacle_aided.blend_secs = 0.2;
         c.obstacle_aided.force_gain_rad_per_n_s = 0.0;
         c.obstacle_aided.yield_gain_rad_per_n_s = 0.0;
@@ -1047,6 +1050,8 @@ mod tests {
         // returns within the filter's lag although the force is still there.
         let mut c = switch_config();
         c.obstacle_aided.switch_exit = SwitchExit::Stall;
+        c.obstacle_aided.first_wave_secs = 0.5;
+        let mut again_at = None;
         let mut oa = ObstacleAided::from_config(&c, 9);
         let mut obs = Observation::new(10, 9);
         obs.head_quat = [1.0, 0.0, 0.0, 0.0];
@@ -1064,12 +1069,17 @@ mod tests {
             if t > 3.0 && !oa.last.switched && back_at.is_none() {
                 back_at = Some(t);
             }
+            if back_at.is_some() && oa.last.switched && again_at.is_none() {
+                again_at = Some(t);
+            }
         }
         // v decays from 0.1 as e^(−(t − 3)/0.5): below 0.03 after 0.5·ln(10/3) ≈ 0.6 s.
         let back = back_at.expect("never switched back");
         assert!((3.55..3.7).contains(&back), "back at {back}");
         // With the force still on and the snake at rest the second wave comes again once the
-        // first has run for switch_secs (1 s).
+        // first has run for first_wave_secs (0.5 s).
+        let again = again_at.expect("never switched again");
+        assert!((again - back - 0.5).abs() < 0.015, "back at {back}, again at {again}");
         assert!(oa.last.switched && oa.last.switches == 2, "{:?}", oa.last);
     }
 
