@@ -453,6 +453,19 @@ heading_filter_secs = 1.5
 wave_speed = "progress"
 drive_frequency_hz = 0.2
 speed_filter_secs = 0.8
+switch = "resist"
+switch_amplitude_deg = 45.0
+switch_phase_lag_deg = -50.0
+contact_filter_secs = 0.7
+switch_force_n = 6.5
+switch_max_speed_m_per_s = 0.04
+switch_secs = 2.5
+first_wave_secs = 3.5
+switch_exit = "stall"
+blend_secs = 0.3
+straighten = true
+straighten_force_n = 3.5
+straighten_secs = 0.15
 
 [rail]
 contacts = "true"
@@ -817,6 +830,19 @@ fn all_fields_expected() -> Config {
         wave_speed: WaveSpeed::Progress,
         drive_frequency_hz: 0.2,
         speed_filter_secs: 0.8,
+        switch: WaveSwitch::Resist,
+        switch_amplitude_deg: 45.0,
+        switch_phase_lag_deg: -50.0,
+        contact_filter_secs: 0.7,
+        switch_force_n: 6.5,
+        switch_max_speed_m_per_s: 0.04,
+        switch_secs: 2.5,
+        first_wave_secs: 3.5,
+        switch_exit: SwitchExit::Stall,
+        blend_secs: 0.3,
+        straighten: true,
+        straighten_force_n: 3.5,
+        straighten_secs: 0.15,
     };
     c.rail = Rail {
         contacts: ContactSource::True,

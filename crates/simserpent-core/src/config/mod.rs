@@ -1222,6 +1222,58 @@ pub struct ObstacleAided {
     pub drive_frequency_hz: f64,
     /// Time constant (s) of the low-pass filter on the measured forward speed.
     pub speed_filter_secs: f64,
+    /// What switches the controller to its second wave (`switch_amplitude_deg`,
+    /// `switch_phase_lag_deg`).
+    pub switch: WaveSwitch,
+    /// The second wave: amplitude (degrees) and phase lag between joints (degrees, not 0).
+    pub switch_amplitude_deg: f64,
+    pub switch_phase_lag_deg: f64,
+    /// Time constant (s) of the low-pass filter on the resisting obstacle force R.
+    pub contact_filter_secs: f64,
+    /// The second wave takes over when the filtered resisting force exceeds this (N) ...
+    pub switch_force_n: f64,
+    /// ... while the filtered forward speed is below this (m/s).
+    pub switch_max_speed_m_per_s: f64,
+    /// The second wave, once selected, runs at least this long (s); then the first returns by
+    /// `switch_exit`.
+    pub switch_secs: f64,
+    /// The first wave, once it has returned, runs at least this long (s) before the second can
+    /// come again.
+    pub first_wave_secs: f64,
+    /// When the first wave returns after `switch_secs`.
+    pub switch_exit: SwitchExit,
+    /// Time (s) over which the joints blend from one wave to the other.
+    pub blend_secs: f64,
+    /// Full yield: the wave's bends next to a link whose resisting force (against the goal
+    /// direction) exceeds `straighten_force_n` (N) flatten toward zero with time constant
+    /// `straighten_secs` (s), and the flattening travels with the wave.
+    pub straighten: bool,
+    pub straighten_force_n: f64,
+    pub straighten_secs: f64,
+}
+
+/// `obstacle_aided.switch`: what hands the joints to the second wave.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WaveSwitch {
+    /// Never: the first wave only.
+    None,
+    /// The filtered resisting obstacle force (the estimates' components against the goal
+    /// direction, summed over the links) above `switch_force_n` while the filtered forward
+    /// speed is below `switch_max_speed_m_per_s`.
+    Resist,
+}
+
+/// `obstacle_aided.switch_exit`: when the first wave returns (after `switch_secs`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SwitchExit {
+    /// Once the filtered resisting force is at most `switch_force_n` (the second wave is an
+    /// escape from a peg).
+    Resist,
+    /// Once the filtered forward speed is below `switch_max_speed_m_per_s` (the second wave
+    /// stays while it makes progress).
+    Stall,
 }
 
 /// `obstacle_aided.recovery`: what the wave does for `recovery_secs` after a jam.

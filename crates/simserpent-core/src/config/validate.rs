@@ -269,6 +269,22 @@ impl Config {
         self.below_joint_range("obstacle_aided.max_heading_offset_deg", o.max_heading_offset_deg)?;
         positive("obstacle_aided.drive_frequency_hz", o.drive_frequency_hz)?;
         positive("obstacle_aided.speed_filter_secs", o.speed_filter_secs)?;
+        self.below_joint_range("obstacle_aided.switch_amplitude_deg", o.switch_amplitude_deg)?;
+        finite("obstacle_aided.switch_phase_lag_deg", o.switch_phase_lag_deg)?;
+        ensure(
+            o.switch_phase_lag_deg != 0.0 && o.switch_phase_lag_deg.abs() < 180.0,
+            "obstacle_aided.switch_phase_lag_deg",
+            fmt_f(o.switch_phase_lag_deg),
+            "must be between -180 and 180 and not 0 (> 0: the wave runs toward the tail, < 0: toward the head)",
+        )?;
+        positive("obstacle_aided.contact_filter_secs", o.contact_filter_secs)?;
+        positive("obstacle_aided.switch_force_n", o.switch_force_n)?;
+        positive("obstacle_aided.switch_max_speed_m_per_s", o.switch_max_speed_m_per_s)?;
+        non_negative("obstacle_aided.switch_secs", o.switch_secs)?;
+        non_negative("obstacle_aided.first_wave_secs", o.first_wave_secs)?;
+        non_negative("obstacle_aided.blend_secs", o.blend_secs)?;
+        positive("obstacle_aided.straighten_force_n", o.straighten_force_n)?;
+        positive("obstacle_aided.straighten_secs", o.straighten_secs)?;
         if self.control.controller == ControllerKind::ObstacleAided {
             ensure(
                 self.gait.kind == GaitKind::SineWave,

@@ -101,6 +101,31 @@
 //! often than no recovery at all (BENCHMARKS.md, session 7, helper i15g), so the default is
 //! `recovery_secs = 0`.
 //!
+//! **The second wave** (`switch = "resist"`; session 8). The estimates give the resisting
+//! force R = Σ_i max(0, −f_i·ĝ) over the links in contact (what the pegs push against the goal
+//! direction), low-pass filtered with `contact_filter_secs`. When R > `switch_force_n` while
+//! the filtered forward speed v̄ (the centre of mass along ĝ, `speed_filter_secs`) is below
+//! `switch_max_speed_m_per_s`, the joints blend linearly over `blend_secs` to a second wave
+//! (α₂ = `switch_amplitude_deg`, δ₂ = `switch_phase_lag_deg`, the same phase ψ):
+//!
+//! ```text
+//! φ_j,ref = r(t)·(1 − s_j)·[(1 − b)·α·sin(ψ − jδ) + b·α₂·sin(ψ − jδ₂)] + o_j
+//! ```
+//!
+//! (b ∈ [0, 1] the blend). The second wave, once selected, runs at least `switch_secs`, the
+//! first, once back, at least `first_wave_secs`; the first returns by `switch_exit`: `"resist"` once R ≤ `switch_force_n` (the second wave is an
+//! escape from a peg, e.g. the 50°/−60° wave that jams least), `"stall"` once v̄ is below
+//! `switch_max_speed_m_per_s` (the second wave stays while it moves, e.g. the ordinary wave
+//! 65°/+30° that the pegs propel where they resist the wave toward the head).
+//!
+//! **Full yield** (`straighten = true`; session 8). s_j ∈ [0, 1] above flattens the wave at
+//! joint j: at the two joints of a link whose force against the goal, −f_i·ĝ, exceeds
+//! `straighten_force_n` its target is 1, elsewhere 0; every step s first moves along the body
+//! with the wave's bends (the upwind shift below, ψ̇/δ joints per second) and then approaches
+//! its target with time constant `straighten_secs`. The bend that presses a resisting peg goes
+//! flat for as long as the contact lasts, and the flattening travels with the wave.
+//! `contact_feedback = false` switches both off (they read the contacts).
+//!
 //! **What is measured (session 7).** On `hoal`'s fields with the defaults the controller is as
 //! fast as the open-loop 65°/−60° wave and jams as often; with `contact_feedback = false` it is
 //! as fast (the yield and press terms sit within the field-to-field noise), and on the bare
@@ -115,7 +140,7 @@ use super::{
     Command, ContactFeed, Controller, Observation, Pid, command_joint, feel, joint_pid, low_pass_gain, planar_chain,
     wrap_angle_rad, yaw_joints,
 };
-use crate::config::{Config, ContactSource, ControlMethod, Propagation, Recovery, WaveSpeed};
+use crate::config::{Config, ContactSource, ControlMethod, Propagation, Recovery, SwitchExit, WaveSpeed, WaveSwitch};
 use crate::estimation::ContactEstimates;
 use crate::state::Snapshot;
 use std::f64::consts::TAU;
@@ -166,6 +191,31 @@ pub struct ObstacleAided {
     pub drive_angular_frequency_rad_per_s: f64,
     /// Time constant (s) of the forward-speed filter.
     pub speed_filter_secs: f64,
+    /// The second wave and its trigger (module documentation, "The second wave").
+    pub switch: WaveSwitch,
+    pub switch_amplitude_rad: f64,
+    pub switch_phase_lag_rad: f64,
+    pub contact_filter_secs: f64,
+    pub switch_force_n: f64,
+    pub switch_max_speed_m_per_s: f64,
+    pub switch_secs: f64,
+    pub first_wave_secs: f64,
+    pub switch_exit: SwitchExit,
+    pub blend_secs: f64,
+    /// Full yield (module documentation, "Full yield").
+    pub straighten: bool,
+    pub straighten_force_n: f64,
+    pub straighten_secs: f64,
+    /// Filtered resisting force R (N).
+    resist_force_n: f64,
+    /// Whether the second wave is selected, since when (s) either wave runs, and the blend
+    /// b ∈ [0, 1].
+    switched: bool,
+    switched_since_secs: f64,
+    blend: f64,
+    /// Flattening s_j ∈ [0, 1] of the wave at joint j, and its per-step target (scratch).
+    flatten: Vec<f64>,
+    flatten_target: Vec<f64>,
     /// The wave's phase rate ψ̇ (rad/s) of the current step (ω with `WaveSpeed::Fixed`).
     wave_phase_rate_rad_per_s: f64,
     /// Filtered forward speed v (m/s) and the previous centre of mass it differentiates.
@@ -209,6 +259,12 @@ pub struct ObstacleAidedState {
     pub phase_rate_rad_per_s: f64,
     /// Jams detected so far.
     pub jams: usize,
+    /// Filtered resisting force R (N), whether the second wave is selected, the blend b, and
+    /// how often the second wave was selected so far.
+    pub resist_force_n: f64,
+    pub switched: bool,
+    pub blend: f64,
+    pub switches: usize,
 }
 
 impl ObstacleAided {
@@ -244,6 +300,25 @@ impl ObstacleAided {
             wave_speed: o.wave_speed,
             drive_angular_frequency_rad_per_s: TAU * o.drive_frequency_hz,
             speed_filter_secs: o.speed_filter_secs,
+            switch: o.switch,
+            switch_amplitude_rad: o.switch_amplitude_deg.to_radians(),
+            switch_phase_lag_rad: o.switch_phase_lag_deg.to_radians(),
+            contact_filter_secs: o.contact_filter_secs,
+            switch_force_n: o.switch_force_n,
+            switch_max_speed_m_per_s: o.switch_max_speed_m_per_s,
+            switch_secs: o.switch_secs,
+            first_wave_secs: o.first_wave_secs,
+            switch_exit: o.switch_exit,
+            blend_secs: o.blend_secs,
+            straighten: o.straighten,
+            straighten_force_n: o.straighten_force_n,
+            straighten_secs: o.straighten_secs,
+            resist_force_n: 0.0,
+            switched: false,
+            switched_since_secs: f64::NEG_INFINITY,
+            blend: 0.0,
+            flatten: vec![0.0; n_joints],
+            flatten_target: vec![0.0; n_joints],
             speed_m_per_s: 0.0,
             wave_phase_rate_rad_per_s: TAU * w.frequency_hz,
             last_com_m: None,
@@ -306,20 +381,7 @@ impl ObstacleAided {
             Propagation::Wave if self.phase_lag_rad != 0.0 => self.wave_phase_rate_rad_per_s / self.phase_lag_rad,
             Propagation::Wave => 0.0,
         };
-        if n_joints > 0 && joints_per_s != 0.0 {
-            let sigma = (joints_per_s.abs() * dt_secs).clamp(0.0, 1.0);
-            if joints_per_s > 0.0 {
-                for j in (1..n_joints).rev() {
-                    self.offset_rad[j] = (1.0 - sigma) * self.offset_rad[j] + sigma * self.offset_rad[j - 1];
-                }
-                self.offset_rad[0] *= 1.0 - sigma;
-            } else {
-                for j in 0..n_joints - 1 {
-                    self.offset_rad[j] = (1.0 - sigma) * self.offset_rad[j] + sigma * self.offset_rad[j + 1];
-                }
-                self.offset_rad[n_joints - 1] *= 1.0 - sigma;
-            }
-        }
+        shift_along_body(&mut self.offset_rad, joints_per_s * dt_secs);
         let (mut propulsive, mut resistive) = (0, 0);
         if self.contact_feedback && (contacts.active || self.contacts.source == ContactSource::True) {
             let u = [forward_rad.cos(), forward_rad.sin()];
@@ -362,6 +424,74 @@ impl ObstacleAided {
         (propulsive, resistive)
     }
 
+    /// The resisting force R, the second wave's switch and blend, and the flattening s_j of one
+    /// step (module documentation); `goal` is ĝ.
+    fn second_wave_and_flattening(
+        &mut self,
+        contacts: &ContactEstimates,
+        goal: [f64; 2],
+        t: f64,
+        dt: f64,
+        phase_rate: f64,
+    ) {
+        let n_joints = self.flatten.len();
+        self.flatten_target.fill(0.0);
+        let mut resist = 0.0;
+        if self.contact_feedback && (contacts.active || self.contacts.source == ContactSource::True) {
+            for i in 0..contacts.n_links() {
+                if !contacts.contact[i] {
+                    continue;
+                }
+                let f = contacts.obstacle_force_n[i];
+                let against = -(f[0] * goal[0] + f[1] * goal[1]);
+                if against <= 0.0 {
+                    continue;
+                }
+                resist += against;
+                if self.straighten && against > self.straighten_force_n {
+                    // Link i lies between joints i − 1 and i.
+                    for j in [i.wrapping_sub(1), i] {
+                        if j < n_joints {
+                            self.flatten_target[j] = 1.0;
+                        }
+                    }
+                }
+            }
+        }
+        self.resist_force_n += low_pass_gain(dt, self.contact_filter_secs) * (resist - self.resist_force_n);
+        if self.switch == WaveSwitch::Resist && t >= self.ramp_secs {
+            if !self.switched
+                && t - self.switched_since_secs >= self.first_wave_secs
+                && self.resist_force_n > self.switch_force_n
+                && self.speed_m_per_s < self.switch_max_speed_m_per_s
+            {
+                self.switched = true;
+                self.switched_since_secs = t;
+            } else if self.switched
+                && t - self.switched_since_secs >= self.switch_secs
+                && match self.switch_exit {
+                    SwitchExit::Resist => self.resist_force_n <= self.switch_force_n,
+                    SwitchExit::Stall => self.speed_m_per_s < self.switch_max_speed_m_per_s,
+                }
+            {
+                self.switched = false;
+                self.switched_since_secs = t;
+            }
+        }
+        let target = if self.switched { 1.0 } else { 0.0 };
+        let step = if self.blend_secs > 0.0 { dt / self.blend_secs } else { 1.0 };
+        self.blend += (target - self.blend).clamp(-step, step);
+        // The flattening travels with the first wave's bends (ψ̇/δ joints per second), then
+        // approaches its target.
+        if self.straighten {
+            shift_along_body(&mut self.flatten, phase_rate / self.phase_lag_rad * dt);
+            let k = low_pass_gain(dt, self.straighten_secs);
+            for (s, target) in self.flatten.iter_mut().zip(&self.flatten_target) {
+                *s += k * (target - *s);
+            }
+        }
+    }
+
     /// Link headings from the integrated head yaw and the encoders; returns θ̄ and the centre of
     /// mass (x, y).
     fn chain(&mut self, obs: &Observation) -> (f64, [f64; 2]) {
@@ -392,17 +522,17 @@ impl ObstacleAided {
             wrap_angle_rad(self.head_yaw_rad + obs.imu_gyro_rad_per_s.first().map_or(0.0, |g| g[2]) * dt);
         let (mean_heading, com) = self.chain(obs);
         let u = [mean_heading.cos(), mean_heading.sin()];
+        // The centre of mass's velocity along the goal direction, low-pass filtered.
+        let goal = [self.goal_heading_rad.cos(), self.goal_heading_rad.sin()];
+        if let Some(last) = self.last_com_m
+            && dt > 0.0
+        {
+            let raw = ((com[0] - last[0]) * goal[0] + (com[1] - last[1]) * goal[1]) / dt;
+            let k = low_pass_gain(dt, self.speed_filter_secs);
+            self.speed_m_per_s += k * (raw - self.speed_m_per_s);
+        }
+        self.last_com_m = Some(com);
         let forward_speed = if self.heading_gain > 0.0 || self.wave_speed == WaveSpeed::Progress {
-            // The centre of mass's velocity along the goal direction, low-pass filtered.
-            let goal = [self.goal_heading_rad.cos(), self.goal_heading_rad.sin()];
-            if let Some(last) = self.last_com_m
-                && dt > 0.0
-            {
-                let raw = ((com[0] - last[0]) * goal[0] + (com[1] - last[1]) * goal[1]) / dt;
-                let k = low_pass_gain(dt, self.speed_filter_secs);
-                self.speed_m_per_s += k * (raw - self.speed_m_per_s);
-            }
-            self.last_com_m = Some(com);
             self.speed_m_per_s.max(0.0)
         } else {
             let v = obs.head_velocity_m_per_s;
@@ -446,6 +576,7 @@ impl ObstacleAided {
             self.amplitude_rad
         };
         self.wave_phase_rate_rad_per_s = phase_rate;
+        self.second_wave_and_flattening(contacts, goal, t, dt, phase_rate);
         let (propulsive, resistive) = if recovering {
             self.force_law(&ContactEstimates::default(), &[], self.goal_heading_rad, 0.0, dt)
         } else {
@@ -477,17 +608,53 @@ impl ObstacleAided {
             heading_offset_rad: heading_offset,
             phase_rate_rad_per_s: phase_rate,
             jams: self.last.jams,
+            resist_force_n: self.resist_force_n,
+            switched: self.switched,
+            blend: self.blend,
+            switches: self.last.switches + usize::from(self.switched && self.switched_since_secs == t),
         };
 
         let (r, dr) = ramp(t, self.ramp_secs);
+        let (b, a2) = (self.blend, self.switch_amplitude_rad);
         for j in 0..obs.joint_angle_rad.len().min(cmd.position_rad.len()).min(self.offset_rad.len()) {
             let phase = self.phase_rad - j as f64 * self.phase_lag_rad;
             let offset = if self.yaw_joint[j] { self.offset_rad[j] + r * heading_offset } else { 0.0 };
-            let wave = amplitude * phase.sin();
+            let keep = 1.0 - self.flatten[j];
+            // (Written so that with b = 0 and s_j = 0 the arithmetic is the single wave's.)
+            let (mut wave, mut rate) =
+                ((1.0 - b) * amplitude * phase.sin(), r * ((1.0 - b) * amplitude) * phase_rate * phase.cos());
+            if b > 0.0 {
+                let phase2 = self.phase_rad - j as f64 * self.switch_phase_lag_rad;
+                wave += b * a2 * phase2.sin();
+                rate += r * (b * a2) * phase_rate * phase2.cos();
+            }
+            let wave = keep * wave;
             let angle = r * wave + offset;
-            let velocity = dr * wave + r * amplitude * phase_rate * phase.cos();
+            let velocity = dr * wave + keep * rate;
             command_joint(self.method, cmd, j, angle, velocity, obs, &mut self.pids[j], self.dt_secs);
         }
+    }
+}
+
+/// Moves `values` (one per joint, joint 0 behind the head) along the body by `joints` joints
+/// (> 0: toward the tail, < 0: toward the head; at most one) with a first-order upwind shift,
+/// v_j ← (1 − σ)·v_j + σ·v_{j∓1}; what enters at the end is zero.
+fn shift_along_body(values: &mut [f64], joints: f64) {
+    let n = values.len();
+    if n == 0 || joints == 0.0 || !joints.is_finite() {
+        return;
+    }
+    let sigma = joints.abs().min(1.0);
+    if joints > 0.0 {
+        for j in (1..n).rev() {
+            values[j] = (1.0 - sigma) * values[j] + sigma * values[j - 1];
+        }
+        values[0] *= 1.0 - sigma;
+    } else {
+        for j in 0..n - 1 {
+            values[j] = (1.0 - sigma) * values[j] + sigma * values[j + 1];
+        }
+        values[n - 1] *= 1.0 - sigma;
     }
 }
 
@@ -502,6 +669,11 @@ impl Controller for ObstacleAided {
         self.speed_m_per_s = 0.0;
         self.last_com_m = None;
         self.filtered_heading_rad = None;
+        self.resist_force_n = 0.0;
+        self.switched = false;
+        self.switched_since_secs = f64::NEG_INFINITY;
+        self.blend = 0.0;
+        self.flatten.fill(0.0);
         self.last = ObstacleAidedState::default();
     }
 
@@ -787,6 +959,201 @@ mod tests {
         oa.update(&obs, &mut cmd);
         assert!((oa.last.mean_heading_rad - 0.2).abs() < 1e-12, "{:?}", oa.last);
         assert!((oa.last.heading_offset_rad + 0.5 * 0.02).abs() < 1e-12, "{:?}", oa.last);
+    }
+
+    /// A stationary snake along +x (head at the origin, joints straight) for `steps` steps of
+    /// 0.01 s with the contacts of `contacts_at(time)`; returns the controller and the last
+    /// command.
+    fn run_still(
+        c: &Config,
+        steps: usize,
+        contacts_at: impl Fn(f64) -> ContactEstimates,
+        mut each: impl FnMut(&ObstacleAided, &Command),
+    ) -> ObstacleAided {
+        let mut oa = ObstacleAided::from_config(c, 9);
+        let mut obs = Observation::new(10, 9);
+        obs.head_quat = [1.0, 0.0, 0.0, 0.0];
+        let mut cmd = Command::new(9);
+        for k in 0..steps {
+            obs.time_secs = k as f64 * 0.01;
+            let contacts = contacts_at(obs.time_secs);
+            oa.step(&obs, &contacts, &mut cmd);
+            each(&oa, &cmd);
+        }
+        oa
+    }
+
+    fn switch_config() -> Config {
+        let mut c = Config::default();
+        c.gait.ramp_secs = 0.0;
+        c.control.method = ControlMethod::Position;
+        c.obstacle_aided.switch = WaveSwitch::Resist;
+        c.obstacle_aided.switch_amplitude_deg = 50.0;
+        c.obstacle_aided.switch_phase_lag_deg = 30.0;
+        c.obstacle_aided.contact_filter_secs = 0.1;
+        c.obstacle_aided.switch_force_n = 5.0;
+        c.obstacle_aided.switch_max_speed_m_per_s = 0.03;
+        c.obstacle_aided.switch_secs = 1.0;
+        c.obstacle_aided.first_wave_secs = 1.0;
+        c.obstacle_aided.blend_secs = 0.2;
+        c.obstacle_aided.force_gain_rad_per_n_s = 0.0;
+        c.obstacle_aided.yield_gain_rad_per_n_s = 0.0;
+        c.obstacle_aided.jam_window_secs = 100.0;
+        c
+    }
+
+    #[test]
+    fn a_resisting_force_above_the_threshold_hands_the_joints_to_the_second_wave_and_back() {
+        // 8 N against the goal on link 4 for the first 2 s, then nothing. The filter (0.1 s)
+        // passes 5 N after 0.1·ln(8/3) ≈ 0.1 s; the blend then takes 0.2 s; after the contact
+        // ends R falls below 5 N within 0.1 s and, 1 s after the switch, the first wave returns.
+        let c = switch_config();
+        let push = |t: f64| {
+            if t < 2.0 { one_contact(10, 4, [-8.0, 1.0, 0.0], Some(0.0)) } else { ContactEstimates::new(10) }
+        };
+        let mut switched_at = None;
+        let mut back_at = None;
+        let oa = run_still(&c, 300, push, |oa, cmd| {
+            let t = oa.last_time_secs;
+            if oa.last.switched && switched_at.is_none() {
+                switched_at = Some(t);
+            }
+            if switched_at.is_some() && !oa.last.switched && back_at.is_none() {
+                back_at = Some(t);
+            }
+            if oa.last.blend == 1.0 || oa.last.blend == 0.0 {
+                // Fully on one wave: the joints follow it exactly.
+                let (a, lag) = if oa.last.blend == 1.0 {
+                    (oa.switch_amplitude_rad, oa.switch_phase_lag_rad)
+                } else {
+                    (oa.amplitude_rad, oa.phase_lag_rad)
+                };
+                for j in 0..9 {
+                    let wave = a * (oa.phase_rad - j as f64 * lag).sin();
+                    assert!((cmd.position_rad[j] - wave).abs() < 1e-12, "t = {t}, joint {j}");
+                }
+            }
+        });
+        let on = switched_at.expect("never switched");
+        assert!((0.08..0.13).contains(&on), "switched at {on}");
+        let off = back_at.expect("never switched back");
+        assert!((2.0..2.15).contains(&off), "back at {off}");
+        assert_eq!(oa.last.switches, 1);
+        assert_eq!(oa.last.blend, 0.0);
+    }
+
+    #[test]
+    fn with_the_stall_exit_the_second_wave_stays_while_it_moves_whatever_the_force() {
+        // Switched by a resisting 8 N at rest; the force stays, and from t = 0.5 s the snake
+        // advances at 0.1 m/s: the second wave stays (the speed is above 0.03 m/s once the
+        // 0.5-s filter has followed), and when the snake stops again at t = 3 s the first wave
+        // returns within the filter's lag although the force is still there.
+        let mut c = switch_config();
+        c.obstacle_aided.switch_exit = SwitchExit::Stall;
+        c.obstacle_aided.first_wave_secs = 0.5;
+        let mut again_at = None;
+        let mut oa = ObstacleAided::from_config(&c, 9);
+        let mut obs = Observation::new(10, 9);
+        obs.head_quat = [1.0, 0.0, 0.0, 0.0];
+        let mut cmd = Command::new(9);
+        let push = one_contact(10, 4, [-8.0, 1.0, 0.0], Some(0.0));
+        let mut back_at = None;
+        for k in 0..470 {
+            let t = k as f64 * 0.01;
+            obs.time_secs = t;
+            obs.head_position_m[0] = 0.1 * (t.clamp(0.5, 3.0) - 0.5);
+            oa.step(&obs, &push, &mut cmd);
+            if (0.2..3.0).contains(&t) {
+                assert!(oa.last.switched, "t = {t}: {:?}", oa.last);
+            }
+            if t > 3.0 && !oa.last.switched && back_at.is_none() {
+                back_at = Some(t);
+            }
+            if back_at.is_some() && oa.last.switched && again_at.is_none() {
+                again_at = Some(t);
+            }
+        }
+        // v decays from 0.1 as e^(−(t − 3)/0.5): below 0.03 after 0.5·ln(10/3) ≈ 0.6 s.
+        let back = back_at.expect("never switched back");
+        assert!((3.55..3.7).contains(&back), "back at {back}");
+        // With the force still on and the snake at rest the second wave comes again once the
+        // first has run for first_wave_secs (0.5 s).
+        let again = again_at.expect("never switched again");
+        assert!((again - back - 0.5).abs() < 0.015, "back at {back}, again at {again}");
+        assert!(oa.last.switched && oa.last.switches == 2, "{:?}", oa.last);
+    }
+
+    #[test]
+    fn no_switch_while_moving_below_the_force_or_with_contact_feedback_off() {
+        let push = |_: f64| one_contact(10, 4, [-8.0, 1.0, 0.0], Some(0.0));
+        // A propelling force (+x) of any size: no switch.
+        let c = switch_config();
+        let oa = run_still(&c, 100, |_| one_contact(10, 4, [8.0, 1.0, 0.0], Some(0.0)), |_, _| ());
+        assert!(!oa.last.switched && oa.last.switches == 0);
+        // Below the threshold.
+        let oa = run_still(&c, 100, |_| one_contact(10, 4, [-4.0, 1.0, 0.0], Some(0.0)), |_, _| ());
+        assert!(!oa.last.switched && (oa.last.resist_force_n - 4.0).abs() < 1e-3, "{:?}", oa.last);
+        // Contact terms off.
+        let mut c = switch_config();
+        c.obstacle_aided.contact_feedback = false;
+        let oa = run_still(&c, 100, push, |_, _| ());
+        assert!(!oa.last.switched && oa.last.resist_force_n == 0.0);
+        // The snake advancing at 0.1 m/s (above the 0.03 m/s limit): no switch.
+        let c = switch_config();
+        let mut oa = ObstacleAided::from_config(&c, 9);
+        let mut obs = Observation::new(10, 9);
+        obs.head_quat = [1.0, 0.0, 0.0, 0.0];
+        let mut cmd = Command::new(9);
+        for k in 0..300 {
+            // The force comes once the speed filter (0.5 s) has settled.
+            obs.time_secs = k as f64 * 0.01;
+            obs.head_position_m[0] = 0.1 * obs.time_secs;
+            let contacts = if obs.time_secs < 2.0 { ContactEstimates::new(10) } else { push(obs.time_secs) };
+            oa.step(&obs, &contacts, &mut cmd);
+        }
+        assert!(!oa.last.switched && oa.last.resist_force_n > 7.9, "{:?}", oa.last);
+    }
+
+    #[test]
+    fn full_yield_flattens_the_wave_at_a_resisting_link_and_the_flattening_travels_with_the_wave() {
+        // δ = −60° at 0.5 Hz: the wave's bends run 3 joints per second toward the head.
+        // 6 N against the goal on link 6 (joints 5 and 6) above the 2-N threshold.
+        let mut c = switch_config();
+        c.obstacle_aided.switch = WaveSwitch::None;
+        c.obstacle_aided.phase_lag_deg = -60.0;
+        c.obstacle_aided.straighten = true;
+        c.obstacle_aided.straighten_force_n = 2.0;
+        c.obstacle_aided.straighten_secs = 0.05;
+        let push = |_: f64| one_contact(10, 6, [-6.0, 1.0, 0.0], Some(0.0));
+        let oa = run_still(&c, 100, push, |_, _| ());
+        let s = &oa.flatten;
+        // At the contact's joints nearly flat; the flattening has spread toward the head
+        // (joints 4 and 3, decreasing: per step joint 4 takes σ = 3·0.01 of joint 5 and keeps
+        // 1 − k = 1 − 0.01/0.05 of itself, so it settles at 0.8·0.03/(1 − 0.8·0.97)·s₅ ≈ 0.107·s₅)
+        // but not toward the tail (7, 8).
+        // Joint 6 takes σ of joint 7 (unflattened): it settles at k/(1 − (1 − k)(1 − σ)) =
+        // 0.2/0.224; joint 5 takes σ of joint 6 and stays nearer 1.
+        assert!((s[6] - 0.2 / 0.224).abs() < 1e-6 && s[5] > 0.98, "{s:?}");
+        assert!((s[4] / s[5] - 0.024 / 0.224).abs() < 0.01, "{s:?}");
+        assert!(s[3] > 0.005 && s[3] < s[4] && s[4] < s[5], "{s:?}");
+        assert!(s[7] == 0.0 && s[8] == 0.0, "{s:?}");
+        // The command at joint 6 is the wave times (1 − s₆).
+        let mut cmd = Command::new(9);
+        let mut oa = oa;
+        let mut obs = Observation::new(10, 9);
+        obs.head_quat = [1.0, 0.0, 0.0, 0.0];
+        obs.time_secs = 1.0;
+        oa.step(&obs, &push(1.0), &mut cmd);
+        let wave6 = oa.amplitude_rad * (oa.phase_rad - 6.0 * oa.phase_lag_rad).sin();
+        assert!((cmd.position_rad[6] - (1.0 - oa.flatten[6]) * wave6).abs() < 1e-12);
+        // A force below the threshold, or along the goal: nothing flattens.
+        let oa = run_still(&c, 100, |_| one_contact(10, 6, [-1.5, 1.0, 0.0], Some(0.0)), |_, _| ());
+        assert!(oa.flatten.iter().all(|s| *s == 0.0), "{:?}", oa.flatten);
+        let oa = run_still(&c, 100, |_| one_contact(10, 6, [6.0, 1.0, 0.0], Some(0.0)), |_, _| ());
+        assert!(oa.flatten.iter().all(|s| *s == 0.0), "{:?}", oa.flatten);
+        // Once the contact ends the wave comes back.
+        let oa = run_still(&c, 200, |t| if t < 1.0 { push(t) } else { ContactEstimates::new(10) }, |_, _| ());
+        assert!(oa.flatten.iter().all(|s| *s < 0.01), "{:?}", oa.flatten);
     }
 
     #[test]
