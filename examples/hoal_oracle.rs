@@ -524,7 +524,30 @@ fn main() -> anyhow::Result<()> {
                         }
                     };
                     match outcome {
-                        Ok(o) => results.lock().expect("no panics while locked").push((i, o)),
+                        Ok(o) => {
+                            // Progress on stderr, so that an interrupted study keeps its finished runs.
+                            let elapsed = started.elapsed().as_secs_f64();
+                            match (&task, &o) {
+                                (Task::Sweep(d, seed, k), Outcome::Sweep(v, j)) => eprintln!(
+                                    "[{elapsed:5.0} s] sweep {} seed {seed} wave {:.0}/{:+.0}: {:.1} mm/s{}",
+                                    DENSITIES[*d].0,
+                                    opts.waves[*k].amplitude_deg,
+                                    opts.waves[*k].lag_deg,
+                                    1000.0 * v,
+                                    if *j { " JAM" } else { "" }
+                                ),
+                                (Task::Oracle(d, seed, _, wi), Outcome::Oracle(r)) => eprintln!(
+                                    "[{elapsed:5.0} s] oracle {} seed {seed} window {} s: {:.1} mm/s{} schedule {:?}",
+                                    DENSITIES[*d].0,
+                                    opts.windows_secs[*wi],
+                                    1000.0 * r.speed_m_per_s,
+                                    if r.jammed { " JAM" } else { "" },
+                                    r.schedule
+                                ),
+                                _ => {}
+                            }
+                            results.lock().expect("no panics while locked").push((i, o));
+                        }
                         Err(e) => {
                             failure.lock().expect("no panics while locked").get_or_insert(e);
                             next.store(tasks.len(), Ordering::Relaxed);
