@@ -6,8 +6,12 @@
 //! ```text
 //! cargo run --release --example hoal_oracle -- [--seeds 0-9] [--window-secs 2] [--blend-secs 0.25]
 //!     [--duration-secs 15] [--amplitudes 50,65,80] [--lags=-60,-45,-30,30] [--densities sparse,medium,dense]
-//!     [--lookahead] [--no-sweep] [--check] [--threads 2]
+//!     [--lookahead] [--no-sweep] [--sweep-csv hoal_runs.csv] [--check] [--threads 2]
 //! ```
+//!
+//! `--sweep-csv` takes the sweep from the `hoal_runs.csv` of a full `simserpent experiment hoal`
+//! run (the same runs: hoal scores them with `score_run`'s code) instead of running it again;
+//! `--no-sweep` skips it (no ratios then).
 //!
 //! For every field (hoal's `field_config`: density × seed, the same scene, sensor noise and
 //! servos; `score_run`'s scoring: the centre of mass's advance along +x after the 1-s ramp-in,
@@ -236,6 +240,8 @@ struct Options {
     waves: Vec<Wave>,
     lookahead: bool,
     sweep: bool,
+    /// Read the sweep from this `hoal_runs.csv` of `simserpent experiment hoal` instead of running it.
+    sweep_csv: Option<std::path::PathBuf>,
     check: bool,
     threads: usize,
 }
@@ -382,6 +388,7 @@ fn parse_args() -> anyhow::Result<Options> {
         waves: Vec::new(),
         lookahead: false,
         sweep: true,
+        sweep_csv: None,
         check: false,
         threads: 2,
     };
@@ -434,10 +441,11 @@ fn parse_args() -> anyhow::Result<Options> {
             }
             "--lookahead" => o.lookahead = true,
             "--no-sweep" => o.sweep = false,
+            "--sweep-csv" => o.sweep_csv = Some(value.into()),
             "--check" => o.check = true,
             _ => anyhow::bail!(
                 "unknown argument {key:?} (allowed: --seeds, --densities, --window-secs, --blend-secs, \
-                 --duration-secs, --amplitudes, --lags, --threads, --lookahead, --no-sweep, --check)"
+                 --duration-secs, --amplitudes, --lags, --threads, --lookahead, --no-sweep, --sweep-csv, --check)"
             ),
         }
         i += 1;
@@ -455,6 +463,62 @@ fn parse_args() -> anyhow::Result<Options> {
     o.waves =
         amplitudes.iter().flat_map(|&a| lags.iter().map(move |&d| Wave { amplitude_deg: a, lag_deg: d })).collect();
     Ok(o)
+}
+
+/// The sweep's runs from a `hoal_runs.csv` (`simserpent experiment hoal`): per (density, seed,
+/// wave) the forward speed (m/s) and whether it jammed; every field and wave asked for must be in it.
+fn read_sweep_csv(
+    path: &std::path::Path,
+    opts: &Options,
+) -> anyhow::Result<std::collections::HashMap<(usize, u64, usize), (f64, bool)>> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| anyhow::anyhow!("--sweep-csv: cannot read {}: {e}", path.display()))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
+    let column = |name: &str| {
+        header.iter().position(|h| *h == name).ok_or_else(|| {
+            anyhow::anyhow!("--sweep-csv: {} has no column {name:?} (is it a hoal_runs.csv?)", path.display())
+        })
+    };
+    let cols = [
+        column("density")?,
+        column("seed")?,
+        column("controller")?,
+        column("amplitude_deg")?,
+        column("phase_lag_deg")?,
+        column("forward_speed_m_per_s")?,
+        column("jammed")?,
+    ];
+    let mut sweep = std::collections::HashMap::new();
+    for line in lines {
+        let f: Vec<&str> = line.split(',').collect();
+        let get = |i: usize| f.get(cols[i]).copied().unwrap_or("");
+        if get(2) != "open_loop" {
+            continue;
+        }
+        let Some(d) = DENSITIES.iter().position(|x| x.0 == get(0)) else { continue };
+        let bad = || anyhow::anyhow!("--sweep-csv: cannot read the line {line:?}");
+        let seed: u64 = get(1).parse().map_err(|_| bad())?;
+        let (a, l): (f64, f64) = (get(3).parse().map_err(|_| bad())?, get(4).parse().map_err(|_| bad())?);
+        if let Some(k) = opts.waves.iter().position(|w| w.amplitude_deg == a && w.lag_deg == l) {
+            sweep.insert((d, seed, k), (get(5).parse().map_err(|_| bad())?, get(6) == "true"));
+        }
+    }
+    for &d in &opts.densities {
+        for &seed in &opts.seeds {
+            for (k, w) in opts.waves.iter().enumerate() {
+                anyhow::ensure!(
+                    sweep.contains_key(&(d, seed, k)),
+                    "--sweep-csv: {} has no open-loop run of {} seed {seed} wave {}°/{}°",
+                    path.display(),
+                    DENSITIES[d].0,
+                    w.amplitude_deg,
+                    w.lag_deg
+                );
+            }
+        }
+    }
+    Ok(sweep)
 }
 
 /// A task for the worker threads.
@@ -490,7 +554,7 @@ fn main() -> anyhow::Result<()> {
             }
         }
     }
-    if opts.sweep || opts.check {
+    if (opts.sweep && opts.sweep_csv.is_none()) || opts.check {
         for &d in &opts.densities {
             for &seed in &opts.seeds {
                 for k in 0..opts.waves.len() {
@@ -565,6 +629,9 @@ fn main() -> anyhow::Result<()> {
     results.sort_by_key(|r| r.0);
     let name = |w: &Wave| format!("{:.0}/{:+.0}", w.amplitude_deg, w.lag_deg);
     let mut sweep = std::collections::HashMap::new();
+    if let (Some(path), true) = (&opts.sweep_csv, opts.sweep && !opts.check) {
+        sweep = read_sweep_csv(path, &opts)?;
+    }
     let mut oracles = std::collections::HashMap::new();
     for (i, o) in results {
         match (tasks[i], o) {
