@@ -465,12 +465,13 @@ fn parse_args() -> anyhow::Result<Options> {
     Ok(o)
 }
 
+/// The sweep's runs: per (density index, seed, wave index) the forward speed (m/s) and whether
+/// the run jammed.
+type SweepRuns = std::collections::HashMap<(usize, u64, usize), (f64, bool)>;
+
 /// The sweep's runs from a `hoal_runs.csv` (`simserpent experiment hoal`): per (density, seed,
 /// wave) the forward speed (m/s) and whether it jammed; every field and wave asked for must be in it.
-fn read_sweep_csv(
-    path: &std::path::Path,
-    opts: &Options,
-) -> anyhow::Result<std::collections::HashMap<(usize, u64, usize), (f64, bool)>> {
+fn read_sweep_csv(path: &std::path::Path, opts: &Options) -> anyhow::Result<SweepRuns> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| anyhow::anyhow!("--sweep-csv: cannot read {}: {e}", path.display()))?;
     let mut lines = text.lines();
