@@ -4,11 +4,13 @@
 //! Run with:
 //!
 //! ```text
-//! cargo run --release --example hoal_oracle -- [--seeds 0-9] [--window-secs 2] [--blend-secs 0.25]
+//! cargo run --release --example hoal_oracle -- [--seeds 0-9] [--window-secs 2[,1,4...]] [--blend-secs 0.25]
 //!     [--duration-secs 15] [--amplitudes 50,65,80] [--lags=-60,-45,-30,30] [--densities sparse,medium,dense]
 //!     [--lookahead] [--no-sweep] [--sweep-csv hoal_runs.csv] [--check] [--threads 2]
 //! ```
 //!
+//! `--window-secs` takes a list: one oracle run per field and window length (the sweep is shared).
+//! Each finished run is also reported on stderr, so an interrupted study keeps its results.
 //! `--sweep-csv` takes the sweep from the `hoal_runs.csv` of a full `simserpent experiment hoal`
 //! run (the same runs: hoal scores them with `score_run`'s code) instead of running it again;
 //! `--no-sweep` skips it (no ratios then).
@@ -30,7 +32,8 @@
 //!   wins, and the run continues from the winner's end state (kept with `Simulation::save`, so
 //!   nothing is simulated twice). With `--lookahead` a wave's value is its gain over its window
 //!   plus the best gain of any wave over the next window (so the oracle sees two windows ahead;
-//!   it still commits only the first; 1 + n waves' worth of windows per window instead of 1).
+//!   it still commits only the first; with n waves a window costs n·(1 + n) simulated windows
+//!   instead of n).
 //!
 //! **How the oracle switches waves.** Its controller (`SwitchedWave` below, a `Controller` of its
 //! own, as `examples/custom_controller.rs` plugs one in) evaluates hoal's wave
@@ -43,9 +46,13 @@
 //! bit for bit the gait's, and `--check` verifies that the whole machinery (save/restore at
 //! every window, the step loop taken apart) reproduces `hoal::score_run` exactly for every wave.
 //!
-//! Prints one line per field (oracle speed, jam, the schedule of waves, hindsight best single
-//! wave) and per density: the oracle's median and jams, the best single wave's median, their
-//! ratio, and the ratio to the issue's 2× target. Speeds in mm/s.
+//! Prints per density: each field's best single wave and hindsight best wave (with the sweep),
+//! each field's oracle speed, jam and schedule of waves, and the oracle's median, jams and its
+//! ratios to the best single wave and to the issue's 2× target. Speeds in mm/s.
+//!
+//! Measured (BENCHMARKS.md, "session 8, helper i15x"): seeds 0–9, W = 2 s, oracle medians
+//! 153.8 / 217.6 / 119.8 mm/s (sparse / medium / dense) against the best single waves' 62.3 /
+//! 52.2 / 34.8. The oracle costs 12 plain 15-s runs per field and window length.
 
 use simserpent::config::{Config, ControlMethod, ControllerKind, GaitKind};
 use simserpent::control::{Command, Controller, JointTrajectory, Observation, Pid, SineWave};
