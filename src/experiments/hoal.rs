@@ -24,6 +24,10 @@
 //! A run jams when for 5 s its centre of mass gets no more than 2 cm beyond the farthest point
 //! it had reached (after the ramp-in).
 //!
+//! The runs among pegs are chaotic (a last-bit change of a controller's targets moves single
+//! fields by tens of mm/s), so the table gives, beside the closed loop's and the best open
+//! loop's medians, a 90 % bootstrap interval of the median over the fields ([`median_interval`]).
+//!
 //! The runs are in memory (no run folders): each records its centre of mass every 50 steps
 //! and, for the estimated-contact runs, the estimated and true obstacle forces.
 
@@ -245,6 +249,46 @@ fn median(values: &[f64]) -> f64 {
     if v.len() % 2 == 1 { v[m] } else { 0.5 * (v[m - 1] + v[m]) }
 }
 
+/// Resamples of [`median_interval`].
+const BOOTSTRAP_RESAMPLES: usize = 2000;
+
+/// A 90 % percentile-bootstrap interval of the median of `values` (the 5th and 95th percentiles
+/// of the medians of `BOOTSTRAP_RESAMPLES` resamples drawn with replacement): where the median
+/// of as many other fields would probably fall. The resamples come from a fixed-seed SplitMix64
+/// stream, so the same values give the same interval. NaN for no finite values.
+fn median_interval(values: &[f64]) -> (f64, f64) {
+    let v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return (f64::NAN, f64::NAN);
+    }
+    let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
+    let mut next = || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    };
+    let mut sample = vec![0.0; v.len()];
+    let mut medians: Vec<f64> = (0..BOOTSTRAP_RESAMPLES)
+        .map(|_| {
+            for x in sample.iter_mut() {
+                *x = v[(next() % v.len() as u64) as usize];
+            }
+            median(&sample)
+        })
+        .collect();
+    medians.sort_by(f64::total_cmp);
+    let at = |q: f64| medians[((q * (BOOTSTRAP_RESAMPLES - 1) as f64).round() as usize).min(BOOTSTRAP_RESAMPLES - 1)];
+    (at(0.05), at(0.95))
+}
+
+/// A median and its 90 % bootstrap interval, in mm/s from m/s: "47.5 (31.0–52.1)".
+fn median_with_interval(values_m_per_s: &[f64]) -> String {
+    let (lo, hi) = median_interval(values_m_per_s);
+    format!("{} ({}–{})", sig(1000.0 * median(values_m_per_s)), sig(1000.0 * lo), sig(1000.0 * hi))
+}
+
 fn io(path: &Path) -> impl Fn(std::io::Error) -> ExperimentError + '_ {
     move |source| ExperimentError::Io { what: "write", path: path.to_path_buf(), source }
 }
@@ -407,10 +451,10 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
                 format!("{dname} ({dens} pegs/m²)"),
                 format!("`{cname}`"),
                 seeds.to_string(),
-                sig(1000.0 * m_est),
+                median_with_interval(&est),
                 sig(1000.0 * m_true),
                 sig(1000.0 * m_blind),
-                format!("{} (A {best_a}°, δ {best_l}°)", sig(1000.0 * m_open)),
+                format!("{} (A {best_a}°, δ {best_l}°)", median_with_interval(&open)),
                 if m_open > 0.0 { sig(m_est / m_open) } else { "open loop does not advance".to_string() },
                 format!("{} of {seeds}", jams_of(d, estimated(k))),
                 format!("{} of {seeds}", jams_of(d, best.0)),
@@ -589,10 +633,10 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
                     "field",
                     "controller",
                     "seeds",
-                    "median speed, estimated contacts (mm/s)",
+                    "median speed, estimated contacts (mm/s; 90 % bootstrap interval over the fields)",
                     "median speed, true contacts (mm/s)",
                     "median speed, contact terms off (mm/s)",
-                    "best open loop median (mm/s)",
+                    "best open loop median (mm/s; 90 % bootstrap interval)",
                     "ratio estimated / open loop",
                     "jams, estimated contacts",
                     "jams, best open loop",
@@ -637,5 +681,26 @@ mod tests {
         let stuck: Vec<f64> = (0..=200).map(|k| 0.001 * (k.min(80) + (k.max(140) - 140)) as f64).collect();
         assert!(jammed(&trace(&stuck, 0.1), 1.0));
         assert_eq!(median(&[3.0, 1.0, 2.0, 10.0]), 2.5);
+    }
+
+    #[test]
+    fn the_median_interval_brackets_the_median_within_the_values_and_is_repeatable() {
+        // One value repeated: no spread.
+        assert_eq!(median_interval(&[0.05; 10]), (0.05, 0.05));
+        // Ten spread values: the interval holds the median, lies within the values, is not
+        // degenerate, and is the same on every call (fixed-seed resampling).
+        let v = [-0.04, 0.01, 0.03, 0.045, 0.05, 0.052, 0.06, 0.07, 0.09, 0.2];
+        let (lo, hi) = median_interval(&v);
+        let m = median(&v);
+        assert!(lo < m && m < hi, "{lo} < {m} < {hi}");
+        assert!(
+            lo >= 0.01 && hi <= 0.09,
+            "the 5–95 % medians of 10 resampled values stay inside the 2nd..9th: {lo}, {hi}"
+        );
+        assert_eq!(median_interval(&v), (lo, hi));
+        // Non-finite speeds are left out, as in the median.
+        assert_eq!(median_interval(&[f64::NAN, 0.02, 0.02]), (0.02, 0.02));
+        assert!(median_interval(&[]).0.is_nan());
+        assert_eq!(median_with_interval(&[0.05; 3]), format!("{} ({}–{})", sig(50.0), sig(50.0), sig(50.0)));
     }
 }
