@@ -56,18 +56,14 @@
 
 use simserpent::config::{Config, ControlMethod, ControllerKind, GaitKind};
 use simserpent::control::{Command, Controller, JointTrajectory, Observation, Pid, SineWave};
-use simserpent::experiments::hoal::{DENSITIES, field_config, score_run};
+use simserpent::experiments::hoal::{
+    DENSITIES, RECORD_EVERY, field_config, forward_speed_m_per_s as forward_speed, path_jammed as jammed, score_run,
+};
 use simserpent::sim::{Simulation, SimulationState, World};
 use simserpent::state::Snapshot;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
-
-/// hoal records the centre of mass every this many steps (its `RECORD_EVERY`).
-const RECORD_EVERY: u64 = 50;
-/// hoal's jam rule.
-const JAM_WINDOW_SECS: f64 = 5.0;
-const JAM_PROGRESS_M: f64 = 0.02;
 
 /// One wave of the family: amplitude and phase lag (degrees).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -203,38 +199,6 @@ fn save_with_x(sim: &mut Simulation<SwitchedWave>, snap: &mut Snapshot) -> (Simu
     let state = sim.save();
     sim.snapshot(snap);
     (state, snap.centre_of_mass_m()[0])
-}
-
-/// hoal's forward speed (m/s) from `from_secs` to the end.
-fn forward_speed(trace: &Trace, from_secs: f64) -> f64 {
-    let start = trace.iter().position(|s| s.0 >= from_secs - 1e-9).unwrap_or(0);
-    let end = trace.len().saturating_sub(1);
-    let span = trace[end].0 - trace[start].0;
-    if span <= 0.0 { 0.0 } else { (trace[end].1 - trace[start].1) / span }
-}
-
-/// hoal's jam rule.
-fn jammed(trace: &Trace, from_secs: f64) -> bool {
-    let start = trace.iter().position(|s| s.0 >= from_secs - 1e-9).unwrap_or(0);
-    let mut best = Vec::with_capacity(trace.len());
-    let mut b = f64::NEG_INFINITY;
-    for s in trace {
-        b = b.max(s.1);
-        best.push(b);
-    }
-    let mut later = start;
-    for i in start..trace.len() {
-        while later < trace.len() && trace[later].0 < trace[i].0 + JAM_WINDOW_SECS - 1e-9 {
-            later += 1;
-        }
-        if later >= trace.len() {
-            break;
-        }
-        if best[later] - best[i] < JAM_PROGRESS_M {
-            return true;
-        }
-    }
-    false
 }
 
 struct Options {

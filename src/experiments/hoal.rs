@@ -73,7 +73,7 @@ const TORQUE_LIMIT_NM: f64 = 10.0;
 /// Every run: frequency (Hz).
 const FREQUENCY_HZ: f64 = 0.5;
 /// Record every this many steps.
-const RECORD_EVERY: u64 = 50;
+pub const RECORD_EVERY: u64 = 50;
 /// The jam definition of issue 15.
 const JAM_WINDOW_SECS: f64 = 5.0;
 const JAM_PROGRESS_M: f64 = 0.02;
@@ -131,28 +131,47 @@ impl Observer<SimError> for Trace {
 
 /// Forward speed (m/s along +x) from `from_secs` to the end.
 fn forward_speed(trace: &Trace, from_secs: f64) -> f64 {
-    let start = trace.time_secs.iter().position(|t| *t >= from_secs - 1e-9).unwrap_or(0);
-    let end = trace.time_secs.len().saturating_sub(1);
-    let span = trace.time_secs[end] - trace.time_secs[start];
-    if span <= 0.0 { 0.0 } else { (trace.com_m[end][0] - trace.com_m[start][0]) / span }
+    forward_speed_m_per_s(&trace.path(), from_secs)
 }
 
-/// Whether the run jammed: after `from_secs`, a window of `JAM_WINDOW_SECS` in which the farthest
-/// forward position reached grows by less than `JAM_PROGRESS_M`.
+/// Whether the run jammed ([`path_jammed`]).
 fn jammed(trace: &Trace, from_secs: f64) -> bool {
-    let start = trace.time_secs.iter().position(|t| *t >= from_secs - 1e-9).unwrap_or(0);
-    let mut best = Vec::with_capacity(trace.com_m.len());
+    path_jammed(&trace.path(), from_secs)
+}
+
+impl Trace {
+    /// The centre of mass's path along x: (time (s), x (m)) per recorded sample.
+    fn path(&self) -> Vec<(f64, f64)> {
+        self.time_secs.iter().zip(&self.com_m).map(|(t, c)| (*t, c[0])).collect()
+    }
+}
+
+/// hoal's forward speed (m/s along +x) of a centre-of-mass path of (time (s), x (m)) samples:
+/// its advance from the first sample at or after `from_secs` to the last, per second.
+pub fn forward_speed_m_per_s(path: &[(f64, f64)], from_secs: f64) -> f64 {
+    let start = path.iter().position(|s| s.0 >= from_secs - 1e-9).unwrap_or(0);
+    let end = path.len().saturating_sub(1);
+    let span = path[end].0 - path[start].0;
+    if span <= 0.0 { 0.0 } else { (path[end].1 - path[start].1) / span }
+}
+
+/// hoal's jam rule on a path of (time (s), x (m)) samples: after `from_secs`, a window of
+/// `JAM_WINDOW_SECS` in which the farthest forward position reached grows by less than
+/// `JAM_PROGRESS_M`.
+pub fn path_jammed(path: &[(f64, f64)], from_secs: f64) -> bool {
+    let start = path.iter().position(|s| s.0 >= from_secs - 1e-9).unwrap_or(0);
+    let mut best = Vec::with_capacity(path.len());
     let mut b = f64::NEG_INFINITY;
-    for c in &trace.com_m {
-        b = b.max(c[0]);
+    for s in path {
+        b = b.max(s.1);
         best.push(b);
     }
     let mut later = start;
-    for i in start..trace.time_secs.len() {
-        while later < trace.time_secs.len() && trace.time_secs[later] < trace.time_secs[i] + JAM_WINDOW_SECS - 1e-9 {
+    for i in start..path.len() {
+        while later < path.len() && path[later].0 < path[i].0 + JAM_WINDOW_SECS - 1e-9 {
             later += 1;
         }
-        if later >= trace.time_secs.len() {
+        if later >= path.len() {
             break;
         }
         if best[later] - best[i] < JAM_PROGRESS_M {
