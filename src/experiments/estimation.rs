@@ -637,13 +637,45 @@ fn run_motion(ctx: &Context, base: &Config, section: &mut Section) -> Result<(),
     let mut csv = String::from(
         "floor,noise_scale,seed,hits,misses,false_alarms,correct_rejections,error_sq_sum_n2,truth_sq_sum_n2,points,points_within,points_missing,point_error_sum_m\n",
     );
-    for (floor_name, model) in [("anisotropic", GroundModel::Anisotropic), ("isotropic", GroundModel::Isotropic)] {
-        for (noise_name, scale) in [("off", 0.0), ("default", 1.0), ("2x default", 2.0)] {
+    const FLOORS: [(&str, GroundModel); 2] =
+        [("anisotropic", GroundModel::Anisotropic), ("isotropic", GroundModel::Isotropic)];
+    const NOISES: [(&str, f64); 3] = [("off", 0.0), ("default", 1.0), ("2x default", 2.0)];
+    // Every run first, in parallel on the experiment's threads (each is independent); then the
+    // tables in the fixed order floor × noise × seed, so the figures do not depend on the threads.
+    // Per run: floor, noise scale (None: default noise with μ identified), seed.
+    let mut runs: Vec<(usize, Option<usize>, u64)> = Vec::new();
+    for f in 0..FLOORS.len() {
+        for n in 0..NOISES.len() {
+            runs.extend((0..seeds).map(|seed| (f, Some(n), seed)));
+        }
+    }
+    for f in 0..FLOORS.len() {
+        runs.extend((0..seeds).map(|seed| (f, None, seed)));
+    }
+    let results: Vec<(MotionScore, FrictionSeries)> = {
+        use rayon::prelude::*;
+        ctx.pool.install(|| {
+            runs.par_iter()
+                .map(|&(f, noise, seed)| {
+                    let mut config = peg_field_config(base, FLOORS[f].1, seed, noise.map_or(1.0, |n| NOISES[n].1));
+                    if noise.is_none() {
+                        config.estimation.friction = crate::config::FloorFrictionSource::Identify;
+                    }
+                    let steps = (duration_secs / config.general.timestep_secs).round() as u64;
+                    score_in_motion_with_friction(&config, steps)
+                })
+                .collect::<Result<_, _>>()
+        })?
+    };
+    let result_of = |f: usize, noise: Option<usize>, seed: u64| -> &(MotionScore, FrictionSeries) {
+        let k = runs.iter().position(|r| *r == (f, noise, seed)).expect("every run was made");
+        &results[k]
+    };
+    for (f, (floor_name, _)) in FLOORS.iter().enumerate() {
+        for (n, &(noise_name, scale)) in NOISES.iter().enumerate() {
             let mut total: Option<MotionScore> = None;
             for seed in 0..seeds {
-                let config = peg_field_config(base, model, seed, scale);
-                let steps = (duration_secs / config.general.timestep_secs).round() as u64;
-                let s = score_in_motion(&config, steps)?;
+                let s = result_of(f, Some(n), seed).0.clone();
                 csv.push_str(&format!(
                     "{floor_name},{scale},{seed},{},{},{},{},{},{},{},{},{},{}\n",
                     s.hits,
@@ -672,7 +704,7 @@ fn run_motion(ctx: &Context, base: &Config, section: &mut Section) -> Result<(),
     }
     // The same with the floor's friction identified online (default noise), against the known one.
     let mut friction_csv = String::from("floor,seed,time_s,mu_forward,mu_backward,mu_lateral\n");
-    for (floor_name, model) in [("anisotropic", GroundModel::Anisotropic), ("isotropic", GroundModel::Isotropic)] {
+    for (f, &(floor_name, model)) in FLOORS.iter().enumerate() {
         let mut total: Option<MotionScore> = None;
         let (mut worst_end, mut worst_late) = (0.0f64, 0.0f64);
         // Seed 0's coefficients over time and the true ones.
@@ -681,8 +713,7 @@ fn run_motion(ctx: &Context, base: &Config, section: &mut Section) -> Result<(),
             let mut config = peg_field_config(base, model, seed, 1.0);
             config.estimation.friction = crate::config::FloorFrictionSource::Identify;
             let truth = crate::estimation::FloorShare::from_config(&config).coefficients();
-            let steps = (duration_secs / config.general.timestep_secs).round() as u64;
-            let (s, friction) = score_in_motion_with_friction(&config, steps)?;
+            let (s, friction) = result_of(f, None, seed).clone();
             for (t, mu) in &friction {
                 friction_csv.push_str(&format!("{floor_name},{seed},{t},{},{},{}\n", mu[0], mu[1], mu[2]));
             }
