@@ -6,7 +6,7 @@
 //! ```text
 //! cargo run --release --example hoal_oracle -- [--seeds 0-9] [--window-secs 2[,1,4...]] [--blend-secs 0.25]
 //!     [--duration-secs 15] [--amplitudes 50,65,80] [--lags=-60,-45,-30,30] [--densities sparse,medium,dense]
-//!     [--lookahead] [--no-sweep] [--sweep-csv hoal_runs.csv] [--check] [--threads 2]
+//!     [--lookahead] [--no-sweep] [--sweep-csv hoal_runs.csv] [--dump FILE.csv] [--check] [--threads 2]
 //! ```
 //!
 //! `--window-secs` takes a list: one oracle run per field and window length (the sweep is shared).
@@ -14,6 +14,17 @@
 //! `--sweep-csv` takes the sweep from the `hoal_runs.csv` of a full `simserpent experiment hoal`
 //! run (the same runs: hoal scores them with `score_run`'s code) instead of running it again;
 //! `--no-sweep` skips it (no ratios then).
+//!
+//! `--dump FILE.csv` writes one row per oracle window: field, window, start time, the wave that
+//! ran before, what the snake *sensed* over the window before (its controller's view: per link
+//! the mean estimated obstacle force in the world's x and y, its mean magnitude and the fraction
+//! of steps with a contact flag; the head's position, displacement and mean and last heading),
+//! the links' true positions at the window's start (privileged, for analysis), every wave's gain
+//! over the window (m, from the same saved state) and the wave chosen; and `FILE.pegs.csv`, each
+//! field's pegs (density, seed, x, y, radius). With `--dump` the oracle's runs have the contact
+//! estimator on (it reads the sensors and moves nothing: the runs and schedules are the same).
+//! `python/examples/wave_choice_study.py` asks of these rows whether a controller could predict
+//! the oracle's choices (BENCHMARKS.md, "session 9").
 //!
 //! For every field (hoal's `field_config`: density × seed, the same scene, sensor noise and
 //! servos; `score_run`'s scoring: the centre of mass's advance along +x after the 1-s ramp-in,
@@ -86,6 +97,84 @@ struct SwitchedWave {
     old_rate: Vec<f64>,
     new_rad: Vec<f64>,
     new_rate: Vec<f64>,
+    /// What the controller sensed in the current window (`--dump`).
+    sense: WindowSense,
+}
+
+/// What a causal controller senses over one window (for `--dump`: a wave-choice learner's
+/// inputs): per link the mean estimated obstacle force (world x, y) and its mean magnitude,
+/// the fraction of steps with a contact flag; the head's pose.
+#[derive(Clone, Default)]
+struct WindowSense {
+    steps: u64,
+    force_n: Vec<[f64; 2]>,
+    force_abs_n: Vec<f64>,
+    contact_steps: Vec<u64>,
+    head_start_m: Option<[f64; 2]>,
+    head_m: [f64; 2],
+    yaw_sum: [f64; 2],
+    yaw_rad: f64,
+}
+
+impl WindowSense {
+    fn new(n_links: usize) -> Self {
+        Self {
+            force_n: vec![[0.0; 2]; n_links],
+            force_abs_n: vec![0.0; n_links],
+            contact_steps: vec![0; n_links],
+            ..Self::default()
+        }
+    }
+
+    fn add(&mut self, obs: &Observation) {
+        let q = obs.head_quat;
+        let yaw = (2.0 * (q[0] * q[3] + q[1] * q[2])).atan2(1.0 - 2.0 * (q[2] * q[2] + q[3] * q[3]));
+        self.yaw_rad = yaw;
+        self.yaw_sum[0] += yaw.cos();
+        self.yaw_sum[1] += yaw.sin();
+        self.head_m = [obs.head_position_m[0], obs.head_position_m[1]];
+        self.head_start_m.get_or_insert(self.head_m);
+        self.steps += 1;
+        let c = &obs.contacts;
+        if c.active {
+            for i in 0..self.force_n.len().min(c.obstacle_force_n.len()) {
+                let f = c.obstacle_force_n[i];
+                self.force_n[i][0] += f[0];
+                self.force_n[i][1] += f[1];
+                self.force_abs_n[i] += f[0].hypot(f[1]);
+                self.contact_steps[i] += u64::from(c.contact[i]);
+            }
+        }
+    }
+
+    /// The CSV fields of this window, then a fresh window.
+    fn take(&mut self) -> String {
+        let n = self.steps.max(1) as f64;
+        let start = self.head_start_m.unwrap_or(self.head_m);
+        let mut out = format!(
+            "{:.5},{:.5},{:.5},{:.5},{:.5},{:.5}",
+            self.head_m[0],
+            self.head_m[1],
+            self.head_m[0] - start[0],
+            self.head_m[1] - start[1],
+            self.yaw_sum[1].atan2(self.yaw_sum[0]),
+            self.yaw_rad
+        );
+        for i in 0..self.force_n.len() {
+            use std::fmt::Write;
+            let _ = write!(
+                out,
+                ",{:.4},{:.4},{:.4},{:.4}",
+                self.force_n[i][0] / n,
+                self.force_n[i][1] / n,
+                self.force_abs_n[i] / n,
+                self.contact_steps[i] as f64 / n
+            );
+        }
+        let links = self.force_n.len();
+        *self = Self::new(links);
+        out
+    }
 }
 
 fn sine(config: &Config, wave: Wave) -> SineWave {
@@ -117,6 +206,7 @@ impl SwitchedWave {
             old_rate: vec![0.0; n_joints],
             new_rad: vec![0.0; n_joints],
             new_rate: vec![0.0; n_joints],
+            sense: WindowSense::new(n_joints + 1),
         }
     }
 
@@ -140,6 +230,7 @@ impl Controller for SwitchedWave {
 
     fn update(&mut self, obs: &Observation, cmd: &mut Command) {
         let t = obs.time_secs;
+        self.sense.add(obs);
         self.new.targets(t, &mut self.new_rad, &mut self.new_rate);
         let u = if self.blend_secs > 0.0 { (t - self.switch_secs) / self.blend_secs } else { 1.0 };
         if !same(&self.old, &self.new) && u < 1.0 {
@@ -213,6 +304,8 @@ struct Options {
     sweep: bool,
     /// Read the sweep from this `hoal_runs.csv` of `simserpent experiment hoal` instead of running it.
     sweep_csv: Option<std::path::PathBuf>,
+    /// Write every oracle window's sensed inputs and every wave's gain to this CSV.
+    dump: Option<std::path::PathBuf>,
     check: bool,
     threads: usize,
 }
@@ -223,6 +316,8 @@ struct OracleRun {
     jammed: bool,
     /// Index into the family, per window.
     schedule: Vec<usize>,
+    /// `--dump` rows: per window the sensed inputs of the window before and every wave's gain.
+    rows: Vec<String>,
 }
 
 /// The best gain over the window [from, to] of any wave from the state `sim` is in.
@@ -274,10 +369,21 @@ fn oracle(config: &Config, opts: &Options, family: &[Wave], window_secs: f64) ->
     let mut trace = Trace::new();
     let mut schedule = Vec::new();
     let mut prev_x = 0.0;
+    let mut rows = Vec::new();
     for (w, &end) in ends.iter().enumerate() {
+        let mut sensed = sim.controller_mut().sense.take();
         let saved = sim.save();
+        if opts.dump.is_some() {
+            // Privileged (not sensed, for analysis only): the links' true positions.
+            use std::fmt::Write;
+            sim.snapshot(&mut snap);
+            for p in &snap.link_position_m {
+                let _ = write!(sensed, ",{:.4},{:.4}", p[0], p[1]);
+            }
+        }
         let t = sim.world().time_secs();
         let mut best: Option<(f64, usize, _, Trace, f64)> = None;
+        let mut gains = Vec::with_capacity(family.len());
         for (k, wave) in family.iter().enumerate() {
             sim.restore(&saved)?;
             if w == 0 {
@@ -298,11 +404,17 @@ fn oracle(config: &Config, opts: &Options, family: &[Wave], window_secs: f64) ->
                 sim.restore(&state)?;
                 value += best_next_gain(&mut sim, config, opts, x_end, next_end, &mut snap)?;
             }
+            gains.push(value);
             if best.as_ref().is_none_or(|b| value > b.0) {
                 best = Some((value, k, state, seg, x_end));
             }
         }
         let (_, k, state, seg, x_end) = best.expect("the family is not empty");
+        rows.push(format!(
+            "{w},{t:.3},{},{sensed},{},{k}",
+            schedule.last().copied().map_or(-1, |p: usize| p as i64),
+            gains.iter().map(|g| format!("{g:.5}")).collect::<Vec<_>>().join(",")
+        ));
         sim.restore(&state)?;
         trace.extend(seg);
         schedule.push(k);
@@ -314,7 +426,7 @@ fn oracle(config: &Config, opts: &Options, family: &[Wave], window_secs: f64) ->
         sim.snapshot(&mut snap);
         trace.push((snap.time_secs, snap.centre_of_mass_m()[0]));
     }
-    Ok(OracleRun { speed_m_per_s: forward_speed(&trace, ramp_secs), jammed: jammed(&trace, ramp_secs), schedule })
+    Ok(OracleRun { speed_m_per_s: forward_speed(&trace, ramp_secs), jammed: jammed(&trace, ramp_secs), schedule, rows })
 }
 
 fn open_config(base: &Config, density: f64, seed: u64, duration_secs: f64, wave: Wave) -> Config {
@@ -360,6 +472,7 @@ fn parse_args() -> anyhow::Result<Options> {
         lookahead: false,
         sweep: true,
         sweep_csv: None,
+        dump: None,
         check: false,
         threads: 2,
     };
@@ -413,10 +526,11 @@ fn parse_args() -> anyhow::Result<Options> {
             "--lookahead" => o.lookahead = true,
             "--no-sweep" => o.sweep = false,
             "--sweep-csv" => o.sweep_csv = Some(value.into()),
+            "--dump" => o.dump = Some(value.into()),
             "--check" => o.check = true,
             _ => anyhow::bail!(
                 "unknown argument {key:?} (allowed: --seeds, --densities, --window-secs, --blend-secs, \
-                 --duration-secs, --amplitudes, --lags, --threads, --lookahead, --no-sweep, --sweep-csv, --check)"
+                 --duration-secs, --amplitudes, --lags, --threads, --lookahead, --no-sweep, --sweep-csv, --dump, --check)"
             ),
         }
         i += 1;
@@ -535,6 +649,28 @@ fn main() -> anyhow::Result<()> {
             }
         }
     }
+    let dump = match &opts.dump {
+        Some(path) => {
+            use std::io::Write;
+            let mut f = std::fs::File::create(path)
+                .map_err(|e| anyhow::anyhow!("--dump: cannot create {}: {e}", path.display()))?;
+            let mut header =
+                String::from("density,seed,window,t_secs,prev_wave,head_x,head_y,head_dx,head_dy,yaw_mean,yaw_end");
+            for i in 0..10 {
+                header += &format!(",fx{i},fy{i},fa{i},fc{i}");
+            }
+            for i in 0..10 {
+                header += &format!(",lx{i},ly{i}");
+            }
+            for k in 0..opts.waves.len() {
+                header += &format!(",gain{k}");
+            }
+            header += ",chosen";
+            writeln!(f, "{header}")?;
+            Some(Mutex::new(f))
+        }
+        None => None,
+    };
     let started = Instant::now();
     let next = AtomicUsize::new(0);
     let results: Mutex<Vec<(usize, Outcome)>> = Mutex::new(Vec::new());
@@ -555,12 +691,36 @@ fn main() -> anyhow::Result<()> {
                                 Some(k) => vec![opts.waves[k]],
                                 None => opts.waves.clone(),
                             };
-                            let c = open_config(&base, DENSITIES[d].1, seed, opts.duration_secs, family[0]);
+                            let mut c = open_config(&base, DENSITIES[d].1, seed, opts.duration_secs, family[0]);
+                            // `--dump` records what the contact estimator senses (the estimator
+                            // reads the sensors and moves nothing: the runs are the same).
+                            c.estimation.enabled = opts.dump.is_some();
                             oracle(&c, &opts, &family, opts.windows_secs[wi]).map(Outcome::Oracle)
                         }
                     };
                     match outcome {
                         Ok(o) => {
+                            if let (Some(f), Task::Oracle(d, seed, None, _), Outcome::Oracle(r)) = (&dump, &task, &o) {
+                                use std::io::Write;
+                                let mut f = f.lock().expect("no panics while locked");
+                                for row in &r.rows {
+                                    let _ = writeln!(f, "{},{seed},{row}", DENSITIES[*d].0);
+                                }
+                                // The field's pegs, beside the dump.
+                                let path = opts.dump.as_ref().expect("dumping").with_extension("pegs.csv");
+                                let c = open_config(&base, DENSITIES[*d].1, *seed, opts.duration_secs, opts.waves[0]);
+                                let pegs = simserpent::model::generate(&c).map(|m| m.features.pegs).unwrap_or_default();
+                                if let Ok(mut g) = std::fs::OpenOptions::new().create(true).append(true).open(&path) {
+                                    for p in pegs {
+                                        let _ = writeln!(
+                                            g,
+                                            "{},{seed},{:.4},{:.4},{:.4}",
+                                            DENSITIES[*d].0, p.center_m[0], p.center_m[1], p.radius_m
+                                        );
+                                    }
+                                }
+                                let _ = f.flush();
+                            }
                             // Progress on stderr, so that an interrupted study keeps its finished runs.
                             let elapsed = started.elapsed().as_secs_f64();
                             match (&task, &o) {
