@@ -6,7 +6,8 @@
 //! ```text
 //! cargo run --release --example hoal_oracle -- [--seeds 0-9] [--window-secs 2[,1,4...]] [--blend-secs 0.25]
 //!     [--duration-secs 15] [--amplitudes 50,65,80] [--lags=-60,-45,-30,30] [--densities sparse,medium,dense]
-//!     [--lookahead] [--no-sweep] [--sweep-csv hoal_runs.csv] [--dump FILE.csv] [--check] [--threads 2]
+//!     [--lookahead] [--no-sweep] [--sweep-csv hoal_runs.csv] [--dump FILE.csv] [--replay 0,1e-9]
+//!     [--check] [--threads 2]
 //! ```
 //!
 //! `--window-secs` takes a list: one oracle run per field and window length (the sweep is shared).
@@ -25,6 +26,13 @@
 //! estimator on (it reads the sensors and moves nothing: the runs and schedules are the same).
 //! `python/examples/wave_choice_study.py` asks of these rows whether a controller could predict
 //! the oracle's choices (BENCHMARKS.md, "session 9").
+//!
+//! `--replay EPS[,EPS...]` runs each field's oracle schedule again from the start, once per ε,
+//! in one plain run without foresight, with every wave's amplitude scaled by (1 + ε). ε = 0
+//! reproduces the oracle's run exactly (a check of the machinery); a tiny ε (1e-9: a billionth
+//! of the amplitude) asks whether the schedule is worth anything once the run is not exactly the
+//! one it was chosen on, i.e. whether a controller that somehow knew the schedule in advance
+//! would still gain, or the oracle's gain is foresight of how this exact run plays out.
 //!
 //! For every field (hoal's `field_config`: density × seed, the same scene, sensor noise and
 //! servos; `score_run`'s scoring: the centre of mass's advance along +x after the 1-s ramp-in,
@@ -301,6 +309,8 @@ struct Options {
     duration_secs: f64,
     waves: Vec<Wave>,
     lookahead: bool,
+    /// Replay each oracle schedule with every amplitude scaled by (1 + ε), per ε.
+    replay: Vec<f64>,
     sweep: bool,
     /// Read the sweep from this `hoal_runs.csv` of `simserpent experiment hoal` instead of running it.
     sweep_csv: Option<std::path::PathBuf>,
@@ -318,6 +328,8 @@ struct OracleRun {
     schedule: Vec<usize>,
     /// `--dump` rows: per window the sensed inputs of the window before and every wave's gain.
     rows: Vec<String>,
+    /// `--replay`: per ε, the schedule replayed without foresight (speed, jam).
+    replays: Vec<(f64, bool)>,
 }
 
 /// The best gain over the window [from, to] of any wave from the state `sim` is in.
@@ -426,7 +438,53 @@ fn oracle(config: &Config, opts: &Options, family: &[Wave], window_secs: f64) ->
         sim.snapshot(&mut snap);
         trace.push((snap.time_secs, snap.centre_of_mass_m()[0]));
     }
-    Ok(OracleRun { speed_m_per_s: forward_speed(&trace, ramp_secs), jammed: jammed(&trace, ramp_secs), schedule, rows })
+    let replays = opts
+        .replay
+        .iter()
+        .map(|&eps| replay(config, opts, family, &ends, &schedule, eps))
+        .collect::<anyhow::Result<_>>()?;
+    Ok(OracleRun {
+        speed_m_per_s: forward_speed(&trace, ramp_secs),
+        jammed: jammed(&trace, ramp_secs),
+        schedule,
+        rows,
+        replays,
+    })
+}
+
+/// The oracle's `schedule` (waves of `family`, windows ending at `ends`) replayed from the start
+/// in one plain run, every wave's amplitude scaled by (1 + `eps`): with ε = 0 the oracle's run
+/// exactly (a check); with a tiny ε, whether the schedule still gains when the run is not the
+/// one it was chosen on (speed, jam).
+fn replay(
+    config: &Config,
+    opts: &Options,
+    family: &[Wave],
+    ends: &[u64],
+    schedule: &[usize],
+    eps: f64,
+) -> anyhow::Result<(f64, bool)> {
+    let world = World::from_config(config)?;
+    let (nl, nj) = (world.n_links(), world.n_joints());
+    let scaled = |k: usize| Wave { amplitude_deg: family[k].amplitude_deg * (1.0 + eps), ..family[k] };
+    let controller = SwitchedWave::new(config, nj, scaled(schedule[0]), opts.blend_secs);
+    let mut sim = Simulation::with_typed_controller(config, world, controller);
+    let mut snap = Snapshot::new(nl, nj);
+    let mut trace = Trace::new();
+    for (w, (&end, &k)) in ends.iter().zip(schedule).enumerate() {
+        if w > 0 {
+            let t = sim.world().time_secs();
+            sim.controller_mut().switch_to(config, scaled(k), t);
+        }
+        run_to(&mut sim, end, &mut snap, &mut trace)?;
+    }
+    sim.control();
+    if sim.steps().is_multiple_of(RECORD_EVERY) {
+        sim.snapshot(&mut snap);
+        trace.push((snap.time_secs, snap.centre_of_mass_m()[0]));
+    }
+    let ramp_secs = config.gait.ramp_secs;
+    Ok((forward_speed(&trace, ramp_secs), jammed(&trace, ramp_secs)))
 }
 
 fn open_config(base: &Config, density: f64, seed: u64, duration_secs: f64, wave: Wave) -> Config {
@@ -470,6 +528,7 @@ fn parse_args() -> anyhow::Result<Options> {
         duration_secs: 15.0,
         waves: Vec::new(),
         lookahead: false,
+        replay: Vec::new(),
         sweep: true,
         sweep_csv: None,
         dump: None,
@@ -524,13 +583,14 @@ fn parse_args() -> anyhow::Result<Options> {
                 o.threads = value.parse().map_err(|_| anyhow::anyhow!("--threads: {value:?} is not a count"))?
             }
             "--lookahead" => o.lookahead = true,
+            "--replay" => o.replay = parse_list("--replay", &value)?,
             "--no-sweep" => o.sweep = false,
             "--sweep-csv" => o.sweep_csv = Some(value.into()),
             "--dump" => o.dump = Some(value.into()),
             "--check" => o.check = true,
             _ => anyhow::bail!(
                 "unknown argument {key:?} (allowed: --seeds, --densities, --window-secs, --blend-secs, \
-                 --duration-secs, --amplitudes, --lags, --threads, --lookahead, --no-sweep, --sweep-csv, --dump, --check)"
+                 --duration-secs, --amplitudes, --lags, --threads, --lookahead, --no-sweep, --sweep-csv, --dump, --replay, --check)"
             ),
         }
         i += 1;
@@ -733,12 +793,21 @@ fn main() -> anyhow::Result<()> {
                                     if *j { " JAM" } else { "" }
                                 ),
                                 (Task::Oracle(d, seed, _, wi), Outcome::Oracle(r)) => eprintln!(
-                                    "[{elapsed:5.0} s] oracle {} seed {seed} window {} s: {:.1} mm/s{} schedule {:?}",
+                                    "[{elapsed:5.0} s] oracle {} seed {seed} window {} s: {:.1} mm/s{} schedule {:?}{}",
                                     DENSITIES[*d].0,
                                     opts.windows_secs[*wi],
                                     1000.0 * r.speed_m_per_s,
                                     if r.jammed { " JAM" } else { "" },
-                                    r.schedule
+                                    r.schedule,
+                                    opts.replay
+                                        .iter()
+                                        .zip(&r.replays)
+                                        .map(|(e, (v, j))| format!(
+                                            "; replay ε={e:e}: {:.1}{}",
+                                            1000.0 * v,
+                                            if *j { " JAM" } else { "" }
+                                        ))
+                                        .collect::<String>()
                                 ),
                                 _ => {}
                             }
@@ -882,6 +951,18 @@ fn main() -> anyhow::Result<()> {
                 ));
             }
             println!("{line}");
+            for (e, eps) in opts.replay.iter().enumerate() {
+                let runs: Vec<(f64, bool)> =
+                    opts.seeds.iter().map(|seed| oracles[&(d, *seed, None, wi)].replays[e]).collect();
+                let v: Vec<f64> = runs.iter().map(|r| 1000.0 * r.0).collect();
+                println!(
+                    "  window {window} s: REPLAY eps {eps:e}: median {:.1} mm/s, jams {}/{}, per seed [{}]",
+                    median(&v),
+                    runs.iter().filter(|r| r.1).count(),
+                    runs.len(),
+                    v.iter().map(|x| format!("{x:.1}")).collect::<Vec<_>>().join(" ")
+                );
+            }
         }
     }
     Ok(())
