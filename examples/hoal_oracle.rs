@@ -328,9 +328,23 @@ struct OracleRun {
     schedule: Vec<usize>,
     /// `--dump` rows: per window the sensed inputs of the window before and every wave's gain.
     rows: Vec<String>,
-    /// `--replay`: per ε, the schedule replayed without foresight (speed, jam).
-    replays: Vec<(f64, bool)>,
+    /// `--replay`: per ε, the schedule replayed without foresight.
+    replays: Vec<Replay>,
 }
+
+/// An oracle schedule replayed from the start with the amplitudes scaled by (1 + ε).
+#[derive(Clone, Copy)]
+struct Replay {
+    speed_m_per_s: f64,
+    jammed: bool,
+    /// The first recorded instant at which the centre of mass's x differs from the oracle's
+    /// run by more than `DIVERGED_M` (None: never within the run).
+    diverged_secs: Option<f64>,
+}
+
+/// How far the replay's centre of mass (along x) may drift from the oracle's before the two
+/// runs count as different.
+const DIVERGED_M: f64 = 0.01;
 
 /// The best gain over the window [from, to] of any wave from the state `sim` is in.
 fn best_next_gain(
@@ -441,7 +455,7 @@ fn oracle(config: &Config, opts: &Options, family: &[Wave], window_secs: f64) ->
     let replays = opts
         .replay
         .iter()
-        .map(|&eps| replay(config, opts, family, &ends, &schedule, eps))
+        .map(|&eps| replay(config, opts, family, &ends, &schedule, eps, &trace))
         .collect::<anyhow::Result<_>>()?;
     Ok(OracleRun {
         speed_m_per_s: forward_speed(&trace, ramp_secs),
@@ -455,7 +469,7 @@ fn oracle(config: &Config, opts: &Options, family: &[Wave], window_secs: f64) ->
 /// The oracle's `schedule` (waves of `family`, windows ending at `ends`) replayed from the start
 /// in one plain run, every wave's amplitude scaled by (1 + `eps`): with ε = 0 the oracle's run
 /// exactly (a check); with a tiny ε, whether the schedule still gains when the run is not the
-/// one it was chosen on (speed, jam).
+/// one it was chosen on; and when its centre of mass leaves the oracle's `oracle_trace`.
 fn replay(
     config: &Config,
     opts: &Options,
@@ -463,7 +477,8 @@ fn replay(
     ends: &[u64],
     schedule: &[usize],
     eps: f64,
-) -> anyhow::Result<(f64, bool)> {
+    oracle_trace: &Trace,
+) -> anyhow::Result<Replay> {
     let world = World::from_config(config)?;
     let (nl, nj) = (world.n_links(), world.n_joints());
     let scaled = |k: usize| Wave { amplitude_deg: family[k].amplitude_deg * (1.0 + eps), ..family[k] };
@@ -484,7 +499,8 @@ fn replay(
         trace.push((snap.time_secs, snap.centre_of_mass_m()[0]));
     }
     let ramp_secs = config.gait.ramp_secs;
-    Ok((forward_speed(&trace, ramp_secs), jammed(&trace, ramp_secs)))
+    let diverged_secs = trace.iter().zip(oracle_trace).find(|(r, o)| (r.1 - o.1).abs() > DIVERGED_M).map(|(r, _)| r.0);
+    Ok(Replay { speed_m_per_s: forward_speed(&trace, ramp_secs), jammed: jammed(&trace, ramp_secs), diverged_secs })
 }
 
 fn open_config(base: &Config, density: f64, seed: u64, duration_secs: f64, wave: Wave) -> Config {
@@ -802,10 +818,11 @@ fn main() -> anyhow::Result<()> {
                                     opts.replay
                                         .iter()
                                         .zip(&r.replays)
-                                        .map(|(e, (v, j))| format!(
-                                            "; replay ε={e:e}: {:.1}{}",
-                                            1000.0 * v,
-                                            if *j { " JAM" } else { "" }
+                                        .map(|(e, r)| format!(
+                                            "; replay ε={e:e}: {:.1}{} (apart after {})",
+                                            1000.0 * r.speed_m_per_s,
+                                            if r.jammed { " JAM" } else { "" },
+                                            r.diverged_secs.map_or("never".to_string(), |t| format!("{t:.2} s"))
                                         ))
                                         .collect::<String>()
                                 ),
@@ -952,15 +969,20 @@ fn main() -> anyhow::Result<()> {
             }
             println!("{line}");
             for (e, eps) in opts.replay.iter().enumerate() {
-                let runs: Vec<(f64, bool)> =
+                let runs: Vec<Replay> =
                     opts.seeds.iter().map(|seed| oracles[&(d, *seed, None, wi)].replays[e]).collect();
-                let v: Vec<f64> = runs.iter().map(|r| 1000.0 * r.0).collect();
+                let v: Vec<f64> = runs.iter().map(|r| 1000.0 * r.speed_m_per_s).collect();
+                // Runs that never left the oracle's count as apart at the run's end.
+                let apart: Vec<f64> = runs.iter().map(|r| r.diverged_secs.unwrap_or(opts.duration_secs)).collect();
                 println!(
-                    "  window {window} s: REPLAY eps {eps:e}: median {:.1} mm/s, jams {}/{}, per seed [{}]",
+                    "  window {window} s: REPLAY eps {eps:e}: median {:.1} mm/s, jams {}/{}, per seed [{}]; \
+                     centre of mass {DIVERGED_M} m from the oracle's after a median {:.2} s ({} never)",
                     median(&v),
-                    runs.iter().filter(|r| r.1).count(),
+                    runs.iter().filter(|r| r.jammed).count(),
                     runs.len(),
-                    v.iter().map(|x| format!("{x:.1}")).collect::<Vec<_>>().join(" ")
+                    v.iter().map(|x| format!("{x:.1}")).collect::<Vec<_>>().join(" "),
+                    median(&apart),
+                    runs.iter().filter(|r| r.diverged_secs.is_none()).count()
                 );
             }
         }
