@@ -105,8 +105,8 @@ struct SwitchedWave {
     old_rate: Vec<f64>,
     new_rad: Vec<f64>,
     new_rate: Vec<f64>,
-    /// What the controller sensed in the current window (`--dump`).
-    sense: WindowSense,
+    /// What the controller sensed in the current window (only with `--dump`).
+    sense: Option<WindowSense>,
 }
 
 /// What a causal controller senses over one window (for `--dump`: a wave-choice learner's
@@ -135,8 +135,7 @@ impl WindowSense {
     }
 
     fn add(&mut self, obs: &Observation) {
-        let q = obs.head_quat;
-        let yaw = (2.0 * (q[0] * q[3] + q[1] * q[2])).atan2(1.0 - 2.0 * (q[2] * q[2] + q[3] * q[3]));
+        let yaw = simserpent::state::yaw_rad(obs.head_quat);
         self.yaw_rad = yaw;
         self.yaw_sum[0] += yaw.cos();
         self.yaw_sum[1] += yaw.sin();
@@ -156,7 +155,7 @@ impl WindowSense {
     }
 
     /// The CSV fields of this window, then a fresh window.
-    fn take(&mut self) -> String {
+    fn close_window(&mut self) -> String {
         let n = self.steps.max(1) as f64;
         let start = self.head_start_m.unwrap_or(self.head_m);
         let mut out = format!(
@@ -214,8 +213,15 @@ impl SwitchedWave {
             old_rate: vec![0.0; n_joints],
             new_rad: vec![0.0; n_joints],
             new_rate: vec![0.0; n_joints],
-            sense: WindowSense::new(n_joints + 1),
+            sense: None,
         }
+    }
+
+    /// With `on`, the controller also sums up what it senses per window ([`WindowSense`]).
+    fn sensing(mut self, on: bool) -> Self {
+        let n_links = self.new_rad.len() + 1;
+        self.sense = on.then(|| WindowSense::new(n_links));
+        self
     }
 
     /// From `t_secs` on, blend from the wave now running to `wave`.
@@ -238,7 +244,9 @@ impl Controller for SwitchedWave {
 
     fn update(&mut self, obs: &Observation, cmd: &mut Command) {
         let t = obs.time_secs;
-        self.sense.add(obs);
+        if let Some(sense) = &mut self.sense {
+            sense.add(obs);
+        }
         self.new.targets(t, &mut self.new_rad, &mut self.new_rate);
         let u = if self.blend_secs > 0.0 { (t - self.switch_secs) / self.blend_secs } else { 1.0 };
         if !same(&self.old, &self.new) && u < 1.0 {
@@ -288,6 +296,15 @@ fn run_to(
         sim.advance()?;
     }
     Ok(())
+}
+
+/// Records the run's last instant as hoal does (the step loop's instant `steps`).
+fn record_last_instant(sim: &mut Simulation<SwitchedWave>, snap: &mut Snapshot, trace: &mut Trace) {
+    sim.control();
+    if sim.steps().is_multiple_of(RECORD_EVERY) {
+        sim.snapshot(snap);
+        trace.push((snap.time_secs, snap.centre_of_mass_m()[0]));
+    }
 }
 
 /// The state of `sim` and its centre of mass's x. The state is saved first: the forward pass
@@ -377,7 +394,8 @@ fn oracle(config: &Config, opts: &Options, family: &[Wave], window_secs: f64) ->
     let world = World::from_config(config)?;
     let n_joints = world.n_joints();
     let (nl, nj) = (world.n_links(), world.n_joints());
-    let controller = SwitchedWave::new(config, n_joints, family[0], opts.blend_secs);
+    let sensing = opts.dump.is_some();
+    let controller = SwitchedWave::new(config, n_joints, family[0], opts.blend_secs).sensing(sensing);
     let mut sim = Simulation::with_typed_controller(config, world, controller);
     let mut snap = Snapshot::new(nl, nj);
     let dt = config.general.timestep_secs;
@@ -397,9 +415,9 @@ fn oracle(config: &Config, opts: &Options, family: &[Wave], window_secs: f64) ->
     let mut prev_x = 0.0;
     let mut rows = Vec::new();
     for (w, &end) in ends.iter().enumerate() {
-        let mut sensed = sim.controller_mut().sense.take();
+        let mut sensed = sim.controller_mut().sense.as_mut().map(WindowSense::close_window).unwrap_or_default();
         let saved = sim.save();
-        if opts.dump.is_some() {
+        if sensing {
             // Privileged (not sensed, for analysis only): the links' true positions.
             use std::fmt::Write;
             sim.snapshot(&mut snap);
@@ -414,7 +432,7 @@ fn oracle(config: &Config, opts: &Options, family: &[Wave], window_secs: f64) ->
             sim.restore(&saved)?;
             if w == 0 {
                 // The first window starts at t = 0: the wave itself, no blend.
-                *sim.controller_mut() = SwitchedWave::new(config, n_joints, *wave, opts.blend_secs);
+                *sim.controller_mut() = SwitchedWave::new(config, n_joints, *wave, opts.blend_secs).sensing(sensing);
             } else {
                 sim.controller_mut().switch_to(config, *wave, t);
             }
@@ -446,12 +464,7 @@ fn oracle(config: &Config, opts: &Options, family: &[Wave], window_secs: f64) ->
         schedule.push(k);
         prev_x = x_end;
     }
-    // The last instant (hoal records it: the step loop's instant `steps`).
-    sim.control();
-    if sim.steps().is_multiple_of(RECORD_EVERY) {
-        sim.snapshot(&mut snap);
-        trace.push((snap.time_secs, snap.centre_of_mass_m()[0]));
-    }
+    record_last_instant(&mut sim, &mut snap, &mut trace);
     let replays = opts
         .replay
         .iter()
@@ -493,11 +506,7 @@ fn replay(
         }
         run_to(&mut sim, end, &mut snap, &mut trace)?;
     }
-    sim.control();
-    if sim.steps().is_multiple_of(RECORD_EVERY) {
-        sim.snapshot(&mut snap);
-        trace.push((snap.time_secs, snap.centre_of_mass_m()[0]));
-    }
+    record_last_instant(&mut sim, &mut snap, &mut trace);
     let ramp_secs = config.gait.ramp_secs;
     let diverged_secs = trace.iter().zip(oracle_trace).find(|(r, o)| (r.1 - o.1).abs() > DIVERGED_M).map(|(r, _)| r.0);
     Ok(Replay { speed_m_per_s: forward_speed(&trace, ramp_secs), jammed: jammed(&trace, ramp_secs), diverged_secs })
@@ -732,10 +741,11 @@ fn main() -> anyhow::Result<()> {
                 .map_err(|e| anyhow::anyhow!("--dump: cannot create {}: {e}", path.display()))?;
             let mut header =
                 String::from("density,seed,window,t_secs,prev_wave,head_x,head_y,head_dx,head_dy,yaw_mean,yaw_end");
-            for i in 0..10 {
+            let n_links = field_config(&base, DENSITIES[0].1, 0).snake.n_links;
+            for i in 0..n_links {
                 header += &format!(",fx{i},fy{i},fa{i},fc{i}");
             }
-            for i in 0..10 {
+            for i in 0..n_links {
                 header += &format!(",lx{i},ly{i}");
             }
             for k in 0..opts.waves.len() {

@@ -129,14 +129,11 @@ impl Observer<SimError> for Trace {
     }
 }
 
-/// Forward speed (m/s along +x) from `from_secs` to the end.
-fn forward_speed(trace: &Trace, from_secs: f64) -> f64 {
-    forward_speed_m_per_s(&trace.path(), from_secs)
-}
-
-/// Whether the run jammed ([`path_jammed`]).
-fn jammed(trace: &Trace, from_secs: f64) -> bool {
-    path_jammed(&trace.path(), from_secs)
+/// The run's forward speed (m/s along +x, [`forward_speed_m_per_s`]) and whether it jammed
+/// ([`path_jammed`]), after `from_secs`.
+fn speed_and_jam(trace: &Trace, from_secs: f64) -> (f64, bool) {
+    let path = trace.path();
+    (forward_speed_m_per_s(&path, from_secs), path_jammed(&path, from_secs))
 }
 
 impl Trace {
@@ -255,7 +252,7 @@ fn run_case(config: &Config, forces: bool) -> Result<Trace, ExperimentError> {
 pub fn score_run(config: &Config) -> Result<(f64, bool), ExperimentError> {
     let trace = run_case(config, false)?;
     let ramp_secs = config.gait.ramp_secs;
-    Ok((forward_speed(&trace, ramp_secs), jammed(&trace, ramp_secs)))
+    Ok(speed_and_jam(&trace, ramp_secs))
 }
 
 fn median(values: &[f64]) -> f64 {
@@ -364,8 +361,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
             .collect()
     });
     let traces: Vec<Trace> = traces.into_iter().collect::<Result<_, _>>()?;
-    let speed: Vec<f64> = traces.iter().map(|t| forward_speed(t, ramp_secs)).collect();
-    let jam: Vec<bool> = traces.iter().map(|t| jammed(t, ramp_secs)).collect();
+    let (speed, jam): (Vec<f64>, Vec<bool>) = traces.iter().map(|t| speed_and_jam(t, ramp_secs)).unzip();
     let index = |density: usize, seed: u64, variant: Variant| {
         cases.iter().position(|c| c.density == density && c.seed == seed && c.variant == variant)
     };
@@ -409,7 +405,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
             .par_iter()
             .map(|case| {
                 let t = run_case(&case_config(base, case, duration_secs), false)?;
-                Ok((forward_speed(&t, ramp_secs), jammed(&t, ramp_secs)))
+                Ok(speed_and_jam(&t, ramp_secs))
             })
             .collect::<Result<_, ExperimentError>>()
     })?;
@@ -694,11 +690,12 @@ mod tests {
         // 0.01 m/s for 20 s: 0.05 m per 5 s, no jam.
         let moving: Vec<f64> = (0..=200).map(|k| 0.001 * k as f64).collect();
         let t = trace(&moving, 0.1);
-        assert!((forward_speed(&t, 1.0) - 0.01).abs() < 1e-12);
-        assert!(!jammed(&t, 1.0));
+        let (speed, jam) = speed_and_jam(&t, 1.0);
+        assert!((speed - 0.01).abs() < 1e-12);
+        assert!(!jam);
         // Stops at 8 s for 6 s, then goes on: a jam.
         let stuck: Vec<f64> = (0..=200).map(|k| 0.001 * (k.min(80) + (k.max(140) - 140)) as f64).collect();
-        assert!(jammed(&trace(&stuck, 0.1), 1.0));
+        assert!(speed_and_jam(&trace(&stuck, 0.1), 1.0).1);
         assert_eq!(median(&[3.0, 1.0, 2.0, 10.0]), 2.5);
     }
 
