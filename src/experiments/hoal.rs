@@ -59,9 +59,12 @@ const SPACING_M: f64 = 0.3;
 /// 50°/−60° on every density, at the sweep's edge, and 20° and ±90° were never best. Session 7:
 /// in the sweep A ∈ {35, 50, 65}° × δ ∈ {−60, −30, 30, 60}° the best was at 65°, the edge again,
 /// and 35° and δ = 60° were never best, while on the bare floor 65°–80° with δ = −45° drift
-/// fastest (69–71 mm/s): the sweep now covers those, at the same number of waves.)
+/// fastest (69–71 mm/s): the sweep now covers those, at the same number of waves. Session 10:
+/// on 120 fields outside hoal's seeds every δ = −30° wave ran backward (medians −1 to −34 mm/s,
+/// 98–106 jams of 120) while δ = −75° jams least (65°/−75°: 31 mm/s, 2 jams of 120; the
+/// `obstacle_aided` default since then): −75° replaced −30°, at the same number of waves.)
 const AMPLITUDES_DEG: [f64; 3] = [50.0, 65.0, 80.0];
-const PHASE_LAGS_DEG: [f64; 4] = [-60.0, -45.0, -30.0, 30.0];
+const PHASE_LAGS_DEG: [f64; 4] = [-75.0, -60.0, -45.0, 30.0];
 /// The closed-loop controllers compared (config value, name).
 pub const CLOSED_LOOP: [(ControllerKind, &str); 2] =
     [(ControllerKind::ObstacleAided, "obstacle_aided"), (ControllerKind::Rail, "rail")];
@@ -606,6 +609,12 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
         format!("**{failed} of {} checks failed** (table and checks below).", checks.len())
     };
     let area = (REGION_MAX_M[0] - REGION_MIN_M[0]) * (REGION_MAX_M[1] - REGION_MIN_M[1]);
+    let oa = &base.obstacle_aided;
+    let press = if oa.force_gain_rad_per_n_s > 0.0 {
+        "press on pegs that push forward, yield at pegs that resist"
+    } else {
+        "yield at pegs that resist; pressing on pegs that push forward is off, `force_gain_rad_per_n_s = 0`"
+    };
     let section = Section {
         heading: "Obstacle-aided locomotion with force feedback (issue 15)".into(),
         text: format!(
@@ -613,8 +622,8 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
              servos kp {SERVO_KP_NM_PER_RAD} N·m/rad, kv {SERVO_KV_NM_S_PER_RAD} N·m·s/rad, ±{TORQUE_LIMIT_NM} N·m (as in `oal`), default sensor noise. Random peg fields (peg radius 0.05 m, centres ≥ {SPACING_M} m apart, in x ∈ \
              [{x0}, {x1}] m, y ∈ [{y0}, {y1}] m = {area} m², none on the starting snake) at {densities}; seeds 0..{seeds} \
              (the same fields for every controller). {duration_secs} s per run, wave frequency {FREQUENCY_HZ} Hz, ramp-in \
-             {ramp_secs} s. Closed loop: `control.controller = \"obstacle_aided\"` (the wave running toward the head, 0.5 Hz, with a \
-             hybrid position/force law at the contacts: press on pegs that push forward, yield at pegs that resist) and \
+             {ramp_secs} s. Closed loop: `control.controller = \"obstacle_aided\"` (its wave {oa_a}°/{oa_l}°, running toward the \
+             head, 0.5 Hz, with a hybrid position/force law at the contacts: {press}) and \
              `\"rail\"` (starts in the floor-drift wave running toward the head and switches on the contact estimates to \
              follow-the-leader, where the body follows the head's path and the head turns toward the pegs it touches, and \
              back; a jam also switches), each with its default settings, fed the \
@@ -634,6 +643,8 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
              hoal_estimate_<controller>_<density> (seed 0: the estimated against the true obstacle force on the body; the \
              estimate describes the sensors of one step earlier).",
             mu = field_config(base, 1.0, 0).snake.ground_friction[0],
+            oa_a = sig(oa.amplitude_deg),
+            oa_l = sig(oa.phase_lag_deg),
             held_end = 2 * seeds,
             x0 = REGION_MIN_M[0],
             x1 = REGION_MAX_M[0],

@@ -1323,6 +1323,9 @@ pub struct Rail {
     pub max_steer_deg: f64,
     /// Head wrap: offset (degrees) that turns the head toward a peg it touches.
     pub wrap_deg: f64,
+    /// Whether the jam rule acts (a jam backs off in the rail gait and switches the gait);
+    /// `false`: no jam rule (the wedge rule, if on, still acts).
+    pub jam_switch: bool,
     /// Jam: less than `jam_min_progress_m` (m) of progress along +x within `jam_window_secs` (s).
     pub jam_window_secs: f64,
     pub jam_min_progress_m: f64,

@@ -27,10 +27,10 @@
 //! the contact offset of joint j plus the heading offset r(t)·φ_h. **The sign of δ is the
 //! wave's direction**: δ > 0 makes the wave run from the head toward the tail (ordinary
 //! lateral undulation), δ < 0 from the tail toward the head. On an isotropic Coulomb floor a
-//! snake drifts the way its wave runs, so there δ < 0 is the forward gait (the default,
-//! 65°/−60°, is `hoal`'s best open-loop wave on sparse and medium fields); among pegs on that
-//! wave the bends push the pegs forward and the pegs push the body back (they resist), the
-//! reverse of obstacle-aided undulation on an ordinary wave.
+//! snake drifts the way its wave runs, so there δ < 0 is the forward gait. The default,
+//! 65°/−75°, is the wave that jams least for its speed among `hoal`'s pegs (session 10, below);
+//! among pegs on a wave toward the head the bends push the pegs forward and the pegs push the
+//! body back (they resist), the reverse of obstacle-aided undulation on an ordinary wave.
 //! With `wave_speed = "fixed"` ψ̇ = +ω; with `"progress"` (only for δ > 0)
 //!
 //! ```text
@@ -114,7 +114,7 @@
 //!
 //! (b ∈ [0, 1] the blend). The second wave, once selected, runs at least `switch_secs`, the
 //! first, once back, at least `first_wave_secs`; the first returns by `switch_exit`: `"resist"` once R ≤ `switch_force_n` (the second wave is an
-//! escape from a peg, e.g. the 50°/−60° wave that jams least), `"stall"` once v̄ is below
+//! escape from a peg, e.g. a wave that jams less), `"stall"` once v̄ is below
 //! `switch_max_speed_m_per_s` (the second wave stays while it moves, e.g. the ordinary wave
 //! 65°/+30° that the pegs propel where they resist the wave toward the head).
 //!
@@ -126,12 +126,22 @@
 //! flat for as long as the contact lasts, and the flattening travels with the wave.
 //! `contact_feedback = false` switches both off (they read the contacts).
 //!
-//! **What is measured (session 7).** On `hoal`'s fields with the defaults the controller is as
-//! fast as the open-loop 65°/−60° wave and jams as often; with `contact_feedback = false` it is
-//! as fast (the yield and press terms sit within the field-to-field noise), and on the bare
-//! floor it is faster than among any pegs. The pegs only hinder a wave toward the head on
-//! isotropic friction. Details and the on/off log: BENCHMARKS.md, "Obstacle-aided locomotion
-//! (issue 15)".
+//! **What is measured (session 7).** On `hoal`'s fields with the then defaults (65°/−60°,
+//! pressing and yielding) the controller was as fast as the open-loop 65°/−60° wave and jammed
+//! as often; with `contact_feedback = false` it was as fast (the yield and press terms sit
+//! within the field-to-field noise), and on the bare floor it is faster than among any pegs.
+//! The pegs only hinder a wave toward the head on isotropic friction.
+//!
+//! **The defaults since session 10: 65°/−75°, yield only.** A jam (no progress for 5 s) on a
+//! wave toward the head is the body wedged between pegs, and how often it happens depends on
+//! the wave's lag far more than on any contact term: on 120 `hoal` fields outside its seeds
+//! (100–139) the open-loop 65°/−60° wave jams in 33 runs (42 mm/s median), 65°/−70° in 11,
+//! 65°/−75° in 2 (31 mm/s), 65°/−80° in 1 (30 mm/s), 65°/−90° in none (21 mm/s). Pressing on
+//! propelling pegs deepens the bends and wedges the body: on 270 fields (seeds 0–9, 100–139,
+//! 200–239) the controller on 65°/−75° jams in 16 runs with pressing (`force_gain_rad_per_n_s`
+//! = 0.3) and in 9 without (the open-loop wave: 8); the medians differ by less than 0.4 mm/s.
+//! So pressing is off by default (`force_gain_rad_per_n_s = 0`) and the contact law yields
+//! only. Details: BENCHMARKS.md, "Obstacle-aided locomotion (issue 15)", session 10.
 //!
 //! Nothing allocates after construction.
 

@@ -55,8 +55,9 @@
 //! q_j,drift(t) = r(t)·A_d·sin(ω t − j δ_d),   δ_d < 0,   ω = 2π·0.5 Hz
 //! ```
 //!
-//! (r(t) the ramp-in of `gait.ramp_secs`; 65°/−60° is hoal's best open-loop wave on the sparse
-//! and medium fields), and switches between the two on what the contact estimates say the pegs
+//! (r(t) the ramp-in of `gait.ramp_secs`; the default 65°/−75° is the wave that jams least for
+//! its speed among hoal's pegs, session 10; 65°/−60°, the default before, is faster on sparse
+//! fields but wedges far more often), and switches between the two on what the contact estimates say the pegs
 //! do along +x (world):
 //!
 //! ```text
@@ -76,7 +77,10 @@
 //! `use_contacts = false` turns off every contact term (head wrap and the contact-driven
 //! switches; the jam switch below stays): the comparison without contacts.
 //!
-//! **Jam recovery.** Every `jam_window_secs` T the controller compares the centre of mass (head
+//! **Jam recovery** (`jam_switch = true`; off by default since session 10: with the drift wave
+//! 65°/−75° the switch and its back-off made jams by hoal's rule, 22 of 120 runs on hoal's
+//! seeds 100–139 with it against 10 without; BENCHMARKS.md, session 10). Every
+//! `jam_window_secs` T the controller compares the centre of mass (head
 //! position and encoders) with the previous checkpoint; if it advanced less than
 //! `jam_min_progress_m` along +x, the snake is jammed. In the rail gait S first runs backward at
 //! `backoff_speed_m_per_s` until it is `backoff_m` back (every joint retraces the path it came
@@ -228,6 +232,8 @@ pub struct Rail {
     last_time_secs: f64,
     started: bool,
     checkpoint: Option<(f64, f64)>,
+    /// Whether the jam rule acts at all (`rail.jam_switch`).
+    pub jam_switch: bool,
     /// Whether the jam window slides (every T/30) rather than restarting every T.
     pub sliding_jam_window: bool,
     /// The sliding window's samples of the centre of mass' x (m; ring), their count since the
@@ -348,6 +354,7 @@ impl Rail {
             last_time_secs: 0.0,
             started: false,
             checkpoint: None,
+            jam_switch: r.jam_switch,
             sliding_jam_window: r.sliding_jam_window,
             jam_x_m: vec![0.0; JAM_WINDOW_SAMPLES + 1],
             jam_samples: 0,
@@ -557,7 +564,7 @@ impl Rail {
 
         // Jam rule.
         let mut jammed = false;
-        if self.backoff_to_m.is_none() && !self.relax_pending {
+        if self.jam_switch && self.backoff_to_m.is_none() && !self.relax_pending {
             let stalled = if self.sliding_jam_window {
                 self.slide_jam_window(t, com[0])
             } else {
@@ -961,12 +968,20 @@ mod tests {
 
     #[test]
     fn a_jam_switches_the_gait() {
-        // The snake does not move at all (the same observation every step).
+        // The snake does not move at all (the same observation every step). With the default
+        // `jam_switch = false` nothing happens.
         let mut r = drift_controller(9);
         r.use_contacts = false;
         let mut obs = straight(9, 0.0, r.link_length_m);
         let mut cmd = Command::new(9);
         let window = r.jam_window_secs;
+        assert!(!r.jam_switch);
+        run_for(&mut r, &mut obs, 0.0, 3.0 * window, &mut cmd);
+        assert_eq!(r.last.jams, 0);
+        assert!(r.last.drift && !r.last.backing_off, "{:?}", r.last);
+        let mut r = drift_controller(9);
+        r.use_contacts = false;
+        r.jam_switch = true;
         let backoff_secs = r.backoff_m / r.backoff_speed_m_per_s;
         run_for(&mut r, &mut obs, 0.0, window + 0.5, &mut cmd);
         assert_eq!(r.last.jams, 1);
@@ -1029,6 +1044,7 @@ mod tests {
     fn the_relax_recovery_changes_the_drift_wave_then_switches() {
         let mut r = drift_controller(9);
         r.use_contacts = false;
+        r.jam_switch = true;
         r.relax_secs = 4.0;
         r.relax_amplitude_rad = 50f64.to_radians();
         r.relax_phase_lag_rad = (-60f64).to_radians();
@@ -1071,6 +1087,7 @@ mod tests {
         // Without the relax recovery the same jam switches at once.
         let mut r = drift_controller(9);
         r.use_contacts = false;
+        r.jam_switch = true;
         run_for(&mut r, &mut obs, 0.0, window + 0.05, &mut cmd);
         assert!(!r.last.drift, "{:?}", r.last);
     }
@@ -1083,6 +1100,7 @@ mod tests {
         let run = |sliding: bool, until_secs: f64| {
             let mut r = drift_controller(9);
             r.use_contacts = false;
+            r.jam_switch = true;
             r.sliding_jam_window = sliding;
             let mut obs = straight(9, 0.0, r.link_length_m);
             let x0 = obs.head_position_m[0];
