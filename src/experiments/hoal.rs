@@ -626,7 +626,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
              head, 0.5 Hz, with a hybrid position/force law at the contacts: {press}) and \
              `\"rail\"` (starts in the floor-drift wave running toward the head and switches on the contact estimates to \
              follow-the-leader, where the body follows the head's path and the head turns toward the pegs it touches, and \
-             back; a jam also switches), each with its default settings, fed the \
+             back{rail_jam}), each with its default settings, fed the \
              step loop's contact estimates (measured sensors, head IMU + encoders) or the simulator's true contacts, and with its \
              contact terms switched off (`obstacle_aided.contact_feedback = false`, `rail.use_contacts = false`: what the \
              contacts add). Open loop: \
@@ -645,6 +645,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
             mu = field_config(base, 1.0, 0).snake.ground_friction[0],
             oa_a = sig(oa.amplitude_deg),
             oa_l = sig(oa.phase_lag_deg),
+            rail_jam = if base.rail.jam_switch { "; a jam also switches" } else { "" },
             held_end = 2 * seeds,
             x0 = REGION_MIN_M[0],
             x1 = REGION_MAX_M[0],
