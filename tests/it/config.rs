@@ -478,6 +478,7 @@ heading_gain = 0.7
 lookahead_m = 1.5
 max_steer_deg = 25.0
 wrap_deg = 10.0
+jam_switch = true
 jam_window_secs = 4.0
 jam_min_progress_m = 0.03
 sliding_jam_window = true
