@@ -528,8 +528,14 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
             paths.extend(path_of(estimated(k), format!("{cname}, estimated contacts")));
         }
         paths.extend(path_of(best.0, "best open loop".to_string()));
-        crate::plot::plot_paths_over_circles(&plots, &format!("hoal_paths_{dname}"), &paths, &pegs)
-            .map_err(plot_error)?;
+        crate::plot::plot_paths_over_circles(
+            &plots,
+            &format!("hoal_paths_{dname}"),
+            &format!("{dname} peg field ({dens} pegs/m²), seed 0: centre-of-mass paths"),
+            &paths,
+            &pegs,
+        )
+        .map_err(plot_error)?;
         for (k, (_, cname)) in CLOSED_LOOP.iter().enumerate() {
             if let Some(i) = index(d, 0, estimated(k)) {
                 let t = &traces[i];

@@ -230,20 +230,28 @@ fn line_chart<DB: DrawingBackend>(
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
     }
     if series.len() > 1 && series.len() <= 12 {
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK.mix(0.3))
-            .label_font((FAMILY, 13))
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| e.to_string())?;
+        legend(&mut chart)?;
     }
     Ok(())
 }
 
+/// The legend of a chart's labelled series, upper right.
+fn legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+) -> DrawResult {
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK.mix(0.3))
+        .label_font((FAMILY, 13))
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()
+        .map_err(|e| e.to_string())
+}
+
 fn top_view<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
+    title: &str,
     paths: &[Series<'_>],
     obstacles: &[Obstacle],
     size: (u32, u32),
@@ -282,7 +290,7 @@ fn top_view<DB: DrawingBackend>(
         y1 += extra;
     }
     let mut chart = ChartBuilder::on(root)
-        .caption("Top view: link paths and obstacles", (FAMILY, 22))
+        .caption(title, (FAMILY, 22))
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(60)
@@ -319,15 +327,27 @@ fn top_view<DB: DrawingBackend>(
                 s.x.iter().copied().zip(s.y.iter().copied()).filter(|(x, y)| x.is_finite() && y.is_finite()),
                 c.stroke_width(1),
             ))
-            .map_err(|e| e.to_string())?;
+            .map_err(|e| e.to_string())?
+            .label(s.name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
         // Start (circle) and end (filled) of every path.
         if let (Some(&xs), Some(&ys), Some(&xe), Some(&ye)) = (s.x.first(), s.y.first(), s.x.last(), s.y.last()) {
             chart.draw_series([Circle::new((xs, ys), 3, c.stroke_width(1))]).map_err(|e| e.to_string())?;
             chart.draw_series([Circle::new((xe, ye), 3, c.filled())]).map_err(|e| e.to_string())?;
         }
     }
+    // A legend for a few named paths (e.g. the controllers of `experiment hoal`); a run's
+    // per-link paths (usually more) go without, where it would cover them.
+    if paths.len() > 1 && paths.len() <= TOP_VIEW_LEGEND_MAX {
+        legend(&mut chart)?;
+    }
     Ok(())
 }
+
+/// The title of a run's top view (its links' paths).
+const TOP_VIEW_TITLE: &str = "Top view: link paths and obstacles";
+/// The most paths the top view labels in a legend.
+const TOP_VIEW_LEGEND_MAX: usize = 6;
 
 /// Draws one panel into `<dir>/<stem>.png` and `<dir>/<stem>.svg`.
 fn both(
@@ -398,11 +418,12 @@ pub fn plot_lines(
 }
 
 /// Draws paths `(name, x, y)` seen from above over circular obstacles `(centre, radius)` (m)
-/// into `<dir>/<stem>.png` and `.svg` (equal scales; an open circle marks each path's start, a
-/// filled one its end).
+/// into `<dir>/<stem>.png` and `.svg` under `title` (equal scales; an open circle marks each
+/// path's start, a filled one its end; a legend names up to six paths).
 pub fn plot_paths_over_circles(
     dir: &Path,
     stem: &str,
+    title: &str,
     paths: &[(String, Vec<f64>, Vec<f64>)],
     circles: &[([f64; 2], f64)],
 ) -> Result<Vec<PathBuf>, PlotError> {
@@ -411,7 +432,7 @@ pub fn plot_paths_over_circles(
         paths.iter().map(|(name, x, y)| Series { name: name.clone(), x: x.as_slice(), y: y.clone() }).collect();
     let obstacles: Vec<Obstacle> = circles.iter().map(|(c, r)| Obstacle::Circle { x: c[0], y: c[1], r: *r }).collect();
     let size = (1100, 600);
-    both(dir, stem, size, |root: &dyn AnyArea| root.top(&series, &obstacles, size))
+    both(dir, stem, size, |root: &dyn AnyArea| root.top(title, &series, &obstacles, size))
 }
 
 /// Writes the standard panels of a run folder into `<folder>/plots/`.
@@ -586,7 +607,8 @@ fn draw_panels<'a>(
     if paths.is_empty() {
         out.skipped.push(("top_view".into(), "link positions not recorded".into()));
     } else {
-        let files = both(dir, "top_view", size, |root: &dyn AnyArea| root.top(&paths, obstacles, size))?;
+        let files =
+            both(dir, "top_view", size, |root: &dyn AnyArea| root.top(TOP_VIEW_TITLE, &paths, obstacles, size))?;
         out.files.extend(files);
     }
     // Every panel on one page, three per row.
@@ -647,7 +669,7 @@ fn contact_stats(time: &[f64], c: &Table) -> ContactStats {
 /// The two backends behind one object-safe face, so every panel is drawn by one closure.
 trait AnyArea {
     fn line(&self, title: &str, x_label: &str, y_label: &str, series: &[Series<'_>]) -> DrawResult;
-    fn top(&self, paths: &[Series<'_>], obstacles: &[Obstacle], size: (u32, u32)) -> DrawResult;
+    fn top(&self, title: &str, paths: &[Series<'_>], obstacles: &[Obstacle], size: (u32, u32)) -> DrawResult;
     fn grid(
         &self,
         shape: (usize, usize),
@@ -681,8 +703,8 @@ impl<DB: DrawingBackend> AnyArea for DrawingArea<DB, Shift> {
         line_chart(self, title, x_label, y_label, series)?;
         self.present().map_err(|e| e.to_string())
     }
-    fn top(&self, paths: &[Series<'_>], obstacles: &[Obstacle], size: (u32, u32)) -> DrawResult {
-        top_view(self, paths, obstacles, size)?;
+    fn top(&self, title: &str, paths: &[Series<'_>], obstacles: &[Obstacle], size: (u32, u32)) -> DrawResult {
+        top_view(self, title, paths, obstacles, size)?;
         self.present().map_err(|e| e.to_string())
     }
     fn grid(
@@ -699,7 +721,7 @@ impl<DB: DrawingBackend> AnyArea for DrawingArea<DB, Shift> {
             line_chart(area, &p.title, "time (s)", &p.y_label, &p.series)?;
         }
         if let (false, Some(area)) = (paths.is_empty(), areas.get(lines.len())) {
-            top_view(area, paths, obstacles, size)?;
+            top_view(area, TOP_VIEW_TITLE, paths, obstacles, size)?;
         }
         self.present().map_err(|e| e.to_string())
     }
@@ -794,13 +816,6 @@ fn work_precision_chart<DB: DrawingBackend>(
             .draw_series(valid.iter().map(|p| Text::new(p.2.clone(), (p.0 * 1.04, p.1 * 1.1), (FAMILY, 12))))
             .map_err(|e| e.to_string())?;
     }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK.mix(0.3))
-        .label_font((FAMILY, 13))
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(|e| e.to_string())?;
+    legend(&mut chart)?;
     root.present().map_err(|e| e.to_string())
 }
