@@ -14,7 +14,9 @@
 //! Each finished run is also reported on stderr, so an interrupted study keeps its results.
 //! `--sweep-csv` takes the sweep from the `hoal_runs.csv` of a full `simserpent experiment hoal`
 //! run (the same runs: hoal scores them with `score_run`'s code) instead of running it again;
-//! `--no-sweep` skips it (no ratios then).
+//! `--no-sweep` skips it (no ratios then). The default wave family is sessions 8–9's (the
+//! recorded results used it); hoal's sweep has δ = −75° instead of −30° since session 10, so
+//! with a newer `hoal_runs.csv` pass `--lags=-75,-60,-45,30`.
 //!
 //! `--dump FILE.csv` writes one row per oracle window: field, window, start time, the wave that
 //! ran before, what the snake *sensed* over the window before (its controller's view: per link
