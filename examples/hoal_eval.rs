@@ -19,18 +19,7 @@
 //! fields together. Runs on two threads.
 use anyhow::{Context, bail};
 use simserpent::config::{Config, ConfigSource, ContactSource, ControllerKind, GaitKind, load_config_str};
-use simserpent::experiments::hoal::{DENSITIES, field_config, score_run};
-
-fn median(values: &[f64]) -> f64 {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    let m = v.len() / 2;
-    match v.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => v[m],
-        _ => 0.5 * (v[m - 1] + v[m]),
-    }
-}
+use simserpent::experiments::hoal::{DENSITIES, field_config, median, score_run};
 
 /// The config of one field for `variant`, with `sets` applied last.
 fn field(variant: &str, density: f64, seed: u64, duration_secs: f64, sets: &[String]) -> anyhow::Result<Config> {

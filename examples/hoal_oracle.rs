@@ -78,7 +78,8 @@
 use simserpent::config::{Config, ControlMethod, ControllerKind, GaitKind};
 use simserpent::control::{Command, Controller, JointTrajectory, Observation, Pid, SineWave};
 use simserpent::experiments::hoal::{
-    DENSITIES, RECORD_EVERY, field_config, forward_speed_m_per_s as forward_speed, path_jammed as jammed, score_run,
+    DENSITIES, RECORD_EVERY, field_config, forward_speed_m_per_s as forward_speed, median, path_jammed as jammed,
+    score_run,
 };
 use simserpent::sim::{Simulation, SimulationState, World};
 use simserpent::state::Snapshot;
@@ -523,19 +524,6 @@ fn open_config(base: &Config, density: f64, seed: u64, duration_secs: f64, wave:
     c.gait.sine_wave.phase_lag_deg = wave.lag_deg;
     c.estimation.enabled = false;
     c
-}
-
-fn median(values: &[f64]) -> f64 {
-    let mut v: Vec<f64> = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    let m = v.len() / 2;
-    if v.is_empty() {
-        f64::NAN
-    } else if v.len() % 2 == 1 {
-        v[m]
-    } else {
-        0.5 * (v[m - 1] + v[m])
-    }
 }
 
 fn parse_list<T: std::str::FromStr>(key: &str, s: &str) -> anyhow::Result<Vec<T>> {
