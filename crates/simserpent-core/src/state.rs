@@ -7,9 +7,158 @@
 //! The summaries of a run — centre of mass, heading, actuator power, peak contact force — have
 //! one implementation each, here ([`centre_of_mass_m`], [`heading_xy`], [`actuator_power_w`],
 //! [`peak_contact_force_n`]); [`RunTotals`] accumulates them over the recorded instants of a run.
+//! What a controller sees at one step, [`Observation`] (with its [`ContactEstimates`]), is plain
+//! data too and lives here, below `control` and `estimation`, which both use it.
 
-use crate::control::Observation;
 use serde::{Deserialize, Serialize};
+
+/// What a controller sees at one step. All vectors are per joint (`n_joints`) or per link
+/// (`n_links`); world frame unless the name says otherwise.
+#[derive(Debug, Clone, Default)]
+pub struct Observation {
+    /// Simulated time of the state (s).
+    pub time_secs: f64,
+    /// Joint angles as measured by the encoders (rad; noise added when configured).
+    pub joint_angle_rad: Vec<f64>,
+    /// Joint velocities as measured (rad/s).
+    pub joint_velocity_rad_per_s: Vec<f64>,
+    /// Per joint: torque of all its actuators together (N·m, MuJoCo's `qfrc_actuator`) of the
+    /// last complete model evaluation, as measured (a servo's current sensor).
+    pub actuator_torque_nm: Vec<f64>,
+    /// Head (link 0) frame origin, the tip of its body axis (m), exact.
+    pub head_position_m: [f64; 3],
+    /// Head orientation quaternion (w, x, y, z), exact.
+    pub head_quat: [f64; 4],
+    /// Head linear velocity (m/s), exact.
+    pub head_velocity_m_per_s: [f64; 3],
+    /// Per link IMU: accelerometer (proper acceleration, link frame, m/s²) as measured.
+    pub imu_accel_m_per_s2: Vec<[f64; 3]>,
+    /// Per link IMU: gyro (link frame, rad/s) as measured.
+    pub imu_gyro_rad_per_s: Vec<[f64; 3]>,
+    /// Per joint force sensor (N, in the child link's frame at the joint) as measured.
+    pub joint_force_n: Vec<[f64; 3]>,
+    /// Per joint torque sensor (N·m, child link frame) as measured.
+    pub joint_torque_nm: Vec<[f64; 3]>,
+    /// Time of the sensor sample above (s): IMU and force/torque values come from the last
+    /// complete evaluation of the model, at most one step old (a sensor's latency).
+    pub sensor_time_secs: f64,
+    /// Contact estimates from the measured sensors (`[estimation]`, module `estimation`):
+    /// per link external, floor and obstacle force, contact flag and point. Inactive (empty)
+    /// when estimation is off and in the true observation.
+    pub contacts: ContactEstimates,
+}
+
+impl Observation {
+    /// An observation with all vectors sized for the robot.
+    pub fn new(n_links: usize, n_joints: usize) -> Self {
+        Self {
+            joint_angle_rad: vec![0.0; n_joints],
+            joint_velocity_rad_per_s: vec![0.0; n_joints],
+            actuator_torque_nm: vec![0.0; n_joints],
+            imu_accel_m_per_s2: vec![[0.0; 3]; n_links],
+            imu_gyro_rad_per_s: vec![[0.0; 3]; n_links],
+            joint_force_n: vec![[0.0; 3]; n_joints],
+            joint_torque_nm: vec![[0.0; 3]; n_joints],
+            ..Self::default()
+        }
+    }
+
+    /// Copies every value of `other` (same sizes) without allocating.
+    pub fn copy_from(&mut self, other: &Observation) {
+        self.time_secs = other.time_secs;
+        self.joint_angle_rad.copy_from_slice(&other.joint_angle_rad);
+        self.joint_velocity_rad_per_s.copy_from_slice(&other.joint_velocity_rad_per_s);
+        self.actuator_torque_nm.copy_from_slice(&other.actuator_torque_nm);
+        self.head_position_m = other.head_position_m;
+        self.head_quat = other.head_quat;
+        self.head_velocity_m_per_s = other.head_velocity_m_per_s;
+        self.imu_accel_m_per_s2.copy_from_slice(&other.imu_accel_m_per_s2);
+        self.imu_gyro_rad_per_s.copy_from_slice(&other.imu_gyro_rad_per_s);
+        self.joint_force_n.copy_from_slice(&other.joint_force_n);
+        self.joint_torque_nm.copy_from_slice(&other.joint_torque_nm);
+        self.sensor_time_secs = other.sensor_time_secs;
+        self.contacts.copy_from(&other.contacts);
+    }
+
+    /// Number of joints.
+    pub fn n_joints(&self) -> usize {
+        self.joint_angle_rad.len()
+    }
+}
+
+/// Per-link contact estimates of one instant, as controllers see them
+/// ([`Observation::contacts`]). Empty vectors (and `active` false) when estimation is off.
+/// World frame; forces on the link (N).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ContactEstimates {
+    /// Whether an estimator filled this instant.
+    pub active: bool,
+    /// Total external force (floor + obstacles + other links).
+    pub external_force_n: Vec<[f64; 3]>,
+    /// The floor's share: normal support and friction.
+    pub floor_force_n: Vec<[f64; 3]>,
+    /// The rest, horizontal: what obstacles push.
+    pub obstacle_force_n: Vec<[f64; 3]>,
+    /// Whether the link touches an obstacle (|obstacle force| ≥ the detection threshold).
+    pub contact: Vec<bool>,
+    /// Obstacle contact point: signed distance from the centre of mass along the link's axis
+    /// (+x, toward the head; m), when the lateral obstacle force determines it.
+    pub contact_point_along_m: Vec<Option<f64>>,
+    /// The same point in the world (m).
+    pub contact_point_m: Vec<Option<[f64; 3]>>,
+    /// The floor's Coulomb coefficients the floor share used (forward, backward, lateral):
+    /// `[ground]`'s, or the identified ones with `estimation.friction = "identify"`.
+    pub floor_friction: [f64; 3],
+}
+
+impl ContactEstimates {
+    /// The simulator's true contacts in the estimates' form, for controllers compared on the
+    /// truth (`contacts = "true"`): per link the horizontal obstacle force, the contact flag (its
+    /// magnitude at least `threshold_n`, the estimator's detection threshold) and the point.
+    pub fn fill_from_truth(&mut self, state: &Snapshot, threshold_n: f64) {
+        self.active = true;
+        for i in 0..self.n_links().min(state.link_obstacle_force_n.len()) {
+            let f = state.link_obstacle_force_n[i];
+            let f = [f[0], f[1], 0.0];
+            self.obstacle_force_n[i] = f;
+            self.contact[i] = f[0].hypot(f[1]) >= threshold_n;
+            self.contact_point_m[i] = state.link_obstacle_point_m[i];
+            self.contact_point_along_m[i] = state.link_obstacle_point_m[i].map(|p| state.along_link_axis_m(i, p));
+        }
+    }
+
+    /// Estimates for `n_links` links (inactive until filled).
+    pub fn new(n_links: usize) -> Self {
+        Self {
+            active: false,
+            external_force_n: vec![[0.0; 3]; n_links],
+            floor_force_n: vec![[0.0; 3]; n_links],
+            obstacle_force_n: vec![[0.0; 3]; n_links],
+            contact: vec![false; n_links],
+            contact_point_along_m: vec![None; n_links],
+            contact_point_m: vec![None; n_links],
+            floor_friction: [0.0; 3],
+        }
+    }
+
+    /// Number of links.
+    pub fn n_links(&self) -> usize {
+        self.external_force_n.len()
+    }
+
+    /// Copies `other` (no allocation once the sizes match).
+    pub fn copy_from(&mut self, other: &ContactEstimates) {
+        self.active = other.active;
+        self.external_force_n.clone_from(&other.external_force_n);
+        self.floor_force_n.clone_from(&other.floor_force_n);
+        self.obstacle_force_n.clone_from(&other.obstacle_force_n);
+        self.contact.clone_from(&other.contact);
+        self.contact_point_along_m.clone_from(&other.contact_point_along_m);
+        self.contact_point_m.clone_from(&other.contact_point_m);
+        self.floor_friction = other.floor_friction;
+    }
+}
+
 
 /// What a geom is, for splitting contact forces into ground reaction, obstacle and link–link.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

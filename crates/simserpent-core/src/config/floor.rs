@@ -2,7 +2,7 @@
 //! `physics.floor_stick_time_constant_secs`, `physics.environment_contact_*`): the
 //! `"auto"`-or-seconds values and their checks, kept apart from `validate.rs`.
 
-use super::validate::fmt_f;
+use super::text::fmt_f;
 use super::{Config, ConfigError, FloorFriction, GroundModel};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::fmt;
@@ -184,7 +184,7 @@ impl Config {
         if g[1] != 0.0 || g[2] != 0.0 {
             return Err(ConfigError::invalid(
                 "snake.ground_friction",
-                super::validate::fmt_a(g),
+                super::text::fmt_a(g),
                 "torsional and rolling coefficients must be 0 with physics.floor_friction = \"stick_slip\" \
                  (SimSerpent's floor friction has only sliding friction)",
             ));
@@ -193,7 +193,7 @@ impl Config {
         if o[1] != 0.0 || o[2] != 0.0 {
             return Err(ConfigError::invalid(
                 "terrain.obstacle_friction",
-                super::validate::fmt_a(o),
+                super::text::fmt_a(o),
                 "torsional and rolling coefficients must be 0 with physics.floor_friction = \"stick_slip\" \
                  (SimSerpent applies the link-obstacle friction too, and it has only sliding friction)",
             ));

@@ -18,7 +18,7 @@
 //! (joint velocities, IMU sensors, contacts, ...) keep their defaults.
 
 use super::ConfigError;
-use super::load::{join, lookup, suggest};
+use super::text::{join, lookup, suggest};
 use serde_json::{Map, Value as Json};
 use toml::{Table, Value};
 

@@ -5,6 +5,7 @@
 //! and what is allowed; misspelt keys get a did-you-mean suggestion.
 
 use super::legacy::LegacyConversion;
+use super::text::{join, lookup, suggest};
 use super::{Config, ConfigError, DEFAULT_CONFIG_TOML, legacy};
 use std::path::Path;
 use toml::{Table, Value};
@@ -52,7 +53,7 @@ pub fn load_config(path: &Path, overrides: &[String]) -> Result<Config, ConfigEr
         }
     };
     // A regular file of at most MAX_CONFIG_BYTES (not /dev/zero, a FIFO or a folder).
-    let bytes = crate::model::files::read_regular_file(path, crate::model::files::MAX_CONFIG_BYTES)
+    let bytes = super::files::read_regular_file(path, super::files::MAX_CONFIG_BYTES)
         .map_err(|e| ConfigError::Io { file: path.to_path_buf(), source: std::io::Error::other(e).into() })?;
     let text = utf8_text(&file, bytes)?;
     let base = path.parent().filter(|p| !p.as_os_str().is_empty());
@@ -141,7 +142,7 @@ pub fn convert_legacy_text(text: &str, file: &str) -> Result<LegacyConversion, C
 /// As [`load_config`].
 pub fn convert_legacy_file(path: &Path) -> Result<LegacyConversion, ConfigError> {
     let file = path.display().to_string();
-    let bytes = crate::model::files::read_regular_file(path, crate::model::files::MAX_CONFIG_BYTES)
+    let bytes = super::files::read_regular_file(path, super::files::MAX_CONFIG_BYTES)
         .map_err(|e| ConfigError::Io { file: path.to_path_buf(), source: std::io::Error::other(e).into() })?;
     convert_legacy_text(&utf8_text(&file, bytes)?, &file)
 }
@@ -288,11 +289,6 @@ pub(super) fn default_table() -> Result<Table, ConfigError> {
         .map_err(|e| ConfigError::Syntax { file: "embedded default config".into(), message: e.to_string() })
 }
 
-/// `prefix.key`, or `key` at the top level.
-pub(super) fn join(prefix: &str, key: &str) -> String {
-    if prefix.is_empty() { key.to_string() } else { format!("{prefix}.{key}") }
-}
-
 /// Checks every key of `user` against `defaults` (the default table at the same path) and
 /// deep-merges it into `target`.
 fn merge_checked(target: &mut Table, user: Table, defaults: &Table, prefix: &str) -> Result<(), ConfigError> {
@@ -356,25 +352,6 @@ fn find_key(table: &Table, prefix: &str, key: &str, found: &mut Vec<String>) {
     }
 }
 
-/// The closest candidate to `word`, if one is reasonably close.
-pub(super) fn suggest<'a>(word: &str, candidates: &[&'a str]) -> Option<&'a str> {
-    let word_lower = word.to_ascii_lowercase();
-    let mut best: Option<(f64, &'a str)> = None;
-    for &candidate in candidates {
-        let cand_lower = candidate.to_ascii_lowercase();
-        let ndl = strsim::normalized_damerau_levenshtein(&word_lower, &cand_lower);
-        let jw = strsim::jaro_winkler(&word_lower, &cand_lower);
-        let contains = word_lower.len() >= 3 && (cand_lower.contains(&word_lower) || word_lower.contains(&cand_lower));
-        if ndl >= 0.6 || jw >= 0.85 || contains {
-            let score = ndl.max(jw);
-            if best.is_none_or(|(s, _)| score > s) {
-                best = Some((score, candidate));
-            }
-        }
-    }
-    best.map(|(_, c)| c)
-}
-
 /// The keys allowed in the table at `prefix`, in the order of the default file.
 fn allowed_keys(prefix: &str, defaults: &Table) -> String {
     let mut keys: Vec<String> = defaults.keys().cloned().collect();
@@ -429,28 +406,6 @@ fn ints_to_floats(value: &mut Value, default: &Value) {
         (Value::Table(table), Value::Table(default_table)) => ints_to_floats_table(table, default_table),
         _ => {}
     }
-}
-
-/// The value at a serde path like `snake.torque_range_nm[1]`.
-pub(super) fn lookup<'a>(table: &'a Table, path: &str) -> Option<&'a Value> {
-    let mut current: Option<&Value> = None;
-    for segment in path.split('.') {
-        let (name, indices) = match segment.find('[') {
-            Some(i) => (&segment[..i], &segment[i..]),
-            None => (segment, ""),
-        };
-        current = match current {
-            None => table.get(name),
-            Some(Value::Table(t)) => t.get(name),
-            Some(_) => None,
-        };
-        for index in indices.split('[').filter(|s| !s.is_empty()) {
-            let index: usize = index.trim_end_matches(']').parse().ok()?;
-            current = current.and_then(|v| v.as_array()).and_then(|a| a.get(index));
-        }
-        current?;
-    }
-    current
 }
 
 /// Serde's expectation from its message (`invalid type: string "ten", expected f64`), in words.

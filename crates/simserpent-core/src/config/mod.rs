@@ -9,15 +9,20 @@
 //! Does: parse, merge, override, validate. Does not: touch files other than the config itself,
 //! or MuJoCo.
 
+pub mod files;
 mod floor;
 mod legacy;
 mod load;
 pub mod presets;
 mod ros2;
 pub mod surfaces;
+mod text;
 mod validate;
 
 pub use floor::{AutoSecs, StickTimeConstant};
+
+/// The most obstacles a terrain may have.
+pub const MAX_OBSTACLES: usize = 100_000;
 pub use legacy::{
     LEGACY_DEVIATIONS, LEGACY_RULES, LegacyConversion, LegacyDeviation, LegacyNote, LegacyRule, legacy_deviation_table,
     legacy_rule_table,

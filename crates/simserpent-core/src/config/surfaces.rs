@@ -40,7 +40,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::validate::{fmt_a, fmt_f};
+use super::text::{fmt_a, fmt_f};
 
 /// A named floor material.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -337,7 +337,7 @@ impl TryFrom<RawSurface> for Surface {
             (Some(name), friction) => {
                 let Some(p) = preset(&name) else {
                     let names: Vec<&str> = PRESETS.iter().map(|p| p.name).collect();
-                    let hint = super::load::suggest(&name, &names)
+                    let hint = super::text::suggest(&name, &names)
                         .map(|n| format!("did you mean \"{n}\"? "))
                         .unwrap_or_default();
                     return Err(SurfaceError::new(

@@ -18,6 +18,7 @@
 //! snake is checked by model generation, not here.
 
 use super::surfaces::{self, FrictionSource, SurfaceShape};
+use super::text::{fmt_a, fmt_f};
 use super::{
     Config, ConfigError, ContactSource, ControllerKind, GaitKind, GroundModel, JointAxes, LegacyGeometry, TerrainKind,
     WaveSpeed,
@@ -53,22 +54,6 @@ pub const MIN_LINK_INERTIA_KG_M2: f64 = 1e-14;
 pub const OBSERVATION_VERSIONS: [u32; 1] = [1];
 
 type Check = Result<(), ConfigError>;
-
-/// A float as TOML writes it (`1.0`, `nan`, `inf`).
-pub(super) fn fmt_f(v: f64) -> String {
-    if v.is_nan() {
-        "nan".into()
-    } else if v.is_infinite() {
-        if v > 0.0 { "inf".into() } else { "-inf".into() }
-    } else {
-        format!("{v:?}")
-    }
-}
-
-/// An array of floats as TOML writes it.
-pub(super) fn fmt_a(values: &[f64]) -> String {
-    format!("[{}]", values.iter().map(|v| fmt_f(*v)).collect::<Vec<_>>().join(", "))
-}
 
 fn fail(key: &str, value: impl std::fmt::Display, allowed: impl Into<String>) -> Check {
     Err(ConfigError::invalid(key, value, allowed))
@@ -1018,10 +1003,10 @@ impl Config {
             )?;
         }
         ensure(
-            p.count <= crate::model::terrain::MAX_OBSTACLES,
+            p.count <= super::MAX_OBSTACLES,
             "terrain.pegboard.count",
             p.count,
-            format!("must be at most {}", crate::model::terrain::MAX_OBSTACLES),
+            format!("must be at most {}", super::MAX_OBSTACLES),
         )?;
 
         let c = &t.channel;

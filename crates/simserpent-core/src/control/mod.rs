@@ -20,79 +20,7 @@ pub use rail::{Rail, RailState};
 
 use crate::config::{Config, ControlMethod, JointAxes};
 
-/// What a controller sees at one step. All vectors are per joint (`n_joints`) or per link
-/// (`n_links`); world frame unless the name says otherwise.
-#[derive(Debug, Clone, Default)]
-pub struct Observation {
-    /// Simulated time of the state (s).
-    pub time_secs: f64,
-    /// Joint angles as measured by the encoders (rad; noise added when configured).
-    pub joint_angle_rad: Vec<f64>,
-    /// Joint velocities as measured (rad/s).
-    pub joint_velocity_rad_per_s: Vec<f64>,
-    /// Per joint: torque of all its actuators together (N·m, MuJoCo's `qfrc_actuator`) of the
-    /// last complete model evaluation, as measured (a servo's current sensor).
-    pub actuator_torque_nm: Vec<f64>,
-    /// Head (link 0) frame origin, the tip of its body axis (m), exact.
-    pub head_position_m: [f64; 3],
-    /// Head orientation quaternion (w, x, y, z), exact.
-    pub head_quat: [f64; 4],
-    /// Head linear velocity (m/s), exact.
-    pub head_velocity_m_per_s: [f64; 3],
-    /// Per link IMU: accelerometer (proper acceleration, link frame, m/s²) as measured.
-    pub imu_accel_m_per_s2: Vec<[f64; 3]>,
-    /// Per link IMU: gyro (link frame, rad/s) as measured.
-    pub imu_gyro_rad_per_s: Vec<[f64; 3]>,
-    /// Per joint force sensor (N, in the child link's frame at the joint) as measured.
-    pub joint_force_n: Vec<[f64; 3]>,
-    /// Per joint torque sensor (N·m, child link frame) as measured.
-    pub joint_torque_nm: Vec<[f64; 3]>,
-    /// Time of the sensor sample above (s): IMU and force/torque values come from the last
-    /// complete evaluation of the model, at most one step old (a sensor's latency).
-    pub sensor_time_secs: f64,
-    /// Contact estimates from the measured sensors (`[estimation]`, module `estimation`):
-    /// per link external, floor and obstacle force, contact flag and point. Inactive (empty)
-    /// when estimation is off and in the true observation.
-    pub contacts: crate::estimation::ContactEstimates,
-}
-
-impl Observation {
-    /// An observation with all vectors sized for the robot.
-    pub fn new(n_links: usize, n_joints: usize) -> Self {
-        Self {
-            joint_angle_rad: vec![0.0; n_joints],
-            joint_velocity_rad_per_s: vec![0.0; n_joints],
-            actuator_torque_nm: vec![0.0; n_joints],
-            imu_accel_m_per_s2: vec![[0.0; 3]; n_links],
-            imu_gyro_rad_per_s: vec![[0.0; 3]; n_links],
-            joint_force_n: vec![[0.0; 3]; n_joints],
-            joint_torque_nm: vec![[0.0; 3]; n_joints],
-            ..Self::default()
-        }
-    }
-
-    /// Copies every value of `other` (same sizes) without allocating.
-    pub fn copy_from(&mut self, other: &Observation) {
-        self.time_secs = other.time_secs;
-        self.joint_angle_rad.copy_from_slice(&other.joint_angle_rad);
-        self.joint_velocity_rad_per_s.copy_from_slice(&other.joint_velocity_rad_per_s);
-        self.actuator_torque_nm.copy_from_slice(&other.actuator_torque_nm);
-        self.head_position_m = other.head_position_m;
-        self.head_quat = other.head_quat;
-        self.head_velocity_m_per_s = other.head_velocity_m_per_s;
-        self.imu_accel_m_per_s2.copy_from_slice(&other.imu_accel_m_per_s2);
-        self.imu_gyro_rad_per_s.copy_from_slice(&other.imu_gyro_rad_per_s);
-        self.joint_force_n.copy_from_slice(&other.joint_force_n);
-        self.joint_torque_nm.copy_from_slice(&other.joint_torque_nm);
-        self.sensor_time_secs = other.sensor_time_secs;
-        self.contacts.copy_from(&other.contacts);
-    }
-
-    /// Number of joints.
-    pub fn n_joints(&self) -> usize {
-        self.joint_angle_rad.len()
-    }
-}
+pub use crate::state::Observation;
 
 /// What a controller writes: one command per joint for each actuator kind. Only the kind that
 /// the model's `control.method` gave non-zero gains has any effect; the others are sent too
@@ -376,7 +304,7 @@ pub struct ContactFeed {
     /// this (N; the estimator's detection threshold).
     pub true_threshold_n: f64,
     /// The true contacts, filled each step (no allocation after construction).
-    truth: crate::estimation::ContactEstimates,
+    truth: crate::state::ContactEstimates,
 }
 
 impl ContactFeed {
@@ -385,7 +313,7 @@ impl ContactFeed {
         Self {
             source,
             true_threshold_n: config.estimation.detection_threshold_n,
-            truth: crate::estimation::ContactEstimates::new(n_links),
+            truth: crate::state::ContactEstimates::new(n_links),
         }
     }
 
@@ -401,7 +329,7 @@ impl ContactFeed {
 pub(crate) fn feel<C>(
     ctl: &mut C,
     feed: fn(&mut C) -> &mut ContactFeed,
-    step: fn(&mut C, &Observation, &crate::estimation::ContactEstimates, &mut Command),
+    step: fn(&mut C, &Observation, &crate::state::ContactEstimates, &mut Command),
     obs: &Observation,
     state: Option<&crate::state::Snapshot>,
     cmd: &mut Command,
@@ -410,7 +338,7 @@ pub(crate) fn feel<C>(
     let f = feed(ctl);
     match (f.source, state) {
         (ContactSource::Estimated, _) => step(ctl, obs, &obs.contacts, cmd),
-        (ContactSource::True, None) => step(ctl, obs, &crate::estimation::ContactEstimates::default(), cmd),
+        (ContactSource::True, None) => step(ctl, obs, &crate::state::ContactEstimates::default(), cmd),
         (ContactSource::True, Some(state)) => {
             let threshold_n = f.true_threshold_n;
             let mut truth = std::mem::take(&mut f.truth);

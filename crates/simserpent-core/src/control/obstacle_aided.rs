@@ -151,7 +151,7 @@ use super::{
     wrap_angle_rad, yaw_joints,
 };
 use crate::config::{Config, ContactSource, ControlMethod, Propagation, Recovery, SwitchExit, WaveSpeed, WaveSwitch};
-use crate::estimation::ContactEstimates;
+use crate::state::ContactEstimates;
 use crate::state::Snapshot;
 use std::f64::consts::TAU;
 

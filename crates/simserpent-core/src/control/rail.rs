@@ -124,7 +124,7 @@ use super::{
     wrap_angle_rad, yaw_joints,
 };
 use crate::config::{Config, ControlMethod, RailGait};
-use crate::estimation::ContactEstimates;
+use crate::state::ContactEstimates;
 use crate::state::Snapshot;
 use std::f64::consts::{FRAC_PI_2, TAU};
 

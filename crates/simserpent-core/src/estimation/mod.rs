@@ -39,13 +39,14 @@
 //! `mᵢ²·σ_a² + k·σ_f²`, `k` the number of joints adjacent to link `i` (1 at the ends, else 2).
 //! [`predicted_error_std_n`] computes it; a test checks the measured error against it.
 
-use crate::control::Observation;
+pub use crate::state::ContactEstimates;
+use crate::state::Observation;
 
 mod motion;
 mod score;
 
 pub use motion::{
-    ChainGeometry, ContactEstimates, FloorShare, FrictionFit, HeadAttitude, LinkPoses, MotionEstimator,
+    ChainGeometry, FloorShare, FrictionFit, HeadAttitude, LinkPoses, MotionEstimator,
     MotionEstimatorState,
 };
 pub use score::{LinkSample, MotionScore};

@@ -99,10 +99,7 @@ pub struct Features {
     pub copies: Vec<FileCopy>,
 }
 
-/// File name of the third-party MJCF terrain in the run folder.
-pub const USER_TERRAIN_FILE: &str = "user_terrain.xml";
-/// Folder (in the run folder) of the copied source files of generated features.
-pub const SOURCES_DIR: &str = "terrain_sources";
+pub use super::files::{SOURCES_DIR, USER_TERRAIN_FILE};
 
 fn base_name(file: &str) -> String {
     std::path::Path::new(file).file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "file".into())
@@ -446,11 +443,11 @@ fn peg_centres(cfg: &Config) -> Result<Vec<[f64; 2]>, ConfigError> {
     // `as usize` saturates (a huge region gives usize::MAX), so the + 1 must too.
     let nx = (((hi[0] - lo[0]) / p.spacing_m + eps).floor() as usize).saturating_add(1);
     let ny = (((hi[1] - lo[1]) / row_step + eps).floor() as usize).saturating_add(1);
-    if nx.saturating_mul(ny) > super::terrain::MAX_OBSTACLES {
+    if nx.saturating_mul(ny) > crate::config::MAX_OBSTACLES {
         return Err(ConfigError::invalid(
             "terrain.pegboard.spacing_m",
             n(p.spacing_m),
-            format!("gives {nx} x {ny} pegs in the region; at most {} obstacles in all", super::terrain::MAX_OBSTACLES),
+            format!("gives {nx} x {ny} pegs in the region; at most {} obstacles in all", crate::config::MAX_OBSTACLES),
         ));
     }
     let mut out = Vec::new();

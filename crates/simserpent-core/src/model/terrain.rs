@@ -75,8 +75,7 @@ const ATTEMPTS_PER_CYLINDER: usize = 1000;
 /// Upper bound on the total attempts, whatever the count.
 const MAX_ATTEMPTS: usize = 10_000_000;
 
-/// The most obstacles a terrain may have.
-pub const MAX_OBSTACLES: usize = 100_000;
+pub use crate::config::MAX_OBSTACLES;
 
 /// An obstacle and the config key (with its value) responsible for where it stands.
 #[derive(Debug, Clone)]
