@@ -77,46 +77,7 @@ pub enum RunError {
     Ros2(#[from] crate::ros2::Ros2Error),
 }
 
-/// The short summary printed at the end and stored in the manifest.
-#[derive(Debug, Clone, Serialize, serde::Deserialize, PartialEq)]
-pub struct RunSummary {
-    /// The run folder.
-    pub run_folder: PathBuf,
-    /// Simulated time (s).
-    pub simulated_secs: f64,
-    /// Horizontal displacement of the robot's centre of mass from start to end (m).
-    pub distance_m: f64,
-    /// `distance_m` / simulated time (m/s).
-    pub mean_speed_m_per_s: f64,
-    /// Direction of that displacement in the xy-plane (degrees from +x).
-    pub heading_deg: f64,
-    /// Speed along the direction the head faced at the start (its link's +x axis in the
-    /// xy-plane): the centre of mass's displacement projected on it, over the simulated time (m/s).
-    #[serde(default)]
-    pub forward_speed_m_per_s: f64,
-    /// Largest contact normal force seen at a recorded step (N).
-    pub peak_contact_force_n: f64,
-    /// Largest penetration seen at a recorded step (m).
-    pub max_penetration_m: f64,
-    /// Work done by the actuators, ∫ Σ_joints |τ·q̇| dt (J), from the joint-space actuator
-    /// torques and joint velocities of the recorded steps, each held until the next one.
-    #[serde(default)]
-    pub actuator_energy_j: f64,
-    /// How well each joint followed the configured gait (built-in controller with a moving
-    /// gait only; `null` otherwise): amplitude reached, RMS and largest error, in rad and in % of
-    /// the command amplitude, from the end of the gait's ramp-in on.
-    #[serde(default)]
-    pub tracking: Option<Vec<crate::state::JointTracking>>,
-    /// Steps per second of wall time.
-    pub steps_per_wall_sec: f64,
-    /// Simulated seconds per wall second.
-    pub real_time_factor: f64,
-    /// CPU time the step-loop thread used over the same interval as `steps_per_wall_sec`'s
-    /// wall time (s; `simserpent bench`; not stored in the manifest: it says nothing about the
-    /// run's physics and differs from run to run).
-    #[serde(skip)]
-    pub loop_cpu_secs: f64,
-}
+pub use crate::record::manifest::RunSummary;
 
 /// Builds the world described by `config` (and `options.robot`). Fails before anything is
 /// written, so a bad config or robot never leaves a run folder behind.
@@ -317,8 +278,9 @@ fn run_simulation_tracked<C: Controller>(
         if let Some(v) = visuals.as_mut() {
             observers.push(v);
         }
-        if let Some(b) = bridge.as_mut() {
-            observers.push(&mut **b);
+        let mut live = bridge.as_mut().map(|b| Live(&mut **b));
+        if let Some(b) = live.as_mut() {
+            observers.push(b);
         }
         observers.push(&mut interrupt);
         observers.push(&mut progress);
@@ -506,6 +468,24 @@ impl Observer<RunError> for Recorder {
 impl Observer<RunError> for crate::ros2::BagRecorder {
     fn on_record(&mut self, view: &StepView<'_>, snapshot: &Snapshot) -> Result<(), RunError> {
         Ok(self.write(snapshot, view.command)?)
+    }
+}
+
+/// The live ROS 2 bridge as one of the run's observers (its errors are [`crate::ros2::Ros2Error`]s).
+struct Live<'a>(&'a mut dyn crate::ros2::LiveBridge);
+
+impl Observer<RunError> for Live<'_> {
+    fn on_start(&mut self, view: &StepView<'_>) -> Result<(), RunError> {
+        Ok(self.0.on_start(view)?)
+    }
+    fn on_record(&mut self, view: &StepView<'_>, snapshot: &Snapshot) -> Result<(), RunError> {
+        Ok(self.0.on_record(view, snapshot)?)
+    }
+    fn on_step(&mut self, view: &StepView<'_>) -> Result<(), RunError> {
+        Ok(self.0.on_step(view)?)
+    }
+    fn on_end(&mut self, view: &StepView<'_>, completed: bool) -> Result<(), RunError> {
+        Ok(self.0.on_end(view, completed)?)
     }
 }
 

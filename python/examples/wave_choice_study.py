@@ -1,6 +1,6 @@
 """Can a causal controller choose hoal's waves the way the oracle does? (issue 15)
 
-`examples/hoal_oracle.rs` (the greedy oracle with perfect foresight) reaches 2.5-4.2x the best
+`tools/hoal_oracle.rs` (the greedy oracle with perfect foresight) reaches 2.5-4.2x the best
 single open-loop wave on hoal's peg fields by picking, every 2 s, the wave of hoal's sweep that
 gains most over the next window. This study asks whether what a controller *senses* predicts
 that choice. Make the data (one row per oracle window: what the snake sensed over the window

@@ -259,7 +259,7 @@ pub fn score_run(config: &Config) -> Result<(f64, bool), ExperimentError> {
 }
 
 /// The median of the finite values (NaN when there is none): hoal's medians, shared with the
-/// tools that score its fields (`examples/hoal_eval.rs`, `examples/hoal_oracle.rs`).
+/// tools that score its fields (`tools/hoal_eval.rs`, `tools/hoal_oracle.rs`).
 pub fn median(values: &[f64]) -> f64 {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
     if v.is_empty() {

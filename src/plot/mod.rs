@@ -39,6 +39,31 @@ pub fn register_font() {
     });
 }
 
+/// Why a PNG could not be written ([`write_png`]; the caller names the file).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PngError {
+    /// Creating or writing the file failed.
+    #[error("{0}")]
+    Io(#[source] std::io::Error),
+    /// The PNG encoder failed.
+    #[error("PNG encoder: {0}")]
+    Encoder(String),
+}
+
+/// Writes a PNG (RGB, 8 bits; the plots' and the rendered pictures' one encoder).
+pub fn write_png(path: &Path, rgb: &[u8], width: usize, height: usize) -> Result<(), PngError> {
+    let enc = |e: png::EncodingError| PngError::Encoder(e.to_string());
+    let file = std::fs::File::create(path).map_err(PngError::Io)?;
+    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width as u32, height as u32);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_compression(png::Compression::Fast);
+    let mut writer = encoder.write_header().map_err(enc)?;
+    writer.write_image_data(rgb).map_err(enc)?;
+    writer.finish().map_err(enc)
+}
+
 /// Errors of plotting; they name the file.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -84,7 +109,7 @@ pub enum PlotError {
         path: PathBuf,
         /// What failed.
         #[source]
-        source: Box<crate::render::RenderError>,
+        source: PngError,
     },
     /// SIGINT/SIGTERM (with [`crate::interrupt`]'s handler installed, or
     /// [`crate::interrupt::request`]) stopped the plotting between two files.
@@ -365,8 +390,8 @@ fn both(
         let root = BitMapBackend::with_buffer(&mut buffer, size).into_drawing_area();
         draw(&root).map_err(|m| failed(&png, m))?;
     }
-    crate::render::write_png(&png, &buffer, size.0 as usize, size.1 as usize)
-        .map_err(|e| PlotError::Png { path: png.clone(), source: Box::new(e) })?;
+    write_png(&png, &buffer, size.0 as usize, size.1 as usize)
+        .map_err(|source| PlotError::Png { path: png.clone(), source })?;
     {
         let root = SVGBackend::new(&svg, size).into_drawing_area();
         draw(&root).map_err(|m| failed(&svg, m))?;

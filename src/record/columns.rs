@@ -7,7 +7,8 @@
 //! the switched-off groups dropped there. Writing a row then only walks the resolved list of
 //! writers: no names, no flags, no allocation.
 
-use super::sink::{ColumnKind, Table};
+use super::format::ColumnKind;
+use super::sink::Table;
 use crate::config::Recording;
 use crate::sim::Snapshot;
 use std::io;

@@ -60,7 +60,7 @@ pub struct Manifest {
     /// MuJoCo warnings raised during the run (kind, count).
     pub mujoco_warnings: Vec<(String, i32)>,
     /// Summary metrics.
-    pub summary: Option<crate::run::RunSummary>,
+    pub summary: Option<RunSummary>,
     /// Plotting after the run (`general.plot = true`): `null` when not asked for (or not reached),
     /// `"written"`, `"interrupted"` (SIGINT/SIGTERM during plotting: the run itself is complete;
     /// `simserpent plot <run folder>` makes the plots) or `"failed: <reason>"`.
@@ -69,7 +69,7 @@ pub struct Manifest {
     /// The live ROS 2 bridge of `run --ros2` (README "ROS 2"): clock mode, commands accepted and
     /// rejected by reason, why the bridge stopped the run; absent without `--ros2`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub ros2: Option<crate::ros2::Ros2Report>,
+    pub ros2: Option<Ros2Report>,
 }
 
 impl Manifest {
@@ -182,4 +182,80 @@ mod tests {
             assert_eq!(back.to_bits(), x.to_bits(), "{x:e} written as {text}");
         }
     }
+}
+
+/// The short summary of a run (`run::RunSummary`), printed at the end and stored in the manifest.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct RunSummary {
+    /// The run folder.
+    pub run_folder: PathBuf,
+    /// Simulated time (s).
+    pub simulated_secs: f64,
+    /// Horizontal displacement of the robot's centre of mass from start to end (m).
+    pub distance_m: f64,
+    /// `distance_m` / simulated time (m/s).
+    pub mean_speed_m_per_s: f64,
+    /// Direction of that displacement in the xy-plane (degrees from +x).
+    pub heading_deg: f64,
+    /// Speed along the direction the head faced at the start (its link's +x axis in the
+    /// xy-plane): the centre of mass's displacement projected on it, over the simulated time (m/s).
+    #[serde(default)]
+    pub forward_speed_m_per_s: f64,
+    /// Largest contact normal force seen at a recorded step (N).
+    pub peak_contact_force_n: f64,
+    /// Largest penetration seen at a recorded step (m).
+    pub max_penetration_m: f64,
+    /// Work done by the actuators, ∫ Σ_joints |τ·q̇| dt (J), from the joint-space actuator
+    /// torques and joint velocities of the recorded steps, each held until the next one.
+    #[serde(default)]
+    pub actuator_energy_j: f64,
+    /// How well each joint followed the configured gait (built-in controller with a moving
+    /// gait only; `null` otherwise): amplitude reached, RMS and largest error, in rad and in % of
+    /// the command amplitude, from the end of the gait's ramp-in on.
+    #[serde(default)]
+    pub tracking: Option<Vec<crate::state::JointTracking>>,
+    /// Steps per second of wall time.
+    pub steps_per_wall_sec: f64,
+    /// Simulated seconds per wall second.
+    pub real_time_factor: f64,
+    /// CPU time the step-loop thread used over the same interval as `steps_per_wall_sec`'s
+    /// wall time (s; `simserpent bench`; not stored in the manifest: it says nothing about the
+    /// run's physics and differs from run to run).
+    #[serde(skip)]
+    pub loop_cpu_secs: f64,
+}
+
+/// The counts of a live ROS 2 run (`ros2::Ros2Report`), for the manifest (`ros2` in `manifest.json`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Ros2Report {
+    /// `ros2.clock`: "free" or "lockstep".
+    pub clock: String,
+    /// DDS domain id.
+    pub domain_id: u16,
+    /// Valid commands applied.
+    pub commands_accepted: u64,
+    /// Rejected commands by reason (the last valid command held).
+    pub rejected_wrong_length: u64,
+    pub rejected_not_finite: u64,
+    pub rejected_unknown_joint: u64,
+    pub rejected_wrong_interface: u64,
+    pub rejected_bad_trajectory: u64,
+    pub rejected_undecodable: u64,
+    /// Instants at which the state topics were published.
+    pub published_instants: u64,
+    /// Lockstep: commands waited for (and received).
+    pub lockstep_commands: u64,
+    /// Lockstep: how often the state of the first command instant was published again because
+    /// no command answered it within `ros2::FIRST_STATE_RESEND_SECS` (a peer's reader
+    /// that matched the bridge's writer only after the first sample had been sent never gets
+    /// that sample; README "ROS 2", "Clock modes").
+    #[serde(default)]
+    pub lockstep_state_resends: u64,
+    /// Lockstep: valid commands that answered a resent copy of the first state after the
+    /// first answer had come (applied, counted in `commands_accepted`, but not as the answer
+    /// to a later instant).
+    #[serde(default)]
+    pub lockstep_extra_answers: u64,
+    /// Why the bridge stopped the run early (a lockstep peer that went silent), if it did.
+    pub stopped: Option<String>,
 }

@@ -18,6 +18,7 @@
 //! [`Snapshot`]), and the header and every row are built from that list.
 
 mod columns;
+mod format;
 mod manifest;
 pub mod offload;
 #[cfg(feature = "parquet")]
@@ -28,7 +29,8 @@ mod table;
 pub use manifest::{Manifest, RunStatus, SpaceReserve};
 #[cfg(feature = "parquet")]
 pub use parquet::ParquetTable;
-pub use sink::{ColumnKind, Table, TableSink};
+pub use format::{ColumnKind, TableSink};
+pub use sink::Table;
 pub use table::CsvTable;
 
 use crate::config::Recording;

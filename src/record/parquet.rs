@@ -26,7 +26,7 @@
 //! compression *and* decompression context for every column of every row group (about 0.1 MB
 //! each, 75 MB at once for a 10-link snake's 656 columns), which dominates the memory of a run.
 
-use super::sink::{ColumnKind, TableSink};
+use super::format::{ColumnKind, TableSink};
 use crate::config::ParquetCompression;
 use arrow_array::builder::{ArrayBuilder, StringBuilder};
 use arrow_array::{ArrayRef, Float64Array, Int64Array, RecordBatch};

@@ -91,17 +91,12 @@ impl RenderError {
     }
 }
 
-/// Writes a PNG (RGB, 8 bits).
+/// Writes a PNG (RGB, 8 bits) ([`crate::plot::write_png`], with this module's error).
 pub fn write_png(path: &Path, rgb: &[u8], width: usize, height: usize) -> Result<(), RenderError> {
-    let enc = |message: String| RenderError::Encoder { path: path.to_path_buf(), message };
-    let file = std::fs::File::create(path).map_err(RenderError::io(path))?;
-    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width as u32, height as u32);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
-    encoder.set_compression(png::Compression::Fast);
-    let mut writer = encoder.write_header().map_err(|e| enc(e.to_string()))?;
-    writer.write_image_data(rgb).map_err(|e| enc(e.to_string()))?;
-    writer.finish().map_err(|e| enc(e.to_string()))
+    crate::plot::write_png(path, rgb, width, height).map_err(|e| match e {
+        crate::plot::PngError::Io(source) => RenderError::Io { path: path.to_path_buf(), source },
+        crate::plot::PngError::Encoder(message) => RenderError::Encoder { path: path.to_path_buf(), message },
+    })
 }
 
 /// Writes `t = 1.234 s` into the top left corner of an RGB picture.

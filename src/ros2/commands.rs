@@ -136,40 +136,7 @@ impl Rejection {
     }
 }
 
-/// The counts of a live run, for the manifest (`ros2` in `manifest.json`).
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct Ros2Report {
-    /// `ros2.clock`: "free" or "lockstep".
-    pub clock: String,
-    /// DDS domain id.
-    pub domain_id: u16,
-    /// Valid commands applied.
-    pub commands_accepted: u64,
-    /// Rejected commands by reason (the last valid command held).
-    pub rejected_wrong_length: u64,
-    pub rejected_not_finite: u64,
-    pub rejected_unknown_joint: u64,
-    pub rejected_wrong_interface: u64,
-    pub rejected_bad_trajectory: u64,
-    pub rejected_undecodable: u64,
-    /// Instants at which the state topics were published.
-    pub published_instants: u64,
-    /// Lockstep: commands waited for (and received).
-    pub lockstep_commands: u64,
-    /// Lockstep: how often the state of the first command instant was published again because
-    /// no command answered it within [`crate::ros2::FIRST_STATE_RESEND_SECS`] (a peer's reader
-    /// that matched the bridge's writer only after the first sample had been sent never gets
-    /// that sample; README "ROS 2", "Clock modes").
-    #[serde(default)]
-    pub lockstep_state_resends: u64,
-    /// Lockstep: valid commands that answered a resent copy of the first state after the
-    /// first answer had come (applied, counted in `commands_accepted`, but not as the answer
-    /// to a later instant).
-    #[serde(default)]
-    pub lockstep_extra_answers: u64,
-    /// Why the bridge stopped the run early (a lockstep peer that went silent), if it did.
-    pub stopped: Option<String>,
-}
+pub use crate::record::manifest::Ros2Report;
 
 /// A trajectory being followed: per point, the time from its start and the values of the
 /// joints it names.

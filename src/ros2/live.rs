@@ -26,7 +26,6 @@ use super::commands::{CommandGate, CommandSource, Float64MultiArrayMsg, Interfac
 use super::msgs::{self, Clock, Time};
 use super::{LiveBridge, Ros2Error};
 use crate::config::{Config, Ros2Clock, Ros2Durability, Ros2Reliability};
-use crate::run::RunError;
 use crate::sim::{Index, Observer, StepView};
 use crate::state::Snapshot;
 use rustdds::no_key::{DataReader, DataWriter, SerializerAdapter};
@@ -395,8 +394,8 @@ fn make_reader<D: serde::de::DeserializeOwned + 'static>(
     subscriber.create_datareader_no_key_cdr::<D>(&t, None).map_err(dds_err(topic))
 }
 
-impl Observer<RunError> for Bridge {
-    fn on_start(&mut self, _view: &StepView<'_>) -> Result<(), RunError> {
+impl Observer<Ros2Error> for Bridge {
+    fn on_start(&mut self, _view: &StepView<'_>) -> Result<(), Ros2Error> {
         // Lockstep: a peer before anything of instant 0 (also its /tf) is published.
         if self.clock == Ros2Clock::Lockstep {
             self.wait_for_peer()?;
@@ -405,7 +404,7 @@ impl Observer<RunError> for Bridge {
         Ok(())
     }
 
-    fn on_record(&mut self, _view: &StepView<'_>, s: &Snapshot) -> Result<(), RunError> {
+    fn on_record(&mut self, _view: &StepView<'_>, s: &Snapshot) -> Result<(), Ros2Error> {
         let stamp = Time::from_nanos(msgs::nanos(s.time_secs));
         let (w, buf, msg) = (&self.writers, &mut self.buf, &self.messages);
         Self::put(buf, &w.tf, &msg.tf(stamp, s))?;
@@ -416,7 +415,7 @@ impl Observer<RunError> for Bridge {
         Ok(())
     }
 
-    fn on_step(&mut self, view: &StepView<'_>) -> Result<(), RunError> {
+    fn on_step(&mut self, view: &StepView<'_>) -> Result<(), Ros2Error> {
         let publish = view.k.is_multiple_of(self.publish_every_n_steps) || view.k >= view.plan.steps;
         if publish {
             self.publish_state(view)?;

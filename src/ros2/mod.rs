@@ -81,7 +81,7 @@ pub enum Ros2Error {
 
 /// The live bridge as the run sees it: an observer of the step loop with a report for the
 /// manifest.
-pub trait LiveBridge: crate::sim::Observer<crate::run::RunError> {
+pub trait LiveBridge: crate::sim::Observer<Ros2Error> {
     /// The counts so far (commands accepted and rejected, why the run stopped).
     fn report(&self) -> Ros2Report;
 }

@@ -14,41 +14,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 use toml::Value;
 
-/// What happened to a run.
-#[derive(Debug, Clone, PartialEq)]
-pub enum RunOutcome {
-    /// Ran now and completed.
-    Complete(RunSummary),
-    /// Completed in an earlier invocation; the summary was read from its manifest.
-    Skipped(SkippedSummary),
-    /// Failed (also: invalid parameter combination); the message says why.
-    Failed(String),
-    /// Stopped by SIGINT/SIGTERM ([`crate::interrupt`]), or not started because of one; redone
-    /// by the next invocation.
-    Interrupted(String),
-}
-
-/// A run finished earlier, read back from its `manifest.json`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SkippedSummary {
-    /// Its summary as the manifest holds it (`None` if the manifest has none).
-    pub summary: Option<RunSummary>,
-    /// Wall time of that run (s).
-    pub wall_secs: f64,
-}
-
-/// One row of the summary.
-#[derive(Debug, Clone, PartialEq)]
-pub struct SweepRow {
-    /// The plan entry.
-    pub run: PlannedRun,
-    /// Its outcome.
-    pub outcome: RunOutcome,
-    /// Its folder.
-    pub folder: PathBuf,
-    /// Wall seconds this invocation spent on it (0 for skipped).
-    pub wall_secs: f64,
-}
+pub use super::summary::{RunOutcome, SkippedSummary, SweepRow};
 
 /// The result of [`run_sweep`].
 #[derive(Debug, Clone)]

@@ -7,13 +7,48 @@
 //! integer column when every value is a non-negative TOML integer, a number column when every
 //! value is a TOML integer or float, and text otherwise (strings, booleans, arrays).
 
-use super::exec::{RunOutcome, SweepRow};
-use super::plan::plain;
+use super::plan::{PlannedRun, plain};
 use super::spec::{SweepSpec, Variation, number, parse_value};
 use super::{SweepError, io_error};
 use crate::run::RunSummary;
 use std::path::{Path, PathBuf};
 use toml::Value;
+
+/// What happened to a run.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RunOutcome {
+    /// Ran now and completed.
+    Complete(RunSummary),
+    /// Completed in an earlier invocation; the summary was read from its manifest.
+    Skipped(SkippedSummary),
+    /// Failed (also: invalid parameter combination); the message says why.
+    Failed(String),
+    /// Stopped by SIGINT/SIGTERM ([`crate::interrupt`]), or not started because of one; redone
+    /// by the next invocation.
+    Interrupted(String),
+}
+
+/// A run finished earlier, read back from its `manifest.json`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SkippedSummary {
+    /// Its summary as the manifest holds it (`None` if the manifest has none).
+    pub summary: Option<RunSummary>,
+    /// Wall time of that run (s).
+    pub wall_secs: f64,
+}
+
+/// One row of the summary.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepRow {
+    /// The plan entry.
+    pub run: PlannedRun,
+    /// Its outcome.
+    pub outcome: RunOutcome,
+    /// Its folder.
+    pub folder: PathBuf,
+    /// Wall seconds this invocation spent on it (0 for skipped).
+    pub wall_secs: f64,
+}
 
 /// One metric of a run: a summary column.
 #[derive(Debug, Clone, Copy)]
