@@ -319,26 +319,11 @@ impl World {
     /// (the contacts of the last forward pass) is the check, so it sees slopes, heightfields,
     /// meshes and third-party terrain exactly as the run will. A snake started 72 mm inside a box
     /// would otherwise be thrown out of it with kilonewtons in the first steps.
-    pub fn check_start_clear(&self, config: &Config, what: &str) -> Result<(), SimError> {
-        use crate::state::GeomClass;
-        let d = &self.data;
-        let class = |g: i32| usize::try_from(g).ok().and_then(|g| self.index.geom_class.get(g).copied());
-        let mut worst: Option<(f64, usize, usize)> = None; // (depth, link geom, other geom)
-        for contact in d.contact() {
-            let pair = match (class(contact.geom[0]), class(contact.geom[1])) {
-                (Some(GeomClass::Link(_)), Some(GeomClass::Link(_))) => None,
-                (Some(GeomClass::Link(_)), Some(_)) => Some((contact.geom[0], contact.geom[1])),
-                (Some(_), Some(GeomClass::Link(_))) => Some((contact.geom[1], contact.geom[0])),
-                _ => None,
-            };
-            if let Some((link, other)) = pair {
-                let depth = -contact.dist;
-                if depth > START_PENETRATION_TOLERANCE_M && worst.is_none_or(|w| depth > w.0) {
-                    worst = Some((depth, link as usize, other as usize));
-                }
-            }
-        }
-        let Some((depth, link, other)) = worst else { return Ok(()) };
+    pub fn check_start_clear(&mut self, config: &Config, what: &str) -> Result<(), SimError> {
+        let Some((depth, link, other)) = self.start_penetration() else { return Ok(()) };
+        // The snake: how far up it must start to clear everything (found by moving it up, since a
+        // heightfield's or a slope's contact depth is not the height to raise by).
+        let raise_m = if what == "the snake" { self.raise_to_clear_m(depth) } else { None };
         let names = &self.index.geom_names;
         let other_name = names.get(other).map_or("?", String::as_str);
         let link_name = names.get(link).map_or("?", String::as_str);
@@ -356,10 +341,17 @@ impl World {
             (
                 "snake.head_position_m",
                 format!("{:?}", config.snake.head_position_m),
-                format!(
-                    "raise the snake (snake.head_position_m[2] up by at least {depth:.4} m puts that link on top; \
-                     on a slope, turn it with snake.head_rotation_deg), or move {source} away from the starting pose"
-                ),
+                match raise_m {
+                    Some(raise_m) => format!(
+                        "raise the snake (snake.head_position_m[2] up by {raise_m} m clears everything at the start; \
+                         on a slope, turn it with snake.head_rotation_deg), or move {source} away from the starting \
+                         pose"
+                    ),
+                    None => format!(
+                        "raise the snake (snake.head_position_m[2] up by more than {depth:.4} m; on a slope, turn it \
+                         with snake.head_rotation_deg), or move {source} away from the starting pose"
+                    ),
+                },
             )
         } else {
             (
@@ -382,6 +374,65 @@ impl World {
                 START_PENETRATION_TOLERANCE_M * 1e3
             ),
         }))
+    }
+
+    /// The deepest contact of a link with anything but another link at the current state (from
+    /// the last forward pass), when deeper than [`START_PENETRATION_TOLERANCE_M`]: (depth (m),
+    /// link geom, other geom).
+    fn start_penetration(&self) -> Option<(f64, usize, usize)> {
+        use crate::state::GeomClass;
+        let class = |g: i32| usize::try_from(g).ok().and_then(|g| self.index.geom_class.get(g).copied());
+        let mut worst: Option<(f64, usize, usize)> = None;
+        for contact in self.data.contact() {
+            let pair = match (class(contact.geom[0]), class(contact.geom[1])) {
+                (Some(GeomClass::Link(_)), Some(GeomClass::Link(_))) => None,
+                (Some(GeomClass::Link(_)), Some(_)) => Some((contact.geom[0], contact.geom[1])),
+                (Some(_), Some(GeomClass::Link(_))) => Some((contact.geom[1], contact.geom[0])),
+                _ => None,
+            };
+            if let Some((link, other)) = pair {
+                let depth = -contact.dist;
+                if depth > START_PENETRATION_TOLERANCE_M && worst.is_none_or(|w| depth > w.0) {
+                    worst = Some((depth, link as usize, other as usize));
+                }
+            }
+        }
+        worst
+    }
+
+    /// How far the snake must start higher (m, rounded up to the millimetre) so that no link
+    /// starts inside anything: the whole snake is moved up through its free joint and MuJoCo's
+    /// collision detection checks each height (doubling from `depth_m`, then bisection). The
+    /// state is restored afterwards. `None` without a free joint or when 100 m do not clear it.
+    fn raise_to_clear_m(&mut self, depth_m: f64) -> Option<f64> {
+        let z = self.index.head_free_qpos_adr? + 2;
+        let z0 = self.data.qpos()[z];
+        let mut clear_at = |w: &mut Self, raise_m: f64| {
+            w.data.qpos_mut()[z] = z0 + raise_m;
+            w.forward();
+            w.start_penetration().is_none()
+        };
+        let mut hi = depth_m.max(1e-3);
+        while !clear_at(self, hi) {
+            hi *= 2.0;
+            if hi > 100.0 {
+                clear_at(self, 0.0);
+                return None;
+            }
+        }
+        let mut lo = 0.0;
+        while hi - lo > 1e-5 {
+            let mid = 0.5 * (lo + hi);
+            if clear_at(self, mid) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        let rounded = (hi * 1e3).ceil() / 1e3;
+        let raise_m = if clear_at(self, rounded) { rounded } else { hi };
+        clear_at(self, 0.0);
+        Some(raise_m)
     }
 
     /// A user's robot (MJCF or URDF, as MuJoCo's loader reads them) placed in the terrain that

@@ -621,10 +621,18 @@ pub struct MeshObstacle {
     pub file: String,
     /// Where the mesh's own origin goes (world).
     pub position_m: [f64; 3],
-    /// Euler angles about x, y, z (degrees), as `snake.head_rotation_deg`.
+    /// Euler angles about x, y, z (degrees), as `snake.head_rotation_deg`; optional, default
+    /// `[0, 0, 0]` (the file's orientation).
+    #[serde(default)]
     pub rotation_deg: [f64; 3],
-    /// Uniform scale of the file's coordinates (to metres).
+    /// Uniform scale of the file's coordinates (to metres); optional, default 1 (the file is in
+    /// metres).
+    #[serde(default = "unit_scale")]
     pub scale: f64,
+}
+
+fn unit_scale() -> f64 {
+    1.0
 }
 
 /// Peg layouts (`terrain.pegboard.layout`).

@@ -5,6 +5,7 @@
 //! the step, with the state at the start of that step (see ARCHITECTURE.md for the exact order).
 
 mod gait;
+mod keys;
 mod obstacle_aided;
 mod path;
 mod pid;
@@ -13,6 +14,7 @@ mod rail;
 pub use gait::{
     FormClosureShift, Hold, JointTrajectory, SineWave, Still, TwoPlaneWave, serpenoid, trajectory_from_config,
 };
+pub use keys::{UnusedKey, effective_controller, unused_key_rules, unused_keys};
 pub use obstacle_aided::{ObstacleAided, ObstacleAidedState};
 pub use path::{Guidance, PathFollowing};
 pub use pid::Pid;
