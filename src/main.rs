@@ -415,21 +415,31 @@ fn failure<E: ExitCodeOf + Into<anyhow::Error>>(e: E) -> Failure {
 /// Loads the config; for the original tool's config.json, prints the conversion notes to
 /// standard error (once: every command loads its config once).
 fn load(args: &ConfigArgs) -> Result<(Config, String), Failure> {
-    let result: Result<(Config, Vec<String>), ConfigError> = match &args.config {
+    let result: Result<(Config, Option<config::LegacyConversion>), ConfigError> = match &args.config {
         Some(path) => config::load_config_with_notes(path, &args.overrides),
         None => config::load_config_str(config::DEFAULT_CONFIG_TOML, config::ConfigSource::Toml, &args.overrides)
-            .map(|c| (c, Vec::new())),
+            .map(|c| (c, None)),
     };
     let source = args.config.as_ref().map_or("embedded default".to_string(), |p| p.display().to_string());
-    let (config, notes) = result.map_err(|e| bad_input(anyhow::Error::new(e).context(format!("config {source}"))))?;
-    if !notes.is_empty() {
+    let (config, conversion) =
+        result.map_err(|e| bad_input(anyhow::Error::new(e).context(format!("config {source}"))))?;
+    if let Some(conversion) = conversion {
+        let differences = conversion.difference_lines();
         errln!(
-            "note: {source} is the original tool's config.json; converted as follows (`simserpent convert` writes \
-             it as an annotated TOML; README \"The original tool\"):"
+            "note: {source} is the original tool's config.json: {} settings converted, {} of them work differently \
+             here (`simserpent convert {source}` writes every setting with its rule; README \"The original tool\"):",
+            conversion.notes.len(),
+            differences.len()
         );
-        for line in &notes {
+        for line in &differences {
             errln!("note:   {line}");
         }
+    }
+    for unused in simserpent::control::unused_keys(&config) {
+        errln!("warning: {unused}");
+    }
+    if let Some(still) = simserpent::control::nothing_moves(&config) {
+        errln!("note: {still}");
     }
     Ok((config, source))
 }
@@ -520,8 +530,11 @@ fn run_command(
         summary.max_penetration_m * 1e3
     );
     outln!("actuator energy:   {:.3} J", summary.actuator_energy_j);
+    for note in &summary.notes {
+        errln!("note: {note}");
+    }
     if let Some(joints) = &summary.tracking {
-        outln!("tracking of the gait (after the ramp-in; error = actual - commanded angle):");
+        outln!("tracking of the commanded joint angles (after the ramp-in; error = actual - commanded angle):");
         outln!("  joint        amplitude  reached   RMS error           max error");
         for j in joints {
             outln!(

@@ -136,9 +136,9 @@ pub fn tracking_warning(config: &Config, summary: &RunSummary) -> Option<String>
     };
     let [lo, hi] = crate::state::TRACKING_AMPLITUDE_PERCENT;
     Some(format!(
-        "the joints do not track the gait: {} of {} joints miss it (reached amplitude outside {lo}–{hi} % or RMS \
+        "the joints do not track their commanded angles: {} of {} joints miss it (reached amplitude outside {lo}–{hi} % or RMS \
          error above {} % of the command amplitude); worst {}: reached {:.0} % of the commanded ±{:.2}°, RMS \
-         error {:.0} %, max {:.0} %. The servos cannot follow this gait with {gain} and \
+         error {:.0} %, max {:.0} %. The servos cannot follow these commands with {gain} and \
          snake.torque_range_nm = {:?}: raise the gain (or the torque range), or slow the gait down",
         missed.len(),
         joints.len(),
@@ -150,6 +150,25 @@ pub fn tracking_warning(config: &Config, summary: &RunSummary) -> Option<String>
         worst.max_error_percent,
         config.snake.torque_range_nm,
     ))
+}
+
+/// What the user should know about the set-up of a run ([`RunSummary::notes`]): a robot's
+/// joints that no actuator drives.
+fn setup_notes(config: &Config, options: &RunOptions, world: &World) -> Vec<String> {
+    let passive = world.passive_joints();
+    match &options.robot {
+        Some(robot) if !passive.is_empty() && !config.robot.position_servos => vec![format!(
+            "{} of the {} joints of {} have no actuator ({}): they are passive, moved only by gravity and contacts, \
+             whatever the controller commands (a URDF has no actuators); robot.position_servos = true gives each a \
+             position servo (control.position_kp_nm_per_rad, control.position_kv_nm_s_per_rad, \
+             snake.torque_range_nm)",
+            passive.len(),
+            world.n_joints(),
+            robot.display(),
+            passive.join(", ")
+        )],
+        _ => Vec::new(),
+    }
 }
 
 /// Runs a user's controller on the world of `config`.
@@ -302,6 +321,7 @@ fn run_simulation_tracked<C: Controller>(
             max_penetration_m: totals.0.max_penetration_m,
             actuator_energy_j: totals.0.actuator_energy_j,
             tracking: tracking.as_ref().and_then(|t| t.totals.report(&t.joint_names)),
+            notes: setup_notes(config, options, sim.world()),
             steps_per_wall_sec: 0.0,
             real_time_factor: 0.0,
             loop_cpu_secs: 0.0,
@@ -498,10 +518,12 @@ impl Observer<RunError> for crate::render::RunVisuals {
     }
 }
 
-/// The joints' tracking of the configured gait: at every instant, the gait's commanded angles
-/// against the joints' actual angles (no allocation per step: the buffers are sized once).
+/// The joints' tracking of their commanded angles: at every instant, the angle commanded (the
+/// open-loop gait's target; a closed-loop controller's position set-point) against the joint's
+/// actual angle (no allocation per step: the buffers are sized once).
 struct Tracking {
-    trajectory: Box<dyn crate::control::JointTrajectory>,
+    /// The open-loop gait; `None`: the position set-points of the command are the targets.
+    trajectory: Option<Box<dyn crate::control::JointTrajectory>>,
     target_rad: Vec<f64>,
     target_velocity_rad_per_s: Vec<f64>,
     actual_rad: Vec<f64>,
@@ -511,16 +533,24 @@ struct Tracking {
 }
 
 impl Tracking {
-    /// `None` without a moving gait, without joints, or when the gait is not what the joints
-    /// are commanded (a closed-loop controller such as path following adds its own offsets).
+    /// `None` without joints, without a moving gait (open loop), or for a closed-loop controller
+    /// that does not drive position servos (its set-points are not in the command).
     fn new(config: &Config, world: &World) -> Option<Self> {
+        use crate::config::{ControlMethod, ControllerKind, GaitKind};
         let n = world.n_joints();
-        let open_loop = config.control.controller == crate::config::ControllerKind::Gait;
-        if config.gait.kind == crate::config::GaitKind::None || n == 0 || !open_loop {
+        let trajectory = match crate::control::effective_controller(config) {
+            ControllerKind::Gait if config.gait.kind != GaitKind::None => {
+                Some(crate::control::trajectory_from_config(config))
+            }
+            ControllerKind::Gait => return None,
+            _ if config.control.method == ControlMethod::Position => None,
+            _ => return None,
+        };
+        if n == 0 {
             return None;
         }
         Some(Self {
-            trajectory: crate::control::trajectory_from_config(config),
+            trajectory,
             target_rad: vec![0.0; n],
             target_velocity_rad_per_s: vec![0.0; n],
             actual_rad: vec![0.0; n],
@@ -534,7 +564,10 @@ impl Tracking {
 impl Observer<RunError> for Tracking {
     fn on_step(&mut self, view: &StepView<'_>) -> Result<(), RunError> {
         let t = view.time_secs();
-        self.trajectory.targets(t, &mut self.target_rad, &mut self.target_velocity_rad_per_s);
+        match &self.trajectory {
+            Some(trajectory) => trajectory.targets(t, &mut self.target_rad, &mut self.target_velocity_rad_per_s),
+            None => self.target_rad.copy_from_slice(&view.command.position_rad),
+        }
         let qpos = view.world.data().qpos();
         for (x, &adr) in self.actual_rad.iter_mut().zip(&self.qpos_adr) {
             *x = qpos[adr];

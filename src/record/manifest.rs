@@ -209,11 +209,16 @@ pub struct RunSummary {
     /// torques and joint velocities of the recorded steps, each held until the next one.
     #[serde(default)]
     pub actuator_energy_j: f64,
-    /// How well each joint followed the configured gait (built-in controller with a moving
-    /// gait only; `null` otherwise): amplitude reached, RMS and largest error, in rad and in % of
-    /// the command amplitude, from the end of the gait's ramp-in on.
+    /// How well each joint followed its commanded angle (the built-in controllers: the open-loop
+    /// gait's angle, or a closed-loop controller's position set-point; `null` for a user's
+    /// controller, a gait that does not move, or a closed-loop controller on other actuator kinds):
+    /// amplitude reached, RMS and largest error, in rad and in % of the command amplitude, from
+    /// the end of the gait's ramp-in on.
     #[serde(default)]
     pub tracking: Option<Vec<crate::state::JointTracking>>,
+    /// What the user should know about how the run was set up (e.g. joints no actuator drives).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
     /// Steps per second of wall time.
     pub steps_per_wall_sec: f64,
     /// Simulated seconds per wall second.

@@ -682,6 +682,12 @@ impl World {
         self.index.joints.len()
     }
 
+    /// The 1-DOF joints that no actuator drives (a URDF robot's, without
+    /// `robot.position_servos`): passive, whatever the controller commands.
+    pub fn passive_joints(&self) -> Vec<&str> {
+        self.index.joints.iter().filter(|j| j.actuators.iter().all(Option::is_none)).map(|j| j.name.as_str()).collect()
+    }
+
     /// Writes a command into MuJoCo's `ctrl`.
     pub fn apply_command(&mut self, cmd: &Command) {
         let ctrl = self.data.ctrl_mut();

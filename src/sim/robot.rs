@@ -9,6 +9,7 @@
 
 use crate::config::Config;
 use mujoco_rs::prelude::*;
+use mujoco_rs::wrappers::mj_editing::{MjtLimited, PositionConfig};
 use mujoco_rs::wrappers::mj_model::MjtGeomBase;
 use std::path::Path;
 
@@ -81,10 +82,60 @@ pub(super) fn prepared_mjcf(config: &Config, robot: &Path, scratch: &Path) -> Re
             body.pos_mut()[2] -= lowest;
         }
     }
+    if r.position_servos {
+        add_position_servos(config, &mut spec)?;
+    }
     spec.compile().map_err(|e| format!("MuJoCo cannot compile the placed robot ({e})"))?;
     let path = scratch.join("robot_placed.xml");
     spec.save_xml(&path).map_err(|e| format!("cannot write the robot as MJCF ({e})"))?;
     std::fs::read_to_string(&path).map_err(|e| format!("cannot read back {} ({e})", path.display()))
+}
+
+/// The names of the hinge and slide joints of `model` that no actuator drives directly.
+pub(super) fn unactuated_joints(model: &MjModel) -> Vec<String> {
+    let driven: Vec<usize> = model
+        .actuator_trnid()
+        .iter()
+        .zip(model.actuator_trntype())
+        .filter(|(_, t)| matches!(t, MjtTrn::mjTRN_JOINT | MjtTrn::mjTRN_JOINTINPARENT))
+        .map(|(id, _)| id[0] as usize)
+        .collect();
+    (0..model.njnt() as usize)
+        .filter(|&j| matches!(model.jnt_type()[j], MjtJoint::mjJNT_HINGE | MjtJoint::mjJNT_SLIDE))
+        .filter(|j| !driven.contains(j))
+        .map(|j| model.id_to_name(MjtObjBase::mjOBJ_JOINT, j).unwrap_or_default().to_string())
+        .collect()
+}
+
+/// `robot.position_servos`: a position servo (`<position>`, kp and kv of `[control]`, force
+/// range `snake.torque_range_nm`) on every hinge and slide joint that no actuator drives.
+fn add_position_servos(config: &Config, spec: &mut MjSpec) -> Result<(), String> {
+    let model = spec.compile().map_err(|e| format!("MuJoCo cannot compile the robot ({e})"))?;
+    let joints = unactuated_joints(&model);
+    drop(model);
+    if let Some(unnamed) = joints.iter().position(String::is_empty) {
+        return Err(format!(
+            "robot.position_servos = true needs a name on every joint it drives; joint {unnamed} has none"
+        ));
+    }
+    let c = &config.control;
+    for joint in &joints {
+        let servo = spec.add_actuator().with_trntype(MjtTrn::mjTRN_JOINT);
+        servo.set_target(joint);
+        servo
+            .set_to_position(PositionConfig {
+                kp: c.position_kp_nm_per_rad,
+                kv: Some(c.position_kv_nm_s_per_rad),
+                ..PositionConfig::default()
+            })
+            .map_err(|e| format!("cannot give joint `{joint}` a position servo ({e})"))?;
+        servo.set_forcelimited(MjtLimited::mjLIMITED_TRUE);
+        *servo.forcerange_mut() = config.snake.torque_range_nm;
+        servo
+            .set_name(&format!("{joint}_position_servo"))
+            .map_err(|e| format!("cannot name the position servo of joint `{joint}` ({e})"))?;
+    }
+    Ok(())
 }
 
 /// `q` applied to `v`.

@@ -542,6 +542,7 @@ mod tests {
             max_penetration_m: 7.0,
             actuator_energy_j: 8.0,
             tracking: None,
+            notes: Vec::new(),
             steps_per_wall_sec: 9.0,
             real_time_factor: 10.0,
             loop_cpu_secs: 11.0,

@@ -567,6 +567,7 @@ fn all_fields_expected() -> Config {
         position_m: [1.0, -1.0, 0.25],
         rotation_deg: [0.0, 0.0, 45.0],
         place_on_floor: false,
+        position_servos: true,
     };
 
     let gr = &mut c.ground;

@@ -335,9 +335,9 @@ fn the_summary_reports_tracking_per_joint_and_warns_when_the_gait_is_not_tracked
     );
     assert!(out.status.success(), "{}", text(&out));
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(stdout.contains("tracking of the gait") && stdout.contains("joint_01"), "{stdout}");
+    assert!(stdout.contains("tracking of the commanded joint angles") && stdout.contains("joint_01"), "{stdout}");
     assert!(
-        String::from_utf8_lossy(&out.stderr).contains("warning: the joints do not track the gait"),
+        String::from_utf8_lossy(&out.stderr).contains("warning: the joints do not track their commanded angles"),
         "{}",
         text(&out)
     );

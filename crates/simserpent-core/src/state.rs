@@ -613,11 +613,11 @@ pub struct JointTracking {
 }
 
 /// A joint "tracks" its command when it reaches 90–110 % of the commanded amplitude and its RMS
-/// error stays within 20 % of that amplitude (for a sine, 20 % RMS is a phase lag of about 16°
+/// error stays within 10 % of that amplitude (for a sine, 10 % RMS is a phase lag of about 8°
 /// at full amplitude). See [`JointTracking::tracks`].
 pub const TRACKING_AMPLITUDE_PERCENT: [f64; 2] = [90.0, 110.0];
 /// See [`TRACKING_AMPLITUDE_PERCENT`].
-pub const TRACKING_RMS_ERROR_PERCENT: f64 = 20.0;
+pub const TRACKING_RMS_ERROR_PERCENT: f64 = 10.0;
 
 impl JointTracking {
     /// Whether the joint followed its command well enough (see [`TRACKING_AMPLITUDE_PERCENT`]).

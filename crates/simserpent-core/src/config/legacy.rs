@@ -446,6 +446,40 @@ impl LegacyConversion {
         lines
     }
 
+    /// What `check` and `run` print: one line per converted setting that works differently in
+    /// SimSerpent (its rule has a difference from the original), as `` `legacy` = v -> `key` = v ``;
+    /// settings under the same rule as an earlier line are counted, not repeated. The rules and
+    /// the differences themselves are in `simserpent convert`'s annotated TOML.
+    pub fn difference_lines(&self) -> Vec<String> {
+        let mut lines: Vec<(String, usize)> = Vec::new();
+        let mut listed: Vec<&'static LegacyRule> = Vec::new();
+        let notes = &self.notes;
+        let mut i = 0;
+        while i < notes.len() {
+            let first = &notes[i];
+            let same = |n: &LegacyNote| n.legacy_key == first.legacy_key && std::ptr::eq(n.rule, first.rule);
+            let group = notes[i..].iter().take_while(|n| same(n)).count().max(1);
+            if !first.rule.deviation.is_empty() {
+                match listed.iter().position(|r| std::ptr::eq(*r, first.rule)) {
+                    Some(at) => lines[at].1 += 1,
+                    None => {
+                        let mut line = first.head();
+                        for n in &notes[i + 1..i + group] {
+                            line.push_str(&format!(", `{}` = {}", n.key, n.value));
+                        }
+                        listed.push(first.rule);
+                        lines.push((line, 0));
+                    }
+                }
+            }
+            i += group;
+        }
+        lines
+            .into_iter()
+            .map(|(line, more)| if more > 0 { format!("{line} (and {more} more keys alike)") } else { line })
+            .collect()
+    }
+
     /// The converted keys as an annotated TOML file: each key with comments naming its
     /// config.json key, the rule and any difference from the original tool; the header lists
     /// the differences no key shows. Loading it gives the same config as the config.json.

@@ -147,17 +147,19 @@ pub fn convert_legacy_file(path: &Path) -> Result<LegacyConversion, ConfigError>
     convert_legacy_text(&utf8_text(&file, bytes)?, &file)
 }
 
-/// [`load_config`], plus the conversion notes of a `config.json` (one line per converted key:
-/// the config.json key, the rule and what differs from the original tool; empty for TOML), for
-/// `check` and `run` to print.
+/// [`load_config`], plus the conversion of a `config.json` (`None` for TOML), for `check` and
+/// `run` to say what works differently ([`LegacyConversion::difference_lines`]).
 ///
 /// # Errors
 /// As [`load_config`].
-pub fn load_config_with_notes(path: &Path, overrides: &[String]) -> Result<(Config, Vec<String>), ConfigError> {
+pub fn load_config_with_notes(
+    path: &Path,
+    overrides: &[String],
+) -> Result<(Config, Option<LegacyConversion>), ConfigError> {
     let config = load_config(path, overrides)?;
     let is_json = path.extension().is_some_and(|e| e.eq_ignore_ascii_case("json"));
-    let notes = if is_json { convert_legacy_file(path)?.note_lines() } else { Vec::new() };
-    Ok((config, notes))
+    let conversion = if is_json { Some(convert_legacy_file(path)?) } else { None };
+    Ok((config, conversion))
 }
 
 /// Same as [`load_config`] on a string; `source` says which syntax it is in.

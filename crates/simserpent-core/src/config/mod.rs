@@ -382,6 +382,10 @@ pub struct Robot {
     /// Move the robot up or down so that its lowest colliding geom just touches the floor
     /// (z = 0) at the start, whatever `position_m[2]` says.
     pub place_on_floor: bool,
+    /// Give every hinge or slide joint of the robot that no actuator drives (every joint of a
+    /// URDF, which has no actuators) a position servo: gains `control.position_kp_nm_per_rad`
+    /// and `control.position_kv_nm_s_per_rad`, force range `snake.torque_range_nm`.
+    pub position_servos: bool,
 }
 
 /// Friction between links and floor (`[ground]`).

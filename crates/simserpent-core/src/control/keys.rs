@@ -197,6 +197,21 @@ pub fn unused_keys(config: &Config) -> Vec<UnusedKey> {
     out
 }
 
+/// One line when nothing will move the snake: the open-loop gait `none` (joints held) and a
+/// start at rest, so a run shows a snake lying still (or settling under gravity) for its whole
+/// duration; `None` otherwise.
+pub fn nothing_moves(config: &Config) -> Option<String> {
+    let s = &config.initial_state;
+    let at_rest = s.linear_velocity_m_per_s == [0.0; 3] && s.angular_velocity_rad_per_s == [0.0; 3];
+    (effective_controller(config) == ControllerKind::Gait && config.gait.kind == GaitKind::None && at_rest).then(|| {
+        format!(
+            "nothing drives this snake: gait.kind = \"none\" holds every joint at its start angle and the snake \
+             starts at rest, so it lies still for the {} s of the run (gait.kind = \"sine_wave\" makes it undulate)",
+            config.general.duration_secs
+        )
+    })
+}
+
 fn lookup<'a>(table: &'a toml::Table, path: &str) -> Option<&'a toml::Value> {
     let mut parts = path.split('.');
     let mut v = table.get(parts.next()?)?;
@@ -348,6 +363,17 @@ mod tests {
         assert!(mismatches.is_empty(), "{} of {checked} cases wrong:\n{}", mismatches.len(), mismatches.join("\n"));
         // The case the module documentation names: the default path following ignores the offset.
         assert!(matrix.contains(&"path_following: gait.sine_wave.offset_deg".to_string()), "{matrix:?}");
+    }
+
+    #[test]
+    fn a_snake_without_a_gait_at_rest_is_named_as_still() {
+        assert_eq!(nothing_moves(&Config::default()), None);
+        let mut c = Config::default();
+        c.control.controller = ControllerKind::Gait;
+        c.gait.kind = GaitKind::None;
+        assert!(nothing_moves(&c).is_some_and(|s| s.contains("lies still for the 20 s")));
+        c.initial_state.linear_velocity_m_per_s = [1.0, 0.0, 0.0];
+        assert_eq!(nothing_moves(&c), None);
     }
 
     #[test]

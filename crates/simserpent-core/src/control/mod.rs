@@ -14,7 +14,7 @@ mod rail;
 pub use gait::{
     FormClosureShift, Hold, JointTrajectory, SineWave, Still, TwoPlaneWave, serpenoid, trajectory_from_config,
 };
-pub use keys::{UnusedKey, effective_controller, unused_key_rules, unused_keys};
+pub use keys::{UnusedKey, effective_controller, nothing_moves, unused_key_rules, unused_keys};
 pub use obstacle_aided::{ObstacleAided, ObstacleAidedState};
 pub use path::{Guidance, PathFollowing};
 pub use pid::Pid;
