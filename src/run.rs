@@ -5,7 +5,6 @@ use crate::control::Controller;
 use crate::record::{self, Manifest, RecordError, Recorder, RunStatus, SpaceReserve};
 use crate::sim::{Every, LoopPlan, Observer, SimError, Simulation, StepView, World};
 use crate::state::{RunTotals, Snapshot};
-use serde::Serialize;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
@@ -77,7 +76,7 @@ pub enum RunError {
     Ros2(#[from] crate::ros2::Ros2Error),
 }
 
-pub use crate::record::manifest::RunSummary;
+pub use crate::record::RunSummary;
 
 /// Builds the world described by `config` (and `options.robot`). Fails before anything is
 /// written, so a bad config or robot never leaves a run folder behind.
@@ -135,11 +134,21 @@ pub fn tracking_warning(config: &Config, summary: &RunSummary) -> Option<String>
         ),
     };
     let [lo, hi] = crate::state::TRACKING_AMPLITUDE_PERCENT;
+    let obstacles = if summary.obstacle_contact_secs > 0.0 {
+        format!(
+            "; but first: the snake touched obstacles for {:.1} s of the run, and a joint whose links press against \
+             an obstacle cannot follow its command whatever the gain (control.controller = \"path_following\" keeps \
+             the default snake inside its corridor)",
+            summary.obstacle_contact_secs
+        )
+    } else {
+        String::new()
+    };
     Some(format!(
         "the joints do not track their commanded angles: {} of {} joints miss it (reached amplitude outside {lo}–{hi} % or RMS \
          error above {} % of the command amplitude); worst {}: reached {:.0} % of the commanded ±{:.2}°, RMS \
          error {:.0} %, max {:.0} %. The servos cannot follow these commands with {gain} and \
-         snake.torque_range_nm = {:?}: raise the gain (or the torque range), or slow the gait down",
+         snake.torque_range_nm = {:?}: raise the gain (or the torque range), or slow the gait down{obstacles}",
         missed.len(),
         joints.len(),
         crate::state::TRACKING_RMS_ERROR_PERCENT,
@@ -320,6 +329,7 @@ fn run_simulation_tracked<C: Controller>(
             peak_contact_force_n: totals.0.peak_contact_force_n,
             max_penetration_m: totals.0.max_penetration_m,
             actuator_energy_j: totals.0.actuator_energy_j,
+            obstacle_contact_secs: totals.0.obstacle_contact_secs,
             tracking: tracking.as_ref().and_then(|t| t.totals.report(&t.joint_names)),
             notes: setup_notes(config, options, sim.world()),
             steps_per_wall_sec: 0.0,

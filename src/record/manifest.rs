@@ -216,6 +216,10 @@ pub struct RunSummary {
     /// the end of the gait's ramp-in on.
     #[serde(default)]
     pub tracking: Option<Vec<crate::state::JointTracking>>,
+    /// Time during which some link touched an obstacle (s; from the recorded instants, each held
+    /// until the next one).
+    #[serde(default)]
+    pub obstacle_contact_secs: f64,
     /// What the user should know about how the run was set up (e.g. joints no actuator drives).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub notes: Vec<String>,

@@ -26,7 +26,7 @@ mod parquet;
 mod sink;
 mod table;
 
-pub use manifest::{Manifest, RunStatus, SpaceReserve};
+pub use manifest::{Manifest, Ros2Report, RunStatus, RunSummary, SpaceReserve};
 #[cfg(feature = "parquet")]
 pub use parquet::ParquetTable;
 pub use format::{ColumnKind, TableSink};

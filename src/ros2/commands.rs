@@ -136,7 +136,7 @@ impl Rejection {
     }
 }
 
-pub use crate::record::manifest::Ros2Report;
+pub use crate::record::Ros2Report;
 
 /// A trajectory being followed: per point, the time from its start and the values of the
 /// joints it names.

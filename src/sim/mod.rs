@@ -407,7 +407,7 @@ impl World {
     fn raise_to_clear_m(&mut self, depth_m: f64) -> Option<f64> {
         let z = self.index.head_free_qpos_adr? + 2;
         let z0 = self.data.qpos()[z];
-        let mut clear_at = |w: &mut Self, raise_m: f64| {
+        let clear_at = |w: &mut Self, raise_m: f64| {
             w.data.qpos_mut()[z] = z0 + raise_m;
             w.forward();
             w.start_penetration().is_none()

@@ -104,7 +104,8 @@ pub(crate) fn check_robot_actuators(config: &Config, index: &super::Index) -> Re
     };
     let fix = format!(
         "add a {element} actuator (or an equivalent <general> one) with joint=\"…\" for it (control.method = \"{}\"), \
-         or run with --set gait.kind=none",
+         set robot.position_servos = true (a position servo on every joint without an actuator, as a URDF needs: it \
+         has no actuators), or run with --set gait.kind=none",
         config.control.method.name()
     );
     if index.joints.is_empty() {

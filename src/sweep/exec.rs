@@ -6,7 +6,7 @@ use super::spec::SweepSpec;
 use super::summary::{SummaryTable, write_summary};
 use super::{SweepError, io_error};
 use crate::record::{Manifest, RunStatus};
-use crate::run::{self, RunOptions, RunSummary};
+use crate::run::{self, RunOptions};
 use rayon::prelude::*;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};

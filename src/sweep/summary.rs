@@ -541,6 +541,7 @@ mod tests {
             peak_contact_force_n: 6.0,
             max_penetration_m: 7.0,
             actuator_energy_j: 8.0,
+            obstacle_contact_secs: 0.0,
             tracking: None,
             notes: Vec::new(),
             steps_per_wall_sec: 9.0,

@@ -11,6 +11,7 @@ mod cli;
 mod closed_loop;
 mod common;
 mod config;
+mod defaults;
 mod dying_processes;
 mod estimation;
 mod hostile_files;

@@ -543,6 +543,9 @@ pub struct RunTotals {
     pub max_penetration_m: f64,
     /// ∫ Σ_joints |τ·q̇| dt over the recorded instants, each held until the next one (J).
     pub actuator_energy_j: f64,
+    /// Time during which some link touched an obstacle (a non-zero obstacle force), from the
+    /// recorded instants, each held until the next one (s).
+    pub obstacle_contact_secs: f64,
 }
 
 /// The displacement part of a run's summary.
@@ -566,6 +569,9 @@ impl RunTotals {
         self.start_com_m.get_or_insert(self.end_com_m);
         self.start_heading_xy.get_or_insert_with(|| s.head_heading_xy());
         self.actuator_energy_j += s.actuator_power_w() * dt_secs * held_steps as f64;
+        if s.link_obstacle_force_n.iter().any(|f| f.iter().any(|x| *x != 0.0)) {
+            self.obstacle_contact_secs += dt_secs * held_steps as f64;
+        }
     }
 
     /// Displacement from the first to the last instant added.

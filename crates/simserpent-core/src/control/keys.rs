@@ -90,7 +90,7 @@ pub fn unused_key_rules(config: &Config) -> Vec<(String, String)> {
         out.push((
             "control.controller".into(),
             format!(
-                "{ctl} needs gait.kind = \"sine_wave\"; with gait.kind = \"{}\" the gait runs open loop, as with \
+                "it needs gait.kind = \"sine_wave\"; with gait.kind = \"{}\" the gait runs open loop, as with \
                  control.controller = \"gait\"",
                 kind_name(kind)
             ),
