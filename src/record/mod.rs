@@ -26,10 +26,10 @@ mod parquet;
 mod sink;
 mod table;
 
+pub use format::{ColumnKind, TableSink};
 pub use manifest::{Manifest, Ros2Report, RunStatus, RunSummary, SpaceReserve};
 #[cfg(feature = "parquet")]
 pub use parquet::ParquetTable;
-pub use format::{ColumnKind, TableSink};
 pub use sink::Table;
 pub use table::CsvTable;
 

@@ -78,7 +78,9 @@ fn keys_the_controller_ignores_are_reported() {
     assert!(o.status.success(), "{}", text(&o));
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(
-        stderr.contains("warning: gait.sine_wave.offset_deg = 10.0 has no effect: control.controller = \"path_following\""),
+        stderr.contains(
+            "warning: gait.sine_wave.offset_deg = 10.0 has no effect: control.controller = \"path_following\""
+        ),
         "{stderr}"
     );
     // Used by the open-loop gait: no warning.
@@ -131,7 +133,8 @@ fn the_start_hint_raises_the_snake_clear_of_a_heightfield() {
 #[test]
 fn mesh_obstacle_rotation_and_scale_are_optional() {
     let rock = data("rock.stl").display().to_string();
-    let text = format!("[terrain]\nkind = \"none\"\nmesh_obstacles = [{{ file = {rock:?}, position_m = [3.0, 3.0, 0.0] }}]\n");
+    let text =
+        format!("[terrain]\nkind = \"none\"\nmesh_obstacles = [{{ file = {rock:?}, position_m = [3.0, 3.0, 0.0] }}]\n");
     let c = load_config_str(&text, ConfigSource::Toml, &[]).unwrap();
     let m = &c.terrain.mesh_obstacles[0];
     assert_eq!((m.rotation_deg, m.scale), ([0.0; 3], 1.0));
@@ -169,11 +172,8 @@ fn urdf_joints_get_position_servos_from_the_config() {
     let e = run::run(&base(&["control.controller=\"gait\""]), &options).err().expect("no actuators").to_string();
     assert!(e.contains("robot.position_servos = true"), "{e}");
     // With the switch the joints follow a 20° wave.
-    let driven = base(&[
-        "control.controller=\"gait\"",
-        "robot.position_servos=true",
-        "gait.sine_wave.amplitude_deg=20.0",
-    ]);
+    let driven =
+        base(&["control.controller=\"gait\"", "robot.position_servos=true", "gait.sine_wave.amplitude_deg=20.0"]);
     let world = run::build_world(&driven, &options).unwrap();
     assert!(world.passive_joints().is_empty());
     let actuators: Vec<String> = (0..world.model().nu() as usize)

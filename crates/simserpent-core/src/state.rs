@@ -159,7 +159,6 @@ impl ContactEstimates {
     }
 }
 
-
 /// What a geom is, for splitting contact forces into ground reaction, obstacle and link–link.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum GeomClass {

@@ -216,7 +216,8 @@ fn paths(code: &str) -> Vec<Vec<String>> {
         while let Some(at) = code[i..].find(root) {
             let start = i + at;
             i = start + root.len();
-            if start > 0 && (bytes[start - 1].is_ascii_alphanumeric() || bytes[start - 1] == b'_' || bytes[start - 1] == b':')
+            if start > 0
+                && (bytes[start - 1].is_ascii_alphanumeric() || bytes[start - 1] == b'_' || bytes[start - 1] == b':')
             {
                 continue;
             }
@@ -446,7 +447,8 @@ fn cyclic_components(edges: &BTreeMap<(String, String), (PathBuf, String)>) -> V
             }
         }
         let mut text: Vec<String> = cycle.unwrap_or_default().iter().map(|s| s.to_string()).collect();
-        let rest: Vec<String> = component.iter().filter(|m| !text.iter().any(|t| t == *m)).map(|s| s.to_string()).collect();
+        let rest: Vec<String> =
+            component.iter().filter(|m| !text.iter().any(|t| t == *m)).map(|s| s.to_string()).collect();
         if !rest.is_empty() {
             text.push(format!("(with {})", rest.join(", ")));
         }
@@ -459,16 +461,19 @@ fn cyclic_components(edges: &BTreeMap<(String, String), (PathBuf, String)>) -> V
 /// message.
 fn cycles(name: &str, src: &Path) -> Vec<String> {
     let graph = Graph::build(&read_crate(src));
-    let parents: BTreeSet<ModPath> = std::iter::once(Vec::new())
-        .chain(graph.modules.iter().filter(|m| !m.is_empty()).cloned())
-        .collect();
+    let parents: BTreeSet<ModPath> =
+        std::iter::once(Vec::new()).chain(graph.modules.iter().filter(|m| !m.is_empty()).cloned()).collect();
     let mut out = Vec::new();
     for parent in parents {
         let edges = graph.sibling_edges(&parent);
         if std::env::var_os("MODULE_GRAPH_EDGES").is_some() {
             for ((a, b), (file, path)) in &edges {
                 let file = file.strip_prefix(env!("CARGO_MANIFEST_DIR")).unwrap_or(file);
-                eprintln!("{name}: {}{a} -> {b}: {} uses {path}", parent.iter().map(|p| format!("{p}::")).collect::<String>(), file.display());
+                eprintln!(
+                    "{name}: {}{a} -> {b}: {} uses {path}",
+                    parent.iter().map(|p| format!("{p}::")).collect::<String>(),
+                    file.display()
+                );
             }
         }
         for cycle in cyclic_components(&edges) {
@@ -479,7 +484,12 @@ fn cycles(name: &str, src: &Path) -> Vec<String> {
             for w in cycle.windows(2) {
                 if let Some((file, path)) = edges.get(&(w[0].clone(), w[1].clone())) {
                     let file = file.strip_prefix(env!("CARGO_MANIFEST_DIR")).unwrap_or(file);
-                    text.push_str(&format!("\n    {prefix}{} -> {prefix}{}: {} uses {path}", w[0], w[1], file.display()));
+                    text.push_str(&format!(
+                        "\n    {prefix}{} -> {prefix}{}: {} uses {path}",
+                        w[0],
+                        w[1],
+                        file.display()
+                    ));
                 }
             }
             out.push(text);

@@ -156,4 +156,3 @@ pub fn read_regular_file(path: &Path, cap_bytes: u64) -> Result<Vec<u8>, ReadErr
     }
     Ok(bytes)
 }
-

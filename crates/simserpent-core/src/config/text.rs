@@ -65,4 +65,3 @@ pub(crate) fn fmt_f(v: f64) -> String {
 pub(crate) fn fmt_a(values: &[f64]) -> String {
     format!("[{}]", values.iter().map(|v| fmt_f(*v)).collect::<Vec<_>>().join(", "))
 }
-

@@ -124,9 +124,10 @@ pub fn unused_key_rules(config: &Config) -> Vec<(String, String)> {
         ControllerKind::Gait => {
             other_kinds(&mut out, &kind_is);
             match kind {
-                GaitKind::None => {
-                    out.push(("gait.ramp_secs".into(), "gait.kind = \"none\" holds the joints (no wave to ramp in)".into()))
-                }
+                GaitKind::None => out.push((
+                    "gait.ramp_secs".into(),
+                    "gait.kind = \"none\" holds the joints (no wave to ramp in)".into(),
+                )),
                 GaitKind::FormClosure => out.push((
                     "gait.ramp_secs".into(),
                     "gait.kind = \"form_closure\" starts in its pattern's shape (it has no ramp-in)".into(),

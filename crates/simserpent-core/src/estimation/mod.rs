@@ -46,8 +46,7 @@ mod motion;
 mod score;
 
 pub use motion::{
-    ChainGeometry, FloorShare, FrictionFit, HeadAttitude, LinkPoses, MotionEstimator,
-    MotionEstimatorState,
+    ChainGeometry, FloorShare, FrictionFit, HeadAttitude, LinkPoses, MotionEstimator, MotionEstimatorState,
 };
 pub use score::{LinkSample, MotionScore};
 
