@@ -169,7 +169,7 @@ fn urdf_joints_get_position_servos_from_the_config() {
     assert!(summary.notes[0].contains("2 of the 2 joints") && summary.notes[0].contains("joint_a, joint_b"));
     assert!(summary.notes[0].contains("robot.position_servos = true"), "{:?}", summary.notes);
     // A gait without servos is refused, naming the switch.
-    let e = run::run(&base(&["control.controller=\"gait\""]), &options).err().expect("no actuators").to_string();
+    let e = run::run(&base(&["control.controller=\"gait\""]), &options).expect_err("no actuators").to_string();
     assert!(e.contains("robot.position_servos = true"), "{e}");
     // With the switch the joints follow a 20° wave.
     let driven =
