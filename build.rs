@@ -40,18 +40,18 @@ const MUJOCO_VERSION: &str = "3.17.0";
 
 /// The operating system the build is for, with what differs between them.
 #[derive(Clone, Copy, PartialEq)]
-enum Os {
+enum Platform {
     Linux,
     Windows,
     MacOs,
 }
 
-impl Os {
-    fn from_target(name: &str) -> Result<Os, String> {
+impl Platform {
+    fn from_target(name: &str) -> Result<Platform, String> {
         match name {
-            "linux" => Ok(Os::Linux),
-            "windows" => Ok(Os::Windows),
-            "macos" => Ok(Os::MacOs),
+            "linux" => Ok(Platform::Linux),
+            "windows" => Ok(Platform::Windows),
+            "macos" => Ok(Platform::MacOs),
             other => Err(format!("target OS `{other}` is not supported (Linux, Windows and macOS are)")),
         }
     }
@@ -59,9 +59,9 @@ impl Os {
     /// The library file the executables load at run time.
     fn runtime_lib(self) -> String {
         match self {
-            Os::Linux => format!("libmujoco.so.{MUJOCO_VERSION}"),
-            Os::Windows => "mujoco.dll".into(),
-            Os::MacOs => format!("libmujoco.{MUJOCO_VERSION}.dylib"),
+            Platform::Linux => format!("libmujoco.so.{MUJOCO_VERSION}"),
+            Platform::Windows => "mujoco.dll".into(),
+            Platform::MacOs => format!("libmujoco.{MUJOCO_VERSION}.dylib"),
         }
     }
 
@@ -70,25 +70,25 @@ impl Os {
     /// (its install name), and executables linked against it look for exactly that path.
     fn runtime_rel(self) -> PathBuf {
         match self {
-            Os::Linux | Os::Windows => PathBuf::from(self.runtime_lib()),
-            Os::MacOs => Path::new("mujoco.framework").join("Versions").join("A").join(self.runtime_lib()),
+            Platform::Linux | Platform::Windows => PathBuf::from(self.runtime_lib()),
+            Platform::MacOs => Path::new("mujoco.framework").join("Versions").join("A").join(self.runtime_lib()),
         }
     }
 
     /// The name the linker looks for (a symlink to the runtime library on Linux and macOS).
     fn link_name(self) -> &'static str {
         match self {
-            Os::Linux => "libmujoco.so",
-            Os::Windows => "mujoco.lib",
-            Os::MacOs => "libmujoco.dylib",
+            Platform::Linux => "libmujoco.so",
+            Platform::Windows => "mujoco.lib",
+            Platform::MacOs => "libmujoco.dylib",
         }
     }
 
     /// The folder under `.mujoco/` the library is unpacked into.
     fn unpack_dir(self) -> &'static str {
         match self {
-            Os::Linux | Os::MacOs => "lib",
-            Os::Windows => "win64",
+            Platform::Linux | Platform::MacOs => "lib",
+            Platform::Windows => "win64",
         }
     }
 
@@ -98,26 +98,28 @@ impl Os {
             return false;
         };
         match self {
-            Os::Linux => tag.contains("linux") && tag.contains(arch),
-            Os::Windows => tag == if arch == "aarch64" { "win_arm64" } else { "win_amd64" },
-            Os::MacOs => tag.starts_with("macosx") && (tag.ends_with("universal2") || tag.ends_with(mac_arch(arch))),
+            Platform::Linux => tag.contains("linux") && tag.contains(arch),
+            Platform::Windows => tag == if arch == "aarch64" { "win_arm64" } else { "win_amd64" },
+            Platform::MacOs => {
+                tag.starts_with("macosx") && (tag.ends_with("universal2") || tag.ends_with(mac_arch(arch)))
+            }
         }
     }
 
     /// `pip download` arguments that select this OS's wheel (none for the host's own platform).
     fn pip_platform(self, arch: &str) -> Vec<String> {
         let host_is_target = match self {
-            Os::Linux => cfg!(target_os = "linux"),
-            Os::Windows => cfg!(target_os = "windows"),
-            Os::MacOs => cfg!(target_os = "macos"),
+            Platform::Linux => cfg!(target_os = "linux"),
+            Platform::Windows => cfg!(target_os = "windows"),
+            Platform::MacOs => cfg!(target_os = "macos"),
         } && env::consts::ARCH == arch;
         if host_is_target {
             return Vec::new();
         }
         let platform = match self {
-            Os::Linux => format!("manylinux_2_28_{arch}"),
-            Os::Windows => if arch == "aarch64" { "win_arm64" } else { "win_amd64" }.to_string(),
-            Os::MacOs => format!("macosx_11_0_{}", mac_arch(arch)),
+            Platform::Linux => format!("manylinux_2_28_{arch}"),
+            Platform::Windows => if arch == "aarch64" { "win_arm64" } else { "win_amd64" }.to_string(),
+            Platform::MacOs => format!("macosx_11_0_{}", mac_arch(arch)),
         };
         ["--platform", &platform, "--python-version", "3.11"].iter().map(|s| s.to_string()).collect()
     }
@@ -129,7 +131,8 @@ fn mac_arch(arch: &str) -> &str {
 
 fn main() {
     let manifest_dir = PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("cargo sets this"));
-    let os = Os::from_target(&env::var("CARGO_CFG_TARGET_OS").unwrap_or_default()).unwrap_or_else(|why| fail(&why));
+    let os =
+        Platform::from_target(&env::var("CARGO_CFG_TARGET_OS").unwrap_or_default()).unwrap_or_else(|why| fail(&why));
     let arch = env::var("CARGO_CFG_TARGET_ARCH").unwrap_or_else(|_| env::consts::ARCH.to_string());
     let target_env = env::var("CARGO_CFG_TARGET_ENV").unwrap_or_default();
     if env::var_os("SIMSERPENT_PROVISION_ONLY").is_some() {
@@ -146,7 +149,7 @@ fn main() {
     if env::var_os("DOCS_RS").is_some() {
         return;
     }
-    if os == Os::Windows && env::var_os("CARGO_FEATURE_RENDER").is_some() {
+    if os == Platform::Windows && env::var_os("CARGO_FEATURE_RENDER").is_some() {
         fail(
             "the `render` and `viewer` features are Linux-only (MuJoCo's offscreen renderer goes through EGL); \
              build for Windows with `--no-default-features` (scripts/build-windows does)",
@@ -156,7 +159,7 @@ fn main() {
     let lib_dir = match env::var("MUJOCO_DYNAMIC_LINK_DIR") {
         Ok(dir) => PathBuf::from(dir),
         Err(_) => match provision(&manifest_dir, os, &arch, &target_env) {
-            Ok(dir) if os == Os::Windows => fail(&format!(
+            Ok(dir) if os == Platform::Windows => fail(&format!(
                 "MuJoCo for Windows is ready in {0}, but mujoco-rs links on Windows only through \
                  MUJOCO_DYNAMIC_LINK_DIR: build with MUJOCO_DYNAMIC_LINK_DIR={0} (scripts/build-windows does)",
                 dir.display()
@@ -179,8 +182,8 @@ fn main() {
     // PATH change, on Linux and macOS so they keep working if the repository moves.
     if let Some(profile_dir) = profile_dir() {
         let dirs = match os {
-            Os::Windows => vec![profile_dir.join("deps"), profile_dir.join("examples"), profile_dir],
-            Os::Linux | Os::MacOs => vec![profile_dir],
+            Platform::Windows => vec![profile_dir.join("deps"), profile_dir.join("examples"), profile_dir],
+            Platform::Linux | Platform::MacOs => vec![profile_dir],
         };
         for dir in dirs {
             let dest = dir.join(os.runtime_rel());
@@ -192,30 +195,30 @@ fn main() {
             if stale {
                 let copied = fs::create_dir_all(&dir).and_then(|()| fs::copy(&lib_file, &dest));
                 // On Linux and macOS the absolute rpath below still works if this fails.
-                if let (Err(e), Os::Windows) = (copied, os) {
+                if let (Err(e), Platform::Windows) = (copied, os) {
                     fail(&format!("cannot copy {} to {}: {e}", lib_file.display(), dest.display()));
                 }
             }
         }
     }
     match os {
-        Os::Linux => println!("cargo::rustc-link-arg=-Wl,-rpath,$ORIGIN:$ORIGIN/..:{}", lib_dir.display()),
-        Os::MacOs => {
+        Platform::Linux => println!("cargo::rustc-link-arg=-Wl,-rpath,$ORIGIN:$ORIGIN/..:{}", lib_dir.display()),
+        Platform::MacOs => {
             println!("cargo::rustc-link-arg=-Wl,-rpath,@loader_path");
             println!("cargo::rustc-link-arg=-Wl,-rpath,@loader_path/..");
             println!("cargo::rustc-link-arg=-Wl,-rpath,{}", lib_dir.display());
         }
-        Os::Windows => {}
+        Platform::Windows => {}
     }
     println!("cargo::rustc-env=SIMSERPENT_MUJOCO_LIB={}", lib_file.display());
 }
 
 /// The runtime library in a link directory (on Windows also `../bin`, as in MuJoCo's release zip).
-fn runtime_lib_in(os: Os, lib_dir: &Path) -> Option<PathBuf> {
+fn runtime_lib_in(os: Platform, lib_dir: &Path) -> Option<PathBuf> {
     let mut candidates = vec![lib_dir.join(os.runtime_lib())];
     match os {
-        Os::Linux | Os::MacOs => candidates.push(lib_dir.join(os.link_name())),
-        Os::Windows => candidates.push(lib_dir.join("..").join("bin").join(os.runtime_lib())),
+        Platform::Linux | Platform::MacOs => candidates.push(lib_dir.join(os.link_name())),
+        Platform::Windows => candidates.push(lib_dir.join("..").join("bin").join(os.runtime_lib())),
     }
     candidates.into_iter().find(|p| p.exists())
 }
@@ -226,7 +229,7 @@ fn profile_dir() -> Option<PathBuf> {
     Some(out.parent()?.parent()?.parent()?.to_path_buf())
 }
 
-fn provision(manifest_dir: &Path, os: Os, arch: &str, target_env: &str) -> Result<PathBuf, String> {
+fn provision(manifest_dir: &Path, os: Platform, arch: &str, target_env: &str) -> Result<PathBuf, String> {
     let root = manifest_dir.join(".mujoco");
     let lib_dir = root.join(os.unpack_dir());
     let lib = lib_dir.join(os.runtime_lib());
@@ -239,7 +242,7 @@ fn provision(manifest_dir: &Path, os: Os, arch: &str, target_env: &str) -> Resul
     }
     let runtime = lib_dir.join(os.runtime_rel());
     if !runtime.exists() {
-        // macOS: the install name's path beside the library itself (see `Os::runtime_rel`).
+        // macOS: the install name's path beside the library itself (see `Platform::runtime_rel`).
         let copied =
             fs::create_dir_all(runtime.parent().expect("a file in a folder")).and_then(|()| fs::copy(&lib, &runtime));
         copied.map_err(|e| format!("cannot copy {} to {}: {e}", lib.display(), runtime.display()))?;
@@ -247,8 +250,8 @@ fn provision(manifest_dir: &Path, os: Os, arch: &str, target_env: &str) -> Resul
     let link = lib_dir.join(os.link_name());
     if fs::symlink_metadata(&link).is_err() {
         match os {
-            Os::Linux | Os::MacOs => symlink(&os.runtime_lib(), &link)?,
-            Os::Windows => import_library(&lib, &link, target_env)?,
+            Platform::Linux | Platform::MacOs => symlink(&os.runtime_lib(), &link)?,
+            Platform::Windows => import_library(&lib, &link, target_env)?,
         }
     }
     Ok(lib_dir)
@@ -390,14 +393,14 @@ fn cache_dir() -> PathBuf {
     }
 }
 
-fn find_wheel(dir: &Path, os: Os, arch: &str) -> Option<PathBuf> {
+fn find_wheel(dir: &Path, os: Platform, arch: &str) -> Option<PathBuf> {
     let prefix = format!("mujoco-{MUJOCO_VERSION}-");
     fs::read_dir(dir).ok()?.flatten().map(|e| e.path()).find(|p| {
         p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.starts_with(&prefix) && os.wheel_matches(n, arch))
     })
 }
 
-fn cached_wheel(os: Os, arch: &str) -> Result<PathBuf, String> {
+fn cached_wheel(os: Platform, arch: &str) -> Result<PathBuf, String> {
     let dir = cache_dir();
     if let Some(wheel) = find_wheel(&dir, os, arch) {
         return Ok(wheel);
@@ -433,7 +436,7 @@ fn cached_wheel(os: Os, arch: &str) -> Result<PathBuf, String> {
 }
 
 /// Unpacks the library and headers from the wheel (a zip file) with Python's zipfile module.
-fn unpack(wheel: &Path, root: &Path, os: Os) -> Result<(), String> {
+fn unpack(wheel: &Path, root: &Path, os: Platform) -> Result<(), String> {
     const SCRIPT: &str = r#"
 import sys, zipfile, os, shutil
 wheel, root, lib, lib_dir = sys.argv[1:5]
@@ -463,7 +466,7 @@ with zipfile.ZipFile(wheel) as z:
 }
 
 fn fail(why: &str) -> ! {
-    let os = Os::from_target(&env::var("CARGO_CFG_TARGET_OS").unwrap_or_default()).unwrap_or(Os::Linux);
+    let os = Platform::from_target(&env::var("CARGO_CFG_TARGET_OS").unwrap_or_default()).unwrap_or(Platform::Linux);
     eprintln!(
         "\n==================== SimSerpent: MuJoCo {MUJOCO_VERSION} is not available ====================\n\
          {why}\n\n\

@@ -13,6 +13,8 @@ mod common;
 mod config;
 mod dying_processes;
 mod estimation;
+// Planted symlinks, device files, permission bits and SIGTERM: Unix only.
+#[cfg(unix)]
 mod hostile_files;
 mod impacts;
 mod legacy_convert;
