@@ -480,9 +480,9 @@ pub fn render_run_folder(folder: &Path, options: &ReplayOptions) -> Result<Vec<P
 #[cfg(all(not(feature = "render"), not(windows)))]
 const NO_RENDER_FEATURE: &str = "this build has no `render` feature (rebuild with default features)";
 #[cfg(all(not(feature = "render"), windows))]
-const NO_RENDER_FEATURE: &str = "the Windows build has no offscreen rendering (MuJoCo's offscreen renderer in \
-     SimSerpent goes through EGL, which Windows lacks): make images and videos on Linux (or WSL2) from the run \
-     folder with `simserpent render RUN_FOLDER`; plots (`simserpent plot`) work on Windows";
+const NO_RENDER_FEATURE: &str = "the Windows build has none (SimSerpent's offscreen renderer goes through EGL, \
+     which Windows lacks): make images and videos on Linux (or WSL2) from the run folder with `simserpent render \
+     RUN_FOLDER`; plots (`simserpent plot`) work on Windows";
 
 /// Without the `render` feature there is no offscreen rendering.
 #[cfg(not(feature = "render"))]
