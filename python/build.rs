@@ -7,7 +7,13 @@
 //! pkg-config file (`build/pkgconfig`, via `.cargo/config.toml`) or `MUJOCO_DYNAMIC_LINK_DIR`;
 //! only the SONAME `libmujoco.so.3.17.0` is recorded, so which copy it links against does not
 //! matter at run time.
+//!
+//! Windows has no rpath: `simserpent/__init__.py` adds the `mujoco` package's folder (which holds
+//! `mujoco.dll`) to the DLL search path before it imports the extension. The target is
+//! `CARGO_CFG_TARGET_OS`, since this script runs on the host.
 fn main() {
     println!("cargo::rerun-if-changed=build.rs");
-    println!("cargo::rustc-link-arg-cdylib=-Wl,-rpath,$ORIGIN/../mujoco");
+    if std::env::var("CARGO_CFG_TARGET_OS").as_deref() == Ok("linux") {
+        println!("cargo::rustc-link-arg-cdylib=-Wl,-rpath,$ORIGIN/../mujoco");
+    }
 }

@@ -29,8 +29,18 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any, Union
 
-from . import _core
-from ._core import (
+if os.name == "nt":
+    # Windows finds DLLs beside the program, not through an rpath: the extension needs the
+    # mujoco.dll of the `mujoco` wheel (pip install mujoco==3.17.0).
+    import importlib.util
+
+    _mujoco = importlib.util.find_spec("mujoco")
+    if _mujoco is not None and _mujoco.submodule_search_locations:
+        for _folder in _mujoco.submodule_search_locations:
+            os.add_dll_directory(_folder)
+
+from . import _core  # noqa: E402
+from ._core import (  # noqa: E402
     Config,
     ConfigError,
     EstimateError,

@@ -172,9 +172,7 @@ impl RunVisuals {
         let live = if pictures { Some(live::Live::new(config, folder)?) } else { None };
         #[cfg(not(feature = "render"))]
         if pictures {
-            return Err(RenderError::NoRenderer(
-                "this build has no `render` feature (rebuild with default features)".into(),
-            ));
+            return Err(RenderError::NoRenderer(NO_RENDER_FEATURE.into()));
         }
         #[cfg(feature = "viewer")]
         let viewer = if live_viewer { Some(viewer::LiveViewer::open(data.model())?) } else { None };
@@ -473,8 +471,16 @@ pub fn render_run_folder(folder: &Path, options: &ReplayOptions) -> Result<Vec<P
     Ok(written)
 }
 
+/// Why a build without the `render` feature cannot make pictures.
+#[cfg(all(not(feature = "render"), not(windows)))]
+const NO_RENDER_FEATURE: &str = "this build has no `render` feature (rebuild with default features)";
+#[cfg(all(not(feature = "render"), windows))]
+const NO_RENDER_FEATURE: &str = "the Windows build has none (SimSerpent's offscreen renderer goes through EGL, \
+     which Windows lacks): make images and videos on Linux (or WSL2) from the run folder with `simserpent render \
+     RUN_FOLDER`; plots (`simserpent plot`) work on Windows";
+
 /// Without the `render` feature there is no offscreen rendering.
 #[cfg(not(feature = "render"))]
 pub fn render_run_folder(_folder: &Path, _options: &ReplayOptions) -> Result<Vec<PathBuf>, RenderError> {
-    Err(RenderError::NoRenderer("this build has no `render` feature (rebuild with default features)".into()))
+    Err(RenderError::NoRenderer(NO_RENDER_FEATURE.into()))
 }

@@ -8,14 +8,19 @@
 //!   --viewer` then replays the finished run (its `state.csv`) in Python's passive viewer at
 //!   real time.
 //!
-//! Both need a display: without `DISPLAY` or `WAYLAND_DISPLAY` the command stops with exit
-//! code 2 and says so.
+//! Both need a display: on Linux without `DISPLAY` or `WAYLAND_DISPLAY` the command stops with
+//! exit code 2 and says so. On Windows (no `viewer` feature there) Python's viewer runs through
+//! `python` with `pip install mujoco==3.17.0`.
 
 use super::RenderError;
 use std::path::Path;
 
 /// Fails with a clear message when there is no display to open a window on.
 pub fn check_display() -> Result<(), RenderError> {
+    // A Windows desktop session always has a display.
+    if cfg!(windows) {
+        return Ok(());
+    }
     let set = |name: &str| std::env::var_os(name).is_some_and(|v| !v.is_empty());
     if set("DISPLAY") || set("WAYLAND_DISPLAY") {
         Ok(())
@@ -67,8 +72,10 @@ fn python_failed(what: &str, e: impl std::fmt::Display) -> RenderError {
 
 #[cfg(not(feature = "viewer"))]
 fn run_python(args: &[&std::ffi::OsStr]) -> Result<(), RenderError> {
-    let status = std::process::Command::new("python3").args(args).status().map_err(|e| python_failed("python3", e))?;
-    if status.success() { Ok(()) } else { Err(python_failed("python3", format!("exited with {status}"))) }
+    // Python's installer for Windows puts `python` on PATH, not `python3`.
+    let python = if cfg!(windows) { "python" } else { "python3" };
+    let status = std::process::Command::new(python).args(args).status().map_err(|e| python_failed(python, e))?;
+    if status.success() { Ok(()) } else { Err(python_failed(python, format!("exited with {status}"))) }
 }
 
 /// Opens the viewer on a model file (MJCF or URDF); the viewer simulates it interactively.

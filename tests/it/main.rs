@@ -14,6 +14,8 @@ mod config;
 mod defaults;
 mod dying_processes;
 mod estimation;
+// Planted symlinks, device files, permission bits and SIGTERM: Unix only.
+#[cfg(unix)]
 mod hostile_files;
 mod impacts;
 mod legacy_convert;
