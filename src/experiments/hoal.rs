@@ -233,6 +233,7 @@ fn case_config(base: &Config, case: &Case, duration_secs: f64) -> Config {
 
 /// Runs one case in memory.
 fn run_case(config: &Config, forces: bool) -> Result<Trace, ExperimentError> {
+    crate::interrupt::check(|| "before a hoal case".into()).map_err(RunError::Sim)?;
     config.validate().map_err(|e| RunError::Sim(e.into()))?;
     let world = World::from_config(config).map_err(RunError::Sim)?;
     let mut sim = Simulation::new(config, world);
@@ -245,7 +246,9 @@ fn run_case(config: &Config, forces: bool) -> Result<Trace, ExperimentError> {
         true_n: Vec::with_capacity(if forces { capacity } else { 0 }),
         forces,
     };
-    sim.run(LoopPlan { steps, record_every_n_steps: RECORD_EVERY }, &mut [&mut trace]).map_err(RunError::Sim)?;
+    let mut poll = crate::interrupt::Poll::new("a hoal case");
+    sim.run(LoopPlan { steps, record_every_n_steps: RECORD_EVERY }, &mut [&mut trace, &mut poll])
+        .map_err(RunError::Sim)?;
     Ok(trace)
 }
 

@@ -94,7 +94,8 @@ impl RenderError {
 /// Writes a PNG (RGB, 8 bits).
 pub fn write_png(path: &Path, rgb: &[u8], width: usize, height: usize) -> Result<(), RenderError> {
     let enc = |message: String| RenderError::Encoder { path: path.to_path_buf(), message };
-    let file = std::fs::File::create(path).map_err(RenderError::io(path))?;
+    let file = crate::files::open_for_writing(path, false)
+        .map_err(|e| RenderError::io(path)(std::io::Error::other(e.to_string())))?;
     let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width as u32, height as u32);
     encoder.set_color(png::ColorType::Rgb);
     encoder.set_depth(png::BitDepth::Eight);

@@ -14,6 +14,7 @@ mod config;
 mod dying_processes;
 mod estimation;
 mod hostile_files;
+mod hostile_surfaces;
 mod impacts;
 mod legacy_convert;
 mod limits;
