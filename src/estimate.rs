@@ -141,6 +141,25 @@ fn check_tables(
             ),
         ));
     }
+    // Every link (and joint) has the columns of the first: a dropped or renamed column of one
+    // link is a table of another recording.
+    for (t, path) in [(links, links_path), (sensors, sensors_path)] {
+        let names: std::collections::HashSet<&str> = t.header.iter().map(String::as_str).collect();
+        let families = [
+            (format!("{}_", names::link_body(0)), (0..n_links).map(|i| format!("{}_", names::link_body(i))).collect::<Vec<_>>()),
+            (format!("{}_", names::joint(1)), (1..n_links).map(|j| format!("{}_", names::joint(j))).collect()),
+        ];
+        for (first, all) in &families {
+            for h in t.header.iter().filter_map(|h| h.strip_prefix(first.as_str())) {
+                if let Some(missing) = all.iter().map(|p| format!("{p}{h}")).find(|n| !names.contains(n.as_str())) {
+                    return Err(bad(
+                        path,
+                        format!("no column `{missing}` although `{first}{h}` is there: not a whole table of this run"),
+                    ));
+                }
+            }
+        }
+    }
     let beyond = format!("{}_", names::link_body(n_links));
     if let Some(h) = links.header.iter().find(|h| h.starts_with(&beyond)) {
         return Err(bad(
