@@ -358,6 +358,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
         cases
             .par_iter()
             .map(|case| {
+                crate::interrupt::check(|| "before a hoal case".into()).map_err(RunError::Sim)?;
                 let forces = matches!(case.variant, Variant::Closed(_, ContactSource::Estimated));
                 let result = run_case(&case_config(base, case, duration_secs), forces);
                 let n = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
@@ -412,6 +413,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
         held_out
             .par_iter()
             .map(|case| {
+                crate::interrupt::check(|| "before a hoal case".into()).map_err(RunError::Sim)?;
                 let t = run_case(&case_config(base, case, duration_secs), false)?;
                 Ok(speed_and_jam(&t, ramp_secs))
             })
