@@ -146,7 +146,10 @@ fn check_tables(
     for (t, path) in [(links, links_path), (sensors, sensors_path)] {
         let names: std::collections::HashSet<&str> = t.header.iter().map(String::as_str).collect();
         let families = [
-            (format!("{}_", names::link_body(0)), (0..n_links).map(|i| format!("{}_", names::link_body(i))).collect::<Vec<_>>()),
+            (
+                format!("{}_", names::link_body(0)),
+                (0..n_links).map(|i| format!("{}_", names::link_body(i))).collect::<Vec<_>>(),
+            ),
             (format!("{}_", names::joint(1)), (1..n_links).map(|j| format!("{}_", names::joint(j))).collect()),
         ];
         for (first, all) in &families {

@@ -317,6 +317,7 @@ pub fn parse_number(text: &str) -> Result<f64, &'static str> {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 

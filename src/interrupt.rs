@@ -93,7 +93,7 @@ impl Poll {
 
 impl<E: From<crate::sim::SimError>> crate::sim::Observer<E> for Poll {
     fn on_step(&mut self, view: &crate::sim::StepView<'_>) -> Result<(), E> {
-        if view.k % CHECK_EVERY_N_STEPS == 0 && !view.is_last() && requested() {
+        if view.k.is_multiple_of(CHECK_EVERY_N_STEPS) && !view.is_last() && requested() {
             return Err(E::from(crate::sim::SimError::Interrupted {
                 at: format!("at t = {:.6} s (step {}) of {}", view.time_secs(), view.k, self.what),
             }));

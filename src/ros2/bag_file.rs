@@ -199,6 +199,7 @@ pub fn repair_bag(run_folder: &Path) -> Result<RepairReport, RepairError> {
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 

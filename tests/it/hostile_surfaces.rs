@@ -75,6 +75,9 @@ fn files_under(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
+/// A change that breaks a file or folder for one case.
+type Breaker<'a> = Box<dyn Fn() + 'a>;
+
 fn mkfifo(path: &Path) {
     assert!(Command::new("mkfifo").arg(path).status().unwrap().success());
 }
@@ -268,7 +271,7 @@ fn sweep_merge_refuses_missing_copied_foreign_and_special_shards() {
     assert_eq!(std::fs::read_to_string(sw.join("summary.csv")).unwrap().lines().count(), 4);
     let outside = tempfile::tempdir().unwrap();
     std::fs::write(outside.path().join("x.csv"), &good).unwrap();
-    let mut cases: Vec<(&str, Box<dyn Fn()>)> = vec![
+    let mut cases: Vec<(&str, Breaker<'_>)> = vec![
         ("missing shard", Box::new(|| {})),
         ("copy of shard 0", Box::new(|| std::fs::copy(&s0, &s1).map(|_| ()).unwrap())),
         (
@@ -368,7 +371,7 @@ fn estimate_and_plot_read_and_write_only_inside_the_run_folder() {
     std::fs::write(o.join("outside.csv"), &pristine[0].1).unwrap();
     let sensors = run.join("sensors.csv");
     let links = run.join("links.csv");
-    let cases: Vec<(&str, Box<dyn Fn()>, &[&str])> = vec![
+    let cases: Vec<(&str, Breaker<'_>, &[&str])> = vec![
         ("estimation -> outside", Box::new(|| symlink(&o, run.join("estimation")).unwrap()), &["symbolic link"]),
         (
             "estimation/plots -> outside",
