@@ -120,6 +120,9 @@ fn bare(config: &Config, steps: u64, with_gait: bool, with_ground: bool) -> Resu
     let start = Instant::now();
     let cpu_start = thread_cpu_ns();
     for k in 0..steps {
+        if k % crate::interrupt::CHECK_EVERY_N_STEPS == 0 {
+            crate::interrupt::check(|| format!("at step {k} of the bare-engine measurement"))?;
+        }
         if with_gait {
             trajectory.targets(k as f64 * dt, &mut angle, &mut velocity);
             let ctrl = world.ctrl_mut();
@@ -248,6 +251,7 @@ pub fn run_bench(
         let mut all: Vec<Vec<Measured>> = vec![Vec::new(); modes.len()];
         for _ in 0..repeats.max(1) {
             for (mode, all) in modes.iter().zip(&mut all) {
+                crate::interrupt::check(|| format!("before the {n_links}-link {mode} measurement"))?;
                 all.push(measure(&config, mode, steps)?);
             }
         }

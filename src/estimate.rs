@@ -54,6 +54,13 @@ pub enum EstimateError {
     /// A plot failed.
     #[error("plot {}: {message}", path.display())]
     Plot { path: PathBuf, message: String },
+    /// A file that is not one SimSerpent reads or writes ([`crate::files`]: a link out of the run
+    /// folder, a FIFO or device, too large, a link where the estimates go).
+    #[error(transparent)]
+    File(#[from] crate::files::FileError),
+    /// SIGINT/SIGTERM stopped the estimation (exit code 130); what was written is incomplete.
+    #[error("interrupted by a signal (SIGINT or SIGTERM) at row {row}; nothing was written")]
+    Interrupted { row: usize },
 }
 
 /// What the tool produced.
@@ -69,27 +76,103 @@ pub struct EstimateOutcome {
 }
 
 fn table(path: &Path) -> Result<Table, EstimateError> {
-    if !path.is_file() {
-        return Err(EstimateError::Missing {
+    Table::read(path).map_err(|e| match e {
+        ExperimentError::File(crate::files::FileError::Missing { .. }) => EstimateError::Missing {
             path: path.to_path_buf(),
             what:
                 "the run must be recorded as CSV (recording.format = \"csv\" or \"both\") with recording.imu_sensors \
                    (sensors.csv) and the link columns (links.csv)"
                     .into(),
-        });
-    }
-    Table::read(path).map_err(|e| match e {
+        },
+        ExperimentError::File(e) => EstimateError::File(e),
         ExperimentError::Io { path, source, .. } => EstimateError::Io { what: "read", path, source },
+        ExperimentError::Data(problem) => EstimateError::Table { path: path.to_path_buf(), problem },
         other => EstimateError::Table { path: path.to_path_buf(), problem: other.to_string() },
     })
 }
 
-/// A numeric column, or an error naming the file, the column and the switch that records it.
+/// A numeric column whose every field is a finite number (at most 1e15 in magnitude), or an
+/// error naming the file, the row and the column (or the switch that records a missing column).
 fn col<'a>(t: &'a Table, path: &Path, name: &str, switch: &str) -> Result<&'a [f64], EstimateError> {
-    t.col(name).map_err(|_| EstimateError::Table {
-        path: path.to_path_buf(),
-        problem: format!("no column `{name}` (recorded with {switch})"),
-    })
+    match t.finite_col(name) {
+        Ok(Some(c)) => Ok(c),
+        Ok(None) => Err(EstimateError::Table {
+            path: path.to_path_buf(),
+            problem: format!("no column `{name}` (recorded with {switch})"),
+        }),
+        Err(problem) => Err(EstimateError::Table { path: path.to_path_buf(), problem }),
+    }
+}
+
+/// Checks the tables against the run's config: both start with `time_s`, hold the same instants,
+/// strictly increasing, and links.csv has no columns of a link beyond `n_links`.
+fn check_tables(
+    links: &Table,
+    links_path: &Path,
+    sensors: &Table,
+    sensors_path: &Path,
+    n_links: usize,
+) -> Result<(), EstimateError> {
+    let bad = |path: &Path, problem: String| EstimateError::Table { path: path.to_path_buf(), problem };
+    for (t, path) in [(links, links_path), (sensors, sensors_path)] {
+        if t.header.first().map(String::as_str) != Some("time_s") {
+            return Err(bad(path, "the first column must be `time_s`, as the run wrote it".into()));
+        }
+        if t.rows() == 0 {
+            return Err(bad(path, "no rows".into()));
+        }
+    }
+    let time = col(links, links_path, "time_s", "always")?;
+    let sensor_rows = col(sensors, sensors_path, "time_s", "always")?;
+    if let Some(k) = (1..time.len()).find(|&k| time[k] <= time[k - 1]) {
+        return Err(bad(
+            links_path,
+            format!("row {}: time_s {} does not increase (row {} has {})", k + 1, time[k], k, time[k - 1]),
+        ));
+    }
+    if let Some(k) = (0..time.len()).find(|&k| time[k] != sensor_rows[k]) {
+        return Err(bad(
+            sensors_path,
+            format!(
+                "row {}: time_s {} differs from links.csv's {}: both must come from the same run",
+                k + 1,
+                sensor_rows[k],
+                time[k]
+            ),
+        ));
+    }
+    // Every link (and joint) has the columns of the first: a dropped or renamed column of one
+    // link is a table of another recording.
+    for (t, path) in [(links, links_path), (sensors, sensors_path)] {
+        let names: std::collections::HashSet<&str> = t.header.iter().map(String::as_str).collect();
+        let families = [
+            (
+                format!("{}_", names::link_body(0)),
+                (0..n_links).map(|i| format!("{}_", names::link_body(i))).collect::<Vec<_>>(),
+            ),
+            (format!("{}_", names::joint(1)), (1..n_links).map(|j| format!("{}_", names::joint(j))).collect()),
+        ];
+        for (first, all) in &families {
+            for h in t.header.iter().filter_map(|h| h.strip_prefix(first.as_str())) {
+                if let Some(missing) = all.iter().map(|p| format!("{p}{h}")).find(|n| !names.contains(n.as_str())) {
+                    return Err(bad(
+                        path,
+                        format!("no column `{missing}` although `{first}{h}` is there: not a whole table of this run"),
+                    ));
+                }
+            }
+        }
+    }
+    let beyond = format!("{}_", names::link_body(n_links));
+    if let Some(h) = links.header.iter().find(|h| h.starts_with(&beyond)) {
+        return Err(bad(
+            links_path,
+            format!(
+                "has the column `{h}` of link {n_links}, but config.toml says snake.n_links = {n_links}: the config is not this run's"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 fn xyz<'a>(t: &'a Table, path: &Path, stem: &str, unit: &str, switch: &str) -> Result<[&'a [f64]; 3], EstimateError> {
@@ -133,17 +216,22 @@ struct JointCols<'a> {
 /// on the recorded run in `run_folder`.
 pub fn estimate_run_folder(run_folder: &Path, overrides: &[String]) -> Result<EstimateOutcome, EstimateError> {
     let config_path = run_folder.join("config.toml");
-    if !config_path.is_file() {
-        return Err(EstimateError::Missing {
-            path: config_path,
-            what: "not a run folder (every run folder has its resolved config.toml)".into(),
-        });
+    // The reader's rule first: a regular file inside the run folder.
+    match crate::files::read_in(run_folder, &config_path, crate::files::SMALL_FILE_CAP_BYTES) {
+        Err(crate::files::FileError::Missing { .. }) => {
+            return Err(EstimateError::Missing {
+                path: config_path,
+                what: "not a run folder (every run folder has its resolved config.toml)".into(),
+            });
+        }
+        Err(e) => return Err(e.into()),
+        Ok(_) => {}
     }
     let config = crate::config::load_config(&config_path, overrides)
         .and_then(|c| c.validate().map(|()| c))
         .map_err(|source| EstimateError::Config { path: config_path.clone(), source })?;
     let manifest = run_folder.join("manifest.json");
-    if let Ok(text) = std::fs::read_to_string(&manifest)
+    if let Ok(text) = crate::files::read_text_in(run_folder, &manifest, crate::files::SMALL_FILE_CAP_BYTES)
         && text.contains("\"robot_file\": \"")
     {
         return Err(EstimateError::Table {
@@ -165,6 +253,7 @@ pub fn estimate_run_folder(run_folder: &Path, overrides: &[String]) -> Result<Es
     }
     let nl = config.snake.n_links;
     let nj = nl.saturating_sub(1);
+    check_tables(&links, &links_path, &sensors, &sensors_path, nl)?;
     let time = col(&links, &links_path, "time_s", "always")?;
     let sensor_time = col(&sensors, &sensors_path, "sensor_time_s", "recording.imu_sensors")?;
     let mut link_cols = Vec::with_capacity(nl);
@@ -237,16 +326,15 @@ pub fn estimate_run_folder(run_folder: &Path, overrides: &[String]) -> Result<Es
     let threshold = config.estimation.detection_threshold_n;
     let mut total = MotionScore::new(threshold, 1.0, 0.01);
     let mut per_link = vec![total.clone(); nl];
-    let out_dir = run_folder.join("estimation");
-    std::fs::create_dir_all(&out_dir).map_err(|source| EstimateError::Io {
-        what: "create",
-        path: out_dir.clone(),
-        source,
-    })?;
+    // Written only inside the run folder, never through a link ([`crate::files`]).
+    let out_dir = crate::files::create_dir_in(run_folder, Path::new("estimation"))?;
     let mut csv = header(nl);
     let mut series: Vec<[Vec<f64>; 4]> = vec![Default::default(); nl];
     let l = config.snake.link_length_m;
     for k in 0..rows {
+        if k % 1024 == 0 && crate::interrupt::requested() {
+            return Err(EstimateError::Interrupted { row: k });
+        }
         obs.time_secs = time[k];
         obs.sensor_time_secs = sensor_time[k];
         for (i, (lc, sc)) in link_cols.iter().zip(&sensor_cols).enumerate() {
@@ -314,19 +402,14 @@ pub fn estimate_run_folder(run_folder: &Path, overrides: &[String]) -> Result<Es
         }
         csv.push('\n');
     }
-    let write = |name: &str, text: &str| {
-        let path = out_dir.join(name);
-        std::fs::write(&path, text).map_err(|source| EstimateError::Io { what: "write", path, source })
+    let write = |name: &str, text: &str| -> Result<(), EstimateError> {
+        crate::files::write_in(&out_dir, Path::new(name), text.as_bytes())?;
+        Ok(())
     };
     write("estimates.csv", &csv)?;
     write("scores.csv", &scores_csv(&total, &per_link))?;
     write("scores.md", &scores_markdown(run_folder, &config, rows, &total, &per_link, est.floor_friction))?;
-    let plots = out_dir.join("plots");
-    std::fs::create_dir_all(&plots).map_err(|source| EstimateError::Io {
-        what: "create",
-        path: plots.clone(),
-        source,
-    })?;
+    let plots = crate::files::create_dir_in(&out_dir, Path::new("plots"))?;
     for (i, s) in series.into_iter().enumerate() {
         let [ex, tx, ey, ty] = s;
         let named = vec![

@@ -1,19 +1,25 @@
-//! Clean stop on SIGINT (Ctrl-C) and SIGTERM.
+//! Clean stop on SIGINT (Ctrl-C) and SIGTERM: one policy for every long-running command.
 //!
-//! [`install_handler`] (called by the `simserpent run` and `sweep` commands) makes the first
-//! SIGINT or SIGTERM only raise a flag (and say so on stderr), which each stage of a run acts on:
+//! [`install_handler`] (called by the binary for `run`, `sweep`, `experiment`, `study`,
+//! `estimate`, `bench`, `plot` and `render`) makes the first SIGINT or SIGTERM only raise a flag
+//! (and say so on stderr), which each stage acts on:
 //! - set-up (config, model generation, the model compile — one MuJoCo call that may take many
 //!   seconds and cannot be cut short): checked when set-up is done, before the run folder is
 //!   created ([`crate::run::RunError::InterruptedSetUp`]): no run folder is left;
-//! - the step loop ([`crate::run`]) looks at it every [`CHECK_EVERY_N_STEPS`] steps and then
-//!   stops: the tables are flushed (whole rows only), the manifest is marked `incomplete` with
-//!   the reason;
-//! - plotting (`general.plot = true`) looks at it before each file: the manifest stays
-//!   `complete` (the run is) and its `plots` says `interrupted`.
+//! - every step loop looks at it every [`CHECK_EVERY_N_STEPS`] steps and then stops (runs:
+//!   [`crate::run`]; runs in memory — the study, in-memory experiments, the benchmark — through
+//!   [`Poll`]): a run's tables are flushed (whole rows only), its manifest is marked `incomplete`
+//!   with the reason;
+//! - experiments, studies, sweeps and the estimator look at it between and inside their sub-runs
+//!   ([`check`]) and start nothing new;
+//! - plotting looks at it before each file: the run's manifest stays `complete` (the run is) and
+//!   its `plots` says `interrupted`.
 //!
 //! The command then exits with code 130. A second signal while the first is being handled ends
 //! the process at once (exit code 130; during set-up that is the way to leave a long model
-//! compile; during the run the tables may then end in a partial row).
+//! compile; during a run the tables may then end in a partial row). SIGTERM is treated exactly
+//! like SIGINT. A handler also replaces an inherited "ignore SIGINT" (a job started with `&` by a
+//! non-interactive shell), so such a job stops on SIGINT like one in the foreground.
 //!
 //! Library users who do not install the handler keep the default behaviour of the signals; they
 //! may also stop runs themselves with [`request`] (for example from a GUI thread).
@@ -59,4 +65,39 @@ pub fn request() {
 /// Clears a request, so that later runs of this process run again.
 pub fn clear() {
     REQUESTED.store(false, Ordering::SeqCst);
+}
+
+/// `Err(SimError::Interrupted)` naming `at` (e.g. "before case X") when a stop was requested.
+///
+/// # Errors
+/// A stop was requested.
+pub fn check(at: impl FnOnce() -> String) -> Result<(), crate::sim::SimError> {
+    if requested() { Err(crate::sim::SimError::Interrupted { at: at() }) } else { Ok(()) }
+}
+
+/// An observer that stops a step loop run in memory (no run folder) when a stop was requested,
+/// with [`crate::sim::SimError::Interrupted`]; it looks at the flag every
+/// [`CHECK_EVERY_N_STEPS`] instants.
+#[derive(Debug, Clone, Default)]
+pub struct Poll {
+    /// What the loop runs, for the error ("case X").
+    pub what: String,
+}
+
+impl Poll {
+    /// A poll for the loop of `what` ("case X", "setting Y").
+    pub fn new(what: impl Into<String>) -> Self {
+        Self { what: what.into() }
+    }
+}
+
+impl<E: From<crate::sim::SimError>> crate::sim::Observer<E> for Poll {
+    fn on_step(&mut self, view: &crate::sim::StepView<'_>) -> Result<(), E> {
+        if view.k.is_multiple_of(CHECK_EVERY_N_STEPS) && !view.is_last() && requested() {
+            return Err(E::from(crate::sim::SimError::Interrupted {
+                at: format!("at t = {:.6} s (step {}) of {}", view.time_secs(), view.k, self.what),
+            }));
+        }
+        Ok(())
+    }
 }

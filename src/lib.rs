@@ -20,6 +20,7 @@ pub mod cpu_time;
 pub mod env;
 pub mod estimate;
 pub mod experiments;
+pub mod files;
 pub mod interrupt;
 pub mod plot;
 pub mod record;
@@ -30,3 +31,18 @@ pub mod setup_progress;
 pub mod sim;
 pub mod study;
 pub mod sweep;
+
+/// The most worker threads `sweep`, `experiment` and `study` start (`--threads`): runs are
+/// CPU-bound, so more threads than cores only cost memory and start-up time; 256 covers the
+/// largest machines while a mistyped `--threads 100000` is refused at once instead of starting
+/// thousands of threads. The same bound on every machine, so a command line that works on one works
+/// on all.
+pub const MAX_THREADS: usize = 256;
+
+/// [`MAX_THREADS`] as an error message for `what` (the option or field), or `None` when
+/// `threads` is within it.
+pub fn threads_beyond_cap(what: &str, threads: usize) -> Option<String> {
+    (threads > MAX_THREADS).then(|| {
+        format!("{what} {threads}: at most {MAX_THREADS} worker threads (0 = one per core); runs are CPU-bound")
+    })
+}

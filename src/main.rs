@@ -164,8 +164,9 @@ enum Command {
         /// Shorter runs (fewer gait cycles), the same checks.
         #[arg(long)]
         quick: bool,
-        /// Worker threads for the experiment's cases (independent runs; default: all cores).
-        #[arg(long, default_value_t = 0)]
+        /// Worker threads for the experiment's cases (independent runs; default: all cores; at
+        /// most 256).
+        #[arg(long, default_value_t = 0, value_parser = threads_arg)]
         threads: usize,
     },
     /// Run the contact estimator on a recorded run (its config.toml, sensors.csv and links.csv,
@@ -233,8 +234,8 @@ enum Command {
         /// Where the full-pipeline runs are recorded.
         #[arg(long, default_value = "target/bench-runs")]
         output_dir: String,
-        /// Measure each mode this many times (interleaved) and report the fastest.
-        #[arg(long, default_value_t = 1)]
+        /// Measure each mode this many times (interleaved) and report the fastest (1 to 1000).
+        #[arg(long, default_value_t = 1, value_parser = repeats_arg)]
         repeats: usize,
         /// Print the results as one JSON document (settings, steps/s, ratio full pipeline /
         /// bare engine with the same gait) instead of a table.
@@ -277,11 +278,12 @@ enum Command {
         /// Where the report, table and plots go.
         #[arg(long, default_value = "runs/study-accuracy")]
         out: PathBuf,
-        /// Timed runs per setting (the fastest counts).
-        #[arg(long, default_value_t = 1)]
+        /// Timed runs per setting (the fastest counts; 1 to 1000).
+        #[arg(long, default_value_t = 1, value_parser = repeats_arg)]
         repeats: usize,
-        /// Threads for the recorded runs (the timed runs run one at a time); 0 = all cores.
-        #[arg(long, default_value_t = 0)]
+        /// Threads for the recorded runs (the timed runs run one at a time); 0 = all cores; at
+        /// most 256.
+        #[arg(long, default_value_t = 0, value_parser = threads_arg)]
         threads: usize,
     },
     /// Run a parameter sweep in parallel: a grid or random/Latin-hypercube samples of config
@@ -305,8 +307,8 @@ enum Command {
         /// Sweep folder. Default: <general.output_dir>/sweep-<config name>.
         #[arg(long, value_name = "DIR")]
         sweep_dir: Option<PathBuf>,
-        /// Worker threads (default: all cores).
-        #[arg(long, default_value_t = 0)]
+        /// Worker threads (default: all cores; at most 256).
+        #[arg(long, default_value_t = 0, value_parser = threads_arg)]
         threads: usize,
         /// Run only runs with index % n == i (0 <= i < n) and write summary-shard-i-of-n.csv;
         /// join shards with `simserpent sweep-merge`.
@@ -321,6 +323,13 @@ enum Command {
         /// The sweep folder.
         sweep_dir: PathBuf,
     },
+    /// Repair the ROS 2 bag (run.mcap) of a run that was killed: keeps every whole chunk, writes
+    /// a complete bag (summary, indexes, footer) in its place and the original beside it as
+    /// run.damaged.mcap. A complete bag is left as it is.
+    BagRepair {
+        /// The run folder.
+        run_folder: PathBuf,
+    },
 }
 
 /// An error that has already been given its exit code.
@@ -332,6 +341,27 @@ struct Failure {
 impl<E: Into<anyhow::Error>> From<E> for Failure {
     fn from(e: E) -> Self {
         Self { code: 1, error: e.into() }
+    }
+}
+
+/// `--threads`: 0 (one per core) up to [`simserpent::MAX_THREADS`].
+fn threads_arg(text: &str) -> Result<usize, String> {
+    let n: usize =
+        text.parse().map_err(|_| format!("`{text}` is not a whole number 0 to {}", simserpent::MAX_THREADS))?;
+    match simserpent::threads_beyond_cap("", n) {
+        Some(message) => Err(message.trim_start().to_string()),
+        None => Ok(n),
+    }
+}
+
+/// Most timed repeats (`study --repeats`, `bench --repeats`).
+const MAX_REPEATS: usize = 1000;
+
+/// `--repeats`: 1 up to [`MAX_REPEATS`].
+fn repeats_arg(text: &str) -> Result<usize, String> {
+    match text.parse::<usize>() {
+        Ok(n) if (1..=MAX_REPEATS).contains(&n) => Ok(n),
+        _ => Err(format!("`{text}`: give a whole number of repeats from 1 to {MAX_REPEATS}")),
     }
 }
 
@@ -355,6 +385,7 @@ impl ExitCodeOf for RunError {
             RunError::Ros2(simserpent::ros2::Ros2Error::NotBuilt) => 2,
             RunError::Interrupted { .. }
             | RunError::InterruptedSetUp
+            | RunError::Sim(SimError::Interrupted { .. })
             | RunError::Plot(simserpent::plot::PlotError::Interrupted { .. }) => 130,
             _ => 1,
         }
@@ -381,6 +412,7 @@ impl ExitCodeOf for simserpent::plot::PlotError {
             | simserpent::plot::PlotError::Folder { .. }
             | simserpent::plot::PlotError::Png { .. } => 1,
             simserpent::plot::PlotError::Interrupted { .. } => 130,
+            simserpent::plot::PlotError::File(f) if !f.is_bad_input() => 1,
             _ => 2,
         }
     }
@@ -401,7 +433,8 @@ impl ExitCodeOf for simserpent::sweep::SweepError {
     fn exit_code(&self) -> u8 {
         use simserpent::sweep::SweepError;
         match self {
-            SweepError::Config(_) | SweepError::Argument { .. } => 2,
+            SweepError::Config(_) | SweepError::Argument { .. } | SweepError::ShardsIncomplete { .. } => 2,
+            SweepError::File(f) if f.is_bad_input() => 2,
             _ => 1,
         }
     }
@@ -444,6 +477,22 @@ fn load(args: &ConfigArgs) -> Result<(Config, String), Failure> {
     Ok((config, source))
 }
 
+/// Writes a file the user named (`init`, `convert -o`): never through a symbolic link (a
+/// dangling one included), and over an existing file only with `--force`.
+fn write_new_file(path: &Path, bytes: &[u8], force: bool) -> Result<(), Failure> {
+    use simserpent::files::{FileError, open_for_writing};
+    use std::io::Write as _;
+    let mut file = open_for_writing(path, !force).map_err(|e| match e {
+        FileError::Io { ref source, .. } if source.kind() == std::io::ErrorKind::AlreadyExists => {
+            bad_input(anyhow::anyhow!("{} exists already; use --force to overwrite it", path.display()))
+        }
+        e if e.is_bad_input() => bad_input(e),
+        e => Failure { code: 1, error: e.into() },
+    })?;
+    file.write_all(bytes).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
 /// `simserpent convert config.json [-o config.toml]`.
 fn convert(input: &Path, output: Option<&Path>, force: bool) -> Result<(), Failure> {
     if !input.extension().is_some_and(|e| e.eq_ignore_ascii_case("json")) {
@@ -462,13 +511,7 @@ fn convert(input: &Path, output: Option<&Path>, force: bool) -> Result<(), Failu
     let text = converted.annotated_toml(&name);
     match output {
         Some(path) => {
-            if path.exists() && !force {
-                return Err(bad_input(anyhow::anyhow!(
-                    "{} exists already; use --force to overwrite it",
-                    path.display()
-                )));
-            }
-            std::fs::write(path, &text).with_context(|| format!("cannot write {}", path.display()))?;
+            write_new_file(path, text.as_bytes(), force)?;
             errln!("wrote {} ({} converted keys)", path.display(), converted.notes.len());
         }
         None => out!("{text}"),
@@ -487,10 +530,6 @@ fn run_command(
     if viewer {
         // Before anything is written: no display is bad input (exit code 2, no run folder).
         simserpent::render::viewer::check_display().map_err(bad_input)?;
-    }
-    // The first SIGINT/SIGTERM stops the run cleanly (tables flushed, exit code 130).
-    if let Err(e) = simserpent::interrupt::install_handler() {
-        log::warn!("cannot install the SIGINT/SIGTERM handler ({e}); a signal will end the run abruptly");
     }
     let options = RunOptions {
         config_source: source,
@@ -633,6 +672,8 @@ fn experiment(name: &str, args: &ConfigArgs, quick: bool, threads: usize) -> Res
 fn estimate_command(run_folder: &Path, overrides: &[String]) -> Result<(), Failure> {
     use simserpent::estimate::{EstimateError, estimate_run_folder};
     let outcome = estimate_run_folder(run_folder, overrides).map_err(|e| match e {
+        EstimateError::Interrupted { .. } => Failure { code: 130, error: e.into() },
+        EstimateError::File(ref f) if !f.is_bad_input() => Failure { code: 1, error: e.into() },
         EstimateError::Io { .. } | EstimateError::Plot { .. } => Failure { code: 1, error: e.into() },
         _ => bad_input(anyhow::Error::new(e)),
     })?;
@@ -662,6 +703,22 @@ fn study(
     threads: usize,
 ) -> Result<(), Failure> {
     use simserpent::study;
+    // --out before any run: a folder, or one that can be created now (not at the end).
+    match std::fs::metadata(&out_dir) {
+        Ok(m) if !m.is_dir() => {
+            return Err(bad_input(anyhow::anyhow!(
+                "--out {}: exists and is not a folder; give a folder for accuracy.md, accuracy.csv and the plots",
+                out_dir.display()
+            )));
+        }
+        Ok(_) => {}
+        Err(_) => std::fs::create_dir_all(&out_dir)
+            .map_err(|e| bad_input(anyhow::anyhow!("--out {}: cannot create the folder: {e}", out_dir.display())))?,
+    }
+    let probe = out_dir.join(".simserpent-write-check");
+    simserpent::files::open_for_writing(&probe, false)
+        .map_err(|e| bad_input(anyhow::anyhow!("--out {}: cannot write into it: {e}", out_dir.display())))?;
+    let _ = std::fs::remove_file(&probe);
     let (config, _) = load(args)?;
     let mut cases = study::cases(&config, quick);
     if !names.is_empty() {
@@ -691,9 +748,6 @@ fn init(path: &Path, force: bool, preset: Option<&str>) -> Result<(), Failure> {
             ))
         })?,
     };
-    if path.exists() && !force {
-        return Err(bad_input(anyhow::anyhow!("{} exists already; use --force to overwrite it", path.display())));
-    }
     // A folder that does not exist is a bad argument (exit code 2), not a failure while writing.
     let parent = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     if !parent.is_dir() {
@@ -703,7 +757,7 @@ fn init(path: &Path, force: bool, preset: Option<&str>) -> Result<(), Failure> {
             parent.display()
         )));
     }
-    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))?;
+    write_new_file(path, text.as_bytes(), force)?;
     outln!("wrote {}", path.display());
     Ok(())
 }
@@ -890,10 +944,6 @@ fn sweep(
         shard,
         progress: !quiet,
     };
-    // The first SIGINT/SIGTERM stops the running runs cleanly and starts no new ones.
-    if let Err(e) = simserpent::interrupt::install_handler() {
-        log::warn!("cannot install the SIGINT/SIGTERM handler ({e}); a signal will end the sweep abruptly");
-    }
     let report = sweep::run_sweep(&spec).map_err(failure)?;
     let (done, skipped, failed) = report.counts();
     outln!("sweep folder: {}", report.sweep_dir.display());
@@ -944,6 +994,26 @@ fn sweep_merge(dir: &Path) -> Result<(), Failure> {
     Ok(())
 }
 
+fn bag_repair(run_folder: &Path) -> Result<(), Failure> {
+    use simserpent::ros2::bag_file::RepairError;
+    let report = simserpent::ros2::repair_bag(run_folder).map_err(|e| match e {
+        RepairError::Write { .. } => Failure { code: 1, error: e.into() },
+        RepairError::File(ref f) if !f.is_bad_input() => Failure { code: 1, error: e.into() },
+        e => bad_input(e),
+    })?;
+    match (&report.original, &report.stopped) {
+        (None, _) => outln!("{}: complete ({} messages); nothing to repair", report.path.display(), report.messages),
+        (Some(original), stopped) => outln!(
+            "{}: repaired, {} messages (reading stopped: {}); the original is {}",
+            report.path.display(),
+            report.messages,
+            stopped.as_deref().unwrap_or("at the end"),
+            original.display()
+        ),
+    }
+    Ok(())
+}
+
 /// The error and its causes, `: `-separated, leaving out a cause whose text the message already
 /// contains (our errors name their OS error themselves, e.g. `cannot write X: No space left`).
 fn error_text(error: &anyhow::Error) -> String {
@@ -981,6 +1051,25 @@ fn main() -> ExitCode {
         mujoco_rs::prelude::install_logging_hook();
     }
     let cli = Cli::parse();
+    // One signal policy for every long-running command (`simserpent::interrupt`): the first
+    // SIGINT/SIGTERM stops cleanly (what was recorded stays readable and marked), the second quits
+    // at once; exit code 130 either way.
+    let long_running = matches!(
+        cli.command,
+        None | Some(
+            Command::Run { .. }
+                | Command::Sweep { .. }
+                | Command::Experiment { .. }
+                | Command::Study { .. }
+                | Command::Estimate { .. }
+                | Command::Bench { .. }
+                | Command::Plot { .. }
+                | Command::Render { .. }
+        )
+    );
+    if long_running && let Err(e) = simserpent::interrupt::install_handler() {
+        log::warn!("cannot install the SIGINT/SIGTERM handler ({e}); a signal will end the command abruptly");
+    }
     let result = match cli.command {
         None => run_command(&ConfigArgs::default(), None, false, false, false),
         Some(Command::Run { mut config, robot, quiet, video, viewer, ros2 }) => {
@@ -1025,6 +1114,7 @@ fn main() -> ExitCode {
             sweep(&config, &vary, sample, samples, seed, sweep_dir, threads, shard, quiet)
         }
         Some(Command::SweepMerge { sweep_dir }) => sweep_merge(&sweep_dir),
+        Some(Command::BagRepair { run_folder }) => bag_repair(&run_folder),
         Some(Command::Study { what: _, config, quick, cases, out, repeats, threads }) => {
             study(&config, quick, &cases, out, repeats, threads)
         }

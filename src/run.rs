@@ -285,6 +285,14 @@ fn run_simulation_tracked<C: Controller>(
         Ok(parts) => parts,
         Err(e) => return Err(end_unfinished(&folder, &mut manifest, &mut reserve, e)),
     };
+    if bag.is_some() {
+        // The bag is listed from the start (0 instants while the manifest says `incomplete`): a
+        // killed run's manifest names it, and `simserpent bag-repair` makes it readable.
+        manifest.tables = vec![(crate::ros2::bag::FILE_NAME.to_string(), 0)];
+        if let Err(e) = manifest.write(&folder) {
+            return Err(end_unfinished(&folder, &mut manifest, &mut reserve, e.into()));
+        }
+    }
 
     let started = Instant::now();
     let cpu_started = crate::cpu_time::thread_cpu_ns();

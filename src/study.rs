@@ -516,7 +516,8 @@ pub fn trajectory(case: &Case, setting: Setting) -> Result<Trajectory, Status> {
     };
     let mut collector = Collector::new(sample_every, rebound_axis);
     let plan = crate::sim::LoopPlan { steps: steps_of(&config), record_every_n_steps: 1 };
-    sim.run::<SimError>(plan, &mut [&mut collector]).map_err(|e| Status::Diverged(e.to_string()))?;
+    let mut poll = crate::interrupt::Poll::new(format!("{} {}", case.name, setting.label()));
+    sim.run::<SimError>(plan, &mut [&mut collector, &mut poll]).map_err(|e| Status::Diverged(e.to_string()))?;
     match divergence(&collector.trajectory, MAX_COM_SPEED_M_PER_S) {
         Some(what) => Err(Status::Diverged(what)),
         None => Ok(collector.trajectory),
@@ -530,11 +531,15 @@ pub fn cost(case: &Case, setting: Setting, repeats: usize) -> Result<(f64, f64),
     let steps = steps_of(&config);
     let mut best = 0.0f64;
     for _ in 0..repeats.max(1) {
+        if crate::interrupt::requested() {
+            break;
+        }
         let mut sim = build(case, &config).map_err(|e| Status::Rejected(e.to_string()))?;
         let plan = crate::sim::LoopPlan { steps, record_every_n_steps: 0 };
+        let mut poll = crate::interrupt::Poll::new(format!("{} {}", case.name, setting.label()));
         let start = Instant::now();
         // A diverging run is timed up to where it stopped.
-        let _ = sim.run::<SimError>(plan, &mut []);
+        let _ = sim.run::<SimError>(plan, &mut [&mut poll]);
         let secs = start.elapsed().as_secs_f64().max(1e-9);
         best = best.max(sim.steps() as f64 / secs);
     }
@@ -663,11 +668,16 @@ pub fn run_study(cases: Vec<Case>, options: &StudyOptions) -> Result<Study, RunE
     let trajectories: Vec<Result<Trajectory, Status>> = jobs
         .par_iter()
         .map(|&(c, s)| {
+            if crate::interrupt::requested() {
+                return Err(Status::Rejected("interrupted".into()));
+            }
             let t = trajectory(&cases[c], s);
             eprintln!("study: {} {} recorded", cases[c].name, s.label());
             t
         })
         .collect();
+    // A signal: what ran is not a study; nothing is written (exit code 130).
+    crate::interrupt::check(|| "while the study's runs were recorded; nothing was written".into())?;
     let mut rows = Vec::new();
     for (k, &(c, setting)) in jobs.iter().enumerate() {
         let case = &cases[c];
@@ -681,22 +691,29 @@ pub fn run_study(cases: Vec<Case>, options: &StudyOptions) -> Result<Study, RunE
             Status::Rejected(_) => (0.0, 0.0),
             _ => cost(case, setting, options.repeats).unwrap_or((0.0, 0.0)),
         };
+        crate::interrupt::check(|| format!("while {} {} was timed; nothing was written", case.name, setting.label()))?;
         eprintln!("study: {} {} timed: {realtime_factor:.1} x real time", case.name, setting.label());
         rows.push(Row { case: case.name.clone(), setting, status, errors, steps_per_sec, realtime_factor });
     }
     std::fs::create_dir_all(&options.out_dir).map_err(|source| io_error(&options.out_dir, source))?;
     let mut files = Vec::new();
-    let csv = options.out_dir.join("accuracy.csv");
-    std::fs::write(&csv, csv_text(&rows)).map_err(|source| io_error(&csv, source))?;
+    let csv = write_in(&options.out_dir, "accuracy.csv", &csv_text(&rows))?;
     files.push(csv);
     for case in &cases {
         files.extend(plot_case(&options.out_dir, case, &rows, options.reference)?);
     }
     let report = report_text(&cases, &rows, options);
-    let md = options.out_dir.join("accuracy.md");
-    std::fs::write(&md, &report).map_err(|source| io_error(&md, source))?;
+    let md = write_in(&options.out_dir, "accuracy.md", &report)?;
     files.push(md);
     Ok(Study { cases, rows, files, report })
+}
+
+/// Writes `name` into `dir` by [`crate::files`]' writer rule (never through a link).
+fn write_in(dir: &Path, name: &str, text: &str) -> Result<PathBuf, RunError> {
+    crate::files::write_in(dir, Path::new(name), text.as_bytes()).map_err(|e| match e {
+        crate::files::FileError::Io { path, source, .. } => io_error(&path, source),
+        other => io_error(dir, std::io::Error::other(other.to_string())),
+    })
 }
 
 fn io_error(path: &Path, source: std::io::Error) -> RunError {

@@ -132,7 +132,8 @@ pub fn score_estimator(
     if steps > 0 {
         // Instants 0 ..= steps − 1, each recorded (a forward pass, so the sensors describe it).
         let plan = LoopPlan { steps: steps as u64 - 1, record_every_n_steps: 1 };
-        sim.run(plan, &mut [&mut scorer]).map_err(RunError::Sim)?;
+        sim.run(plan, &mut [&mut scorer, &mut crate::interrupt::Poll::new("an estimation case")])
+            .map_err(RunError::Sim)?;
     }
     Ok((scorer.score, scorer.trace))
 }
@@ -594,7 +595,7 @@ pub fn score_in_motion_with_friction(
         previous: Vec::new(),
     };
     let plan = LoopPlan { steps, record_every_n_steps: 1 };
-    sim.run(plan, &mut [&mut scorer]).map_err(RunError::Sim)?;
+    sim.run(plan, &mut [&mut scorer, &mut crate::interrupt::Poll::new("an estimation case")]).map_err(RunError::Sim)?;
     Ok((scorer.score, scorer.friction))
 }
 

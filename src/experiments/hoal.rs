@@ -233,6 +233,7 @@ fn case_config(base: &Config, case: &Case, duration_secs: f64) -> Config {
 
 /// Runs one case in memory.
 fn run_case(config: &Config, forces: bool) -> Result<Trace, ExperimentError> {
+    crate::interrupt::check(|| "before a hoal case".into()).map_err(RunError::Sim)?;
     config.validate().map_err(|e| RunError::Sim(e.into()))?;
     let world = World::from_config(config).map_err(RunError::Sim)?;
     let mut sim = Simulation::new(config, world);
@@ -245,7 +246,9 @@ fn run_case(config: &Config, forces: bool) -> Result<Trace, ExperimentError> {
         true_n: Vec::with_capacity(if forces { capacity } else { 0 }),
         forces,
     };
-    sim.run(LoopPlan { steps, record_every_n_steps: RECORD_EVERY }, &mut [&mut trace]).map_err(RunError::Sim)?;
+    let mut poll = crate::interrupt::Poll::new("a hoal case");
+    sim.run(LoopPlan { steps, record_every_n_steps: RECORD_EVERY }, &mut [&mut trace, &mut poll])
+        .map_err(RunError::Sim)?;
     Ok(trace)
 }
 
@@ -355,6 +358,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
         cases
             .par_iter()
             .map(|case| {
+                crate::interrupt::check(|| "before a hoal case".into()).map_err(RunError::Sim)?;
                 let forces = matches!(case.variant, Variant::Closed(_, ContactSource::Estimated));
                 let result = run_case(&case_config(base, case, duration_secs), forces);
                 let n = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
@@ -409,6 +413,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
         held_out
             .par_iter()
             .map(|case| {
+                crate::interrupt::check(|| "before a hoal case".into()).map_err(RunError::Sim)?;
                 let t = run_case(&case_config(base, case, duration_secs), false)?;
                 Ok(speed_and_jam(&t, ramp_secs))
             })

@@ -49,9 +49,29 @@ pub enum ExperimentError {
         #[source]
         source: std::io::Error,
     },
+    /// A file of a run folder is not one SimSerpent reads ([`crate::files`]).
+    #[error(transparent)]
+    File(#[from] crate::files::FileError),
     /// No such experiment.
     #[error("unknown experiment `{0}`; available: {list}", list = NAMES.join(", "))]
     Unknown(String),
+}
+
+impl ExperimentError {
+    /// Whether a signal (SIGINT/SIGTERM, or [`crate::interrupt::request`]) stopped the
+    /// experiment (exit code 130).
+    pub fn interrupted(&self) -> bool {
+        use crate::sim::SimError;
+        matches!(
+            self,
+            ExperimentError::Run(
+                RunError::Interrupted { .. }
+                    | RunError::InterruptedSetUp
+                    | RunError::Sim(SimError::Interrupted { .. })
+                    | RunError::Plot(crate::plot::PlotError::Interrupted { .. })
+            )
+        )
+    }
 }
 
 /// The experiments, by command name.
@@ -101,6 +121,8 @@ impl Context {
                 .par_iter()
                 .enumerate()
                 .map(|(i, (name, config))| {
+                    // After a signal no case starts (exit code 130).
+                    crate::interrupt::check(|| format!("before case {name}")).map_err(RunError::Sim)?;
                     let start = std::time::Instant::now();
                     let result = self.sub_run(name, config, |w| prepare(i, w));
                     let n = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
@@ -141,8 +163,10 @@ impl Context {
         let summary = run::run_simulation(&config, &options, sim)?;
         // The quantities the thesis plotted (head motion, contacts, forces, penetration, joint
         // angles, torques, paths), next to the data.
-        crate::plot::plot_run_folder(&summary.run_folder)
-            .map_err(|e| ExperimentError::Data(format!("plots of {}: {e}", summary.run_folder.display())))?;
+        crate::plot::plot_run_folder(&summary.run_folder).map_err(|e| match e {
+            crate::plot::PlotError::Interrupted { .. } => ExperimentError::Run(RunError::Plot(e)),
+            e => ExperimentError::Data(format!("plots of {}: {e}", summary.run_folder.display())),
+        })?;
         Ok(summary.run_folder)
     }
 }
@@ -221,6 +245,9 @@ pub fn run_experiment_with(
     if !NAMES.contains(&name) {
         return Err(ExperimentError::Unknown(name.to_string()));
     }
+    if let Some(message) = crate::threads_beyond_cap("threads", options.threads) {
+        return Err(ExperimentError::Data(message));
+    }
     let start = std::time::Instant::now();
     let quick = options.quick;
     let pool = rayon::ThreadPoolBuilder::new()
@@ -273,17 +300,30 @@ pub fn run_experiment_with(
         report.intro.push_str(&format!(" Settings forced for every case: {}.", notes.join("; ")));
     }
     let section = match name {
-        "collision" => collision::run(&ctx, base)?,
-        "undulation" => locomotion::undulation(&ctx, base)?,
-        "oal" => locomotion::oal(&ctx, base)?,
-        "form-closure" => locomotion::form_closure(&ctx, base)?,
-        "estimation" => estimation::run(&ctx, base)?,
-        "bounce" => bounce::run(&ctx, base)?,
-        "hoal" => hoal::run(&ctx, base)?,
-        _ => locomotion::configure(&ctx, base)?,
+        "collision" => collision::run(&ctx, base),
+        "undulation" => locomotion::undulation(&ctx, base),
+        "oal" => locomotion::oal(&ctx, base),
+        "form-closure" => locomotion::form_closure(&ctx, base),
+        "estimation" => estimation::run(&ctx, base),
+        "bounce" => bounce::run(&ctx, base),
+        "hoal" => hoal::run(&ctx, base),
+        _ => locomotion::configure(&ctx, base),
+    };
+    let path = folder.join("report.md");
+    let section = match section {
+        Err(e) if e.interrupted() => {
+            // What ran stays: the finished cases' folders, the stopped ones marked `incomplete`;
+            // the report says the experiment is incomplete and checks nothing.
+            report.intro.push_str(&format!(
+                "\n\n**Incomplete**: {e}. The case folders written so far are kept (a stopped case's manifest says \
+                 `incomplete`); no check was evaluated. Run the experiment again for a report."
+            ));
+            let _ = std::fs::write(&path, report.to_markdown());
+            return Err(e);
+        }
+        other => other?,
     };
     report.sections.push(section);
-    let path = folder.join("report.md");
     std::fs::write(&path, report.to_markdown())
         .map_err(|e| RunError::from(record::RecordError::Io { path: path.clone(), source: e }))?;
     Ok(Outcome { folder, report, notes, wall_secs: start.elapsed().as_secs_f64(), threads })

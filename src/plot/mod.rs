@@ -54,7 +54,7 @@ pub enum PngError {
 /// Writes a PNG (RGB, 8 bits; the plots' and the rendered pictures' one encoder).
 pub fn write_png(path: &Path, rgb: &[u8], width: usize, height: usize) -> Result<(), PngError> {
     let enc = |e: png::EncodingError| PngError::Encoder(e.to_string());
-    let file = std::fs::File::create(path).map_err(PngError::Io)?;
+    let file = crate::files::open_for_writing(path, false).map_err(|e| PngError::Io(std::io::Error::other(e.to_string())))?;
     let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width as u32, height as u32);
     encoder.set_color(png::ColorType::Rgb);
     encoder.set_depth(png::BitDepth::Eight);
@@ -111,6 +111,9 @@ pub enum PlotError {
         #[source]
         source: PngError,
     },
+    /// A file that is not one SimSerpent reads or writes ([`crate::files`]).
+    #[error(transparent)]
+    File(#[from] crate::files::FileError),
     /// SIGINT/SIGTERM (with [`crate::interrupt`]'s handler installed, or
     /// [`crate::interrupt::request`]) stopped the plotting between two files.
     #[error("plotting interrupted by a signal (SIGINT or SIGTERM); the plots written so far are in {dir}")]
@@ -133,9 +136,16 @@ struct Table {
 }
 
 impl Table {
+    /// Reads `path` by [`crate::files`]' rule (a regular file inside the run folder); a field
+    /// that is a number must be finite and at most 1e15 in magnitude (text fields read as NaN).
     fn read(path: &Path) -> Result<Self, PlotError> {
-        let text =
-            std::fs::read_to_string(path).map_err(|source| PlotError::Read { path: path.to_path_buf(), source })?;
+        let folder = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let text = crate::files::read_text_in(folder, path, crate::files::TABLE_CAP_BYTES).map_err(|e| match e {
+            crate::files::FileError::Missing { .. } => {
+                PlotError::Read { path: path.to_path_buf(), source: std::io::Error::from(std::io::ErrorKind::NotFound) }
+            }
+            e => PlotError::File(e),
+        })?;
         let mut lines = text.lines();
         let header: Vec<String> = lines
             .next()
@@ -150,8 +160,18 @@ impl Table {
                 // A half-written last line of an interrupted run.
                 continue;
             }
-            for (col, f) in values.iter_mut().zip(fields) {
-                col.push(f.trim().parse().unwrap_or(f64::NAN));
+            let row = values.first().map_or(0, Vec::len) + 1;
+            for ((col, f), name) in values.iter_mut().zip(fields).zip(&header) {
+                col.push(match crate::files::parse_number(f) {
+                    Ok(v) => v,
+                    Err("is not a number") => f64::NAN,
+                    Err(why) => {
+                        return Err(PlotError::BadFile {
+                            path: path.to_path_buf(),
+                            message: format!("row {row}, column `{name}`: {:?} {why}", f.trim()),
+                        });
+                    }
+                });
             }
         }
         let mut columns = HashMap::new();
@@ -203,7 +223,8 @@ fn color(i: usize) -> RGBColor {
 /// Range of finite values with a margin; never empty.
 fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for v in values.filter(|v| v.is_finite()) {
+    // Values beyond 1e15 have no place on a chart (and an axis over ±1e308 overflows).
+    for v in values.filter(|v| v.is_finite() && v.abs() <= crate::files::MAX_ABS_VALUE) {
         lo = lo.min(v);
         hi = hi.max(v);
     }
@@ -382,8 +403,9 @@ fn both(
     draw: impl Fn(&dyn AnyArea) -> DrawResult,
 ) -> Result<Vec<PathBuf>, PlotError> {
     check_interrupt(dir)?;
-    let png = dir.join(format!("{stem}.png"));
-    let svg = dir.join(format!("{stem}.svg"));
+    // Never through a link planted at a plot's name ([`crate::files`]' writer rule).
+    let png = crate::files::check_target_in(dir, Path::new(&format!("{stem}.png")))?;
+    let svg = crate::files::check_target_in(dir, Path::new(&format!("{stem}.svg")))?;
     let failed = |path: &Path, message: String| PlotError::Write { path: path.to_path_buf(), message };
     let mut buffer = vec![255u8; size.0 as usize * size.1 as usize * 3];
     {
@@ -465,11 +487,15 @@ pub fn plot_run_folder(folder: &Path) -> Result<PlotOutput, PlotError> {
     register_font();
     check_interrupt(&folder.join("plots"))?;
     let config_path = folder.join("config.toml");
-    if !config_path.is_file() {
-        return Err(PlotError::BadFile {
-            path: folder.to_path_buf(),
-            message: "is not a run folder (it has no config.toml)".into(),
-        });
+    match crate::files::read_in(folder, &config_path, crate::files::SMALL_FILE_CAP_BYTES) {
+        Err(crate::files::FileError::Missing { .. }) => {
+            return Err(PlotError::BadFile {
+                path: folder.to_path_buf(),
+                message: "is not a run folder (it has no config.toml)".into(),
+            });
+        }
+        Err(e) => return Err(e.into()),
+        Ok(_) => {}
     }
     let config = crate::config::load_config(&config_path, &[])
         .map_err(|e| PlotError::BadFile { path: config_path.clone(), message: e.to_string() })?;
@@ -493,7 +519,7 @@ pub fn plot_run_folder(folder: &Path) -> Result<PlotOutput, PlotError> {
     };
     let dir = folder.join("plots");
     check_interrupt(&dir)?;
-    std::fs::create_dir_all(&dir).map_err(|source| PlotError::Folder { path: dir.clone(), source })?;
+    let dir = crate::files::create_dir_in(folder, Path::new("plots"))?;
     draw_panels(&config, &links, &joints, contacts.as_ref(), &obstacles(&folder.join("model.xml")), &dir)
 }
 

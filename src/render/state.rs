@@ -132,8 +132,16 @@ pub struct StateTrack {
 impl StateTrack {
     /// Reads `state.csv`; checks that its columns fit `model`.
     pub fn read(path: &Path, model: &MjModel) -> Result<Self, RenderError> {
-        let text = std::fs::read_to_string(path).map_err(RenderError::read(path))?;
         let bad = |message: String| RenderError::BadFile { path: path.to_path_buf(), message };
+        // A regular file inside the run folder, at most 1 GiB ([`crate::files`]' reader).
+        let folder = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let text = crate::files::read_text_in(folder, path, crate::files::TABLE_CAP_BYTES).map_err(|e| match e {
+            crate::files::FileError::Io { source, .. } => RenderError::read(path)(source),
+            crate::files::FileError::Missing { .. } => {
+                RenderError::read(path)(std::io::Error::from(std::io::ErrorKind::NotFound))
+            }
+            other => bad(other.to_string()),
+        })?;
         let mut lines = text.lines();
         let header = lines.next().ok_or_else(|| bad("the file is empty".into()))?;
         let expected = state_header(model);
@@ -151,10 +159,10 @@ impl StateTrack {
             let before = values.len();
             let mut parsed = true;
             for f in line.split(',') {
-                match f.trim().parse::<f64>() {
+                match crate::files::parse_number(f) {
                     Ok(v) => values.push(v),
                     Err(_) if i + 1 == rows.len() => parsed = false,
-                    Err(_) => return Err(bad(format!("row {}: not a number: {f:?}", i + 1))),
+                    Err(why) => return Err(bad(format!("row {}: {f:?} {why}", i + 1))),
                 }
             }
             if !parsed || values.len() - before != width {

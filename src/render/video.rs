@@ -148,7 +148,8 @@ impl GifWriter {
             u16::try_from(width).map_err(|_| enc("too wide for a GIF".into()))?,
             u16::try_from(height).map_err(|_| enc("too high for a GIF".into()))?,
         );
-        let file = File::create(path).map_err(RenderError::io(path))?;
+        let file = crate::files::open_for_writing(path, false)
+            .map_err(|e| RenderError::io(path)(std::io::Error::other(e.to_string())))?;
         let mut encoder =
             gif::Encoder::new(BufWriter::new(file), w, h, &gif_palette()).map_err(|e| enc(e.to_string()))?;
         encoder.set_repeat(gif::Repeat::Infinite).map_err(|e| enc(e.to_string()))?;

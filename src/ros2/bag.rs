@@ -24,8 +24,10 @@ use crate::record::RecordError;
 use crate::record::offload::{Offload, Sink};
 use crate::sim::{Index, Snapshot};
 use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::BufWriter;
+
+/// The bag's file: whole records only (a killed run leaves complete chunks, see
+/// [`super::bag_file`]).
+type BagFile = mcap::write::NoSeek<super::bag_file::RecordAlignedFile>;
 use std::path::{Path, PathBuf};
 
 /// The bag's file name in the run folder.
@@ -161,7 +163,7 @@ struct Channels {
 /// Where the messages go: the MCAP writer and the one buffer every message is encoded into.
 struct Out {
     path: PathBuf,
-    writer: Option<mcap::Writer<BufWriter<File>>>,
+    writer: Option<mcap::Writer<BagFile>>,
     buf: Vec<u8>,
     sequence: u32,
 }
@@ -276,7 +278,8 @@ impl BagWriter {
     /// Creates `run.mcap` in `folder` with a channel per topic for the robot of `index`.
     pub fn create(folder: &Path, config: &Config, index: &Index) -> Result<Self, RecordError> {
         let path = folder.join(FILE_NAME);
-        let file = File::create(&path).map_err(crate::record::io_err(&path))?;
+        let file = crate::files::open_for_writing(&path, false)
+            .map_err(|e| RecordError::Io { path: path.clone(), source: std::io::Error::other(e.to_string()) })?;
         let options = mcap::WriteOptions::new()
             .profile("ros2")
             .library(format!("simserpent {}", env!("CARGO_PKG_VERSION")))
@@ -284,12 +287,16 @@ impl BagWriter {
             // Compress on the bag's writer thread (`record::offload`): the mcap crate would
             // otherwise start one zstd worker per physical CPU for every run (and a sweep runs
             // one per core already).
-            .compression_threads(0);
-        let mut writer = options.create(BufWriter::new(file)).map_err(bag_err(&path))?;
+            .compression_threads(0)
+            // Each chunk is compressed in memory and written whole (no seeking back to fill in a
+            // chunk's length): a killed run leaves only complete chunks (`simserpent bag-repair`).
+            .disable_seeking(true);
+        let file = mcap::write::NoSeek::new(super::bag_file::RecordAlignedFile::new(file));
+        let mut writer = options.create(file).map_err(bag_err(&path))?;
         let ros = &config.ros2;
         let no_metadata = BTreeMap::new();
         let mut schemas: BTreeMap<&str, u16> = BTreeMap::new();
-        let mut channel = |writer: &mut mcap::Writer<BufWriter<File>>, topic: &str, ty: &'static str| {
+        let mut channel = |writer: &mut mcap::Writer<BagFile>, topic: &str, ty: &'static str| {
             let schema = match schemas.get(ty) {
                 Some(id) => *id,
                 None => {
@@ -371,17 +378,18 @@ impl BagWriter {
     /// Finishes the bag (last chunk, indexes, summary, footer) and syncs it. Returns (file name,
     /// recorded instants) for the manifest, and the error if the file could not be completed.
     /// A bag that was never finished (the process was killed) lacks its summary and footer;
-    /// `mcap recover run.mcap -o fixed.mcap` (Foxglove's `mcap` CLI) rebuilds it from the
-    /// chunks written so far.
+    /// `simserpent bag-repair RUN_FOLDER` rebuilds it from the chunks written so far.
     pub fn finish(mut self) -> (Vec<(String, u64)>, Result<(), RecordError>) {
         let mut result = Ok(());
         let path = &self.out.path;
         if let Some(mut writer) = self.out.writer.take() {
             result = writer.finish().map(|_| ()).map_err(bag_err(path));
             if result.is_ok() {
-                let mut inner = writer.into_inner();
-                result = std::io::Write::flush(&mut inner)
-                    .and_then(|()| inner.get_ref().sync_all())
+                result = writer
+                    .into_inner()
+                    .into_inner()
+                    .finish()
+                    .and_then(|file| file.sync_all())
                     .map_err(crate::record::io_err(path));
             }
         }

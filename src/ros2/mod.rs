@@ -10,12 +10,14 @@
 //! the head `link_00` is the robot's base. Quaternions are ROS's (x, y, z, w).
 
 pub mod bag;
+pub mod bag_file;
 pub mod commands;
 #[cfg(feature = "ros2")]
 pub mod live;
 pub mod msgs;
 
 pub use bag::BagRecorder;
+pub use bag_file::{RepairReport, repair_bag};
 pub use commands::{CommandSource, Ros2Report};
 
 /// Lockstep: until the first valid command has arrived, the state of the waiting instant is

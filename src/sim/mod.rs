@@ -75,6 +75,12 @@ pub enum SimError {
         /// What blew up.
         what: String,
     },
+    /// SIGINT/SIGTERM (or [`crate::interrupt::request`]) stopped the work (exit code 130).
+    #[error("interrupted by a signal (SIGINT or SIGTERM) {at}")]
+    Interrupted {
+        /// Where: "at t = 1.2 s (step 1200) of case X", "before case X".
+        at: String,
+    },
 }
 
 /// MuJoCo's version string (for manifests and reports).

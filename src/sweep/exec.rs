@@ -56,7 +56,9 @@ impl SweepReport {
 /// Whether `folder/manifest.json` says the run completed; then its summary. A manifest that
 /// cannot be read as a [`Manifest`] is not a finished run: the run is redone.
 fn finished(folder: &Path) -> Option<SkippedSummary> {
-    let text = std::fs::read_to_string(folder.join("manifest.json")).ok()?;
+    // A regular file inside the run folder, at most 64 MiB ([`crate::files`]' reader).
+    let text =
+        crate::files::read_text_in(folder, &folder.join("manifest.json"), crate::files::SMALL_FILE_CAP_BYTES).ok()?;
     let manifest: Manifest = serde_json::from_str(&text).ok()?;
     if manifest.status != RunStatus::Complete {
         return None;
@@ -110,6 +112,9 @@ fn run_one(spec: &SweepSpec, run: &PlannedRun, folder: &Path, command_line: &[St
 /// Bad arguments or base config; the sweep folder or summary cannot be written. Failing runs
 /// are not errors.
 pub fn run_sweep(spec: &SweepSpec) -> Result<SweepReport, SweepError> {
+    if let Some(message) = crate::threads_beyond_cap("--threads", spec.threads) {
+        return Err(super::argument("--threads", message));
+    }
     let (sweep_dir, runs) = prepare(spec)?;
     let mine: Vec<&PlannedRun> = match spec.shard {
         Some(s) => runs.iter().filter(|r| r.index % s.count == s.index).collect(),
@@ -143,7 +148,9 @@ pub fn run_sweep(spec: &SweepSpec) -> Result<SweepReport, SweepError> {
     bar.finish_and_clear();
     let wall_secs = started.elapsed().as_secs_f64();
     let table = SummaryTable::from_rows(&spec.variations, &rows);
-    let summary_csv = write_summary(spec, &sweep_dir, &table)?;
+    let summary_csv = write_summary(spec, &sweep_dir, &table);
+    unlock(&sweep_dir);
+    let summary_csv = summary_csv?;
     Ok(SweepReport { sweep_dir, summary_csv, rows, wall_secs, threads })
 }
 
@@ -159,8 +166,57 @@ pub fn prepare(spec: &SweepSpec) -> Result<(PathBuf, Vec<PlannedRun>), SweepErro
     let sweep_dir = spec.sweep_dir.clone().unwrap_or_else(|| default_sweep_dir(spec, &base));
     let runs_dir = sweep_dir.join("runs");
     std::fs::create_dir_all(&runs_dir).map_err(io_error(&runs_dir))?;
+    lock(&sweep_dir, spec.shard)?;
     write_plan(spec, &sweep_dir, &runs)?;
     Ok((sweep_dir, runs))
+}
+
+/// The sweep folders' locks this process holds: (lock file, the open file holding the lock).
+static LOCKS: std::sync::Mutex<Vec<(PathBuf, std::fs::File)>> = std::sync::Mutex::new(Vec::new());
+
+/// Locks `sweep_dir` for this process (an advisory `flock`, released when the process ends or
+/// [`unlock`] is called): a whole sweep takes `.lock` exclusively; a shard takes `.lock` shared
+/// and `.lock-shard-i-of-n` exclusively, so shards of one sweep run side by side while a second
+/// copy of the same sweep or shard refuses at once.
+///
+/// # Errors
+/// [`SweepError::Locked`] when another process holds the folder; I/O.
+pub fn lock(sweep_dir: &Path, shard: Option<super::Shard>) -> Result<(), SweepError> {
+    let mut wanted = vec![(sweep_dir.join(".lock"), shard.is_none())];
+    if let Some(s) = shard {
+        wanted.push((sweep_dir.join(format!(".lock-shard-{}-of-{}", s.index, s.count)), true));
+    }
+    let mut held = LOCKS.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    for (path, exclusive) in wanted {
+        if held.iter().any(|(p, _)| *p == path) {
+            continue;
+        }
+        let file = crate::files::open_for_writing(&path, false)?;
+        let operation = if exclusive { libc::LOCK_EX } else { libc::LOCK_SH } | libc::LOCK_NB;
+        // SAFETY: flock on a file descriptor this function owns.
+        #[allow(unsafe_code)]
+        let locked = unsafe { libc::flock(std::os::fd::AsRawFd::as_raw_fd(&file), operation) };
+        if locked != 0 {
+            let e = std::io::Error::last_os_error();
+            if e.raw_os_error() != Some(libc::EWOULDBLOCK) {
+                return Err(SweepError::Io { path, source: e });
+            }
+            let what = match (shard, exclusive) {
+                (Some(s), true) => format!("shard {}/{}", s.index, s.count),
+                (Some(_), false) => "the whole sweep, not sharded".to_string(),
+                (None, _) => "the same sweep or one of its shards".to_string(),
+            };
+            return Err(SweepError::Locked { folder: sweep_dir.to_path_buf(), what });
+        }
+        held.push((path, file));
+    }
+    Ok(())
+}
+
+/// Releases this process's locks of `sweep_dir` ([`lock`]).
+pub fn unlock(sweep_dir: &Path) {
+    let mut held = LOCKS.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    held.retain(|(p, _)| p.parent() != Some(sweep_dir));
 }
 
 /// Runs one planned run into `<sweep_dir>/runs/<id>/` (or reads it back if a manifest says it

@@ -88,6 +88,27 @@ pub enum SweepError {
         /// The first shard summary.
         first: PathBuf,
     },
+    /// A file of the sweep folder that is not one SimSerpent reads or writes ([`crate::files`]).
+    #[error(transparent)]
+    File(#[from] crate::files::FileError),
+    /// Another sweep is writing into the same folder.
+    #[error(
+        "{folder}: another sweep ({what}) is running in this folder; wait for it to finish or use another --sweep-dir"
+    )]
+    Locked {
+        /// The sweep folder.
+        folder: PathBuf,
+        /// The other sweep: "the whole sweep", "shard 1/4".
+        what: String,
+    },
+    /// `sweep-merge` found shards that do not make up the planned sweep (`sweep.json`).
+    #[error("{folder}: {problem}")]
+    ShardsIncomplete {
+        /// The sweep folder.
+        folder: PathBuf,
+        /// Missing shards, a run twice, a run the plan does not hold.
+        problem: String,
+    },
     /// The thread pool could not be built.
     #[error("cannot start {threads} worker threads: {source}")]
     Threads {

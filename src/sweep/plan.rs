@@ -80,6 +80,18 @@ pub fn plan(spec: &SweepSpec) -> Result<(Config, Vec<PlannedRun>), SweepError> {
         if spec.variations.iter().filter(|w| w.key == v.key).count() > 1 {
             return Err(argument(&v.key, "varied twice"));
         }
+        // A key both varied and set: one of the two would silently win.
+        let overlaps = |k: &str| {
+            k == v.key
+                || v.key.strip_prefix(k).is_some_and(|r| r.starts_with('.'))
+                || k.strip_prefix(v.key.as_str()).is_some_and(|r| r.starts_with('.'))
+        };
+        if let Some(set) = spec.overrides.iter().find(|o| o.split_once('=').is_some_and(|(k, _)| overlaps(k.trim()))) {
+            return Err(argument(
+                &format!("--vary {}", v.key),
+                format!("`--set {set}` sets the same key; vary it or set it, not both"),
+            ));
+        }
         if let Values::List(list) = &v.values
             && list.is_empty()
         {

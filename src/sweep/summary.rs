@@ -365,7 +365,9 @@ impl SummaryTable {
             text.push_str(&cells.join(","));
             text.push('\n');
         }
-        std::fs::write(path, text).map_err(io_error(path))
+        // Never through a link planted at the summary's name ([`crate::files`]' writer rule).
+        let mut file = crate::files::open_for_writing(path, false)?;
+        std::io::Write::write_all(&mut file, text.as_bytes()).map_err(io_error(path))
     }
 
     /// Reads a CSV written by [`SummaryTable::write_csv`].
@@ -418,7 +420,9 @@ impl SummaryTable {
 
 /// Reads the header and rows of a CSV as text.
 fn read_cells(path: &Path) -> Result<(Vec<String>, Vec<Vec<String>>), SweepError> {
-    let text = std::fs::read_to_string(path).map_err(io_error(path))?;
+    // A regular file inside its sweep folder, at most 64 MiB ([`crate::files`]' reader).
+    let folder = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let text = crate::files::read_text_in(folder, path, crate::files::SMALL_FILE_CAP_BYTES)?;
     let mut records = parse_csv(&text).into_iter();
     let header = records.next().ok_or_else(|| SweepError::EmptyFile { path: path.to_path_buf() })?;
     Ok((header, records.collect()))

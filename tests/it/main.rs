@@ -17,6 +17,7 @@ mod estimation;
 // Planted symlinks, device files, permission bits and SIGTERM: Unix only.
 #[cfg(unix)]
 mod hostile_files;
+mod hostile_surfaces;
 mod impacts;
 mod legacy_convert;
 mod limits;

@@ -133,7 +133,62 @@ fn resolve_file_paths(user: &mut Table, base: &Path) {
 /// [`ConfigError::InvalidValue`] (legacy key names) for keys and values the conversion rejects.
 pub fn convert_legacy_text(text: &str, file: &str) -> Result<LegacyConversion, ConfigError> {
     let json: serde_json::Value = serde_json::from_str(text).map_err(|e| legacy::json_error(file, text, &e))?;
+    // serde_json keeps the last of two equal keys; a config naming a key twice is refused, as TOML does.
+    if let Err(e) = serde_json::from_str::<UniqueKeys>(text) {
+        return Err(ConfigError::Syntax {
+            file: file.to_string(),
+            message: format!("{e}: a JSON config must name each key once (the value would be ambiguous)"),
+        });
+    }
     legacy::convert(&json, &default_table()?)
+}
+
+/// A JSON value whose objects name each key once (deserializing it fails at the second one).
+struct UniqueKeys;
+
+impl<'de> serde::Deserialize<'de> for UniqueKeys {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = UniqueKeys;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a JSON value")
+            }
+            fn visit_bool<E>(self, _: bool) -> Result<UniqueKeys, E> {
+                Ok(UniqueKeys)
+            }
+            fn visit_i64<E>(self, _: i64) -> Result<UniqueKeys, E> {
+                Ok(UniqueKeys)
+            }
+            fn visit_u64<E>(self, _: u64) -> Result<UniqueKeys, E> {
+                Ok(UniqueKeys)
+            }
+            fn visit_f64<E>(self, _: f64) -> Result<UniqueKeys, E> {
+                Ok(UniqueKeys)
+            }
+            fn visit_str<E>(self, _: &str) -> Result<UniqueKeys, E> {
+                Ok(UniqueKeys)
+            }
+            fn visit_unit<E>(self) -> Result<UniqueKeys, E> {
+                Ok(UniqueKeys)
+            }
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<UniqueKeys, A::Error> {
+                while seq.next_element::<UniqueKeys>()?.is_some() {}
+                Ok(UniqueKeys)
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, mut map: A) -> Result<UniqueKeys, A::Error> {
+                let mut keys = std::collections::HashSet::new();
+                while let Some(key) = map.next_key::<String>()? {
+                    if !keys.insert(key.clone()) {
+                        return Err(serde::de::Error::custom(format!("duplicate key `{key}`")));
+                    }
+                    map.next_value::<UniqueKeys>()?;
+                }
+                Ok(UniqueKeys)
+            }
+        }
+        deserializer.deserialize_any(Visitor)
+    }
 }
 
 /// Reads the original tool's `config.json` at `path` and converts it (see [`convert_legacy_text`]).

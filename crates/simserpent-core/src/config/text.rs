@@ -61,7 +61,11 @@ pub(crate) fn fmt_f(v: f64) -> String {
     }
 }
 
-/// An array of floats as TOML writes it.
+/// An array of floats as TOML writes it, for a message: whole up to 8 elements, else its first 8
+/// and its length (so a message costs the same for any length, and validating a long list stays
+/// linear in its length).
 pub(crate) fn fmt_a(values: &[f64]) -> String {
-    format!("[{}]", values.iter().map(|v| fmt_f(*v)).collect::<Vec<_>>().join(", "))
+    const SHOWN: usize = 8;
+    let head = values.iter().take(SHOWN).map(|v| fmt_f(*v)).collect::<Vec<_>>().join(", ");
+    if values.len() > SHOWN { format!("[{head}, … ({} values)]", values.len()) } else { format!("[{head}]") }
 }

@@ -55,6 +55,19 @@ pub const OBSERVATION_VERSIONS: [u32; 1] = [1];
 
 type Check = Result<(), ConfigError>;
 
+/// The most elements of a list of the config whose length no other key fixes
+/// (`gait.form_closure.pattern_deg`, `render.image_times_secs`, `initial_state.joint_angles_deg`).
+pub const MAX_LIST_LEN: usize = 10_000;
+
+fn at_most_list_len(key: &str, values: &[f64]) -> Check {
+    ensure(
+        values.len() <= MAX_LIST_LEN,
+        key,
+        fmt_a(values),
+        format!("must have at most {MAX_LIST_LEN} elements; it has {}", values.len()),
+    )
+}
+
 fn fail(key: &str, value: impl std::fmt::Display, allowed: impl Into<String>) -> Check {
     Err(ConfigError::invalid(key, value, allowed))
 }
@@ -421,10 +434,13 @@ impl Config {
         let g = &self.general;
         ensure(
             !g.run_name.is_empty()
+                && !g.run_name.starts_with('.')
+                && g.run_name.len() <= 200
                 && g.run_name.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-')),
             "general.run_name",
-            format!("{:?}", g.run_name),
-            "must be non-empty and use only letters A-Z a-z, digits 0-9, `.`, `_` and `-` (it becomes part of a folder name)",
+            format!("{:?}", g.run_name.chars().take(60).collect::<String>()),
+            "must be 1 to 200 characters, not start with `.`, and use only letters A-Z a-z, digits 0-9, `.`, `_` and \
+             `-` (it becomes part of a folder name)",
         )?;
         ensure(
             !g.output_dir.trim().is_empty(),
@@ -730,6 +746,7 @@ impl Config {
         let i = &self.initial_state;
         let key = "initial_state.joint_angles_deg";
         let nj = self.snake.n_joints();
+        at_most_list_len(key, &i.joint_angles_deg)?;
         all_finite(key, &i.joint_angles_deg)?;
         ensure(
             i.joint_angles_deg.is_empty() || i.joint_angles_deg.len() == nj,
@@ -868,6 +885,7 @@ impl Config {
         let f = &g.form_closure;
         let key = "gait.form_closure.pattern_deg";
         ensure(!f.pattern_deg.is_empty(), key, "[]", "must list at least one joint angle")?;
+        at_most_list_len(key, &f.pattern_deg)?;
         all_finite(key, &f.pattern_deg)?;
         if g.kind == GaitKind::FormClosure || self.terrain.kind == TerrainKind::FormClosure {
             for (i, a) in f.pattern_deg.iter().enumerate() {
@@ -1117,6 +1135,7 @@ impl Config {
         ensure((-90.0..=90.0).contains(&e), "render.camera_elevation_deg", fmt_f(e), "must be between -90 and 90")?;
         all_finite("render.fixed_lookat_m", &r.fixed_lookat_m)?;
         let d = self.general.duration_secs;
+        at_most_list_len("render.image_times_secs", &r.image_times_secs)?;
         for t in &r.image_times_secs {
             ensure(
                 t.is_finite() && (0.0..=d).contains(t),
