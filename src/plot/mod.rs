@@ -54,7 +54,8 @@ pub enum PngError {
 /// Writes a PNG (RGB, 8 bits; the plots' and the rendered pictures' one encoder).
 pub fn write_png(path: &Path, rgb: &[u8], width: usize, height: usize) -> Result<(), PngError> {
     let enc = |e: png::EncodingError| PngError::Encoder(e.to_string());
-    let file = crate::files::open_for_writing(path, false).map_err(|e| PngError::Io(std::io::Error::other(e.to_string())))?;
+    let file =
+        crate::files::open_for_writing(path, false).map_err(|e| PngError::Io(std::io::Error::other(e.to_string())))?;
     let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), width as u32, height as u32);
     encoder.set_color(png::ColorType::Rgb);
     encoder.set_depth(png::BitDepth::Eight);
