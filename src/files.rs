@@ -13,6 +13,7 @@
 
 use std::fs::File;
 use std::io::Read;
+#[cfg(unix)]
 use std::os::unix::fs::{FileTypeExt, OpenOptionsExt};
 use std::path::{Component, Path, PathBuf};
 
@@ -119,7 +120,14 @@ fn kind_of(t: std::fs::FileType) -> Option<&'static str> {
         None
     } else if t.is_dir() {
         Some("a folder")
-    } else if t.is_fifo() {
+    } else {
+        special_kind(t)
+    }
+}
+
+#[cfg(unix)]
+fn special_kind(t: std::fs::FileType) -> Option<&'static str> {
+    if t.is_fifo() {
         Some("a FIFO")
     } else if t.is_block_device() || t.is_char_device() {
         Some("a device")
@@ -128,6 +136,31 @@ fn kind_of(t: std::fs::FileType) -> Option<&'static str> {
     } else {
         Some("not a regular file")
     }
+}
+
+#[cfg(not(unix))]
+fn special_kind(_: std::fs::FileType) -> Option<&'static str> {
+    Some("not a regular file")
+}
+
+/// Open options that never block on a FIFO, never follow a link swapped in at the final name and
+/// are not inherited by child processes (Unix); elsewhere the checks before and after opening
+/// (the link test and [`kind_of`] on the opened file) do that work.
+fn guarded(options: &mut std::fs::OpenOptions) -> &mut std::fs::OpenOptions {
+    #[cfg(unix)]
+    options.custom_flags(libc::O_NONBLOCK | libc::O_NOFOLLOW | libc::O_CLOEXEC).mode(0o644);
+    options
+}
+
+/// Whether an open failed because the final name is a symbolic link (`O_NOFOLLOW`).
+fn is_link_error(e: &std::io::Error) -> bool {
+    #[cfg(unix)]
+    return e.raw_os_error() == Some(libc::ELOOP);
+    #[cfg(not(unix))]
+    return {
+        let _ = e;
+        false
+    };
 }
 
 /// Reads `path` (inside `folder`, as a path that starts with `folder` or one relative to it):
@@ -153,11 +186,7 @@ pub fn read_in(folder: &Path, path: &Path, cap_bytes: u64) -> Result<Vec<u8>, Fi
         return Err(FileError::Outside { path, target: real, folder: folder.to_path_buf() });
     }
     // Without blocking (a FIFO opens at once) and without following a link swapped in since.
-    let mut file = std::fs::OpenOptions::new()
-        .read(true)
-        .custom_flags(libc::O_NONBLOCK | libc::O_NOFOLLOW | libc::O_CLOEXEC)
-        .open(&real)
-        .map_err(io("read", &path))?;
+    let mut file = guarded(std::fs::OpenOptions::new().read(true)).open(&real).map_err(io("read", &path))?;
     let meta = file.metadata().map_err(io("read", &path))?;
     if let Some(what) = kind_of(meta.file_type()) {
         return Err(FileError::NotRegular { path, what });
@@ -270,14 +299,14 @@ pub fn open_for_writing(path: &Path, new_only: bool) -> Result<File, FileError> 
         return Err(FileError::Link { path: path.to_path_buf() });
     }
     let mut options = std::fs::OpenOptions::new();
-    options.write(true).custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK | libc::O_CLOEXEC).mode(0o644);
+    guarded(options.write(true));
     if new_only {
         options.create_new(true);
     } else {
         options.create(true).truncate(true);
     }
     let file = options.open(path).map_err(|e| {
-        if e.raw_os_error() == Some(libc::ELOOP) {
+        if is_link_error(&e) {
             FileError::Link { path: path.to_path_buf() }
         } else {
             FileError::Io { what: "write", path: path.to_path_buf(), source: e }
@@ -316,7 +345,7 @@ pub fn parse_number(text: &str) -> Result<f64, &'static str> {
     }
 }
 
-#[cfg(test)]
+#[cfg(all(test, unix))]
 #[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;

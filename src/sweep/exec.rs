@@ -174,7 +174,7 @@ pub fn prepare(spec: &SweepSpec) -> Result<(PathBuf, Vec<PlannedRun>), SweepErro
 /// The sweep folders' locks this process holds: (lock file, the open file holding the lock).
 static LOCKS: std::sync::Mutex<Vec<(PathBuf, std::fs::File)>> = std::sync::Mutex::new(Vec::new());
 
-/// Locks `sweep_dir` for this process (an advisory `flock`, released when the process ends or
+/// Locks `sweep_dir` for this process (an advisory file lock, released when the process ends or
 /// [`unlock`] is called): a whole sweep takes `.lock` exclusively; a shard takes `.lock` shared
 /// and `.lock-shard-i-of-n` exclusively, so shards of one sweep run side by side while a second
 /// copy of the same sweep or shard refuses at once.
@@ -192,14 +192,10 @@ pub fn lock(sweep_dir: &Path, shard: Option<super::Shard>) -> Result<(), SweepEr
             continue;
         }
         let file = crate::files::open_for_writing(&path, false)?;
-        let operation = if exclusive { libc::LOCK_EX } else { libc::LOCK_SH } | libc::LOCK_NB;
-        // SAFETY: flock on a file descriptor this function owns.
-        #[allow(unsafe_code)]
-        let locked = unsafe { libc::flock(std::os::fd::AsRawFd::as_raw_fd(&file), operation) };
-        if locked != 0 {
-            let e = std::io::Error::last_os_error();
-            if e.raw_os_error() != Some(libc::EWOULDBLOCK) {
-                return Err(SweepError::Io { path, source: e });
+        let locked = if exclusive { file.try_lock() } else { file.try_lock_shared() };
+        if let Err(e) = locked {
+            if let std::fs::TryLockError::Error(source) = e {
+                return Err(SweepError::Io { path, source });
             }
             let what = match (shard, exclusive) {
                 (Some(s), true) => format!("shard {}/{}", s.index, s.count),
