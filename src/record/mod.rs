@@ -22,12 +22,14 @@ mod manifest;
 pub mod offload;
 #[cfg(feature = "parquet")]
 mod parquet;
+mod reference;
 mod sink;
 mod table;
 
 pub use manifest::{Manifest, RunStatus, SpaceReserve};
 #[cfg(feature = "parquet")]
 pub use parquet::ParquetTable;
+pub use reference::columns_markdown;
 pub use sink::{ColumnKind, Table, TableSink};
 pub use table::CsvTable;
 

@@ -13,6 +13,7 @@ mod common;
 mod config;
 mod dying_processes;
 mod estimation;
+mod guide;
 mod hostile_files;
 mod impacts;
 mod legacy_convert;
