@@ -22,9 +22,9 @@
 //!   ([`RunOptions::inline_writers`], the synchronous path) instead of on writer threads —
 //!   measured interleaved with the others, so the two paths are compared in one process.
 //!
-//! "Bare, gait" was the baseline of issue 20 and its CI guard; since the own floor friction model
-//! (issue 14) became the default, it simulates cheaper physics than the run does (no floor
-//! friction forces), so both ratios are reported: to "bare, gait" (the guard, unchanged) and to
+//! "Bare, gait" is the baseline of the CI guard; with SimSerpent's own floor friction model (the
+//! default) the run simulates more physics than it does (the floor friction forces), so both
+//! ratios are reported: to "bare, gait" (the guard, unchanged) and to
 //! "bare, gait + ground" (the same physics: what recording and control cost).
 //!
 //! - with `--discard-rows`, also **full (CSV, rows discarded)**: the CSV run with writer threads

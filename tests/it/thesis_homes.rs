@@ -1,4 +1,4 @@
-//! What the thesis asks for that had no home (issue 18, part C): the pictures of experiment I,
+//! What the thesis asks for that had no home: the pictures of experiment I,
 //! the project assignment's ball drop, a Boa preset, and the platform statement.
 
 use crate::common::{self, output_dir, simserpent, text};
