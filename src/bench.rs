@@ -175,7 +175,7 @@ pub const FULL_NONE: &str = "full pipeline (no tables)";
 pub const FULL_CSV: &str = "full pipeline (CSV)";
 /// `run::run` recording Parquet tables (c).
 pub const FULL_PARQUET: &str = "full pipeline (Parquet)";
-/// `run::run` writing only the ROS 2 bag (`run.mcap`, README "ROS 2").
+/// `run::run` writing only the ROS 2 bag (`run.mcap`, user guide, "ROS 2").
 pub const FULL_MCAP: &str = "full pipeline (MCAP)";
 /// [`FULL_CSV`] with writer threads that drop the rows unwritten (a dummy sink).
 pub const FULL_CSV_DISCARD: &str = "full pipeline (CSV, rows discarded)";

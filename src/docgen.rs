@@ -28,10 +28,19 @@ fn comment_cell(lines: &[String]) -> String {
         if indented {
             out.push_str(&format!("<code>{}</code>", html_escape(line.trim()).replace("  ", "&nbsp;&nbsp;")));
         } else {
-            out.push_str(line.trim());
+            out.push_str(&escape_outside_code(line.trim()));
         }
     }
     cell(&out)
+}
+
+/// `<` and `>` outside code spans as entities, so that `<run folder>` is not read as HTML.
+fn escape_outside_code(text: &str) -> String {
+    text.split('`')
+        .enumerate()
+        .map(|(i, part)| if i % 2 == 0 { html_escape(part) } else { part.to_string() })
+        .collect::<Vec<_>>()
+        .join("`")
 }
 
 fn html_escape(text: &str) -> String {
@@ -184,7 +193,7 @@ fn comment_paragraph(lines: &[String]) -> String {
         out.push_str("```");
         out
     } else {
-        lines.iter().map(|l| l.trim()).collect::<Vec<_>>().join(" ")
+        escape_outside_code(&lines.iter().map(|l| l.trim()).collect::<Vec<_>>().join(" "))
     }
 }
 

@@ -66,7 +66,7 @@ pub struct Manifest {
     /// `simserpent plot <run folder>` makes the plots) or `"failed: <reason>"`.
     #[serde(default)]
     pub plots: Option<String>,
-    /// The live ROS 2 bridge of `run --ros2` (README "ROS 2"): clock mode, commands accepted and
+    /// The live ROS 2 bridge of `run --ros2` (user guide, "ROS 2"): clock mode, commands accepted and
     /// rejected by reason, why the bridge stopped the run; absent without `--ros2`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ros2: Option<crate::ros2::Ros2Report>,

@@ -159,7 +159,7 @@ pub struct Ros2Report {
     /// Lockstep: how often the state of the first command instant was published again because
     /// no command answered it within [`crate::ros2::FIRST_STATE_RESEND_SECS`] (a peer's reader
     /// that matched the bridge's writer only after the first sample had been sent never gets
-    /// that sample; README "ROS 2", "Clock modes").
+    /// that sample; user guide, "ROS 2", "Clock modes").
     #[serde(default)]
     pub lockstep_state_resends: u64,
     /// Lockstep: valid commands that answered a resent copy of the first state after the

@@ -1,5 +1,5 @@
 //! The original tool's config.json: `simserpent convert`, the conversion notes of
-//! `check` and `run`, the README's tables generated from the conversion data, the original
+//! `check` and `run`, the guide's tables generated from the conversion data, the original
 //! capsules (`legacy.geometry = "faithful"`), the thesis' PD control, experiments that record
 //! what their analysis needs, and the shipped example config.json.
 
