@@ -215,16 +215,21 @@ pub fn cli_markdown(cmd: &clap::Command) -> String {
         let _ = writeln!(out, "{after}\n");
     }
     let _ = writeln!(out, "| command | what it does |\n|---|---|");
-    for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
+    for sub in visible(&cmd) {
         let name = sub.get_name();
         let about = sub.get_about().map(|a| a.to_string()).unwrap_or_default();
         let _ = writeln!(out, "| [`{name}`](#simserpent-{name}) | {} |", cell(first_sentence(&about)));
     }
     out.push('\n');
-    for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
+    for sub in visible(&cmd) {
         command_section(&mut out, sub, "simserpent");
     }
     out
+}
+
+/// The subcommands a user sees: not hidden, not clap's own `help`.
+fn visible(cmd: &clap::Command) -> impl Iterator<Item = &clap::Command> {
+    cmd.get_subcommands().filter(|s| !s.is_hide_set() && s.get_name() != "help")
 }
 
 fn first_sentence(text: &str) -> &str {
@@ -247,9 +252,10 @@ fn command_section(out: &mut String, cmd: &clap::Command, parent: &str) {
             let name = match (arg.get_long(), arg.get_short()) {
                 (Some(long), _) => {
                     let value = if arg.get_action().takes_values() {
-                        let names = arg.get_value_names().map(|v| v.join(" ")).unwrap_or_else(|| {
-                            arg.get_id().as_str().to_uppercase()
-                        });
+                        let names = arg
+                            .get_value_names()
+                            .map(|v| v.join(" "))
+                            .unwrap_or_else(|| arg.get_id().as_str().to_uppercase());
                         format!(" {names}")
                     } else {
                         String::new()
@@ -258,8 +264,10 @@ fn command_section(out: &mut String, cmd: &clap::Command, parent: &str) {
                 }
                 (None, Some(short)) => format!("-{short}"),
                 (None, None) => {
-                    let names =
-                        arg.get_value_names().map(|v| v.join(" ")).unwrap_or_else(|| arg.get_id().as_str().to_uppercase());
+                    let names = arg
+                        .get_value_names()
+                        .map(|v| v.join(" "))
+                        .unwrap_or_else(|| arg.get_id().as_str().to_uppercase());
                     names.to_string()
                 }
             };
@@ -269,10 +277,18 @@ fn command_section(out: &mut String, cmd: &clap::Command, parent: &str) {
                 .map(|v| v.to_string_lossy().into_owned())
                 .collect::<Vec<_>>()
                 .join(", ");
-            let default = if default.is_empty() { String::new() } else { format!("`{default}`") };
+            let default = if default.is_empty() || !arg.get_action().takes_values() {
+                String::new()
+            } else {
+                format!("`{default}`")
+            };
             let mut help = arg.get_long_help().or(arg.get_help()).map(|h| h.to_string()).unwrap_or_default();
-            let possible: Vec<String> =
-                arg.get_possible_values().iter().filter(|v| !v.is_hide_set()).map(|v| format!("`{}`", v.get_name())).collect();
+            let possible: Vec<String> = arg
+                .get_possible_values()
+                .iter()
+                .filter(|v| !v.is_hide_set())
+                .map(|v| format!("`{}`", v.get_name()))
+                .collect();
             if !possible.is_empty() && arg.get_action().takes_values() {
                 help.push_str(&format!(" One of: {}.", possible.join(", ")));
             }
@@ -286,7 +302,7 @@ fn command_section(out: &mut String, cmd: &clap::Command, parent: &str) {
     if let Some(after) = cmd.get_after_help() {
         let _ = writeln!(out, "{after}\n");
     }
-    for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
+    for sub in visible(cmd) {
         command_section(out, sub, &path);
     }
 }

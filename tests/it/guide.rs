@@ -39,3 +39,12 @@ fn the_readme_is_short() {
     let readme = std::fs::read_to_string(manifest_dir().join("README.md")).unwrap();
     assert!(readme.len() <= 15 * 1024, "README.md is {} bytes, more than 15 KB", readme.len());
 }
+
+/// The Rust tutorial shows `examples/custom_controller.rs` (which `cargo test` compiles) as it is.
+#[test]
+fn the_rust_tutorial_shows_the_example_as_it_is() {
+    let example = std::fs::read_to_string(manifest_dir().join("examples/custom_controller.rs")).unwrap();
+    let code = &example[example.find("use simserpent::config").unwrap()..];
+    let page = std::fs::read_to_string(manifest_dir().join("guide/src/tutorials/controller-rust.md")).unwrap();
+    assert!(page.contains(code.trim_end()), "copy examples/custom_controller.rs into the tutorial again");
+}
