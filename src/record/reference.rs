@@ -6,7 +6,7 @@
 //! depends on it.
 
 use super::columns::{Group, Per, Rows, TABLES, TableSpec, Wanted};
-use super::sink::ColumnKind;
+use super::ColumnKind;
 use crate::config::Recording;
 use std::fmt::Write as _;
 
