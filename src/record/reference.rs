@@ -5,8 +5,8 @@
 //! with every switch on, each boolean switch in turn is turned off, and a group that disappears
 //! depends on it.
 
-use super::columns::{Group, Per, Rows, TABLES, TableSpec, Wanted};
 use super::ColumnKind;
+use super::columns::{Group, Per, Rows, TABLES, TableSpec, Wanted};
 use crate::config::Recording;
 use std::fmt::Write as _;
 
