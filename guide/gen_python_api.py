@@ -24,7 +24,17 @@ def doc(obj) -> str:
     return text.strip()
 
 
+def without_self(text: str) -> str:
+    for a, b in (("(self, /, ", "("), ("(self, /)", "()"), ("(self, ", "("), ("(self)", "()"), ("(cls, ", "(")):
+        text = text.replace(a, b)
+    return text
+
+
 def signature(name: str, obj) -> str:
+    return without_self(_signature(name, obj))
+
+
+def _signature(name: str, obj) -> str:
     try:
         return f"{name}{inspect.signature(obj)}"
     except (TypeError, ValueError):
@@ -54,7 +64,9 @@ def class_members(cls) -> list[tuple[str, object]]:
     for name, member in sorted(vars(cls).items()):
         if name.startswith("_") and name not in ("__init__", "__call__"):
             continue
-        if name == "__init__" and not doc(member):
+        if name in ("__init__", "__call__") and not (getattr(member, "__doc__", None) or "").strip():
+            continue
+        if name in ("__init__", "__call__") and (member.__doc__ or "").startswith(("Initialize self", "Call self")):
             continue
         members.append((name, member))
     return members
