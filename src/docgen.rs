@@ -331,7 +331,7 @@ mod tests {
     #[test]
     fn every_key_of_the_default_config_is_in_the_reference() {
         let page = config_markdown(crate::config::DEFAULT_CONFIG_TOML);
-        let value: toml::Table = crate::config::DEFAULT_CONFIG_TOML.parse().unwrap();
+        let value: toml::Table = crate::config::DEFAULT_CONFIG_TOML.parse().expect("the default config parses");
         for (section, keys) in &value {
             let Some(keys) = keys.as_table() else { continue };
             for (key, v) in keys {
