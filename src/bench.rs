@@ -22,9 +22,9 @@
 //!   ([`RunOptions::inline_writers`], the synchronous path) instead of on writer threads —
 //!   measured interleaved with the others, so the two paths are compared in one process.
 //!
-//! "Bare, gait" was the baseline of issue 20 and its CI guard; since the own floor friction model
-//! (issue 14) became the default, it simulates cheaper physics than the run does (no floor
-//! friction forces), so both ratios are reported: to "bare, gait" (the guard, unchanged) and to
+//! "Bare, gait" is the baseline of the CI guard; with SimSerpent's own floor friction model (the
+//! default) the run simulates more physics than it does (the floor friction forces), so both
+//! ratios are reported: to "bare, gait" (the guard, unchanged) and to
 //! "bare, gait + ground" (the same physics: what recording and control cost).
 //!
 //! - with `--discard-rows`, also **full (CSV, rows discarded)**: the CSV run with writer threads
@@ -178,7 +178,7 @@ pub const FULL_NONE: &str = "full pipeline (no tables)";
 pub const FULL_CSV: &str = "full pipeline (CSV)";
 /// `run::run` recording Parquet tables (c).
 pub const FULL_PARQUET: &str = "full pipeline (Parquet)";
-/// `run::run` writing only the ROS 2 bag (`run.mcap`, README "ROS 2").
+/// `run::run` writing only the ROS 2 bag (`run.mcap`, user guide, "ROS 2").
 pub const FULL_MCAP: &str = "full pipeline (MCAP)";
 /// [`FULL_CSV`] with writer threads that drop the rows unwritten (a dummy sink).
 pub const FULL_CSV_DISCARD: &str = "full pipeline (CSV, rows discarded)";

@@ -17,6 +17,8 @@ pub use simserpent_core::{config, control, estimation, model, state};
 
 pub mod bench;
 pub mod cpu_time;
+#[doc(hidden)]
+pub mod docgen;
 pub mod env;
 pub mod estimate;
 pub mod experiments;

@@ -116,8 +116,8 @@ enum Command {
         #[arg(long)]
         viewer: bool,
         /// Live ROS 2 bridge over DDS: publish the run's topics while it simulates and take the
-        /// joint commands from ROS 2 ([ros2]: domain, QoS, clock "free" or "lockstep"; README
-        /// "ROS 2"). Needs a binary built with `--features ros2`.
+        /// joint commands from ROS 2 ([ros2]: domain, QoS, clock "free" or "lockstep"; user
+        /// guide, "ROS 2"). Needs a binary built with `--features ros2`.
         #[arg(long)]
         ros2: bool,
     },
@@ -205,7 +205,7 @@ enum Command {
     },
     /// Convert the original tool's config.json into an annotated SimSerpent TOML: each converted
     /// key with a comment naming its config.json key, the rule and any difference from the
-    /// original tool (README "The original tool").
+    /// original tool (user guide, "Use the original tool's config").
     Convert {
         /// The original tool's config.json.
         input: PathBuf,
@@ -260,9 +260,10 @@ enum Command {
         #[arg(long, value_name = "RATIO")]
         min_cpu_ratio: Option<f64>,
     },
-    /// Accuracy study (issue 20): every case with RK4, implicitfast and Euler at 0.25 to 10 ms
-    /// against RK4 at 0.1 ms; errors, cost, work-precision plots and a recommendation
-    /// (README, "Accuracy study"). Writes accuracy.md, accuracy.csv and PNG/SVG plots.
+    /// Accuracy study: every case with RK4, implicitfast and Euler at 0.25 to 10 ms
+    /// against RK4 at 0.1 ms; errors, cost, work-precision plots and a recommendation (user
+    /// guide, "Run experiments and the accuracy study"). Writes accuracy.md, accuracy.csv and
+    /// PNG/SVG plots.
     Study {
         /// Which study: `accuracy`.
         #[arg(value_parser = ["accuracy"])]
@@ -287,7 +288,7 @@ enum Command {
         threads: usize,
     },
     /// Run a parameter sweep in parallel: a grid or random/Latin-hypercube samples of config
-    /// keys, one run folder per parameter set, a summary table (see README, "Sweeps").
+    /// keys, one run folder per parameter set, a summary table (user guide, "A parameter sweep").
     Sweep {
         #[command(flatten)]
         config: ConfigArgs,
@@ -330,6 +331,16 @@ enum Command {
         /// The run folder.
         run_folder: PathBuf,
     },
+    /// Write the user guide's generated reference pages (configuration keys, output columns,
+    /// command line) into DIR; with --check, only compare and exit 1 when a page differs.
+    #[command(hide = true)]
+    DocGen {
+        /// The guide's reference folder (guide/src/reference).
+        dir: PathBuf,
+        /// Compare instead of writing: exit 1 when a page differs from what would be written.
+        #[arg(long)]
+        check: bool,
+    },
 }
 
 /// An error that has already been given its exit code.
@@ -369,7 +380,7 @@ fn bad_input(e: impl Into<anyhow::Error>) -> Failure {
     Failure { code: 2, error: e.into() }
 }
 
-/// The documented exit codes (README, "Exit codes"): 2 for bad input (config, model, robot
+/// The documented exit codes (README and user guide, "Exit codes"): 2 for bad input (config, model, robot
 /// file, run folder, arguments, no display), 1 for failures while running (divergence, output),
 /// 130 for an interrupted run. Decided here, at the binary's edge, not in the library.
 trait ExitCodeOf {
@@ -1042,6 +1053,30 @@ fn error_text(error: &anyhow::Error) -> String {
 /// shows them all.
 const DEFAULT_LOG_FILTER: &str = "warn,rustdds=error,rustdds::network::util=warn,rustdds::network::udp_listener=off";
 
+/// `simserpent doc-gen`: the guide's generated reference pages.
+fn doc_gen(dir: &Path, check: bool) -> Result<(), Failure> {
+    use clap::CommandFactory;
+    let mut stale = Vec::new();
+    for (name, text) in simserpent::docgen::pages(&Cli::command()) {
+        let path = dir.join(name);
+        if check {
+            if std::fs::read_to_string(&path).ok().as_deref() != Some(text.as_str()) {
+                stale.push(path.display().to_string());
+            }
+        } else {
+            std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+        }
+    }
+    if !stale.is_empty() {
+        return Err(anyhow::anyhow!(
+            "generated guide pages differ from the code: {} (run ./scripts/guide to regenerate them)",
+            stale.join(", ")
+        )
+        .into());
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or(DEFAULT_LOG_FILTER)).init();
     // MuJoCo's warnings go to the log instead of stdout.
@@ -1115,6 +1150,7 @@ fn main() -> ExitCode {
         }
         Some(Command::SweepMerge { sweep_dir }) => sweep_merge(&sweep_dir),
         Some(Command::BagRepair { run_folder }) => bag_repair(&run_folder),
+        Some(Command::DocGen { dir, check }) => doc_gen(&dir, check),
         Some(Command::Study { what: _, config, quick, cases, out, repeats, threads }) => {
             study(&config, quick, &cases, out, repeats, threads)
         }

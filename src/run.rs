@@ -26,7 +26,7 @@ pub struct RunOptions {
     /// Record into exactly this folder (created if missing) instead of a new
     /// `<output_dir>/<run_name>-<UTC time>/`; sweeps use it for deterministic run folders.
     pub run_folder: Option<PathBuf>,
-    /// The live ROS 2 bridge (`run --ros2`, cargo feature `ros2`; README "ROS 2"): the run
+    /// The live ROS 2 bridge (`run --ros2`, cargo feature `ros2`; user guide, "ROS 2"): the run
     /// publishes its topics over DDS and takes its joint commands from ROS 2 (the built-in
     /// controller is not used).
     pub ros2: bool,
@@ -102,7 +102,7 @@ pub fn build_world(config: &Config, options: &RunOptions) -> Result<World, SimEr
 pub fn run(config: &Config, options: &RunOptions) -> Result<RunSummary, RunError> {
     let world = build_world(config, options)?;
     if options.ros2 {
-        // The live bridge: its commands drive the joints (README "ROS 2").
+        // The live bridge: its commands drive the joints (user guide, "ROS 2").
         let (mut bridge, source) = crate::ros2::open_bridge(config, &world.index)?;
         let sim = Simulation::with_controller(config, world, Box::new(source));
         return run_simulation_tracked(config, options, sim, None, Some(bridge.as_mut()));
@@ -272,7 +272,7 @@ fn run_simulation_tracked<C: Controller>(
         } else {
             None
         };
-        // The ROS 2 bag (README "ROS 2").
+        // The ROS 2 bag (user guide, "ROS 2").
         let bag = if config.recording.enabled && format.mcap() {
             Some(crate::ros2::BagRecorder::create(&folder, config, &sim.world().index, threaded)?)
         } else {

@@ -1,4 +1,4 @@
-//! `simserpent study accuracy`: the cheapest physics that is still right (issue 20, item 2).
+//! `simserpent study accuracy`: the cheapest physics that is still right.
 //!
 //! Every case is run with every [`Setting`] (integrator × timestep) and with the reference
 //! (RK4 at 0.1 ms), and compared with the reference:

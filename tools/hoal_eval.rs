@@ -1,8 +1,7 @@
 //! Scores one controller or one open-loop wave on many of experiment `hoal`'s peg fields, the
 //! way hoal scores its runs (`hoal::field_config` and `hoal::score_run`: the centre of mass's
 //! speed along +x after the ramp-in, and jams = 5 s without 2 cm of new progress). The
-//! session-10 tables of BENCHMARKS.md ("Obstacle-aided locomotion (issue 15)") were measured
-//! with it; hoal itself runs ten fields per density, this runs as many as you ask.
+//! obstacle-aided tables of BENCHMARKS.md are measured with it; hoal itself runs ten fields per density, this runs as many as you ask.
 //!
 //! ```text
 //! cargo run --release --example hoal_eval -- VARIANT SEEDS DURATION_SECS [KEY=VALUE ...]

@@ -1,4 +1,4 @@
-//! An oracle bound for issue 15: how fast can *any* controller that switches between the sine
+//! An oracle bound for obstacle-aided locomotion: how fast can *any* controller that switches between the sine
 //! waves of experiment `hoal`'s sweep go on hoal's peg fields?
 //!
 //! Run with:
@@ -14,9 +14,9 @@
 //! Each finished run is also reported on stderr, so an interrupted study keeps its results.
 //! `--sweep-csv` takes the sweep from the `hoal_runs.csv` of a full `simserpent experiment hoal`
 //! run (the same runs: hoal scores them with `score_run`'s code) instead of running it again;
-//! `--no-sweep` skips it (no ratios then). The default wave family is sessions 8–9's (the
-//! recorded results used it); hoal's sweep has δ = −75° instead of −30° since session 10, so
-//! with a newer `hoal_runs.csv` pass `--lags=-75,-60,-45,30`.
+//! `--no-sweep` skips it (no ratios then). The default wave family has δ = −30° where hoal's
+//! sweep has δ = −75° (the recorded oracle results used it), so with a `hoal_runs.csv` of
+//! hoal's sweep pass `--lags=-75,-60,-45,30`.
 //!
 //! `--dump FILE.csv` writes one row per oracle window: field, window, start time, the wave that
 //! ran before, what the snake *sensed* over the window before (its controller's view: per link
@@ -27,7 +27,7 @@
 //! field's pegs (density, seed, x, y, radius). With `--dump` the oracle's runs have the contact
 //! estimator on (it reads the sensors and moves nothing: the runs and schedules are the same).
 //! `python/examples/wave_choice_study.py` asks of these rows whether a controller could predict
-//! the oracle's choices (BENCHMARKS.md, "session 9").
+//! the oracle's choices (BENCHMARKS.md, "Obstacle-aided locomotion").
 //!
 //! `--replay EPS[,EPS...]` runs each field's oracle schedule again from the start, once per ε,
 //! in one plain run without foresight, with every wave's amplitude scaled by (1 + ε). ε = 0
@@ -69,9 +69,9 @@
 //!
 //! Prints per density: each field's best single wave and hindsight best wave (with the sweep),
 //! each field's oracle speed, jam and schedule of waves, and the oracle's median, jams and its
-//! ratios to the best single wave and to the issue's 2× target. Speeds in mm/s.
+//! ratios to the best single wave and to hoal's 2× target. Speeds in mm/s.
 //!
-//! Measured (BENCHMARKS.md, "session 8, helper i15x"): seeds 0–9, W = 2 s, oracle medians
+//! Measured (BENCHMARKS.md): seeds 0–9, W = 2 s, oracle medians
 //! 153.8 / 217.6 / 119.8 mm/s (sparse / medium / dense) against the best single waves' 62.3 /
 //! 52.2 / 34.8. The oracle costs 12 plain 15-s runs per field and window length.
 

@@ -161,7 +161,7 @@ def main():
         "sensors.noise_enabled": True,
         "sensors.joint_angle.std": 0.001,
         "sensors.joint_velocity.std": 0.01,
-        # The layout and action units of PyMujocoEnv (issue 9's conventions): x/y observed,
+        # The layout and action units of PyMujocoEnv (the conventions of the RL environments): x/y observed,
         # physical actions, no reset noise, no control cost.
         "env.exclude_current_positions_from_observation": False,
         "env.normalize_action": False,

@@ -1,4 +1,4 @@
-"""RL throughput and the accuracy of the physics presets (issue 19).
+"""RL throughput and the accuracy of the physics presets.
 
     python python/bench/bench_rl.py throughput [--seconds 3] [--repeats 3] [--json out.json]
         [--set key=value ...] [--with key=value ...] [--only substring ...]

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""A Python simulation loop in the style of the original tool (issue 20, "Measure and report").
+"""A Python simulation loop in the style of the original tool.
 
 The original tool (thesis ch. 6: simulate_snake.py, ctrl_snake.py, get_snake_info.py,
 store_csv_data.py) stepped MuJoCo from Python: a control callback set `data.ctrl` every

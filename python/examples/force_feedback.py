@@ -1,4 +1,4 @@
-"""A force-feedback controller in Python on SimSerpent's contact estimates (issue 15).
+"""A force-feedback controller in Python on SimSerpent's contact estimates.
 
 With ``[estimation] enabled = true`` every observation a Python controller gets has a
 ``contacts`` entry: per link the estimated obstacle force (N, world frame), a contact flag and

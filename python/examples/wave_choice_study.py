@@ -1,4 +1,4 @@
-"""Can a causal controller choose hoal's waves the way the oracle does? (issue 15)
+"""Can a causal controller choose hoal's waves the way the oracle does?
 
 `tools/hoal_oracle.rs` (the greedy oracle with perfect foresight) reaches 2.5-4.2x the best
 single open-loop wave on hoal's peg fields by picking, every 2 s, the wave of hoal's sweep that

@@ -21,7 +21,7 @@ def small():
 
 @pytest.fixture(scope="session")
 def ray_local():
-    """One local Ray cluster (2 CPUs, loopback only) for the whole session."""
+    """One local Ray cluster (2 CPUs, loopback only) for the whole test run."""
     ray = pytest.importorskip("ray")
     from simserpent.ray_sweep import init_ray
 

@@ -171,7 +171,7 @@ def elf_section_names(path):
 
 
 def test_the_installed_extension_is_stripped():
-    """Issue 19: the wheel is stripped (`[tool.maturin] strip = true`): no debug line tables or
+    """The wheel is stripped (`[tool.maturin] strip = true`): no debug line tables or
     symbol table in the extension (89 MB unstripped, about 12 MB stripped)."""
     from simserpent import _core
 

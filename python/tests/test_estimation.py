@@ -1,4 +1,4 @@
-"""Contact estimation from Python (issue 15, item 1): the per-step estimates on World, in the
+"""Contact estimation from Python: the per-step estimates on World, in the
 environment's observation and in a Python controller's observation, and ``simserpent.estimate``
 (the CLI's ``simserpent estimate RUN_FOLDER``)."""
 
@@ -207,7 +207,7 @@ def test_gymnasium_env_info_and_vector_env_observation():
         "obstacle_force_x_n", "obstacle_force_y_n", "obstacle_contact", "obstacle_contact_point_along_m")]
 
 
-# ------------------------------------------------- the estimator in the RL loop (issue 19)
+# ------------------------------------------------- the estimator in the RL loop
 
 #: Estimation on (friction identified online: the estimator's longest memory), every sensor noisy
 #: with a random-walk bias, a quiet start, physical actions (target angles in rad).

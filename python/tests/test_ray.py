@@ -73,7 +73,7 @@ def test_cross_entropy_improves_forward_speed(ray_local, tmp_path):
 
 
 def test_sweep_on_an_existing_cluster_by_address(ray_local, tmp_path):
-    """Another process joins the session's Ray cluster by its address and sweeps on it."""
+    """Another process joins the test run's Ray cluster by its address and sweeps on it."""
     import sys
     import textwrap
 

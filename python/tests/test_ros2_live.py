@@ -267,7 +267,7 @@ class Peer:
                 stamp_ns = js.header.stamp.sec * 1_000_000_000 + js.header.stamp.nanosec
                 self.received.append((stamp_ns, list(js.name), list(js.position)))
                 if send:
-                    # The answer to instant k acts from instant k + 1 (README "ROS 2"): command
+                    # The answer to instant k acts from instant k + 1 (user guide, "ROS 2"): command
                     # the wave at t_k + dt.
                     data = self.command(stamp_ns * 1e-9 + self.timestep_secs, len(js.name))
                     self.commands.append((stamp_ns, data))
@@ -447,7 +447,7 @@ def test_a_cyclone_peer_drives_the_snake_in_lockstep(binary, domain, tmp_path):
     report = manifest["ros2"]
     assert report["clock"] == "lockstep"
     # One command per step: every instant 0 .. steps-1 waited for one, the peer answered each.
-    # The first state may have been resent until answered (README "ROS 2", "Clock modes"): the
+    # The first state may have been resent until answered (user guide, "ROS 2", "Clock modes"): the
     # peer answers every copy it got, and the answers to the extra copies count for instant 0.
     copies = next(i for i, (s, _, _) in enumerate(peer.received) if s != 0)
     assert 1 <= copies <= 1 + report["lockstep_state_resends"]
@@ -553,7 +553,7 @@ def test_a_lockstep_run_without_a_peer_stops_before_its_first_step(binary, domai
 def test_a_slow_first_answer_is_not_taken_for_the_next_instant(binary, domain, tmp_path):
     # Until the first command, the bridge publishes the first state again every 0.25 s (a peer's
     # reader that learnt of the bridge's writer only after the first sample never gets it;
-    # README "ROS 2", "Clock modes"). A peer that answers late receives several copies and,
+    # user guide, "ROS 2", "Clock modes"). A peer that answers late receives several copies and,
     # not looking at stamps, answers each: the extra answers still belong to instant 0, and
     # every later instant gets exactly one command.
     process = start_run(binary, tmp_path, domain, "general.duration_secs=0.2")

@@ -697,7 +697,7 @@ fn run_motion(ctx: &Context, base: &Config, section: &mut Section) -> Result<(),
             }
             let Some(t) = total else { continue };
             rows.push(motion_row(floor_name, noise_name, seeds, &t));
-            // Targets (issue 15) with the default noise and without; twice the noise: graceful.
+            // The targets with the default noise and without; twice the noise: graceful.
             let (det, fa, rmse, points) = if scale > 1.0 { (0.90, 0.10, 0.25, 0.80) } else { (0.95, 0.05, 0.15, 0.95) };
             let label = format!("motion, {floor_name} floor, noise {noise_name}");
             push_motion_checks(&mut section.checks, &label, &t, (det, fa, rmse, points));

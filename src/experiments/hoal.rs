@@ -1,4 +1,4 @@
-//! Experiment `hoal`: obstacle-aided locomotion with force feedback (issue 15, item 4).
+//! Experiment `hoal`: obstacle-aided locomotion with force feedback.
 //!
 //! A 10-link snake on SimSerpent's stick–slip floor with *isotropic* Coulomb friction (where
 //! lateral undulation barely moves on a bare floor) among random peg fields of three densities,
@@ -55,14 +55,11 @@ const REGION_MIN_M: [f64; 2] = [-2.2, -1.0];
 const REGION_MAX_M: [f64; 2] = [4.0, 1.0];
 const SPACING_M: f64 = 0.3;
 /// The open-loop sweep, amplitude up to 80° (the joints reach ±90°).
-/// (Session 6: the best wave of the earlier sweep, A ∈ {20, 35, 50}° × δ ∈ ±{30, 60, 90}°, was
-/// 50°/−60° on every density, at the sweep's edge, and 20° and ±90° were never best. Session 7:
-/// in the sweep A ∈ {35, 50, 65}° × δ ∈ {−60, −30, 30, 60}° the best was at 65°, the edge again,
-/// and 35° and δ = 60° were never best, while on the bare floor 65°–80° with δ = −45° drift
-/// fastest (69–71 mm/s): the sweep now covers those, at the same number of waves. Session 10:
-/// on 120 fields outside hoal's seeds every δ = −30° wave ran backward (medians −1 to −34 mm/s,
-/// 98–106 jams of 120) while δ = −75° jams least (65°/−75°: 31 mm/s, 2 jams of 120; the
-/// `obstacle_aided` default since then): −75° replaced −30°, at the same number of waves.)
+/// (Why these twelve: in wider sweeps amplitudes of 20–35° and lags of ±90° and +60° were never
+/// best, on the bare floor 65°–80° with δ = −45° drift fastest (69–71 mm/s), and on 120 fields
+/// outside hoal's seeds every δ = −30° wave runs backward (medians −1 to −34 mm/s, 98–106 jams of
+/// 120) while δ = −75° jams least (65°/−75°: 31 mm/s, 2 jams of 120; the `obstacle_aided`
+/// default).)
 const AMPLITUDES_DEG: [f64; 3] = [50.0, 65.0, 80.0];
 const PHASE_LAGS_DEG: [f64; 4] = [-75.0, -60.0, -45.0, 30.0];
 /// The closed-loop controllers compared (config value, name).
@@ -77,7 +74,7 @@ const TORQUE_LIMIT_NM: f64 = 10.0;
 const FREQUENCY_HZ: f64 = 0.5;
 /// Record every this many steps.
 pub const RECORD_EVERY: u64 = 50;
-/// The jam definition of issue 15.
+/// The jam definition: less than this progress within this window.
 const JAM_WINDOW_SECS: f64 = 5.0;
 const JAM_PROGRESS_M: f64 = 0.02;
 /// The least median speed that counts as advancing (mm/s).
@@ -629,7 +626,7 @@ pub fn run(ctx: &Context, base: &Config) -> Result<Section, ExperimentError> {
         "yield at pegs that resist; pressing on pegs that push forward is off, `force_gain_rad_per_n_s = 0`"
     };
     let section = Section {
-        heading: "Obstacle-aided locomotion with force feedback (issue 15)".into(),
+        heading: "Obstacle-aided locomotion with force feedback".into(),
         text: format!(
             "{headline}\n\n10 links (0.2 m, 0.3 kg), stick–slip floor with isotropic Coulomb friction μ = {mu}, position \
              servos kp {SERVO_KP_NM_PER_RAD} N·m/rad, kv {SERVO_KV_NM_S_PER_RAD} N·m·s/rad, ±{TORQUE_LIMIT_NM} N·m (as in `oal`), default sensor noise. Random peg fields (peg radius 0.05 m, centres ≥ {SPACING_M} m apart, in x ∈ \

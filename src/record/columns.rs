@@ -58,7 +58,7 @@ pub(super) enum Names {
 
 impl Names {
     /// The names, each with `prefix` (and `_`) in front unless it is empty.
-    fn push_to(self, prefix: &str, out: &mut Vec<String>) {
+    pub(super) fn push_to(self, prefix: &str, out: &mut Vec<String>) {
         let join = |name: &str| if prefix.is_empty() { name.to_string() } else { format!("{prefix}_{name}") };
         match self {
             Names::One(name) => out.push(join(name)),

@@ -66,7 +66,7 @@ pub struct Manifest {
     /// `simserpent plot <run folder>` makes the plots) or `"failed: <reason>"`.
     #[serde(default)]
     pub plots: Option<String>,
-    /// The live ROS 2 bridge of `run --ros2` (README "ROS 2"): clock mode, commands accepted and
+    /// The live ROS 2 bridge of `run --ros2` (user guide, "ROS 2"): clock mode, commands accepted and
     /// rejected by reason, why the bridge stopped the run; absent without `--ros2`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ros2: Option<Ros2Report>,
@@ -257,7 +257,7 @@ pub struct Ros2Report {
     /// Lockstep: how often the state of the first command instant was published again because
     /// no command answered it within `ros2::FIRST_STATE_RESEND_SECS` (a peer's reader
     /// that matched the bridge's writer only after the first sample had been sent never gets
-    /// that sample; README "ROS 2", "Clock modes").
+    /// that sample; user guide, "ROS 2", "Clock modes").
     #[serde(default)]
     pub lockstep_state_resends: u64,
     /// Lockstep: valid commands that answered a resent copy of the first state after the

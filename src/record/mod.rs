@@ -23,6 +23,7 @@ mod manifest;
 pub mod offload;
 #[cfg(feature = "parquet")]
 mod parquet;
+mod reference;
 mod sink;
 mod table;
 
@@ -30,6 +31,7 @@ pub use format::{ColumnKind, TableSink};
 pub use manifest::{Manifest, Ros2Report, RunStatus, RunSummary, SpaceReserve};
 #[cfg(feature = "parquet")]
 pub use parquet::ParquetTable;
+pub use reference::columns_markdown;
 pub use sink::Table;
 pub use table::CsvTable;
 
@@ -207,7 +209,7 @@ impl Recorder {
         // Parquet writes a row group at once every `parquet_row_group_rows` rows: measured on
         // the default job, that burst is ~30 ms of the writer thread's CPU time (10 links, ~100
         // ms at 30), longer than the loop needs for the default pool's 128 steps, so the loop
-        // waited for it even with a free core (BENCHMARKS.md, issue 20, session 6). A pool of
+        // would wait for it even with a free core. A pool of
         // PARQUET_POOL batches lets it run ahead through the burst.
         let batches = if flags.format.parquet() { PARQUET_POOL } else { offload::POOL };
         let out = Offload::with_pool(Tables { tables, names }, row, folder.join("tables"), threaded, batches)?;

@@ -17,7 +17,7 @@ use std::path::Path;
 
 /// Fails with a clear message when there is no display to open a window on.
 pub fn check_display() -> Result<(), RenderError> {
-    // A Windows desktop session always has a display.
+    // A Windows desktop always has a display.
     if cfg!(windows) {
         return Ok(());
     }

@@ -2,7 +2,7 @@
 //! MCAP file of ROS 2 CDR messages with their `ros2msg` schemas embedded, written at every
 //! recorded instant (the rows of the CSV tables), stamped with simulated time.
 //!
-//! Topics (README "ROS 2"; `<ns>` is `ros2.namespace`, `snake` by default):
+//! Topics (user guide, "ROS 2"; `<ns>` is `ros2.namespace`, `snake` by default):
 //!
 //! | topic | type | frame | what |
 //! |---|---|---|---|

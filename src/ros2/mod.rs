@@ -2,7 +2,7 @@
 //! (`recording.format` with `"mcap"`); [`msgs`] holds the message types, their CDR encoding and
 //! their definitions; `live` (cargo feature `ros2`) is the live bridge of `run --ros2`, which
 //! publishes them over DDS and takes joint commands ([`commands`]). Topics, types and frames:
-//! README "ROS 2" and the table in [`bag`].
+//! user guide, "ROS 2" and the table in [`bag`].
 //!
 //! Conventions (REP 103/105): SI units; right-handed frames; the fixed frame is `world` (z up,
 //! the MuJoCo world's axes); each link's frame `link_NN` is its MuJoCo body frame (x along the
@@ -42,7 +42,7 @@ pub enum Ros2Error {
     /// `--ros2` on a binary built without the `ros2` feature.
     #[error(
         "--ros2: this simserpent was built without the live ROS 2 bridge; build it with \
-         `cargo build --release --features ros2` (README \"ROS 2\")"
+         `cargo build --release --features ros2` (user guide, \"ROS 2\")"
     )]
     NotBuilt,
     /// DDS could not be set up or a sample not be written.

@@ -1,5 +1,4 @@
-//! Contact estimation in the step loop, the `estimate` tool, and the closed-loop controllers
-//! (issue 15).
+//! Contact estimation in the step loop, the `estimate` tool, and the closed-loop controllers.
 
 use simserpent::config::{Config, ControllerKind, FloorFriction, GroundModel, PegLayout, TerrainKind};
 use simserpent::control::PathFollowing;
@@ -172,24 +171,15 @@ fn com_x_path(config: &Config, secs: f64) -> Vec<f64> {
 /// moves the snake forward through the peg field on isotropic friction, where the same wave on
 /// the bare floor does not advance.
 ///
-/// **Known failure, ignored (issue 15 stays open).** With the motion estimator of the merged
-/// tree this does not hold: on seed 1 the controller ends 0.285 m *behind* its start. Over seeds
-/// 1–8 of this scene (12 s, the same measure as below, 2026-11-23) the
-/// advance with estimated contacts was −1.48 … +1.01 m (mean −0.08 m), with the true contacts
-/// −0.75 … +1.10 m (mean +0.21 m), and the open-loop wave among the same pegs −0.26 … +0.51 m
-/// (mean +0.07 m): the spread between peg fields is larger than any controller effect, and
-/// `simserpent experiment hoal` reports the same (2 of 5 checks). Run it with
-/// `cargo test --test it closed_loop -- --ignored`. With the session-6 defaults (own 50°/60° wave
-/// paced by the measured progress, heading control; the scene's `[gait.sine_wave]` amplitude and
-/// lag no longer apply) seed 1 advances 0.112 m (open loop on the bare floor −0.380 m): forward,
-/// but below this test's 0.2 m, and about what the same wave gains on the bare floor — see
-/// `obstacle_aided_controller_advances_on_unseen_peg_fields` for what it does achieve. With the
-/// session-7 defaults (the 65°/−60° wave toward the head) seed 1 advances 0.560 m and the test
-/// passes, but it stays ignored: its bare-floor run uses the scene's ordinary 50°/30° wave
-/// (−0.380 m), while the controller's own wave advances faster on the bare floor than among
-/// pegs (51 mm/s against 28–50 mm/s on hoal's fields), so "the pegs help" is not what it shows.
+/// **Ignored: it does not measure what it claims.** Its bare-floor run uses the scene's ordinary
+/// 50°/30° wave, while the controller runs its own wave toward the head, which advances faster on
+/// the bare floor than among pegs (on hoal's fields the pegs only hinder it), so "the pegs help"
+/// is not what the comparison shows; and between peg fields the spread is larger than any
+/// controller effect (`simserpent experiment hoal`). Run it with
+/// `cargo test --test it closed_loop -- --ignored`;
+/// `obstacle_aided_controller_advances_on_unseen_peg_fields` tests what the controller achieves.
 #[test]
-#[ignore = "issue 15: the obstacle-aided controller does not yet beat open loop reliably (seed 1: -0.285 m); see the doc comment"]
+#[ignore = "the bare-floor comparison runs another wave than the controller; see the doc comment"]
 fn obstacle_aided_controller_moves_through_a_peg_field_on_isotropic_friction() {
     let secs = 12.0;
     let pegs = com_x_path(&peg_field(ControllerKind::ObstacleAided), secs);
@@ -209,15 +199,10 @@ fn obstacle_aided_controller_moves_through_a_peg_field_on_isotropic_friction() {
 /// recovery) moves the snake forward on the `hoal` experiment's floor among random pegs,
 /// on fields nobody tuned on (seeds 40–42, the medium density, 10 s; hoal's speed: the centre
 /// of mass along +x from the end of the ramp), at least 20 mm/s and without a jam by hoal's
-/// rule (5 s without 2 cm). Measured 2026-11-24 with `cargo test` (session 10 defaults): 32.1,
-/// 31.9 and 30.0 mm/s; the session-7 defaults (65°/−60°, pressing) made 28, 50 and 37 mm/s
-/// (release build), the session-6 defaults (a slow progress-paced wave toward the tail) 11, 12
-/// and 5 mm/s.
-/// What this does not show: that the contacts help. In session 7 the same controller with
-/// `contact_feedback = false` made 29, 49 and 35 mm/s, and on the bare floor (no pegs) it made
-/// 51 mm/s: on this floor the pegs only hinder the reversed wave, and no contact term tried
-/// recovered that loss. Session 10's yield-only default jams about as often as its wave alone
-/// (9 against 8 of 270 fields; BENCHMARKS.md, "Obstacle-aided locomotion (issue 15)").
+/// rule (5 s without 2 cm). Measured with `cargo test`: 32.1, 31.9 and 30.0 mm/s.
+/// What this does not show: that the contacts help. On this floor the pegs only hinder the
+/// reversed wave, and the yield-only default jams about as often as its wave alone (9 against 8
+/// of 270 fields; BENCHMARKS.md, "Obstacle-aided locomotion").
 #[test]
 fn obstacle_aided_controller_advances_on_unseen_peg_fields() {
     for seed in 40..=42 {
@@ -236,13 +221,13 @@ fn obstacle_aided_controller_advances_on_unseen_peg_fields() {
 /// 65°/−75°, and switches to follow-the-leader on what the estimated contacts say; no jam
 /// switch) and estimated contacts, on fields of `simserpent experiment hoal` that nobody tuned
 /// on (seeds 40–42, every density, 10 s; forward speed and jams as the experiment scores them),
-/// against the open-loop wave 65°/−60° (hoal's best on the sparse and medium fields, and the
-/// drift wave before session 10) on the same fields: rail advances steadily on every field,
+/// against the open-loop wave 65°/−60° (hoal's best on the sparse and medium fields) on the same
+/// fields: rail advances steadily on every field,
 /// at least 25 mm/s and without a jam, and its slowest field is faster than the open loop's.
-/// Measured 2026-11-24 with `cargo test` (session-10 defaults): rail 32, 32, 31 / 32, 32, 30 /
-/// 32, 32, 30 mm/s; open loop 50, 51, 47 / 31, 49, 35 / 31, 45, 18 mm/s. (The session-7
-/// defaults, drift 65°/−60° with the jam switch, were faster on most of these fields, 50, 51,
-/// 47 / 130, 49, 34 / 111, 45, 26 mm/s, but jammed in 33 % of 120 other fields.)
+/// Measured with `cargo test`: rail 32, 32, 31 / 32, 32, 30 / 32, 32, 30 mm/s; open loop 50, 51,
+/// 47 / 31, 49, 35 / 31, 45, 18 mm/s. (Drift 65°/−60° with the jam switch is faster on most of
+/// these fields, 50, 51, 47 / 130, 49, 34 / 111, 45, 26 mm/s, but jams in 33 % of 120 other
+/// fields.)
 #[test]
 fn rail_controller_advances_through_unseen_peg_fields() {
     use simserpent::config::{ContactSource, GaitKind};

@@ -1,4 +1,4 @@
-//! Dying processes and hostile surroundings (issue 17, items 7–10 and 13): closed pipes, a full
+//! Dying processes and hostile surroundings: closed pipes, a full
 //! disk at every stage of a run, SIGKILL mid-run (CSV and Parquet), signals during set-up and
 //! plotting, and sweeps resumed from their manifests.
 

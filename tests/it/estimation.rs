@@ -223,7 +223,7 @@ fn the_estimation_experiment_writes_data_and_plots_and_counts_every_case() {
         .collect();
     assert!(failed.is_empty(), "{failed:#?}");
     // Detection under static friction is a check of its own (with SimSerpent's own friction on
-    // floor and pegs, 99.8 % detected on 2026-11-23; with the friction of before, 0.3 %).
+    // floor and pegs 99.8 % are detected; with MuJoCo's friction on them, 0.3 %).
     let friction = checks.iter().find(|c| c.name.starts_with("friction: obstacle contacts detected")).unwrap();
     assert!(friction.measured.is_finite(), "{friction:?}");
     // The headline says all passed exactly when every check passed (some motion checks miss).
@@ -255,7 +255,7 @@ fn identified_friction(model: GroundModel, pegs: usize, seconds: f64) -> ([f64; 
 
 #[test]
 fn identified_friction_converges_to_the_configured_mu_on_a_bare_floor() {
-    // Isotropic μ = 0.5: within 2 % after 3 s (measured 2026-11-23: 0.3 %).
+    // Isotropic μ = 0.5: within 2 % after 3 s (measured: 0.3 %).
     let (mu, truth) = identified_friction(GroundModel::Isotropic, 0, 3.0);
     assert!((mu[0] - truth[0]).abs() <= 0.02 * truth[0], "{mu:?} vs {truth:?}");
 }
@@ -263,7 +263,7 @@ fn identified_friction_converges_to_the_configured_mu_on_a_bare_floor() {
 #[test]
 fn identified_friction_converges_to_the_configured_mu_in_the_peg_field() {
     // Anisotropic (axial 0.1, lateral 1.0) among 14 pegs, 10 s: within 10 % (measured
-    // 2026-11-23 over 10 seeds: axial 0.096–0.110, lateral 0.984–1.005; seed 0: 0.1098, 1.005).
+    // over 10 seeds: axial 0.096–0.110, lateral 0.984–1.005; seed 0: 0.1098, 1.005).
     // The axial coefficient converges slowly (BENCHMARKS.md).
     let (mu, truth) = identified_friction(GroundModel::Anisotropic, 14, 10.0);
     for k in [0, 2] {

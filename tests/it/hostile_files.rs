@@ -1,4 +1,4 @@
-//! Hostile files (issue 17, items 1 to 5): third-party terrains with `<model>` cycles, absolute
+//! Hostile files: third-party terrains with `<model>` cycles, absolute
 //! or colliding asset names and symbolic links out of their folder; devices, FIFOs and huge
 //! files where a config, terrain or robot file is expected; and the private scratch folders.
 //! Every bad input is rejected before anything is written, with exit code 2 and a message that

@@ -1,4 +1,4 @@
-//! Impacts with the DEFAULT contact settings (issue 14): snakes of 1 and 10 links at 5 m/s into a
+//! Impacts with the DEFAULT contact settings: snakes of 1 and 10 links at 5 m/s into a
 //! cylinder (along x: head first; along y: side-on at the middle of the body) and flat onto the
 //! floor, measured from every step's snapshot, as the recorded tables show it (no filtering).
 //!

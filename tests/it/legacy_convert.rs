@@ -1,5 +1,5 @@
-//! The original tool's config.json (issue 18): `simserpent convert`, the conversion notes of
-//! `check` and `run`, the README's tables generated from the conversion data, the original
+//! The original tool's config.json: `simserpent convert`, the conversion notes of
+//! `check` and `run`, the guide's tables generated from the conversion data, the original
 //! capsules (`legacy.geometry = "faithful"`), the thesis' PD control, experiments that record
 //! what their analysis needs, and the shipped example config.json.
 
@@ -118,19 +118,22 @@ fn check_prints_the_conversion_notes_once_on_stderr() {
     assert!(!String::from_utf8_lossy(&o.stderr).contains("note:"));
 }
 
-/// The text between `<!-- name:start -->` and `<!-- name:end -->` in the README.
+/// The guide's page of the original tool, which holds the two generated tables.
+const ORIGINAL_TOOL_PAGE: &str = "guide/src/how-to/original-tool.md";
+
+/// The text between `<!-- name:start -->` and `<!-- name:end -->` in the guide's page.
 fn readme_block(name: &str) -> String {
-    let readme = std::fs::read_to_string(manifest_dir().join("README.md")).unwrap();
+    let readme = std::fs::read_to_string(manifest_dir().join(ORIGINAL_TOOL_PAGE)).unwrap();
     let start = format!("<!-- {name}:start -->\n");
     let end = format!("<!-- {name}:end -->");
-    let a = readme.find(&start).unwrap_or_else(|| panic!("README has no {start}")) + start.len();
-    let b = readme[a..].find(&end).unwrap_or_else(|| panic!("README has no {end}")) + a;
+    let a = readme.find(&start).unwrap_or_else(|| panic!("{ORIGINAL_TOOL_PAGE} has no {start}")) + start.len();
+    let b = readme[a..].find(&end).unwrap_or_else(|| panic!("{ORIGINAL_TOOL_PAGE} has no {end}")) + a;
     readme[a..b].to_string()
 }
 
-/// Replaces the README's block `name` with `text`.
+/// Replaces the guide page's block `name` with `text`.
 fn write_readme_block(name: &str, text: &str) {
-    let path = manifest_dir().join("README.md");
+    let path = manifest_dir().join(ORIGINAL_TOOL_PAGE);
     let readme = std::fs::read_to_string(&path).unwrap();
     let start = format!("<!-- {name}:start -->\n");
     let end = format!("<!-- {name}:end -->");
@@ -139,7 +142,7 @@ fn write_readme_block(name: &str, text: &str) {
     std::fs::write(&path, format!("{}{text}{}", &readme[..a], &readme[b..])).unwrap();
 }
 
-/// The README's two tables of the original tool are generated from `LEGACY_RULES` and
+/// The guide's two tables of the original tool are generated from `LEGACY_RULES` and
 /// `LEGACY_DEVIATIONS`; after changing those, regenerate them with
 /// `SIMSERPENT_BLESS_README=1 cargo test --test it readme_tables_are_the_conversion_data`.
 #[test]
@@ -150,7 +153,7 @@ fn readme_tables_are_the_conversion_data() {
         if std::env::var_os("SIMSERPENT_BLESS_README").is_some() {
             write_readme_block(name, &table);
         }
-        assert_eq!(readme_block(name), table, "README block {name}: regenerate it (see this test's doc)");
+        assert_eq!(readme_block(name), table, "{ORIGINAL_TOOL_PAGE} block {name}: regenerate it (see this test's doc)");
     }
 }
 

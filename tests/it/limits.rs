@@ -1,4 +1,4 @@
-//! Issue 17, items 6, 11 and 12: values that MuJoCo rejects are config errors naming the key
+//! Values that MuJoCo rejects are config errors naming the key
 //! (exit code 2), runs that would never end are refused, set-up shows progress, error messages
 //! stay short and say where; and the fuzz target config text → validated config → MJCF →
 //! MuJoCo compile.

@@ -14,6 +14,7 @@ mod config;
 mod defaults;
 mod dying_processes;
 mod estimation;
+mod guide;
 // Planted symlinks, device files, FIFOs, permission bits and signals: Unix only.
 #[cfg(unix)]
 mod hostile_files;

@@ -1,4 +1,4 @@
-//! Never lose a run (issue 7): bad configs (a corpus and random configs), bad robot files,
+//! Never lose a run: bad configs (a corpus and random configs), bad robot files,
 //! divergence (NaN, MuJoCo warnings, runaway energy), interruption by SIGINT/SIGTERM, output
 //! problems (unwritable folder, full disk), determinism, and the documented exit codes.
 

@@ -1,4 +1,4 @@
-//! The ROS 2 bag (`recording.format` with `"mcap"`, README "ROS 2"): the config values, the
+//! The ROS 2 bag (`recording.format` with `"mcap"`, user guide, "ROS 2"): the config values, the
 //! file read back with the `mcap` crate's reader and CDR-decoded, its values against the CSV
 //! tables, and reproducibility. The independent Python readers are in python/tests/test_mcap.py.
 

@@ -1,4 +1,4 @@
-//! Sliding floor contact (issue 14): measured from every step's snapshot, as the recorded tables
+//! Sliding floor contact: measured from every step's snapshot, as the recorded tables
 //! would show it (`Simulation::control`, then the recording's forward pass at x_k, then the step).
 //!
 //! The hop figures: the fraction of link-steps without floor contact (no floor normal force),

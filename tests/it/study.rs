@@ -1,4 +1,4 @@
-//! The accuracy study (`simserpent study accuracy`, issue 20) on a tiny case: one link dropped
+//! The accuracy study (`simserpent study accuracy`) on a tiny case: one link dropped
 //! at 5 m/s onto the floor for 50 ms, two settings against a 0.5 ms RK4 reference.
 
 use simserpent::config::{Config, Integrator};

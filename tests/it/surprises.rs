@@ -1,4 +1,4 @@
-//! Silent surprises, each a test that failed before its fix (issue 18): a user's robot and its
+//! Silent surprises, each a test that failed before its fix: a user's robot and its
 //! actuators, the model file with a third-party terrain, `render --images` without times, a
 //! start inside the terrain, the IMU switch, gait tracking, the sensors table's time, the
 //! initial state from the config, and the links' heading.

@@ -1,4 +1,4 @@
-//! Terrains (issue 8): slopes against Coulomb's law, heightfields from PNG images, peg boards,
+//! Terrains: slopes against Coulomb's law, heightfields from PNG images, peg boards,
 //! walls and channels, mesh obstacles, a third-party MJCF terrain, and the model split into
 //! scene/terrain/robot files. Physics is asserted against analytic values.
 

@@ -14,7 +14,7 @@ pub const AUTO_STICK_TIME_CONSTANT_MIN_SECS: f64 = 0.005;
 /// resting snake already creeps (5.3 mm in 20 s).
 pub const STICK_TIME_CONSTANT_MIN_TIMESTEPS: f64 = 5.0;
 /// The smallest environment contact time constant `"auto"` gives (s): a link at 5 m/s stops
-/// within 5 mm (README "Floor contact").
+/// within 5 mm (user guide, "Floor contact").
 pub const AUTO_ENVIRONMENT_CONTACT_TIME_CONSTANT_MIN_SECS: f64 = 0.002;
 /// MuJoCo's rule: a contact time constant spans at least 2 timesteps.
 pub const CONTACT_TIME_CONSTANT_MIN_TIMESTEPS: f64 = 2.0;

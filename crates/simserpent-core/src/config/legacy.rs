@@ -11,7 +11,7 @@
 //! keys it sets, the rule and what differs from the original tool) and [`LEGACY_DEVIATIONS`]
 //! (differences that no key shows). The same data gives the notes that `check` and `run`
 //! print, the comments of `simserpent convert` ([`LegacyConversion::annotated_toml`]) and the
-//! README's table ([`legacy_deviation_table`], checked against the README by a test).
+//! user guide's table ([`legacy_deviation_table`], checked against the guide by a test).
 //!
 //! The terrain and experiment rules apply only when the section has at least one of its keys;
 //! an absent section keeps the defaults. Recording tables the original tool did not have
@@ -225,7 +225,7 @@ pub const LEGACY_RULES: &[LegacyRule] = &[
         simserpent_keys: "terrain.kind",
         rule: "true gives \"two_cylinders\"; at most one generate_* may be true, none true gives \"none\"",
         deviation: "the original's cylinder sizes and places are not published; SimSerpent's layout is in [terrain] \
-                    (README \"Terrain\")",
+                    (user guide, \"Build terrains\")",
     },
     LegacyRule {
         legacy_key: "terrain.generate_random_cylinders",
@@ -246,7 +246,7 @@ pub const LEGACY_RULES: &[LegacyRule] = &[
         deviation: "the original's wave (\"a sine wave from 0 - 180 degrees\" shifted through the position servos, \
                     thesis 8.3) has no published amplitude or frequency; SimSerpent's sine_wave uses [gait.sine_wave] \
                     (30 deg, 0.5 Hz, 40 deg lag, 1 s ramp). With the thesis' exp. III gains (kp 1, kv 0.4, armature \
-                    0.2) the joints cannot follow it (README \"The original tool\")",
+                    0.2) the joints cannot follow it (user guide, \"Use the original tool's config\")",
     },
     LegacyRule {
         legacy_key: "prebuilt_experiments.form_closure",
@@ -269,7 +269,7 @@ pub const LEGACY_RULES: &[LegacyRule] = &[
                accel -> link_acceleration, angle -> link_orientation, angular_vel -> link_angular_velocity, \
                angular_accel -> link_angular_acceleration; the actuator forces, joint_angles and \
                external_contact_forces keep their names",
-        deviation: "the columns go into SimSerpent's tables (links.csv, joints.csv, ...; README \"Run folder\"), not \
+        deviation: "the columns go into SimSerpent's tables (links.csv, joints.csv, ...; user guide, \"Read the outputs\"), not \
                     the original's CSV files",
     },
     LegacyRule {
@@ -317,12 +317,12 @@ pub const LEGACY_DEVIATIONS: &[LegacyDeviation] = &[
     LegacyDeviation {
         topic: "recorded values",
         original: "read after each step by get_snake_info.py",
-        simserpent: "one consistent instant per row (README \"Run folder\"); sensors.csv holds the sensor values of \
+        simserpent: "one consistent instant per row (user guide, \"Read the outputs\"); sensors.csv holds the sensor values of \
                      the previous step",
     },
 ];
 
-/// The README table of every difference from the original tool (Markdown): the rules with a
+/// The user guide's table of every difference from the original tool (Markdown): the rules with a
 /// deviation, then [`LEGACY_DEVIATIONS`].
 pub fn legacy_deviation_table() -> String {
     let cell = |s: &str| s.replace('|', "\\|");
@@ -497,7 +497,7 @@ impl LegacyConversion {
             &format!(
                 "SimSerpent config converted by `simserpent convert` from {source} (the original tool's config.json, \
                  thesis appendix 12.1). Every key below comes from it; all other keys keep SimSerpent's defaults \
-                 (`simserpent init` writes them, with comments). README \"The original tool\" has the whole table."
+                 (`simserpent init` writes them, with comments). user guide, \"Use the original tool's config\" has the whole table."
             ),
         );
         out.push_str("#\n");

@@ -193,7 +193,7 @@ pub struct Config {
     pub rail: Rail,
 }
 
-/// How the original tool's geometry is reproduced (`[legacy]`; README "The original tool").
+/// How the original tool's geometry is reproduced (`[legacy]`; user guide, "Use the original tool's config").
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Legacy {

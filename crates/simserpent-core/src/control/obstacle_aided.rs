@@ -28,7 +28,7 @@
 //! wave's direction**: δ > 0 makes the wave run from the head toward the tail (ordinary
 //! lateral undulation), δ < 0 from the tail toward the head. On an isotropic Coulomb floor a
 //! snake drifts the way its wave runs, so there δ < 0 is the forward gait. The default,
-//! 65°/−75°, is the wave that jams least for its speed among `hoal`'s pegs (session 10, below);
+//! 65°/−75°, is the wave that jams least for its speed among `hoal`'s pegs (see below);
 //! among pegs on a wave toward the head the bends push the pegs forward and the pegs push the
 //! body back (they resist), the reverse of obstacle-aided undulation on an ordinary wave.
 //! With `wave_speed = "fixed"` ψ̇ = +ω; with `"progress"` (only for δ > 0)
@@ -98,10 +98,10 @@
 //! the head this is the ordinary wave), stops (`"pause"`, ψ̇ = 0) or goes on at
 //! `recovery_amplitude_deg` (`"amplitude"`); the next window starts when it ends.
 //! On `hoal`'s fields with the wave toward the head none of the three freed the body more
-//! often than no recovery at all (BENCHMARKS.md, session 7, helper i15g), so the default is
+//! often than no recovery at all, so the default is
 //! `recovery_secs = 0`.
 //!
-//! **The second wave** (`switch = "resist"`; session 8). The estimates give the resisting
+//! **The second wave** (`switch = "resist"`; off by default). The estimates give the resisting
 //! force R = Σ_i max(0, −f_i·ĝ) over the links in contact (what the pegs push against the goal
 //! direction), low-pass filtered with `contact_filter_secs`. When R > `switch_force_n` while
 //! the filtered forward speed v̄ (the centre of mass along ĝ, `speed_filter_secs`) is below
@@ -118,7 +118,7 @@
 //! `switch_max_speed_m_per_s` (the second wave stays while it moves, e.g. the ordinary wave
 //! 65°/+30° that the pegs propel where they resist the wave toward the head).
 //!
-//! **Full yield** (`straighten = true`; session 8). s_j ∈ [0, 1] above flattens the wave at
+//! **Full yield** (`straighten = true`; off by default). s_j ∈ [0, 1] above flattens the wave at
 //! joint j: at the two joints of a link whose force against the goal, −f_i·ĝ, exceeds
 //! `straighten_force_n` its target is 1, elsewhere 0; every step s first moves along the body
 //! with the wave's bends (the upwind shift below, ψ̇/δ joints per second) and then approaches
@@ -126,13 +126,13 @@
 //! flat for as long as the contact lasts, and the flattening travels with the wave.
 //! `contact_feedback = false` switches both off (they read the contacts).
 //!
-//! **What is measured (session 7).** On `hoal`'s fields with the then defaults (65°/−60°,
-//! pressing and yielding) the controller was as fast as the open-loop 65°/−60° wave and jammed
-//! as often; with `contact_feedback = false` it was as fast (the yield and press terms sit
-//! within the field-to-field noise), and on the bare floor it is faster than among any pegs.
-//! The pegs only hinder a wave toward the head on isotropic friction.
+//! **What is measured.** On `hoal`'s fields, with 65°/−60°, pressing and yielding, the
+//! controller is as fast as the open-loop 65°/−60° wave and jams as often; with
+//! `contact_feedback = false` it is as fast (the yield and press terms sit within the
+//! field-to-field noise), and on the bare floor it is faster than among any pegs. The pegs only
+//! hinder a wave toward the head on isotropic friction.
 //!
-//! **The defaults since session 10: 65°/−75°, yield only.** A jam (no progress for 5 s) on a
+//! **The defaults: 65°/−75°, yield only.** A jam (no progress for 5 s) on a
 //! wave toward the head is the body wedged between pegs, and how often it happens depends on
 //! the wave's lag far more than on any contact term: on 120 `hoal` fields outside its seeds
 //! (100–139) the open-loop 65°/−60° wave jams in 33 runs (42 mm/s median), 65°/−70° in 11,
@@ -141,7 +141,7 @@
 //! 200–239) the controller on 65°/−75° jams in 16 runs with pressing (`force_gain_rad_per_n_s`
 //! = 0.3) and in 9 without (the open-loop wave: 8); the medians differ by less than 0.4 mm/s.
 //! So pressing is off by default (`force_gain_rad_per_n_s = 0`) and the contact law yields
-//! only. Details: BENCHMARKS.md, "Obstacle-aided locomotion (issue 15)", session 10.
+//! only. Details: BENCHMARKS.md, "Obstacle-aided locomotion".
 //!
 //! Nothing allocates after construction.
 

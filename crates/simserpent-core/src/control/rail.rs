@@ -46,7 +46,7 @@
 //! and v_drive a small slip speed: the shape runs down the body slightly faster than the body
 //! moves, so each bend presses on the pegs that hold it.
 //!
-//! **The gait switch (session 7).** Where pegs are few the rail gait has nothing to push on: its
+//! **The gait switch.** Where pegs are few the rail gait has nothing to push on: its
 //! wave runs toward the tail, and on an isotropic floor a snake drifts the way its wave runs,
 //! so it stalls or drifts backward. The controller therefore has a second gait, the floor-drift
 //! wave running toward the head,
@@ -56,7 +56,7 @@
 //! ```
 //!
 //! (r(t) the ramp-in of `gait.ramp_secs`; the default 65°/−75° is the wave that jams least for
-//! its speed among hoal's pegs, session 10; 65°/−60°, the default before, is faster on sparse
+//! its speed among hoal's pegs; 65°/−60° is faster on sparse
 //! fields but wedges far more often), and switches between the two on what the contact estimates say the pegs
 //! do along +x (world):
 //!
@@ -77,9 +77,9 @@
 //! `use_contacts = false` turns off every contact term (head wrap and the contact-driven
 //! switches; the jam switch below stays): the comparison without contacts.
 //!
-//! **Jam recovery** (`jam_switch = true`; off by default since session 10: with the drift wave
-//! 65°/−75° the switch and its back-off made jams by hoal's rule, 22 of 120 runs on hoal's
-//! seeds 100–139 with it against 10 without; BENCHMARKS.md, session 10). Every
+//! **Jam recovery** (`jam_switch = true`; off by default: with the drift wave 65°/−75° the
+//! switch and its back-off make jams by hoal's rule, 22 of 120 runs on hoal's seeds 100–139
+//! with it against 10 without). Every
 //! `jam_window_secs` T the controller compares the centre of mass (head
 //! position and encoders) with the previous checkpoint; if it advanced less than
 //! `jam_min_progress_m` along +x, the snake is jammed. In the rail gait S first runs backward at
@@ -93,8 +93,8 @@
 //! shape, because the shape is what wedges it. The drift wave has a different shape (1.2 m
 //! wavelength, 65°) and moves the body the other way along the pegs, which frees it.
 //!
-//! **Session-8 options (all off by default; measured on hoal's seeds 20–39, none won —
-//! BENCHMARKS.md, "session 8, helper i15r").**
+//! **Further options (all off by default; on hoal's seeds 20–39 none of them both jams less and
+//! keeps every density's median speed).**
 //!
 //! ```text
 //! F_x,i ← clamp(F_x,i, ±F_clip)                          before P and R (force_clip_n)

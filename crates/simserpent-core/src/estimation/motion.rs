@@ -487,7 +487,7 @@ const IDENTIFY_SCALE_RANGE: [f64; 2] = [0.2, 5.0];
 /// sliding friction's direction).
 ///
 /// Why these gates (measured on the estimation experiment's peg fields, anisotropic floor, 10
-/// seeds; session 7): a scale range of [0.5, 2] rejected every lateral link-step while the
+/// seeds): a scale range of [0.5, 2] rejected every lateral link-step while the
 /// lateral coefficient was more than 2× off its prior (0.3 against 1.0), so the fit learned only
 /// from the few link-steps the wrong model happened to explain, and crept toward the truth over
 /// the forgetting window (axial 21.8 % off at 5 s); the range must contain the prior's error.

@@ -401,7 +401,7 @@ mod tests {
     use crate::config::{ConfigSource, load_config_str};
 
     /// The grid placement gives the cylinders that testing every earlier cylinder gave (the
-    /// O(n^2) placement before issue 17), for several seeds, counts and gaps.
+    /// O(n^2) placement), for several seeds, counts and gaps.
     #[test]
     fn random_cylinder_placement_is_the_same_as_testing_every_cylinder() {
         use super::*;

@@ -1,0 +1,50 @@
+//! The user guide (`guide/`): its generated reference pages match the code, and the README stays
+//! the short entry point it is meant to be.
+
+use crate::common::{manifest_dir, simserpent};
+
+/// The committed reference pages (configuration keys, output columns, command line) are what
+/// `simserpent doc-gen` makes from the code; after changing the default config, the columns or
+/// the command line, run `./scripts/guide` (or `simserpent doc-gen guide/src/reference`).
+#[test]
+fn the_generated_reference_pages_match_the_code() {
+    let dir = manifest_dir().join("guide/src/reference");
+    let out = simserpent(manifest_dir(), &["doc-gen", "--check", dir.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
+/// Every key of the default config and every table appear in the generated pages.
+#[test]
+fn the_reference_pages_cover_every_section_and_table() {
+    let dir = manifest_dir().join("guide/src/reference");
+    let config = std::fs::read_to_string(dir.join("config.md")).unwrap();
+    for section in ["[general]", "[physics]", "[snake]", "[terrain.pegboard]", "[estimation]", "[rail]"] {
+        assert!(config.contains(&format!("## `{section}`")), "config.md lacks {section}");
+    }
+    let outputs = std::fs::read_to_string(dir.join("outputs.md")).unwrap();
+    for table in ["links", "joints", "sensors", "contacts", "estimates"] {
+        assert!(outputs.contains(&format!("## `{table}`")), "outputs.md lacks {table}");
+    }
+    assert!(outputs.contains("| `link_NN_position_x_m` | per link | float | m | `recording.link_position` |"));
+    let cli = std::fs::read_to_string(dir.join("cli.md")).unwrap();
+    for command in ["run", "init", "sweep", "experiment", "estimate", "bench"] {
+        assert!(cli.contains(&format!("## `simserpent {command}`")), "cli.md lacks {command}");
+    }
+    assert!(!cli.contains("## `simserpent doc-gen`"), "the hidden doc-gen command stays out of the reference");
+}
+
+/// The README is the entry point (at most 15 KB); the guide holds the rest.
+#[test]
+fn the_readme_is_short() {
+    let readme = std::fs::read_to_string(manifest_dir().join("README.md")).unwrap();
+    assert!(readme.len() <= 15 * 1024, "README.md is {} bytes, more than 15 KB", readme.len());
+}
+
+/// The Rust tutorial shows `examples/custom_controller.rs` (which `cargo test` compiles) as it is.
+#[test]
+fn the_rust_tutorial_shows_the_example_as_it_is() {
+    let example = std::fs::read_to_string(manifest_dir().join("examples/custom_controller.rs")).unwrap();
+    let code = &example[example.find("use simserpent::config").unwrap()..];
+    let page = std::fs::read_to_string(manifest_dir().join("guide/src/tutorials/controller-rust.md")).unwrap();
+    assert!(page.contains(code.trim_end()), "copy examples/custom_controller.rs into the tutorial again");
+}
