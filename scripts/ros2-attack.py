@@ -29,7 +29,6 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "python" / "tests"))
-os.environ.setdefault("SIMSERPENT_ROS2_ATTACK", "1")
 
 import test_ros2_live as live  # noqa: E402
 from cyclonedds.domain import DomainParticipant  # noqa: E402
