@@ -411,6 +411,7 @@ impl ExitCodeOf for simserpent::render::RenderError {
             | RenderError::Config { .. }
             | RenderError::NoViewer(_)
             | RenderError::Read { .. } => 2,
+            RenderError::Interrupted => 130,
             _ => 1,
         }
     }

@@ -71,6 +71,10 @@ pub enum RenderError {
     /// MuJoCo refused a state.
     #[error("engine: {0}")]
     Engine(String),
+    /// SIGINT/SIGTERM ([`crate::interrupt`]) stopped the rendering (exit code 130): the images
+    /// written so far stay, the video ends at the last frame drawn.
+    #[error("rendering interrupted by a signal (SIGINT or SIGTERM); the files written so far are kept")]
+    Interrupted,
     /// A video or image encoder failed.
     #[error("{path}: {message}")]
     Encoder {
@@ -420,6 +424,9 @@ pub fn render_run_folder(folder: &Path, options: &ReplayOptions) -> Result<Vec<P
         let dir = folder.join("images");
         std::fs::create_dir_all(&dir).map_err(RenderError::io(&dir))?;
         for &t in &config.render.image_times_secs {
+            if crate::interrupt::requested() {
+                return Err(RenderError::Interrupted);
+            }
             painter.set_state(track.row(track.index_at(t)))?;
             for &cam in &config.render.image_cameras {
                 frame.copy_from_slice(painter.paint(cam)?);
@@ -452,6 +459,9 @@ pub fn render_run_folder(folder: &Path, options: &ReplayOptions) -> Result<Vec<P
             config.video.frames_per_sec,
         )?;
         for i in 0..n_frames {
+            if crate::interrupt::requested() {
+                break;
+            }
             let t = t0 + i as f64 * interval;
             painter.set_state(track.row(track.index_at(t)))?;
             frame.copy_from_slice(painter.paint(config.render.camera)?);
@@ -467,6 +477,9 @@ pub fn render_run_folder(folder: &Path, options: &ReplayOptions) -> Result<Vec<P
             b.finish_and_clear();
         }
         written.push(video.finish()?.0);
+        if crate::interrupt::requested() {
+            return Err(RenderError::Interrupted);
+        }
     }
     Ok(written)
 }

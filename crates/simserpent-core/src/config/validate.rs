@@ -438,7 +438,7 @@ impl Config {
                 && g.run_name.len() <= 200
                 && g.run_name.chars().all(|c| c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '-')),
             "general.run_name",
-            format!("{:?}", g.run_name.chars().take(60).collect::<String>()),
+            format!("{:?}", g.run_name),
             "must be 1 to 200 characters, not start with `.`, and use only letters A-Z a-z, digits 0-9, `.`, `_` and \
              `-` (it becomes part of a folder name)",
         )?;
