@@ -14,9 +14,10 @@ mod config;
 mod defaults;
 mod dying_processes;
 mod estimation;
-// Planted symlinks, device files, permission bits and SIGTERM: Unix only.
+// Planted symlinks, device files, FIFOs, permission bits and signals: Unix only.
 #[cfg(unix)]
 mod hostile_files;
+#[cfg(unix)]
 mod hostile_surfaces;
 mod impacts;
 mod legacy_convert;
