@@ -1,0 +1,333 @@
+"""The reference: the model SimSerpent ran, rebuilt in Drake's MultibodyPlant and simulated.
+
+How the model is built (README.md, "The reference model"):
+- one rigid body per link: mass from the MJCF, the solid capsule's inertia about its centre;
+- the head is a free body; link i > 0 hangs on a revolute joint at its body origin, with the
+  MJCF's axis, damping and armature (Drake's reflected rotor inertia, gear ratio 1);
+- collision: each link's capsule (against obstacles and other links) and, for the floor, two
+  spheres of the link's radius at the ends of its capsule core: exactly the two contacts MuJoCo
+  makes between a capsule and a plane;
+- compliant point contact with the floor's stiffness (see `contact_stiffness`), Hunt-Crossley
+  dissipation, Coulomb friction with static = dynamic coefficient, TAMSI (Drake's non-convex
+  discrete solver);
+- the position servos as a controller: tau = clip(kp (q_cmd - q) - kv qdot, torque range), the
+  command from the scene (the gait with its ramp, or the held starting angles).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.geometry import (
+    AddContactMaterial,
+    Capsule,
+    CollisionFilterDeclaration,
+    Cylinder as DrakeCylinder,
+    GeometrySet,
+    HalfSpace,
+    ProximityProperties,
+    SceneGraph,
+    Sphere,
+)
+from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.multibody.math import SpatialForce, SpatialVelocity
+from pydrake.multibody.plant import (
+    AddMultibodyPlantSceneGraph,
+    ContactModel,
+    CoulombFriction,
+    DiscreteContactApproximation,
+    ExternallyAppliedSpatialForce,
+    MultibodyPlant,
+)
+from pydrake.multibody.tree import (
+    FixedOffsetFrame,
+    RevoluteJoint,
+    RotationalInertia,
+    SpatialInertia,
+    UnitInertia,
+)
+from pydrake.systems.analysis import Simulator
+from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
+from pydrake.common.value import AbstractValue
+
+from mjcf_model import Model, quat_matrix
+
+
+@dataclass
+class DrakeSettings:
+    # Discrete step of the TAMSI solver (s).
+    time_step_secs: float = 1e-4
+    # Hunt-Crossley dissipation (s/m): Drake's default; its restitution matches MuJoCo's
+    # damping ratio 0.5 (e = 0.16) for landings at ~0.13 m/s, the speed of a link falling 1 mm.
+    dissipation_s_per_m: float = 50.0
+    # Regularised friction: sliding speed below which a contact counts as sticking (m/s).
+    stiction_tolerance_m_per_s: float = 1e-4
+
+
+def contact_stiffness(model: Model) -> tuple[float, float]:
+    """Stiffness (N/m) of one floor contact point and of one obstacle contact, from the MJCF.
+
+    MuJoCo's soft contact with solref (tau, zeta) drives a contact's penetration like a spring of
+    natural frequency omega = 1/(tau zeta) on the contact's effective mass. A link lying on the
+    floor (two contacts, one at each end of its capsule core) that sinks uniformly by x is pushed
+    back by m omega^2 x: each end contact is a spring of m omega^2 / 2. A link pressed against a
+    cylinder (one contact) meets m omega^2.
+    """
+    omega = 1.0 / (model.env_time_constant_secs * model.env_damping_ratio)
+    m = model.links[0].mass_kg
+    return m * omega * omega / 2.0, m * omega * omega
+
+
+def _rotation_z_to(axis: np.ndarray) -> RotationMatrix:
+    z = axis / np.linalg.norm(axis)
+    return RotationMatrix.MakeFromOneVector(z, 2)
+
+
+class Servos(LeafSystem):
+    """Joint torques of the position servos (or of nothing, with zero gains)."""
+
+    def __init__(self, plant: MultibodyPlant, model: Model, command):
+        super().__init__()
+        self.n = model.n_joints
+        self.nq = plant.num_positions()
+        self.command = command
+        by_joint = {s.joint: s for s in model.servos}
+        self.kp = np.zeros(self.n)
+        self.kv = np.zeros(self.n)
+        self.lo = np.full(self.n, -np.inf)
+        self.hi = np.full(self.n, np.inf)
+        for j, link in enumerate(model.links[1:]):
+            s = by_joint.get(link.joint_name)
+            if s is not None:
+                self.kp[j], self.kv[j] = s.kp_nm_per_rad, s.kv_nm_s_per_rad
+                self.lo[j], self.hi[j] = s.torque_range_nm
+        self.q_start = 7
+        self.v_start = plant.num_positions() + 6
+        self.DeclareVectorInputPort("state", plant.num_positions() + plant.num_velocities())
+        self.DeclareVectorOutputPort("torque", self.n, self._calc)
+
+    def _calc(self, context, output):
+        x = self.get_input_port(0).Eval(context)
+        q = x[self.q_start : self.q_start + self.n]
+        v = x[self.v_start : self.v_start + self.n]
+        q_cmd = self.command(context.get_time())
+        tau = self.kp * (q_cmd - q) - self.kv * v
+        output.SetFromVector(np.clip(tau, self.lo, self.hi))
+
+
+class PushOnHead(LeafSystem):
+    """A horizontal force F(t) on link 0's centre of mass, along world +x."""
+
+    def __init__(self, body, p_BoBcm_B: np.ndarray, force_of_time):
+        super().__init__()
+        self.body_index = body.index()
+        self.p = p_BoBcm_B
+        self.force_of_time = force_of_time
+        self.DeclareAbstractOutputPort(
+            "forces", lambda: AbstractValue.Make([ExternallyAppliedSpatialForce()]), self._calc
+        )
+
+    def _calc(self, context, output):
+        f = ExternallyAppliedSpatialForce()
+        f.body_index = self.body_index
+        f.p_BoBq_B = self.p
+        f.F_Bq_W = SpatialForce(np.zeros(3), np.array([self.force_of_time(context.get_time()), 0.0, 0.0]))
+        output.set_value([f])
+
+
+def simulate(model: Model, command, duration_secs: float, settings: DrakeSettings, push=None) -> dict:
+    """Runs the scene; returns the tables (numpy arrays keyed like the run folder's columns).
+
+    `command(t)` gives the joint commands (rad); `push(t)` (optional) a force (N) along +x on
+    link 0's centre of mass.
+    """
+    builder = DiagramBuilder()
+    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, settings.time_step_secs)
+    plant.set_discrete_contact_approximation(DiscreteContactApproximation.kTamsi)
+    plant.set_contact_model(ContactModel.kPoint)
+    plant.set_stiction_tolerance(settings.stiction_tolerance_m_per_s)
+    plant.mutable_gravity_field().set_gravity_vector(model.gravity_m_per_s2)
+
+    k_floor_point, k_obstacle = contact_stiffness(model)
+    d = settings.dissipation_s_per_m
+
+    def props(stiffness: float, mu: float) -> ProximityProperties:
+        p = ProximityProperties()
+        AddContactMaterial(d, stiffness, CoulombFriction(mu, mu), p)
+        return p
+
+    world = plant.world_body()
+    floor_id = plant.RegisterCollisionGeometry(
+        world, RigidTransform(), HalfSpace(), "floor", props(2 * k_floor_point, model.floor_friction)
+    )
+    obstacle_ids = []
+    for c in model.cylinders:
+        obstacle_ids.append(
+            plant.RegisterCollisionGeometry(
+                world,
+                RigidTransform(c.centre_m),
+                DrakeCylinder(c.radius_m, 2 * c.half_height_m),
+                c.name,
+                props(2 * k_obstacle, model.obstacle_friction),
+            )
+        )
+
+    bodies = []
+    spheres, capsules = [], []
+    for i, link in enumerate(model.links):
+        c = link.centre_m
+        axis = link.core_to_m - link.core_from_m
+        length = link.core_length_m
+        unit_axis = axis / length if length > 0 else np.array([1.0, 0.0, 0.0])
+        unit = UnitInertia.SolidCapsule(link.radius_m, length, unit_axis)
+        I = unit.CopyToFullMatrix3() * link.mass_kg
+        inertia = SpatialInertia.MakeFromCentralInertia(
+            link.mass_kg, c, RotationalInertia(I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2])
+        )
+        body = plant.AddRigidBody(link.name, inertia)
+        bodies.append(body)
+        pose = RigidTransform(_rotation_z_to(unit_axis), c)
+        capsules.append(
+            plant.RegisterCollisionGeometry(
+                body, pose, Capsule(link.radius_m, length), f"{link.name}_capsule",
+                props(2 * k_obstacle, model.obstacle_friction),
+            )
+        )
+        for k, end in enumerate((link.core_from_m, link.core_to_m)):
+            spheres.append(
+                plant.RegisterCollisionGeometry(
+                    body, RigidTransform(end), Sphere(link.radius_m), f"{link.name}_end{k}",
+                    props(2 * k_floor_point, model.floor_friction),
+                )
+            )
+    joints, actuators = [], []
+    for i, link in enumerate(model.links[1:], start=1):
+        parent = bodies[i - 1]
+        frame = plant.AddFrame(FixedOffsetFrame(f"{link.name}_joint_frame", parent.body_frame(), RigidTransform(link.pos_in_parent_m)))
+        joint = plant.AddJoint(
+            RevoluteJoint(link.joint_name, frame, bodies[i].body_frame(), link.joint_axis, link.joint_damping_nm_s_per_rad)
+        )
+        lo, hi = link.joint_range_rad
+        joint.set_position_limits([lo], [hi])
+        joints.append(joint)
+        act = plant.AddJointActuator(f"{link.joint_name}_actuator", joint)
+        act.set_default_rotor_inertia(link.joint_armature_kg_m2)
+        act.set_default_gear_ratio(1.0)
+        actuators.append(act)
+    plant.Finalize()
+
+    # Floor contact through the end spheres only; obstacles and other links through the capsules.
+    manager = scene_graph.collision_filter_manager()
+    s_set, c_set = GeometrySet(spheres), GeometrySet(capsules)
+    decl = CollisionFilterDeclaration()
+    decl.ExcludeWithin(s_set)
+    decl.ExcludeBetween(s_set, c_set)
+    decl.ExcludeBetween(c_set, GeometrySet([floor_id]))
+    if obstacle_ids:
+        decl.ExcludeBetween(s_set, GeometrySet(obstacle_ids))
+    manager.Apply(decl)
+
+    servos = builder.AddSystem(Servos(plant, model, command))
+    builder.Connect(plant.get_state_output_port(), servos.get_input_port(0))
+    builder.Connect(servos.get_output_port(0), plant.get_actuation_input_port())
+    if push is not None:
+        p_cm = model.links[0].centre_m
+        pusher = builder.AddSystem(PushOnHead(bodies[0], p_cm, push))
+        builder.Connect(pusher.get_output_port(0), plant.get_applied_spatial_force_input_port())
+    diagram = builder.Build()
+
+    sim = Simulator(diagram)
+    context = sim.get_mutable_context()
+    pc = plant.GetMyMutableContextFromRoot(context)
+    # Starting state: keyframe `initial` (head pose and velocity, joint angles).
+    q = model.qpos
+    R_head = quat_matrix(q[3:7])
+    plant.SetFreeBodyPose(pc, bodies[0], RigidTransform(RotationMatrix(R_head), q[0:3]))
+    for j, joint in enumerate(joints):
+        joint.set_angle(pc, q[7 + j])
+    # A snake that starts lying on the floor starts at the floor's static sink under its weight
+    # (m g / (m omega^2) = g / omega^2, 10 um with the defaults), not at zero penetration, so that
+    # it does not bounce in from 0.
+    lowest = min(
+        float((plant.EvalBodyPoseInWorld(pc, b) @ end)[2]) - link.radius_m
+        for b, link in zip(bodies, model.links)
+        for end in (link.core_from_m, link.core_to_m)
+    )
+    if abs(lowest) < 1e-9:
+        sink = float(np.linalg.norm(model.gravity_m_per_s2)) / (2 * k_floor_point / model.links[0].mass_kg)
+        plant.SetFreeBodyPose(pc, bodies[0], RigidTransform(RotationMatrix(R_head), q[0:3] - [0.0, 0.0, sink]))
+    v = model.qvel
+    if np.any(v[:6] != 0):
+        plant.SetFreeBodySpatialVelocity(pc, bodies[0], SpatialVelocity(R_head @ v[3:6], v[0:3]))
+    sim.Initialize()
+
+    return _record(sim, plant, pc, model, bodies, joints, floor_id, set(obstacle_ids), duration_secs, settings)
+
+
+def _record(sim, plant, pc, model, bodies, joints, floor_id, obstacle_ids, duration_secs, settings) -> dict:
+    n = len(bodies)
+    dt = settings.time_step_secs
+    steps = int(round(duration_secs / dt))
+    body_link = {b.index(): i for i, b in enumerate(bodies)}
+    inspector = None
+    rows = steps + 1
+    t = np.zeros(rows)
+    pos = np.zeros((rows, n, 3))
+    quat = np.zeros((rows, n, 4))
+    vel = np.zeros((rows, n, 3))
+    angvel = np.zeros((rows, n, 3))
+    floor = np.zeros((rows, n, 3))
+    obstacle = np.zeros((rows, n, 3))
+    qdot = np.zeros((rows, len(joints)))
+    qang = np.zeros((rows, len(joints)))
+    p_cm = [b.default_com() for b in bodies]
+    port = plant.get_contact_results_output_port()
+    sg_inspector = None
+
+    for k in range(rows):
+        if k > 0:
+            sim.AdvanceTo(k * dt)
+        t[k] = sim.get_context().get_time()
+        for i, b in enumerate(bodies):
+            X = plant.EvalBodyPoseInWorld(pc, b)
+            V = plant.EvalBodySpatialVelocityInWorld(pc, b)
+            R = X.rotation().matrix()
+            r_cm = R @ p_cm[i]
+            pos[k, i] = X.translation() + r_cm
+            quat[k, i] = X.rotation().ToQuaternion().wxyz()
+            w = V.rotational()
+            angvel[k, i] = w
+            vel[k, i] = V.translational() + np.cross(w, r_cm)
+        for j, joint in enumerate(joints):
+            qang[k, j] = joint.get_angle(pc)
+            qdot[k, j] = joint.get_angular_rate(pc)
+        results = port.Eval(pc)
+        for c in range(results.num_point_pair_contacts()):
+            info = results.point_pair_contact_info(c)
+            pair = info.point_pair()
+            f = info.contact_force()  # on body B, world frame
+            ids = (pair.id_A, pair.id_B)
+            a, b_ = info.bodyA_index(), info.bodyB_index()
+            if floor_id in ids:
+                target = floor
+            elif obstacle_ids.intersection(ids):
+                target = obstacle
+            else:
+                continue
+            if b_ in body_link:
+                target[k, body_link[b_]] += f
+            if a in body_link:
+                target[k, body_link[a]] -= f
+    return {
+        "time_s": t,
+        "position": pos,
+        "quat": quat,
+        "velocity": vel,
+        "angular_velocity": angvel,
+        "floor_force": floor,
+        "obstacle_force": obstacle,
+        "joint_angle": qang,
+        "joint_velocity": qdot,
+    }

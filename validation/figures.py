@@ -1,0 +1,196 @@
+"""The figures of every scene, computed the same way for both engines.
+
+A run is a dict of numpy arrays (see `simserpent_side.read_run` and `drake_side.simulate`):
+time_s (rows), position / velocity / angular_velocity (rows x links x 3: centre of mass, world
+frame), quat (rows x links x 4: body frame, w x y z), floor_force / obstacle_force (rows x links x
+3, on the link, world frame), joint_velocity (rows x joints). The first row (t = 0) is left out of
+every figure: it holds the state before the first step, whose forces the two engines report
+differently (SimSerpent: the first evaluation, before its floor friction; Drake: none).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from mjcf_model import Model, quat_matrix
+
+# A link-step is airborne when the floor carries less than this share of the link's weight.
+AIRBORNE_SHARE_OF_WEIGHT = 1e-3
+
+
+def _rot(quat: np.ndarray) -> np.ndarray:
+    """Rotation matrices (rows x links x 3 x 3) of quaternions (rows x links x 4)."""
+    w, x, y, z = (quat[..., k] for k in range(4))
+    r = np.empty(quat.shape[:-1] + (3, 3))
+    r[..., 0, 0] = 1 - 2 * (y * y + z * z)
+    r[..., 0, 1] = 2 * (x * y - w * z)
+    r[..., 0, 2] = 2 * (x * z + w * y)
+    r[..., 1, 0] = 2 * (x * y + w * z)
+    r[..., 1, 1] = 1 - 2 * (x * x + z * z)
+    r[..., 1, 2] = 2 * (y * z - w * x)
+    r[..., 2, 0] = 2 * (x * z - w * y)
+    r[..., 2, 1] = 2 * (y * z + w * x)
+    r[..., 2, 2] = 1 - 2 * (x * x + y * y)
+    return r
+
+
+def capsule_inertia(mass: float, radius: float, core_length: float) -> np.ndarray:
+    """Inertia of a solid capsule about its centre, axis along x (kg m^2)."""
+    r, h = radius, core_length
+    v_cyl, v_caps = math.pi * r * r * h, 4.0 / 3.0 * math.pi * r**3
+    mc, ms = mass * v_cyl / (v_cyl + v_caps), mass * v_caps / (v_cyl + v_caps)
+    axial = mc * r * r / 2 + ms * 2 * r * r / 5
+    perp = mc * (r * r / 4 + h * h / 12) + ms * (2 * r * r / 5 + h * h / 4 + 3 * h * r / 8)
+    return np.diag([axial, perp, perp])
+
+
+def _skip_first(run: dict) -> slice:
+    return slice(1, None)
+
+
+def normal_load(run: dict) -> np.ndarray:
+    """Floor normal force on each link (rows x links, N)."""
+    return run["floor_force"][:, :, 2]
+
+
+def weights(model: Model) -> np.ndarray:
+    return np.array([model.link_weight_n(i) for i in range(len(model.links))])
+
+
+def airborne(run: dict, model: Model, t0: float = 0.0, t1: float = math.inf) -> float:
+    """Share of link-steps in [t0, t1) with no floor contact (%)."""
+    s = _skip_first(run)
+    t = run["time_s"][s]
+    sel = (t >= t0 - 1e-12) & (t < t1 - 1e-12)
+    if not sel.any():
+        return math.nan
+    off = normal_load(run)[s][sel] < AIRBORNE_SHARE_OF_WEIGHT * weights(model)
+    return 100.0 * off.mean()
+
+
+def airborne_windows(run: dict, model: Model, width: float, t_end: float) -> list[float]:
+    n = int(round(t_end / width))
+    return [airborne(run, model, k * width, (k + 1) * width) for k in range(n)]
+
+
+def lowest_point_heights(run: dict, model: Model) -> np.ndarray:
+    """Height above the floor of each link's lowest point (rows x links, m; < 0: in the floor)."""
+    R = _rot(run["quat"])
+    out = np.empty(run["position"].shape[:2])
+    for i, link in enumerate(model.links):
+        ends = [link.core_from_m - link.centre_m, link.core_to_m - link.centre_m]
+        zs = [run["position"][:, i, 2] + (R[:, i] @ e)[:, 2] for e in ends]
+        out[:, i] = np.minimum(*zs) - link.radius_m
+    return out
+
+
+def largest_lift_mm(run: dict, model: Model, t0: float = 0.0, t1: float = math.inf) -> float:
+    s = _skip_first(run)
+    t = run["time_s"][s]
+    sel = (t >= t0) & (t < t1)
+    return 1000.0 * max(0.0, float(lowest_point_heights(run, model)[s][sel].max()))
+
+
+def peak_load_per_weight(run: dict, model: Model, t0: float = 0.0, t1: float = math.inf) -> float:
+    """Largest floor normal force on any link as a multiple of that link's weight."""
+    s = _skip_first(run)
+    t = run["time_s"][s]
+    sel = (t >= t0) & (t < t1)
+    return float((normal_load(run)[s][sel] / weights(model)).max())
+
+
+def total_load_range(run: dict, model: Model, t0: float = 0.0, t1: float = math.inf) -> tuple[float, float]:
+    """Smallest and largest Σ N / W over the steps in [t0, t1)."""
+    s = _skip_first(run)
+    t = run["time_s"][s]
+    sel = (t >= t0) & (t < t1)
+    ratio = normal_load(run)[s][sel].sum(axis=1) / weights(model).sum()
+    return float(ratio.min()), float(ratio.max())
+
+
+def total_load_mean(run: dict, model: Model) -> float:
+    """Σ N / W averaged over time (the floor's impulse over the weight's)."""
+    s = _skip_first(run)
+    return float(normal_load(run)[s].sum(axis=1).mean() / weights(model).sum())
+
+
+def per_link_load(run: dict, model: Model, t0: float, t1: float) -> np.ndarray:
+    """Mean floor normal force on each link over [t0, t1), as a multiple of its weight."""
+    t = run["time_s"]
+    sel = (t >= t0) & (t < t1)
+    sel[0] = False
+    return normal_load(run)[sel].mean(axis=0) / weights(model)
+
+
+def per_link_swing(run: dict, model: Model, t0: float, t1: float, window_secs: float = 0.1) -> np.ndarray:
+    """Largest deviation of each link's load (moving mean over window_secs) from its mean over
+    [t0, t1), as a multiple of its weight."""
+    t = run["time_s"]
+    sel = (t >= t0) & (t < t1)
+    sel[0] = False
+    n = normal_load(run)[sel] / weights(model)
+    dt = float(np.median(np.diff(t)))
+    k = max(1, int(round(window_secs / dt)))
+    kernel = np.ones(k) / k
+    out = []
+    for i in range(n.shape[1]):
+        smooth = np.convolve(n[:, i], kernel, mode="valid")
+        out.append(float(np.abs(smooth - n[:, i].mean()).max()))
+    return np.array(out)
+
+
+def top_link_offset_mm(run: dict) -> tuple[float, float]:
+    """Horizontal distance of the last link's centre from where it started: at the end and the
+    largest over the run (mm)."""
+    p = run["position"][:, -1, :2]
+    d = np.linalg.norm(p - p[0], axis=1)
+    return 1000.0 * float(d[-1]), 1000.0 * float(d.max())
+
+
+def energy(run: dict, model: Model) -> np.ndarray:
+    """Mechanical energy per row (J): kinetic (links and joint armature) + gravitational."""
+    g = float(np.linalg.norm(model.gravity_m_per_s2))
+    R = _rot(run["quat"])
+    e = np.zeros(len(run["time_s"]))
+    for i, link in enumerate(model.links):
+        axis = link.core_to_m - link.core_from_m
+        length = float(np.linalg.norm(axis))
+        if length > 0 and (abs(axis[1]) > 1e-12 or abs(axis[2]) > 1e-12):
+            raise ValueError(f"{link.name}: capsule not along the body's x axis")
+        I_body = capsule_inertia(link.mass_kg, link.radius_m, length)
+        w = run["angular_velocity"][:, i]
+        v = run["velocity"][:, i]
+        w_body = np.einsum("nji,nj->ni", R[:, i], w)
+        e += 0.5 * link.mass_kg * (v * v).sum(axis=1)
+        e += 0.5 * np.einsum("ni,ij,nj->n", w_body, I_body, w_body)
+        e += link.mass_kg * g * run["position"][:, i, 2]
+    for j, link in enumerate(model.links[1:]):
+        e += 0.5 * link.joint_armature_kg_m2 * run["joint_velocity"][:, j] ** 2
+    return e
+
+
+def energy_figures(run: dict, model: Model) -> tuple[float, float, float]:
+    """E(0) (J), E(end) − E(0) (J) and the largest rise of E in one recorded step (J)."""
+    e = energy(run, model)
+    return float(e[0]), float(e[-1] - e[0]), float(max(0.0, np.diff(e).max()))
+
+
+def breakaway_ratio(run: dict, model: Model, ramp_secs_per_mu_n: float, speed_m_per_s: float = 1e-3) -> float:
+    """Break-away force over μN under a force F(t) = μN · t / T on link 0 (T = ramp_secs_per_mu_n).
+
+    Once the link slides, m dv/dt = F(t) − μN = μN (t − t_b)/T, so v = μN (t − t_b)² / (2 m T).
+    At the first step the link's speed exceeds `speed_m_per_s`, t_b = t − sqrt(2 m T v / (μN)),
+    and the break-away force is μN t_b / T.
+    """
+    m = model.links[0].mass_kg
+    mu_n = model.floor_friction * model.link_weight_n(0)
+    speed = np.linalg.norm(run["velocity"][:, 0, :2], axis=1)
+    above = np.nonzero(speed > speed_m_per_s)[0]
+    if len(above) == 0:
+        return math.nan
+    k = int(above[0])
+    t = run["time_s"][k]
+    t_b = t - math.sqrt(2 * m * ramp_secs_per_mu_n * speed[k] / mu_n)
+    return t_b / ramp_secs_per_mu_n
