@@ -48,7 +48,7 @@ from pydrake.multibody.tree import (
     SpatialInertia,
     UnitInertia,
 )
-from pydrake.systems.analysis import Simulator
+from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
 from pydrake.common.value import AbstractValue
 
@@ -59,11 +59,15 @@ from mjcf_model import Model, quat_matrix
 class DrakeSettings:
     # Discrete step of the TAMSI solver (s).
     time_step_secs: float = 1e-4
-    # Hunt-Crossley dissipation (s/m): Drake's default; its restitution matches MuJoCo's
-    # damping ratio 0.5 (e = 0.16) for landings at ~0.13 m/s, the speed of a link falling 1 mm.
+    # Hunt-Crossley dissipation (s/m); the suite sets it per scene with `dissipation_for`.
     dissipation_s_per_m: float = 50.0
     # Regularised friction: sliding speed below which a contact counts as sticking (m/s).
     stiction_tolerance_m_per_s: float = 1e-4
+    # Continuous plant with an error-controlled integrator instead of the discrete TAMSI step
+    # (a cross-check: the tables are then sampled every time_step_secs).
+    continuous: bool = False
+    integrator: str = "runge_kutta3"
+    accuracy: float = 1e-4
 
 
 def contact_stiffness(model: Model) -> tuple[float, float]:
@@ -78,6 +82,38 @@ def contact_stiffness(model: Model) -> tuple[float, float]:
     omega = 1.0 / (model.env_time_constant_secs * model.env_damping_ratio)
     m = model.links[0].mass_kg
     return m * omega * omega / 2.0, m * omega * omega
+
+
+def restitution(zeta: float) -> float:
+    """Restitution of a linear spring-damper contact of damping ratio zeta (MuJoCo's solref)."""
+    return math.exp(-math.pi * zeta / math.sqrt(1.0 - zeta * zeta)) if zeta < 1 else 0.0
+
+
+def _hunt_crossley_restitution(c: float, dt: float = 1e-4) -> float:
+    """Restitution of a Hunt-Crossley contact f = k x (1 + d xdot) hit at speed v0, as a function
+    of c = d v0 (dimensionless: x in units of v0/omega, time in units of 1/omega)."""
+    y, v, t = 0.0, 1.0, 0.0
+    while True:
+        f = y * (1.0 + c * v)
+        v -= max(0.0, f) * dt
+        y += v * dt
+        t += dt
+        if y <= 0.0 and t > 0.01:
+            return -v
+
+
+def dissipation_for(zeta: float, impact_speed_m_per_s: float) -> float:
+    """Hunt-Crossley dissipation d (s/m) whose restitution at this impact speed equals that of
+    MuJoCo's linear contact damping ratio zeta (0.163 at zeta = 0.5: d v0 = 6.1)."""
+    target = restitution(zeta)
+    lo, hi = 1e-3, 1e3
+    for _ in range(40):
+        mid = math.sqrt(lo * hi)
+        if _hunt_crossley_restitution(mid) > target:
+            lo = mid
+        else:
+            hi = mid
+    return math.sqrt(lo * hi) / impact_speed_m_per_s
 
 
 def _rotation_z_to(axis: np.ndarray) -> RotationMatrix:
@@ -144,8 +180,9 @@ def simulate(model: Model, command, duration_secs: float, settings: DrakeSetting
     link 0's centre of mass.
     """
     builder = DiagramBuilder()
-    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, settings.time_step_secs)
-    plant.set_discrete_contact_approximation(DiscreteContactApproximation.kTamsi)
+    plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0 if settings.continuous else settings.time_step_secs)
+    if not settings.continuous:
+        plant.set_discrete_contact_approximation(DiscreteContactApproximation.kTamsi)
     plant.set_contact_model(ContactModel.kPoint)
     plant.set_stiction_tolerance(settings.stiction_tolerance_m_per_s)
     plant.mutable_gravity_field().set_gravity_vector(model.gravity_m_per_s2)
@@ -261,6 +298,9 @@ def simulate(model: Model, command, duration_secs: float, settings: DrakeSetting
     v = model.qvel
     if np.any(v[:6] != 0):
         plant.SetFreeBodySpatialVelocity(pc, bodies[0], SpatialVelocity(R_head @ v[3:6], v[0:3]))
+    if settings.continuous:
+        integrator = ResetIntegratorFromFlags(sim, settings.integrator, settings.time_step_secs)
+        integrator.set_target_accuracy(settings.accuracy)
     sim.Initialize()
 
     return _record(sim, plant, pc, model, bodies, joints, floor_id, set(obstacle_ids), duration_secs, settings)
@@ -274,9 +314,9 @@ def _record(sim, plant, pc, model, bodies, joints, floor_id, obstacle_ids, durat
     inspector = None
     rows = steps + 1
     t = np.zeros(rows)
-    pos = np.zeros((rows, n, 3))
-    quat = np.zeros((rows, n, 4))
-    vel = np.zeros((rows, n, 3))
+    rot = np.zeros((rows, n, 3, 3))
+    origin = np.zeros((rows, n, 3))
+    v_origin = np.zeros((rows, n, 3))
     angvel = np.zeros((rows, n, 3))
     floor = np.zeros((rows, n, 3))
     obstacle = np.zeros((rows, n, 3))
@@ -293,13 +333,10 @@ def _record(sim, plant, pc, model, bodies, joints, floor_id, obstacle_ids, durat
         for i, b in enumerate(bodies):
             X = plant.EvalBodyPoseInWorld(pc, b)
             V = plant.EvalBodySpatialVelocityInWorld(pc, b)
-            R = X.rotation().matrix()
-            r_cm = R @ p_cm[i]
-            pos[k, i] = X.translation() + r_cm
-            quat[k, i] = X.rotation().ToQuaternion().wxyz()
-            w = V.rotational()
-            angvel[k, i] = w
-            vel[k, i] = V.translational() + np.cross(w, r_cm)
+            rot[k, i] = X.rotation().matrix()
+            origin[k, i] = X.translation()
+            angvel[k, i] = V.rotational()
+            v_origin[k, i] = V.translational()
         for j, joint in enumerate(joints):
             qang[k, j] = joint.get_angle(pc)
             qdot[k, j] = joint.get_angular_rate(pc)
@@ -320,10 +357,14 @@ def _record(sim, plant, pc, model, bodies, joints, floor_id, obstacle_ids, durat
                 target[k, body_link[b_]] += f
             if a in body_link:
                 target[k, body_link[a]] -= f
+    p_cm = np.array([np.asarray(p) for p in p_cm])  # links x 3, body frame
+    r_cm = np.einsum("knij,nj->kni", rot, p_cm)
+    pos = origin + r_cm
+    vel = v_origin + np.cross(angvel, r_cm)
     return {
         "time_s": t,
         "position": pos,
-        "quat": quat,
+        "rotation": rot,
         "velocity": vel,
         "angular_velocity": angvel,
         "floor_force": floor,

@@ -2,7 +2,7 @@
 
 A run is a dict of numpy arrays (see `simserpent_side.read_run` and `drake_side.simulate`):
 time_s (rows), position / velocity / angular_velocity (rows x links x 3: centre of mass, world
-frame), quat (rows x links x 4: body frame, w x y z), floor_force / obstacle_force (rows x links x
+frame), quat (rows x links x 4: body frame, w x y z) or rotation (rows x links x 3 x 3), floor_force / obstacle_force (rows x links x
 3, on the link, world frame), joint_velocity (rows x joints). The first row (t = 0) is left out of
 every figure: it holds the state before the first step, whose forces the two engines report
 differently (SimSerpent: the first evaluation, before its floor friction; Drake: none).
@@ -18,6 +18,11 @@ from mjcf_model import Model, quat_matrix
 
 # A link-step is airborne when the floor carries less than this share of the link's weight.
 AIRBORNE_SHARE_OF_WEIGHT = 1e-3
+
+
+def _rotations(run: dict) -> np.ndarray:
+    """The links' rotation matrices (rows x links x 3 x 3): the run's own, or from its quaternions."""
+    return run["rotation"] if "rotation" in run else _rot(run["quat"])
 
 
 def _rot(quat: np.ndarray) -> np.ndarray:
@@ -77,7 +82,7 @@ def airborne_windows(run: dict, model: Model, width: float, t_end: float) -> lis
 
 def lowest_point_heights(run: dict, model: Model) -> np.ndarray:
     """Height above the floor of each link's lowest point (rows x links, m; < 0: in the floor)."""
-    R = _rot(run["quat"])
+    R = _rotations(run)
     out = np.empty(run["position"].shape[:2])
     for i, link in enumerate(model.links):
         ends = [link.core_from_m - link.centre_m, link.core_to_m - link.centre_m]
@@ -152,7 +157,7 @@ def top_link_offset_mm(run: dict) -> tuple[float, float]:
 def energy(run: dict, model: Model) -> np.ndarray:
     """Mechanical energy per row (J): kinetic (links and joint armature) + gravitational."""
     g = float(np.linalg.norm(model.gravity_m_per_s2))
-    R = _rot(run["quat"])
+    R = _rotations(run)
     e = np.zeros(len(run["time_s"]))
     for i, link in enumerate(model.links):
         axis = link.core_to_m - link.core_from_m
