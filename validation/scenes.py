@@ -78,27 +78,19 @@ class Scene:
     impact_speed_m_per_s: float = LANDING_M_PER_S
 
 
-def _fmt_list(values) -> str:
-    return " / ".join(f"{v:.0f}" if abs(v) >= 10 else f"{v:.2g}" for v in values)
-
-
-def _fmt_loads(values) -> str:
-    return " / ".join(f"{v:.3f}" for v in values)
-
-
 def ramp_figures(run, model):
     lo, hi = fg.total_load_range(run, model)
     return [
         ("airborne link-steps, ramp 0–1 s (%)", fg.airborne(run, model, 0, 1)),
         ("airborne link-steps, 1–3 s (%)", fg.airborne(run, model, 1, 3)),
-        ("airborne per 0.25-s window, 0–2 s (%)", _fmt_list(fg.airborne_windows(run, model, 0.25, 2.0))),
+        ("airborne per 0.25-s window, 0–2 s (%)", fg.airborne_windows(run, model, 0.25, 2.0)),
         ("largest lift, 0–1 s (mm)", fg.largest_lift_mm(run, model, 0, 1)),
         ("largest lift, 1–3 s (mm)", fg.largest_lift_mm(run, model, 1, 3)),
         ("largest N / m g, 0–1 s", fg.peak_load_per_weight(run, model, 0, 1)),
         ("largest N / m g, 1–3 s", fg.peak_load_per_weight(run, model, 1, 3)),
-        ("Σ N / W, smallest … largest", f"{lo:.3f} … {hi:.3f}"),
-        ("steady undulation (1–3 s): mean N / m g per link, head → tail", _fmt_loads(fg.per_link_load(run, model, 1, 3))),
-        ("steady undulation: swing of each link's load (0.1-s mean) / m g", _fmt_loads(fg.per_link_swing(run, model, 1, 3))),
+        ("Σ N / W, smallest … largest", (lo, hi)),
+        ("steady undulation (1–3 s): mean N / m g per link, head → tail", list(fg.per_link_load(run, model, 1, 3))),
+        ("steady undulation: swing of each link's load (0.1-s mean) / m g", list(fg.per_link_swing(run, model, 1, 3))),
     ]
 
 
@@ -107,10 +99,10 @@ def motion_figures(windows_until: float):
         lo, hi = fg.total_load_range(run, model)
         out = [
             ("airborne link-steps (%)", fg.airborne(run, model)),
-            ("airborne per 0.25-s window (%)", _fmt_list(fg.airborne_windows(run, model, 0.25, windows_until))),
+            ("airborne per 0.25-s window (%)", fg.airborne_windows(run, model, 0.25, windows_until)),
             ("largest lift (mm)", fg.largest_lift_mm(run, model)),
             ("largest N / m g", fg.peak_load_per_weight(run, model)),
-            ("Σ N / W, smallest … largest", f"{lo:.3f} … {hi:.3f}"),
+            ("Σ N / W, smallest … largest", (lo, hi)),
             ("Σ N / W, mean over the run", fg.total_load_mean(run, model)),
         ]
         if np.abs(run["obstacle_force"]).max() > 0:
@@ -149,8 +141,8 @@ def _head_airborne(run, model, t0):
 def rest_figures(run, model):
     lo, hi = fg.total_load_range(run, model)
     return [
-        ("mean N / m g per link, 0.5–1 s, head → tail", _fmt_loads(fg.per_link_load(run, model, 0.5, 1.0))),
-        ("Σ N / W, smallest … largest", f"{lo:.4f} … {hi:.4f}"),
+        ("mean N / m g per link, 0.5–1 s, head → tail", list(fg.per_link_load(run, model, 0.5, 1.0))),
+        ("Σ N / W, smallest … largest", (lo, hi)),
         ("largest lift (mm)", fg.largest_lift_mm(run, model)),
     ]
 

@@ -29,13 +29,20 @@ import drake_side  # noqa: E402
 import mjcf_model  # noqa: E402
 import scenes as sc  # noqa: E402
 import simserpent_side as ss  # noqa: E402
+import targets  # noqa: E402
 
 NA_PUSH = "n/a: no config key applies a ramped external force to a link"
 
 
-def fmt(value) -> str:
+def fmt(value, figure: str = "") -> str:
     if isinstance(value, str):
         return value
+    if isinstance(value, tuple):
+        return " … ".join(f"{v:.4f}" for v in value)
+    if isinstance(value, list):
+        if "(%)" in figure:
+            return " / ".join(f"{v:.0f}" if abs(v) >= 10 else f"{v:.2g}" for v in value)
+        return " / ".join(f"{v:.3f}" for v in value)
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "n/a"
     v = float(value)
@@ -118,13 +125,15 @@ def main() -> int:
             run = drake_side.simulate(model, command, scene.duration_secs, settings, push=push)
             wall["drake"] += time.time() - t0
             for label, value in scene.figures(run, model):
-                rows.append({"scene": scene.key, "mu": mu, "engine": "drake", "figure": label, "value": fmt(value)})
+                rows.append({"scene": scene.key, "mu": mu, "engine": "drake", "figure": label,
+                             "value": fmt(value, label), "raw": value})
             print(f"{tag}: drake done ({time.time() - t0:.1f} s)", flush=True)
             for engine in engines:
                 t0 = time.time()
                 if scene.push and not args.push_key:
                     for label, _ in scene.figures(run, model):
-                        rows.append({"scene": scene.key, "mu": mu, "engine": engine, "figure": label, "value": NA_PUSH})
+                        rows.append({"scene": scene.key, "mu": mu, "engine": engine, "figure": label, "value": NA_PUSH,
+                                     "raw": None})
                     continue
                 run_sets = dict(sets)
                 if scene.push:
@@ -133,7 +142,8 @@ def main() -> int:
                 ours = ss.read_run(folder, len(model.links))
                 ours_model = mjcf_model.read(folder / "model.xml")
                 for label, value in scene.figures(ours, ours_model):
-                    rows.append({"scene": scene.key, "mu": mu, "engine": engine, "figure": label, "value": fmt(value)})
+                    rows.append({"scene": scene.key, "mu": mu, "engine": engine, "figure": label,
+                                 "value": fmt(value, label), "raw": value})
                 wall[engine] += time.time() - t0
                 print(f"{tag}: {engine} done ({time.time() - t0:.1f} s)", flush=True)
             write_tables(out, rows, chosen, mus, engines, binaries, settings, dissipation, wall,
@@ -152,7 +162,7 @@ def push_sets(prefix: str, mu_n: float) -> dict:
 
 def write_tables(out: Path, rows, chosen, mus, engines, binaries, settings, dissipation, wall, total) -> None:
     with (out / "figures.csv").open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=["scene", "mu", "engine", "figure", "value"])
+        w = csv.DictWriter(f, fieldnames=["scene", "mu", "engine", "figure", "value"], extrasaction="ignore")
         w.writeheader()
         w.writerows(rows)
     value = {(r["scene"], r["mu"], r["engine"], r["figure"]): r["value"] for r in rows}
@@ -168,6 +178,8 @@ def write_tables(out: Path, rows, chosen, mus, engines, binaries, settings, diss
     for name in engines:
         header.append(f"SimSerpent `{name}`: {binaries[name]}.")
     header.append("Wall time: " + ", ".join(f"{k} {v:.0f} s" for k, v in wall.items()) + f"; total {total:.0f} s.")
+    if engines:
+        (out / "targets.md").write_text(targets.report(rows, mus, engines, header))
     for path, engs in ((out / "tables.md", ["drake", *engines]), (out / "reference.md", ["drake"])):
         lines = ["# Contact events: Drake and SimSerpent side by side" if len(engs) > 1 else
                  "# Contact events: Drake's reference figures", ""]
