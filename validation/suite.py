@@ -180,7 +180,10 @@ def write_tables(out: Path, rows, chosen, mus, engines, binaries, settings, diss
     header.append("Wall time: " + ", ".join(f"{k} {v:.0f} s" for k, v in wall.items()) + f"; total {total:.0f} s.")
     if engines:
         (out / "targets.md").write_text(targets.report(rows, mus, engines, header))
-    for path, engs in ((out / "tables.md", ["drake", *engines]), (out / "reference.md", ["drake"])):
+    outputs = [(out / "reference.md", ["drake"])]
+    if engines:
+        outputs.insert(0, (out / "tables.md", ["drake", *engines]))
+    for path, engs in outputs:
         lines = ["# Contact events: Drake and SimSerpent side by side" if len(engs) > 1 else
                  "# Contact events: Drake's reference figures", ""]
         lines += [h for h in header if len(engs) > 1 or not h.startswith("SimSerpent")]
