@@ -28,7 +28,6 @@ from pydrake.geometry import (
     GeometrySet,
     HalfSpace,
     ProximityProperties,
-    SceneGraph,
     Sphere,
 )
 from pydrake.math import RigidTransform, RotationMatrix
@@ -49,7 +48,7 @@ from pydrake.multibody.tree import (
     UnitInertia,
 )
 from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
-from pydrake.systems.framework import BasicVector, DiagramBuilder, LeafSystem
+from pydrake.systems.framework import DiagramBuilder, LeafSystem
 from pydrake.common.value import AbstractValue
 
 from mjcf_model import Model, quat_matrix
@@ -311,7 +310,6 @@ def _record(sim, plant, pc, model, bodies, joints, floor_id, obstacle_ids, durat
     dt = settings.time_step_secs
     steps = int(round(duration_secs / dt))
     body_link = {b.index(): i for i, b in enumerate(bodies)}
-    inspector = None
     rows = steps + 1
     t = np.zeros(rows)
     rot = np.zeros((rows, n, 3, 3))
@@ -324,7 +322,6 @@ def _record(sim, plant, pc, model, bodies, joints, floor_id, obstacle_ids, durat
     qang = np.zeros((rows, len(joints)))
     p_cm = [b.default_com() for b in bodies]
     port = plant.get_contact_results_output_port()
-    sg_inspector = None
 
     for k in range(rows):
         if k > 0:

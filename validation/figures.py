@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from mjcf_model import Model, quat_matrix
+from mjcf_model import Model
 
 # A link-step is airborne when the floor carries less than this share of the link's weight.
 AIRBORNE_SHARE_OF_WEIGHT = 1e-3

@@ -13,14 +13,11 @@ from __future__ import annotations
 import argparse
 import csv
 import math
-import platform
 import shutil
 import sys
 import time
 from datetime import datetime, timezone
 from pathlib import Path
-
-import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
