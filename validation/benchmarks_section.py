@@ -70,7 +70,29 @@ def main() -> None:
              if r["scene"] == "ramp" and r["engine"] == "drake"}
         lines.append(f"| {name} | " + " | ".join(v.get((m, f), "–") for m in ("0.5", "1.0") for f in FIGS) + " |")
     lines.append("")
+    impacts = RESULTS / "checks" / "continuous-impacts" / "figures.csv"
+    if impacts.exists():
+        lines += [
+            "The impacts with Drake's continuous plant (`validation/run --reference-only --scenes hit,peg,upright "
+            "--continuous --out validation/results/checks/continuous-impacts`):",
+            "",
+            "| scene, figure | μ 0.5 TAMSI | μ 0.5 continuous | μ 1 TAMSI | μ 1 continuous |",
+            "|---|---|---|---|---|",
+        ]
+        ref = _drake(RESULTS / "figures.csv")
+        cont = _drake(impacts)
+        for scene, figure in [("hit", "largest lift (mm)"), ("hit", "largest N / m g"),
+                              ("hit", "largest obstacle force on the snake (N)"), ("peg", "largest lift (mm)"),
+                              ("peg", "largest N / m g"), ("peg", "largest obstacle force on the snake (N)"),
+                              ("upright", "top link's horizontal offset at the end (mm)")]:
+            cells = [d.get((scene, m, figure), "–") for m in ("0.5", "1.0") for d in (ref, cont)]
+            lines.append(f"| {scene}: {figure} | " + " | ".join(cells) + " |")
+        lines.append("")
     print("\n".join(lines))
+
+
+def _drake(path: Path) -> dict:
+    return {(r["scene"], r["mu"], r["figure"]): r["value"] for r in csv.DictReader(path.open()) if r["engine"] == "drake"}
 
 
 if __name__ == "__main__":
