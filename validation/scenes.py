@@ -16,6 +16,10 @@ from mjcf_model import Model
 
 MUS = (0.5, 1.0)
 
+# A snake that starts lying on the floor takes up its weight within this time (SimSerpent starts at
+# zero penetration; the reference at its static sink).
+SETTLE_SECS = 0.02
+
 # The landing speed of a link that falls 1 mm, the size of the lifts during a gait's ramp (m/s).
 LANDING_M_PER_S = math.sqrt(2 * 9.81 * 0.001)
 
@@ -103,6 +107,7 @@ def motion_figures(windows_until: float):
             ("largest lift (mm)", fg.largest_lift_mm(run, model)),
             ("largest N / m g", fg.peak_load_per_weight(run, model)),
             ("Σ N / W, smallest … largest", (lo, hi)),
+            ("Σ N / W from 20 ms on, smallest … largest", fg.total_load_range(run, model, SETTLE_SECS)),
             ("Σ N / W, mean over the run", fg.total_load_mean(run, model)),
         ]
         if np.abs(run["obstacle_force"]).max() > 0:
