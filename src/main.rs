@@ -480,13 +480,18 @@ fn load(args: &ConfigArgs) -> Result<(Config, String), Failure> {
             errln!("note:   {line}");
         }
     }
-    for unused in simserpent::control::unused_keys(&config) {
+    Ok((config, source))
+}
+
+/// Says which keys of a valid config the active controller does not use, and when nothing will
+/// move the snake (`check` and `run`, once the config has passed every check).
+fn tell_what_does_nothing(config: &Config) {
+    for unused in simserpent::control::unused_keys(config) {
         errln!("warning: {unused}");
     }
-    if let Some(still) = simserpent::control::nothing_moves(&config) {
+    if let Some(still) = simserpent::control::nothing_moves(config) {
         errln!("note: {still}");
     }
-    Ok((config, source))
 }
 
 /// Writes a file the user named (`init`, `convert -o`): never through a symbolic link (a
@@ -562,6 +567,7 @@ fn run_command(
             error: if config_error { error.context(format!("config {}", options.config_source)) } else { error },
         }
     })?;
+    tell_what_does_nothing(&config);
     outln!("run folder:        {}", summary.run_folder.display());
     outln!(
         "simulated:         {:.3} s in {} steps",
@@ -780,6 +786,7 @@ fn check(args: &ConfigArgs) -> Result<(), Failure> {
     let (config, source) = load(args)?;
     simserpent::model::generate(&config)
         .map_err(|e| bad_input(anyhow::Error::new(e).context(format!("config {source}"))))?;
+    tell_what_does_nothing(&config);
     say(format_args!("{}", config.to_toml_string()))
 }
 

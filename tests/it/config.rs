@@ -152,6 +152,7 @@ floating_base = false
 position_m = [1.0, -1.0, 0.25]
 rotation_deg = [0.0, 0.0, 45.0]
 place_on_floor = false
+position_servos = true
 
 [ground]
 model = "directional"

@@ -121,9 +121,15 @@ fn env_episode_with_estimation_equals_a_run_holding_the_same_commands() {
         assert_eq!(&e.obs[..nj], &angles[..], "measured joint angles after action {a}");
         assert_eq!(&e.estimates, estimates, "contact estimates after action {a}");
     }
-    // The estimates are not trivially equal: the floor carries the snake's weight.
-    let weight_share_n = from_env.last().unwrap().estimates.floor_force_n.iter().map(|f| f[2]).sum::<f64>();
-    assert!(weight_share_n > 1.0, "estimated floor support {weight_share_n} N");
+    // The estimates are not trivially equal: the floor carries the snake's weight. Each action
+    // steps the servos' targets, and the stiff default servo jerks the five links at the torque
+    // range, so the support at one instant swings (0.1-24 N over these actions, weight 14.7 N);
+    // over the episode it carries the snake.
+    let support_n: Vec<f64> =
+        from_env.iter().map(|e| e.estimates.floor_force_n.iter().map(|f| f[2]).sum::<f64>()).collect();
+    println!("figures: estimated floor support after each action {support_n:?} N");
+    let mean_support_n = support_n.iter().sum::<f64>() / support_n.len() as f64;
+    assert!(mean_support_n > 1.0, "estimated floor support {support_n:?} N");
 }
 
 #[test]

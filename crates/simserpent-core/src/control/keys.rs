@@ -170,8 +170,8 @@ pub fn unused_key_rules(config: &Config) -> Vec<(String, String)> {
 }
 
 /// The keys of `config` that differ from the default and that the active controller does not
-/// use (see the module documentation), in the order of the default config; plus
-/// `control.controller` itself when the chosen controller falls back to the open-loop gait.
+/// use (see the module documentation); plus `control.controller` itself when a controller the
+/// user chose falls back to the open-loop gait.
 pub fn unused_keys(config: &Config) -> Vec<UnusedKey> {
     let (Ok(table), Ok(defaults)) = (toml::Table::try_from(config), toml::Table::try_from(Config::default())) else {
         return Vec::new();
@@ -179,8 +179,12 @@ pub fn unused_keys(config: &Config) -> Vec<UnusedKey> {
     let mut out = Vec::new();
     for (prefix, reason) in unused_key_rules(config) {
         if prefix == "control.controller" {
-            let value = format!("\"{}\"", controller_name(config.control.controller));
-            out.push(UnusedKey { key: prefix, value, reason });
+            // Chosen by the user (the default path following falls back as the default config
+            // documents, for any gait but a sine wave).
+            if config.control.controller != Config::default().control.controller {
+                let value = format!("\"{}\"", controller_name(config.control.controller));
+                out.push(UnusedKey { key: prefix, value, reason });
+            }
             continue;
         }
         let mut leaves = Vec::new();
@@ -385,7 +389,11 @@ mod tests {
         c.path_following.heading_gain = 2.0;
         let unused = unused_keys(&c);
         let keys: Vec<&str> = unused.iter().map(|u| u.key.as_str()).collect();
-        assert_eq!(keys, ["control.controller", "path_following.heading_gain"], "{unused:?}");
+        // The default controller falls back silently (as the default config says); its keys do not.
+        assert_eq!(keys, ["path_following.heading_gain"], "{unused:?}");
+        c.control.controller = ControllerKind::ObstacleAided;
+        let unused = unused_keys(&c);
+        assert_eq!(unused[0].key, "control.controller", "{unused:?}");
         assert!(unused[0].to_string().contains("needs gait.kind = \"sine_wave\""), "{}", unused[0]);
         let mut c = Config::default();
         c.gait.sine_wave.offset_deg = 10.0;
