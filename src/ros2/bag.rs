@@ -30,8 +30,8 @@ use std::collections::BTreeMap;
 type BagFile = mcap::write::NoSeek<super::bag_file::RecordAlignedFile>;
 use std::path::{Path, PathBuf};
 
-/// The bag's file name in the run folder.
-pub const FILE_NAME: &str = "run.mcap";
+pub use super::bag_file::FILE_NAME;
+
 /// The fixed frame of the world (REP 105's `world`: z up, x/y of the MuJoCo world).
 pub const WORLD_FRAME: &str = "world";
 

@@ -14,6 +14,9 @@ use std::fs::File;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+/// The bag's file name in the run folder.
+pub const FILE_NAME: &str = "run.mcap";
+
 /// The MCAP magic bytes at the start (and end) of every file.
 const MAGIC: &[u8; 8] = b"\x89MCAP0\r\n";
 
@@ -139,7 +142,7 @@ pub const MAX_BAG_BYTES: u64 = 16 << 30;
 /// [`RepairError`]: the file is not a bag, cannot be read by the reader rule, or the repaired
 /// bag cannot be written.
 pub fn repair_bag(run_folder: &Path) -> Result<RepairReport, RepairError> {
-    let path = run_folder.join(super::bag::FILE_NAME);
+    let path = run_folder.join(FILE_NAME);
     let bytes = crate::files::read_in(run_folder, &path, MAX_BAG_BYTES)?;
     let not_a_bag = |message: String| RepairError::NotABag { path: path.clone(), message };
     if !bytes.starts_with(MAGIC) {
