@@ -323,8 +323,7 @@ pub fn estimate_run_folder(run_folder: &Path, overrides: &[String]) -> Result<Es
     let mut obs = Observation::new(nl, nj);
     let mut est = ContactEstimates::new(nl);
     let mut poses = LinkPoses::new(nl);
-    let threshold = config.estimation.detection_threshold_n;
-    let mut total = MotionScore::new(threshold, 1.0, 0.01);
+    let mut total = MotionScore::for_targets(&config);
     let mut per_link = vec![total.clone(); nl];
     // Written only inside the run folder, never through a link ([`crate::files`]).
     let out_dir = crate::files::create_dir_in(run_folder, Path::new("estimation"))?;
@@ -455,7 +454,7 @@ fn header(nl: usize) -> String {
 
 fn score_fields(s: &MotionScore) -> String {
     format!(
-        "{},{},{},{},{},{},{},{},{},{}",
+        "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
         s.hits,
         s.misses,
         s.false_alarms,
@@ -465,13 +464,18 @@ fn score_fields(s: &MotionScore) -> String {
         s.relative_force_rmse(),
         s.points,
         s.point_within_rate(),
-        s.mean_point_error_m()
+        s.mean_point_error_m(),
+        s.free_link_steps,
+        s.false_forces,
+        s.false_force_rate(),
+        s.false_force_max_n,
+        s.false_force_rms_n()
     )
 }
 
 fn scores_csv(total: &MotionScore, per_link: &[MotionScore]) -> String {
     let mut out = String::from(
-        "link,hits,misses,false_alarms,correct_rejections,detection_rate,false_alarm_rate,relative_force_rmse,points,points_within_1cm_rate,mean_point_error_m\n",
+        "link,hits,misses,false_alarms,correct_rejections,detection_rate,false_alarm_rate,relative_force_rmse,points,points_within_1cm_rate,mean_point_error_m,free_link_steps,false_forces,false_force_rate,false_force_max_n,false_force_rms_n\n",
     );
     for (i, s) in per_link.iter().enumerate() {
         let _ = writeln!(out, "{i},{}", score_fields(s));
@@ -504,23 +508,29 @@ fn scores_markdown(
         "# Contact estimation of {}\n\n{rows} recorded rows; estimator: Newton–Euler on the measured sensors, link \
          orientations from {:?}, floor share with {friction} ({:?} floor), detection threshold {} N. A link-step \
          counts as an obstacle contact when the true horizontal obstacle force reaches the threshold; contact points are \
-         scored where the true lateral force exceeds 1 N (tolerance 1 cm).\n\n",
+         scored where the true lateral force exceeds 1 N (tolerance 1 cm). False force: on the link-steps without any \
+         true obstacle force (free), the share with more than {:.3} N of estimated obstacle force (one link's weight: \
+         more than the floor could hold the link sideways with, at μ ≤ 1), and the largest.\n\n",
         run.display(),
         e.orientation,
         config.ground.model,
-        e.detection_threshold_n
+        e.detection_threshold_n,
+        total.false_force_threshold_n
     );
-    out.push_str("| link | contact link-steps | detected | false alarms | force RMSE / RMS | points | within 1 cm | mean point error (cm) |\n|---|---|---|---|---|---|---|---|\n");
+    out.push_str("| link | contact link-steps | detected | false alarms | force RMSE / RMS | points | within 1 cm | mean point error (cm) | free link-steps | false force | largest false force (N) |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
     let row = |name: String, s: &MotionScore| {
         format!(
-            "| {name} | {} | {} | {} | {} | {} | {} | {:.2} |\n",
+            "| {name} | {} | {} | {} | {} | {} | {} | {:.2} | {} | {} | {:.2} |\n",
             s.hits + s.misses,
             pct(s.detection_rate()),
             pct(s.false_alarm_rate()),
             pct(s.relative_force_rmse()),
             s.points,
             pct(s.point_within_rate()),
-            100.0 * s.mean_point_error_m()
+            100.0 * s.mean_point_error_m(),
+            s.free_link_steps,
+            pct(s.false_force_rate()),
+            s.false_force_max_n
         )
     };
     for (i, s) in per_link.iter().enumerate() {

@@ -168,6 +168,13 @@ enum Command {
         /// most 256).
         #[arg(long, default_value_t = 0, value_parser = threads_arg)]
         threads: usize,
+        /// `estimation` only: the seeds of the peg-field runs, scored and checked per seed, e.g.
+        /// `300-309` or `3,7,11` (default 0-9; --quick: 0).
+        #[arg(long, value_parser = parse_seeds)]
+        seeds: Option<SeedList>,
+        /// `estimation` only: the peg-field runs on this floor only (default both).
+        #[arg(long, value_parser = ["isotropic", "anisotropic"])]
+        floor: Option<String>,
     },
     /// Run the contact estimator on a recorded run (its config.toml, sensors.csv and links.csv,
     /// CSV): writes RUN_FOLDER/estimation/ with estimates.csv (estimates next to the truth),
@@ -434,7 +441,7 @@ impl ExitCodeOf for simserpent::experiments::ExperimentError {
     fn exit_code(&self) -> u8 {
         use simserpent::experiments::ExperimentError;
         match self {
-            ExperimentError::Unknown(_) => 2,
+            ExperimentError::Unknown(_) | ExperimentError::Option(_) => 2,
             ExperimentError::Run(e) => e.exit_code(),
             _ => 1,
         }
@@ -582,10 +589,12 @@ fn run_command(
     );
     outln!("forward speed:     {:.4} m/s (along the way the head faced at the start)", summary.forward_speed_m_per_s);
     outln!(
-        "peak contact force {:.3} N, max penetration {:.3} mm (at recorded steps)",
-        summary.peak_contact_force_n,
-        summary.max_penetration_m * 1e3
+        "peak contact force {:.3} N on one link averaged over {:.0} ms ({:.3} N at a single step and contact)",
+        summary.peak_contact_force_10ms_n,
+        summary.contact_force_window_secs * 1e3,
+        summary.peak_contact_force_step_n
     );
+    outln!("max penetration    {:.3} mm (at recorded steps)", summary.max_penetration_m * 1e3);
     outln!("actuator energy:   {:.3} J", summary.actuator_energy_j);
     for note in &summary.notes {
         errln!("note: {note}");
@@ -660,9 +669,42 @@ fn view_command(path: Option<&Path>, overrides: &[String]) -> Result<(), Failure
     }
 }
 
-fn experiment(name: &str, args: &ConfigArgs, quick: bool, threads: usize) -> Result<(), Failure> {
+/// The seeds of `experiment --seeds`.
+#[derive(Debug, Clone)]
+struct SeedList(Vec<u64>);
+
+/// `--seeds`: `A-B` (inclusive) or a comma-separated list.
+fn parse_seeds(text: &str) -> Result<SeedList, String> {
+    let number = |s: &str| {
+        s.trim().parse::<u64>().map_err(|_| format!("`{s}` is not a seed (a whole number); give A-B or A,B,C"))
+    };
+    let seeds = match text.split_once('-') {
+        Some((a, b)) => {
+            let (a, b) = (number(a)?, number(b)?);
+            if a > b {
+                return Err(format!("`{text}`: the range's first seed is larger than its last"));
+            }
+            (a..=b).collect()
+        }
+        None => text.split(',').map(number).collect::<Result<Vec<_>, _>>()?,
+    };
+    Ok(SeedList(seeds))
+}
+
+fn experiment(
+    name: &str,
+    args: &ConfigArgs,
+    quick: bool,
+    threads: usize,
+    seeds: Option<Vec<u64>>,
+    floor: Option<&str>,
+) -> Result<(), Failure> {
     let (config, _) = load(args)?;
-    let options = simserpent::experiments::ExperimentOptions { quick, threads, progress: true };
+    let floor = floor.map(|f| match f {
+        "isotropic" => simserpent::config::GroundModel::Isotropic,
+        _ => simserpent::config::GroundModel::Anisotropic,
+    });
+    let options = simserpent::experiments::ExperimentOptions { quick, threads, progress: true, seeds, floor };
     let outcome =
         simserpent::experiments::run_experiment_with(name, &config, Path::new(&config.general.output_dir), &options)
             .map_err(failure)?;
@@ -1127,7 +1169,9 @@ fn main() -> ExitCode {
         }
         Some(Command::View { path, overrides }) => view_command(path.as_deref(), &overrides),
         Some(Command::Init { path, force, preset }) => init(&path, force, preset.as_deref()),
-        Some(Command::Experiment { name, config, quick, threads }) => experiment(&name, &config, quick, threads),
+        Some(Command::Experiment { name, config, quick, threads, seeds, floor }) => {
+            experiment(&name, &config, quick, threads, seeds.map(|s| s.0), floor.as_deref())
+        }
         Some(Command::Estimate { run_folder, overrides }) => estimate_command(&run_folder, &overrides),
         Some(Command::Model { config, output, scene_dir }) => model(&config, output.as_deref(), scene_dir.as_deref()),
         Some(Command::Check { config }) => check(&config),

@@ -189,7 +189,7 @@ def run(
 ) -> dict[str, Any]:
     """Runs a whole configured simulation, as ``simserpent run`` does (the GIL is released
     while it runs). Returns the summary dict (``run_folder``, ``distance_m``,
-    ``forward_speed_m_per_s``, ``peak_contact_force_n``, ``actuator_energy_j``, ...).
+    ``forward_speed_m_per_s``, ``peak_contact_force_10ms_n``, ``actuator_energy_j``, ...).
 
     ``run_folder``: record into exactly this folder instead of a new
     ``<general.output_dir>/<run_name>-<UTC time>/``.

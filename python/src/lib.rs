@@ -254,6 +254,12 @@ fn score_dict<'py>(py: Python<'py>, s: &MotionScore) -> PyResult<Bound<'py, PyDi
     d.set_item("threshold_n", s.threshold_n)?;
     d.set_item("point_min_lateral_n", s.point_min_lateral_n)?;
     d.set_item("point_tolerance_m", s.point_tolerance_m)?;
+    d.set_item("free_link_steps", s.free_link_steps)?;
+    d.set_item("false_forces", s.false_forces)?;
+    d.set_item("false_force_rate", s.false_force_rate())?;
+    d.set_item("false_force_max_n", s.false_force_max_n)?;
+    d.set_item("false_force_rms_n", s.false_force_rms_n())?;
+    d.set_item("false_force_threshold_n", s.false_force_threshold_n)?;
     Ok(d)
 }
 

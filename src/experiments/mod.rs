@@ -55,6 +55,9 @@ pub enum ExperimentError {
     /// No such experiment.
     #[error("unknown experiment `{0}`; available: {list}", list = NAMES.join(", "))]
     Unknown(String),
+    /// An option the experiment does not take, or a bad value for one.
+    #[error("{0}")]
+    Option(String),
 }
 
 impl ExperimentError {
@@ -87,6 +90,11 @@ pub struct ExperimentOptions {
     pub threads: usize,
     /// One line per finished case on stderr (name, wall time, how many are done).
     pub progress: bool,
+    /// `estimation` only: the seeds of its peg-field runs (default 0–9, quick: 0).
+    pub seeds: Option<Vec<u64>>,
+    /// `estimation` only: run its peg-field runs on this floor only (isotropic or anisotropic;
+    /// default both).
+    pub floor: Option<crate::config::GroundModel>,
 }
 
 /// Where an experiment writes, how long its runs are and where its cases run.
@@ -101,6 +109,10 @@ pub struct Context {
     pool: rayon::ThreadPool,
     /// Progress lines on stderr.
     progress: bool,
+    /// [`ExperimentOptions::seeds`].
+    pub seeds: Option<Vec<u64>>,
+    /// [`ExperimentOptions::floor`].
+    pub floor: Option<crate::config::GroundModel>,
 }
 
 impl Context {
@@ -248,6 +260,21 @@ pub fn run_experiment_with(
     if let Some(message) = crate::threads_beyond_cap("threads", options.threads) {
         return Err(ExperimentError::Data(message));
     }
+    if name != "estimation" && (options.seeds.is_some() || options.floor.is_some()) {
+        return Err(ExperimentError::Option(format!(
+            "--seeds and --floor choose the peg-field runs of the `estimation` experiment; `{name}` takes neither"
+        )));
+    }
+    if let Some(floor) = options.floor
+        && !matches!(floor, crate::config::GroundModel::Isotropic | crate::config::GroundModel::Anisotropic)
+    {
+        return Err(ExperimentError::Option(format!(
+            "--floor {floor:?}: the estimation experiment runs on an isotropic or an anisotropic floor"
+        )));
+    }
+    if options.seeds.as_ref().is_some_and(Vec::is_empty) {
+        return Err(ExperimentError::Option("--seeds: no seeds given".into()));
+    }
     let start = std::time::Instant::now();
     let quick = options.quick;
     let pool = rayon::ThreadPoolBuilder::new()
@@ -259,7 +286,15 @@ pub fn run_experiment_with(
         std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
     let folder = record::create_run_folder(output_dir, &format!("experiment-{name}"), &record::utc_stamp(unix_secs))
         .map_err(RunError::from)?;
-    let ctx = Context { folder: folder.clone(), quick, name: name.to_string(), pool, progress: options.progress };
+    let ctx = Context {
+        folder: folder.clone(),
+        quick,
+        name: name.to_string(),
+        pool,
+        progress: options.progress,
+        seeds: options.seeds.clone(),
+        floor: options.floor,
+    };
     // Every case records what its analysis reads (Context::sub_run forces it); say what changed.
     let notes: Vec<String> = force_analysis_recording(&mut base.clone())
         .into_iter()

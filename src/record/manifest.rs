@@ -201,8 +201,19 @@ pub struct RunSummary {
     /// xy-plane): the centre of mass's displacement projected on it, over the simulated time (m/s).
     #[serde(default)]
     pub forward_speed_m_per_s: f64,
-    /// Largest contact normal force seen at a recorded step (N).
-    pub peak_contact_force_n: f64,
+    /// Largest contact normal force on one link averaged over 10 ms (N): per link, the normal
+    /// impulse of all its contacts over any 10-ms window of steps divided by the window, the
+    /// largest over links and windows, from every step (`state::ContactForcePeaks`). Converges as
+    /// the timestep shrinks; an impact counts with its whole impulse.
+    #[serde(default)]
+    pub peak_contact_force_10ms_n: f64,
+    /// The window of `peak_contact_force_10ms_n`: 10 ms rounded to whole steps (s).
+    #[serde(default)]
+    pub contact_force_window_secs: f64,
+    /// Largest single contact's normal force at any step (N): the sharpest sampled transient;
+    /// depends on the timestep and does not converge under stiff impacts.
+    #[serde(default)]
+    pub peak_contact_force_step_n: f64,
     /// Largest penetration seen at a recorded step (m).
     pub max_penetration_m: f64,
     /// Work done by the actuators, ∫ Σ_joints |τ·q̇| dt (J), from the joint-space actuator

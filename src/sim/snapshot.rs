@@ -54,6 +54,33 @@ impl World {
         self.read_contacts(s);
     }
 
+    /// The contacts' normal forces of the last forward pass (the forces of the step that starts
+    /// from it), per link: the vector sum over the link's contacts, into `out` (N, world; sized
+    /// for the links). Returns the largest single contact normal force (N). No allocation.
+    pub fn link_contact_normal_forces(&self, out: &mut [[f64; 3]]) -> f64 {
+        let d = &self.data;
+        let idx = &self.index;
+        out.fill([0.0; 3]);
+        let mut largest_n: f64 = 0.0;
+        for (c, contact) in d.contact().iter().enumerate() {
+            let f = d.contact_force(c)[0];
+            largest_n = largest_n.max(f.abs());
+            let fr = &contact.frame;
+            // The normal points from geom 0 to geom 1: geom 1 feels +f·n, geom 0 −f·n.
+            for (side, sign) in [(1, 1.0), (0, -1.0)] {
+                let g = contact.geom[side].max(0) as usize;
+                if let Some(Some(link)) = idx.geom_link.get(g) {
+                    if let Some(acc) = out.get_mut(*link) {
+                        for k in 0..3 {
+                            acc[k] += sign * f * fr[k];
+                        }
+                    }
+                }
+            }
+        }
+        largest_n
+    }
+
     fn read_contacts(&self, s: &mut Snapshot) {
         let d = &self.data;
         let idx = &self.index;

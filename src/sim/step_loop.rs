@@ -27,7 +27,7 @@ use super::{EnergyGuard, Ground, SensorNoise, SimError, World, WorldState};
 use crate::config::{Config, Sensors};
 use crate::control::{Command, Controller, Observation};
 use crate::estimation::{ContactEstimates, LinkPoses, MotionEstimator, MotionEstimatorState};
-use crate::state::Snapshot;
+use crate::state::{ContactForcePeaks, Snapshot};
 
 /// How many steps one [`Simulation::run`] takes and which instants it records.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -148,6 +148,7 @@ pub struct SimulationState<C> {
     energy_guard: EnergyGuard,
     sensed: bool,
     estimation: Option<EstimationState>,
+    contact_peaks: ContactForcePeaks,
 }
 
 /// The saved part of [`Estimation`]: the estimator's filters and its latest output.
@@ -191,6 +192,10 @@ pub struct Simulation<C: Controller = Box<dyn Controller>> {
     /// Whether `obs` (and the estimates) were read at the current instant: sensing again
     /// before the next step does nothing.
     sensed: bool,
+    /// The peak contact forces since the simulation was built or reset, from every step.
+    contact_peaks: ContactForcePeaks,
+    /// Per link: the contacts' normal forces of the step being added (sized once).
+    link_normal_n: Vec<[f64; 3]>,
 }
 
 /// The estimator of the step loop with its output and, for `orientation = "true"`, the
@@ -247,6 +252,8 @@ impl<C: Controller> Simulation<C> {
             obs: Observation::new(nl, nj),
             cmd: Command::new(nj),
             controller,
+            contact_peaks: ContactForcePeaks::new(nl, world.timestep_secs()),
+            link_normal_n: vec![[0.0; 3]; nl],
             world,
             steps: 0,
             sensed: false,
@@ -276,6 +283,7 @@ impl<C: Controller> Simulation<C> {
         }
         self.steps = 0;
         self.sensed = false;
+        self.contact_peaks.clear();
         self.sense();
         Ok(())
     }
@@ -303,6 +311,7 @@ impl<C: Controller> Simulation<C> {
                 .estimation
                 .as_ref()
                 .map(|e| EstimationState { estimator: e.estimator.save_state(), estimates: e.estimates.clone() }),
+            contact_peaks: self.contact_peaks.clone(),
         }
     }
 
@@ -324,6 +333,7 @@ impl<C: Controller> Simulation<C> {
         self.ground.clone_from(&state.ground);
         self.energy_guard = state.energy_guard;
         self.sensed = state.sensed;
+        self.contact_peaks.clone_from(&state.contact_peaks);
         match (self.estimation.as_mut(), state.estimation.as_ref()) {
             (Some(e), Some(saved)) => {
                 e.estimator.restore_state(&saved.estimator);
@@ -337,6 +347,13 @@ impl<C: Controller> Simulation<C> {
             }
         }
         Ok(())
+    }
+
+    /// The peak contact forces since the simulation was built or last reset, from every step
+    /// ([`ContactForcePeaks`]: each link's normal force averaged over 10 ms, and the largest
+    /// single contact's at any step).
+    pub fn contact_peaks(&self) -> &ContactForcePeaks {
+        &self.contact_peaks
     }
 
     /// The world, read-only.
@@ -448,6 +465,10 @@ impl<C: Controller> Simulation<C> {
         }
         self.steps += 1;
         self.sensed = false;
+        // The contacts and forces of the forward pass this step started from: the forces that
+        // acted during it (with RK4, those of its last stage).
+        let largest_n = self.world.link_contact_normal_forces(&mut self.link_normal_n);
+        self.contact_peaks.add_step(reached_secs, &self.link_normal_n, largest_n);
         self.world.check_finite(self.steps, reached_secs)?;
         self.energy_guard.check(&mut self.world, self.steps, reached_secs)
     }

@@ -92,10 +92,17 @@ pub const METRICS: &[Metric] = &[
         value: |s| s.heading_deg,
     },
     Metric {
-        name: "peak_contact_force_n",
+        name: "peak_contact_force_10ms_n",
         unit: "N",
-        doc: "largest contact normal force at a recorded step",
-        value: |s| s.peak_contact_force_n,
+        doc: "largest contact normal force on one link averaged over 10 ms (its normal impulse over any 10-ms window / \
+              10 ms; every step)",
+        value: |s| s.peak_contact_force_10ms_n,
+    },
+    Metric {
+        name: "peak_contact_force_step_n",
+        unit: "N",
+        doc: "largest single contact normal force at any step (depends on the timestep)",
+        value: |s| s.peak_contact_force_step_n,
     },
     Metric {
         name: "max_penetration_m",
@@ -542,7 +549,9 @@ mod tests {
             mean_speed_m_per_s: 3.0,
             heading_deg: 4.0,
             forward_speed_m_per_s: 5.0,
-            peak_contact_force_n: 6.0,
+            peak_contact_force_10ms_n: 6.0,
+            contact_force_window_secs: 0.01,
+            peak_contact_force_step_n: 6.5,
             max_penetration_m: 7.0,
             actuator_energy_j: 8.0,
             obstacle_contact_secs: 0.0,

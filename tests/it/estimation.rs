@@ -296,3 +296,119 @@ fn a_users_estimator_is_scored_the_same_way() {
         assert!(score.misses[i] > 0);
     }
 }
+
+/// Where the false forces and the misses of the peg-field runs come from, per seed: each
+/// link-step's estimated obstacle force split into the external-force estimate's error and the
+/// floor share's error, and whether the true floor force itself exceeds μ·N of the same step.
+#[test]
+#[ignore = "probe: the causes of the estimation misses per seed (SEEDS=300-309 FLOOR=isotropic, --ignored --nocapture)"]
+fn measure_causes_of_estimation_misses() {
+    use simserpent::sim::{LoopPlan, Observer, SimError, StepView};
+    #[derive(Clone, Copy, Default)]
+    struct Truth {
+        total: [f64; 3],
+        floor: [f64; 3],
+        obstacle: [f64; 3],
+        z: f64,
+    }
+    #[derive(Default)]
+    struct Probe {
+        mu_max: f64,
+        weight_n: f64,
+        threshold_n: f64,
+        prev_t: f64,
+        prev: Vec<Truth>,
+        /// False forces: (time, link, est obstacle, ext error, floor error, true |F_h|/(μ N), true N, est N, z).
+        phantoms: Vec<(f64, usize, f64, f64, f64, f64, f64, f64, f64)>,
+        /// Misses: (time, link, true obstacle, est obstacle, ext error, floor error, true |F_h|/(μ N)).
+        misses: Vec<(f64, usize, f64, f64, f64, f64, f64)>,
+    }
+    impl Observer<SimError> for Probe {
+        fn on_record(&mut self, view: &StepView<'_>, snap: &Snapshot) -> Result<(), SimError> {
+            let h = |v: [f64; 3]| v[0].hypot(v[1]);
+            let d = |a: [f64; 3], b: [f64; 3]| (a[0] - b[0]).hypot(a[1] - b[1]);
+            let est = &view.observation.contacts;
+            let n = snap.link_position_m.len();
+            if self.prev.len() != n {
+                self.prev = vec![Truth::default(); n];
+                self.prev_t = f64::NAN;
+            }
+            if est.active && (view.observation.sensor_time_secs - self.prev_t).abs() < 1e-9 {
+                for i in 0..n {
+                    let t = self.prev[i];
+                    let e_obs = h(est.obstacle_force_n[i]);
+                    let ext_err = d(est.external_force_n[i], t.total);
+                    let floor_err = d(est.floor_force_n[i], t.floor);
+                    let over = h(t.floor) / (self.mu_max * t.floor[2].max(1e-9));
+                    if t.obstacle == [0.0; 3] && e_obs > self.weight_n {
+                        self.phantoms.push((
+                            self.prev_t,
+                            i,
+                            e_obs,
+                            ext_err,
+                            floor_err,
+                            over,
+                            t.floor[2],
+                            est.floor_force_n[i][2],
+                            t.z,
+                        ));
+                    }
+                    if h(t.obstacle) >= self.threshold_n && !est.contact[i] {
+                        self.misses.push((self.prev_t, i, h(t.obstacle), e_obs, ext_err, floor_err, over));
+                    }
+                }
+            }
+            for i in 0..n {
+                self.prev[i] = Truth {
+                    total: snap.link_contact_force_n[i],
+                    floor: snap.link_floor_force_n[i],
+                    obstacle: snap.link_obstacle_force_n[i],
+                    z: snap.link_position_m[i][2],
+                };
+            }
+            self.prev_t = snap.time_secs;
+            Ok(())
+        }
+    }
+    let seeds: Vec<u64> = match std::env::var("SEEDS").ok().as_deref().and_then(|s| s.split_once('-')) {
+        Some((a, b)) => (a.parse().unwrap()..=b.parse().unwrap()).collect(),
+        None => vec![300],
+    };
+    let model = match std::env::var("FLOOR").as_deref() {
+        Ok("anisotropic") => GroundModel::Anisotropic,
+        _ => GroundModel::Isotropic,
+    };
+    for seed in seeds {
+        let config = simserpent::experiments::estimation::peg_field_config(&Config::default(), model, seed, 1.0);
+        let mu = config.snake.ground_friction;
+        let mut probe = Probe {
+            mu_max: mu.iter().fold(0.0f64, |a, &b| a.max(b)),
+            weight_n: config.snake.link_mass_kg * 9.81,
+            threshold_n: config.estimation.detection_threshold_n,
+            ..Probe::default()
+        };
+        let world = World::from_config(&config).unwrap();
+        let mut sim = Simulation::new(&config, world);
+        let steps = (10.0 / config.general.timestep_secs).round() as u64;
+        sim.run(LoopPlan { steps, record_every_n_steps: 1 }, &mut [&mut probe]).unwrap();
+        let ph = &probe.phantoms;
+        let in_ramp = ph.iter().filter(|p| p.0 < config.gait.ramp_secs).count();
+        let ext_dominated = ph.iter().filter(|p| p.3 > p.4).count();
+        let over_mu = ph.iter().filter(|p| p.5 > 1.05).count();
+        let worst = ph.iter().max_by(|a, b| a.2.total_cmp(&b.2));
+        eprintln!(
+            "seed {seed} {model:?}: false forces > m·g: {} ({in_ramp} in the ramp), external-estimate error larger than \
+             floor-share error on {ext_dominated}, true floor friction > 1.05 μN on {over_mu}; worst {worst:?}",
+            ph.len()
+        );
+        let m = &probe.misses;
+        let m_ramp = m.iter().filter(|p| p.0 < config.gait.ramp_secs).count();
+        let m_small = m.iter().filter(|p| p.2 < 2.0 * probe.threshold_n).count();
+        let m_over = m.iter().filter(|p| p.6 > 1.05).count();
+        eprintln!(
+            "seed {seed}: misses {} ({m_ramp} in the ramp, {m_small} with true force < 2×threshold, {m_over} with true \
+             floor friction > 1.05 μN)",
+            m.len()
+        );
+    }
+}

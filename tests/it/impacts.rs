@@ -152,3 +152,69 @@ fn measure_impulse_at_the_default_step() {
         eprintln!("{label}: Σ F·dt / Δp − 1 at shifts 0..4 mm: {}", r.join(", "));
     }
 }
+
+/// The run summary's peak contact force (each link's normal impulse over any 10-ms window / 10 ms,
+/// `state::ContactForcePeaks`) of one link launched down at 5 m/s from 2 cm onto the floor, with
+/// a critically damped floor contact (damping ratio 1: no rebound), stepped with `dt`: (windowed
+/// peak N, per-step peak N).
+fn drop_peaks(dt: f64) -> (f64, f64) {
+    let mut c = collision_case_bodies(&Config::default(), 1);
+    c.general.timestep_secs = dt;
+    c.physics.environment_contact_damping_ratio = 1.0;
+    c.snake.head_position_m[2] = 0.02;
+    let mut world = World::from_config(&c).unwrap();
+    world.qvel_mut()[2] = -LAUNCH_SPEED_M_PER_S;
+    world.forward();
+    let mut sim = Simulation::new(&c, world);
+    let plan = simserpent::sim::LoopPlan { steps: (0.1 / dt).round() as u64, record_every_n_steps: 0 };
+    sim.run::<simserpent::sim::SimError>(plan, &mut []).unwrap();
+    let p = sim.contact_peaks();
+    assert!((p.window_secs() - 0.01).abs() < 1e-12, "{dt}: window {}", p.window_secs());
+    (p.peak_windowed_n, p.peak_step_n)
+}
+
+#[test]
+fn the_windowed_peak_force_of_a_landing_is_its_momentum_change_over_the_window_at_every_step() {
+    // Landing at v = √(v₀² + 2·g·h) and resting within the window: the floor's impulse over the
+    // 10 ms from the touch is m·v + m·g·T (momentum change plus the weight's impulse), so the
+    // windowed peak is m·v/T + m·g, whatever the contact's stiffness and the step.
+    let c = collision_case_bodies(&Config::default(), 1);
+    let m = c.snake.link_mass_kg;
+    let v = (LAUNCH_SPEED_M_PER_S.powi(2) + 2.0 * G * 0.02).sqrt();
+    let expected_n = m * v / 0.01 + m * G;
+    let mut failures = Vec::new();
+    for dt in [0.00025, 0.0005, 0.001, 0.002] {
+        let (windowed, step) = drop_peaks(dt);
+        eprintln!("dt {:.2} ms: windowed {windowed:.2} N (expected {expected_n:.2} N), per step {step:.1} N", dt * 1e3);
+        // The window starts at a step, the touch falls between two: up to one step of weight
+        // (m·g·dt/T) and of free fall before the touch (m·g·dt/T) apart.
+        if (windowed - expected_n).abs() > 2.0 * m * G * dt / 0.01 + 1e-6 * expected_n {
+            failures.push(format!("dt {dt}: {windowed} N against {expected_n} N"));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+#[test]
+#[ignore = "probe: the run summary's peak contact forces of the collision cases at 0.25/0.5/1/2 ms (run with --ignored --nocapture)"]
+fn measure_peak_force_convergence_of_the_collision_cases() {
+    eprintln!("| case | dt (ms) | peak averaged over 10 ms (N) | peak at a single step (N) |");
+    eprintln!("|---|---|---|---|");
+    for (n, axis, label) in CASES {
+        for dt in [0.00025, 0.0005, 0.001, 0.002] {
+            let mut c = collision_case_bodies(&Config::default(), n);
+            c.general.timestep_secs = dt;
+            if axis == 2 {
+                c.snake.head_position_m[2] = 0.02;
+            }
+            let mut world = World::from_config(&c).unwrap();
+            world.qvel_mut()[axis] = if axis == 2 { -LAUNCH_SPEED_M_PER_S } else { LAUNCH_SPEED_M_PER_S };
+            world.forward();
+            let mut sim = Simulation::new(&c, world);
+            let plan = simserpent::sim::LoopPlan { steps: (0.25 / dt).round() as u64, record_every_n_steps: 0 };
+            sim.run::<simserpent::sim::SimError>(plan, &mut []).unwrap();
+            let p = sim.contact_peaks();
+            eprintln!("| {label} | {} | {:.1} | {:.1} |", dt * 1e3, p.peak_windowed_n, p.peak_step_n);
+        }
+    }
+}

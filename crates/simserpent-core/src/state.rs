@@ -6,7 +6,8 @@
 //!
 //! The summaries of a run — centre of mass, heading, actuator power, peak contact force — have
 //! one implementation each, here ([`centre_of_mass_m`], [`heading_xy`], [`actuator_power_w`],
-//! [`peak_contact_force_n`]); [`RunTotals`] accumulates them over the recorded instants of a run.
+//! [`peak_contact_force_n`]); [`RunTotals`] accumulates them over the recorded instants of a run,
+//! [`ContactForcePeaks`] the contact forces over every step.
 //! What a controller sees at one step, [`Observation`] (with its [`ContactEstimates`]), is plain
 //! data too and lives here, below `control` and `estimation`, which both use it.
 
@@ -529,15 +530,114 @@ pub fn peak_contact_force_n(normal_forces_n: impl IntoIterator<Item = f64>) -> f
     normal_forces_n.into_iter().map(f64::abs).fold(0.0, f64::max)
 }
 
+/// The window over which the run summary averages each link's contact force: 10 ms (rounded to
+/// whole steps, see [`ContactForcePeaks::window_secs`]). Long against a step, short against a gait
+/// cycle: an impact's whole impulse falls in it, a steady load keeps its value.
+pub const CONTACT_FORCE_WINDOW_SECS: f64 = 0.01;
+
+/// A run's peak contact forces, from every physics step (not only the recorded ones).
+///
+/// - **Windowed peak** (`peak_windowed_n`, the run summary's `peak_contact_force_10ms_n`): per
+///   link, the vector sum of the normal forces of all its contacts (floor, obstacles, other links,
+///   scenery) times the step, summed over the last `window_steps` steps — the normal impulse the
+///   link received in that window — divided by the window's length; the largest magnitude over
+///   links and windows. A force averaged over a fixed time: as dt → 0 it converges to
+///   max |∫_window F dt| / window, and an impact that ends inside the window counts with its whole
+///   impulse (m·Δv, whatever the contact's stiffness). Before the run's first step the force is 0.
+/// - **Per-step peak** (`peak_step_n`): the largest single contact's normal force at any step.
+///   A sample of the sharpest transient; it depends on the timestep and the contact stiffness
+///   and does not converge as dt → 0 under a stiff impact.
+///
+/// [`ContactForcePeaks::add_step`] takes the forces that act during one step; it does not
+/// allocate.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContactForcePeaks {
+    n_links: usize,
+    dt_secs: f64,
+    window_steps: usize,
+    /// The last `window_steps` steps' forces per link (slot-major), a ring from `next`.
+    ring: Vec<[f64; 3]>,
+    next: usize,
+    /// Largest windowed force (N), on which link, and when its window ended (s).
+    pub peak_windowed_n: f64,
+    pub peak_windowed_link: Option<usize>,
+    pub peak_windowed_end_secs: f64,
+    /// Largest single-contact normal force at any step (N).
+    pub peak_step_n: f64,
+}
+
+impl ContactForcePeaks {
+    /// Peaks of `n_links` links stepped with `dt_secs`, over [`CONTACT_FORCE_WINDOW_SECS`].
+    pub fn new(n_links: usize, dt_secs: f64) -> Self {
+        Self::with_window(n_links, dt_secs, CONTACT_FORCE_WINDOW_SECS)
+    }
+
+    /// Peaks over a window of `window_secs`, rounded to whole steps (at least one).
+    pub fn with_window(n_links: usize, dt_secs: f64, window_secs: f64) -> Self {
+        let window_steps = if dt_secs > 0.0 { (window_secs / dt_secs).round().max(1.0) as usize } else { 1 };
+        Self {
+            n_links,
+            dt_secs,
+            window_steps,
+            ring: vec![[0.0; 3]; window_steps * n_links],
+            next: 0,
+            peak_windowed_n: 0.0,
+            peak_windowed_link: None,
+            peak_windowed_end_secs: 0.0,
+            peak_step_n: 0.0,
+        }
+    }
+
+    /// The window's length: whole steps nearest [`CONTACT_FORCE_WINDOW_SECS`] (s).
+    pub fn window_secs(&self) -> f64 {
+        self.window_steps as f64 * self.dt_secs
+    }
+
+    /// Back to no steps.
+    pub fn clear(&mut self) {
+        self.ring.fill([0.0; 3]);
+        self.next = 0;
+        self.peak_windowed_n = 0.0;
+        self.peak_windowed_link = None;
+        self.peak_windowed_end_secs = 0.0;
+        self.peak_step_n = 0.0;
+    }
+
+    /// Adds one step that ends at `end_secs`: per link the vector sum of its contacts' normal
+    /// forces acting during the step (N, world), and the largest single contact normal force.
+    pub fn add_step(&mut self, end_secs: f64, link_normal_force_n: &[[f64; 3]], largest_contact_n: f64) {
+        let n = self.n_links;
+        let slot = self.next * n;
+        for (dst, src) in self.ring[slot..slot + n].iter_mut().zip(link_normal_force_n) {
+            *dst = *src;
+        }
+        self.next = (self.next + 1) % self.window_steps;
+        // Summed afresh over the window (no running sum: no rounding residue after a transient).
+        let scale = 1.0 / self.window_steps as f64;
+        for link in 0..n {
+            let mut sum = [0.0; 3];
+            for s in 0..self.window_steps {
+                add_to(&mut sum, self.ring[s * n + link], 1.0);
+            }
+            let mean_n = norm(sum) * scale;
+            if mean_n > self.peak_windowed_n {
+                self.peak_windowed_n = mean_n;
+                self.peak_windowed_link = Some(link);
+                self.peak_windowed_end_secs = end_secs;
+            }
+        }
+        self.peak_step_n = self.peak_step_n.max(largest_contact_n.abs());
+    }
+}
+
 /// What a run's summary adds up over its recorded instants: displacement and heading of the
-/// centre of mass, peak contact force, largest penetration and actuator energy.
+/// centre of mass, largest penetration and actuator energy (the peak contact forces come from every
+/// step: [`ContactForcePeaks`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct RunTotals {
     start_com_m: Option<[f64; 3]>,
     start_heading_xy: Option<[f64; 2]>,
     end_com_m: [f64; 3],
-    /// Largest contact normal force seen (N).
-    pub peak_contact_force_n: f64,
     /// Largest penetration seen (m).
     pub max_penetration_m: f64,
     /// ∫ Σ_joints |τ·q̇| dt over the recorded instants, each held until the next one (J).
@@ -562,7 +662,6 @@ impl RunTotals {
     /// Adds a recorded instant whose values hold for `held_steps` steps of `dt_secs` (for the
     /// energy).
     pub fn add(&mut self, s: &Snapshot, dt_secs: f64, held_steps: u64) {
-        self.peak_contact_force_n = self.peak_contact_force_n.max(s.peak_contact_force_n());
         self.max_penetration_m = self.max_penetration_m.max(s.max_penetration_m());
         self.end_com_m = s.centre_of_mass_m();
         self.start_com_m.get_or_insert(self.end_com_m);
@@ -775,6 +874,37 @@ mod tests {
         assert_eq!(actuator_power_w([(2.0, 3.0), (-1.0, 4.0)]), 10.0);
         assert_eq!(peak_contact_force_n([1.0, -5.0, 3.0]), 5.0);
         assert_eq!(peak_contact_force_n(std::iter::empty()), 0.0);
+    }
+
+    #[test]
+    fn windowed_peak_is_the_impulse_over_the_window() {
+        // An impulse of 0.5 N·s on link 1, delivered in one step of 1 ms or spread over four:
+        // either way 0.5 N·s / 10 ms = 50 N averaged over the window; the per-step peak differs.
+        for spread in [1usize, 4] {
+            let mut p = ContactForcePeaks::new(2, 0.001);
+            assert!((p.window_secs() - 0.01).abs() < 1e-15);
+            let f = 0.5 / (0.001 * spread as f64);
+            for k in 0..30 {
+                let on = (5..5 + spread).contains(&k);
+                p.add_step(0.001 * (k + 1) as f64, &[[0.0, 0.0, 1.0], [0.0, 0.0, if on { f } else { 0.0 }]], f);
+            }
+            assert!((p.peak_windowed_n - 50.0).abs() < 1e-9, "{spread}: {}", p.peak_windowed_n);
+            assert_eq!(p.peak_windowed_link, Some(1));
+            assert_eq!(p.peak_step_n, f);
+            // The window first holds the whole impulse at the end of its last step.
+            assert!((p.peak_windowed_end_secs - 0.001 * (5 + spread) as f64).abs() < 1e-12);
+        }
+        // Opposite forces within one window cancel (a vector impulse); a steady 1 N stays 1 N.
+        let mut p = ContactForcePeaks::new(1, 0.002);
+        for k in 0..20 {
+            p.add_step(0.0, &[[if k % 2 == 0 { 7.0 } else { -7.0 }, 0.0, 1.0]], 7.0);
+        }
+        // Window of 5 steps: at most one unpaired 7 N step: |(7, 0, 5)| / 5.
+        assert!((p.peak_windowed_n - (49.0f64 + 25.0).sqrt() / 5.0).abs() < 1e-12);
+        p.clear();
+        assert_eq!((p.peak_windowed_n, p.peak_step_n, p.peak_windowed_link), (0.0, 0.0, None));
+        // A window that is not a whole number of steps: the nearest whole number.
+        assert!((ContactForcePeaks::new(1, 0.003).window_secs() - 0.009).abs() < 1e-15);
     }
 
     #[test]

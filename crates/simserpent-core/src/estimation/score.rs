@@ -12,6 +12,14 @@
 //!   `point_min_lateral_n` (1 N in the targets) and the estimator reports a point, the error
 //!   along the link; the share of such link-steps within `point_tolerance_m` (and how many had
 //!   no point).
+//! - **false force**: over the link-steps with no true obstacle contact at all (true obstacle
+//!   force exactly zero), the horizontal obstacle force the estimator reports anyway: the share of
+//!   them above `false_force_threshold_n`, the largest value and its RMS. The detection and
+//!   force scores above cannot see it: the false-alarm rate counts a 1-N and a 200-N phantom
+//!   alike, and the force RMSE only scores link-steps with a true contact. The targets use a
+//!   link's weight m·g as the threshold: a floor with μ ≤ 1 cannot hold a link sideways with more
+//!   than its weight, so a reported obstacle force beyond it cannot be floor friction the floor
+//!   model put in the wrong place — it is a phantom push, as large as a real one.
 
 /// Accumulated scores (see the module documentation).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -22,6 +30,9 @@ pub struct MotionScore {
     pub point_min_lateral_n: f64,
     /// Contact-point tolerance (m).
     pub point_tolerance_m: f64,
+    /// Estimated horizontal obstacle force (N) from which a link-step without any true obstacle
+    /// contact counts as a false force.
+    pub false_force_threshold_n: f64,
     pub hits: u64,
     pub misses: u64,
     pub false_alarms: u64,
@@ -34,6 +45,12 @@ pub struct MotionScore {
     pub points_within: u64,
     pub points_missing: u64,
     pub point_error_sum_m: f64,
+    /// Link-steps without any true obstacle contact; those whose estimated horizontal obstacle
+    /// force exceeds `false_force_threshold_n`; the largest such force (N) and Σ of its square (N²).
+    pub free_link_steps: u64,
+    pub false_forces: u64,
+    pub false_force_max_n: f64,
+    pub false_force_sq_sum: f64,
 }
 
 /// One link at one instant: truth and estimate.
@@ -52,9 +69,24 @@ pub struct LinkSample {
 }
 
 impl MotionScore {
-    /// An empty score.
-    pub fn new(threshold_n: f64, point_min_lateral_n: f64, point_tolerance_m: f64) -> Self {
-        Self { threshold_n, point_min_lateral_n, point_tolerance_m, ..Self::default() }
+    /// An empty score. `false_force_threshold_n`: see the module documentation (the targets use
+    /// a link's weight).
+    pub fn new(
+        threshold_n: f64,
+        point_min_lateral_n: f64,
+        point_tolerance_m: f64,
+        false_force_threshold_n: f64,
+    ) -> Self {
+        Self { threshold_n, point_min_lateral_n, point_tolerance_m, false_force_threshold_n, ..Self::default() }
+    }
+
+    /// The scores of the estimation targets for `config`'s estimator: detection at
+    /// `estimation.detection_threshold_n`, contact points where the true lateral force exceeds
+    /// 1 N within 1 cm, false forces above one link's weight (`snake.link_mass_kg` × |gravity|).
+    pub fn for_targets(config: &crate::config::Config) -> Self {
+        let g = config.general.gravity_m_per_s2;
+        let weight_n = config.snake.link_mass_kg * (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+        Self::new(config.estimation.detection_threshold_n, 1.0, 0.01, weight_n)
     }
 
     /// Adds one link-step.
@@ -71,6 +103,15 @@ impl MotionScore {
             let e = [s.estimated_obstacle_n[0] - t[0], s.estimated_obstacle_n[1] - t[1]];
             self.error_sq_sum += e[0] * e[0] + e[1] * e[1];
             self.truth_sq_sum += t[0] * t[0] + t[1] * t[1];
+        }
+        if t == [0.0; 3] {
+            let e = s.estimated_obstacle_n[0].hypot(s.estimated_obstacle_n[1]);
+            self.free_link_steps += 1;
+            if e > self.false_force_threshold_n {
+                self.false_forces += 1;
+            }
+            self.false_force_max_n = self.false_force_max_n.max(e);
+            self.false_force_sq_sum += e * e;
         }
         let lateral = (s.axis[0] * t[1] - s.axis[1] * t[0]).abs();
         if let (true, Some(truth)) = (lateral > self.point_min_lateral_n, s.true_point_along_m) {
@@ -100,6 +141,10 @@ impl MotionScore {
         self.points_within += o.points_within;
         self.points_missing += o.points_missing;
         self.point_error_sum_m += o.point_error_sum_m;
+        self.free_link_steps += o.free_link_steps;
+        self.false_forces += o.false_forces;
+        self.false_force_max_n = self.false_force_max_n.max(o.false_force_max_n);
+        self.false_force_sq_sum += o.false_force_sq_sum;
     }
 
     /// hits / (hits + misses); NaN without present contacts.
@@ -127,6 +172,18 @@ impl MotionScore {
         self.points_within as f64 / self.points as f64
     }
 
+    /// Share of the link-steps without true obstacle contact on which the estimator reports more
+    /// than `false_force_threshold_n` of obstacle force; NaN without such link-steps.
+    pub fn false_force_rate(&self) -> f64 {
+        self.false_forces as f64 / self.free_link_steps as f64
+    }
+
+    /// RMS of the estimated horizontal obstacle force over the link-steps without true obstacle
+    /// contact (N); NaN without such link-steps.
+    pub fn false_force_rms_n(&self) -> f64 {
+        (self.false_force_sq_sum / self.free_link_steps as f64).sqrt()
+    }
+
     /// Mean contact-point error (m) over the scored points that had an estimate.
     pub fn mean_point_error_m(&self) -> f64 {
         self.point_error_sum_m / (self.points - self.points_missing) as f64
@@ -139,7 +196,7 @@ mod tests {
 
     #[test]
     fn counts_rates_and_errors() {
-        let mut s = MotionScore::new(0.5, 1.0, 0.01);
+        let mut s = MotionScore::new(0.5, 1.0, 0.01, 3.0);
         let base = LinkSample { axis: [1.0, 0.0, 0.0], ..LinkSample::default() };
         // Present, detected, 2 N across at +3 cm, estimated 1.8 N at +3.5 cm.
         s.add(&LinkSample {
@@ -152,14 +209,25 @@ mod tests {
         });
         // Present, missed.
         s.add(&LinkSample { true_obstacle_n: [0.6, 0.0, 0.0], ..base });
-        // Absent, false alarm; absent, rejected.
-        s.add(&LinkSample { detected: true, ..base });
-        s.add(&base);
+        // Absent, false alarm with a 4 N phantom; absent, rejected, a 0.3 N one.
+        s.add(&LinkSample { detected: true, estimated_obstacle_n: [0.0, -4.0, 0.0], ..base });
+        s.add(&LinkSample { estimated_obstacle_n: [0.3, 0.0, 0.0], ..base });
         assert_eq!((s.hits, s.misses, s.false_alarms, s.correct_rejections), (1, 1, 1, 1));
         assert!((s.detection_rate() - 0.5).abs() < 1e-12);
         assert!((s.false_alarm_rate() - 0.5).abs() < 1e-12);
         assert!((s.relative_force_rmse() - ((0.04f64 + 0.36) / (4.0 + 0.36)).sqrt()).abs() < 1e-12);
         assert_eq!((s.points, s.points_within), (1, 1));
         assert!((s.mean_point_error_m() - 0.005).abs() < 1e-12);
+        // False force: the two link-steps without any true obstacle force (the missed 0.6 N
+        // contact is a contact, not a free link-step); one of them above 3 N.
+        assert_eq!((s.free_link_steps, s.false_forces), (2, 1));
+        assert!((s.false_force_rate() - 0.5).abs() < 1e-12);
+        assert_eq!(s.false_force_max_n, 4.0);
+        assert!((s.false_force_rms_n() - ((16.0f64 + 0.09) / 2.0).sqrt()).abs() < 1e-12);
+        // Merging keeps the largest and adds the counts.
+        let mut m = MotionScore::new(0.5, 1.0, 0.01, 3.0);
+        m.add(&LinkSample { estimated_obstacle_n: [5.0, 0.0, 0.0], ..base });
+        m.merge(&s);
+        assert_eq!((m.free_link_steps, m.false_forces, m.false_force_max_n), (3, 2, 5.0));
     }
 }
