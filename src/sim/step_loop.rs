@@ -14,10 +14,10 @@
 //!    at x_k with the new controls, read into the [`Snapshot`]; [`Observer::on_record`];
 //! 4. [`Observer::on_step`];
 //! 5. unless k is the last instant: **step**, then the divergence check and the runaway-energy
-//!    guard. After a recorded instant the step starts from the recording's forward pass
-//!    ([`World::step_after_forward`]: MuJoCo's checks and the integrator), otherwise it is
-//!    `mj_step`; both give the same state bit for bit, so a recorded step costs one forward
-//!    pass, not two.
+//!    guard. The step is a forward pass at x_k (after a recorded instant: the recording's), the
+//!    contact forces it found added to the run's peak forces ([`ContactForcePeaks`], every
+//!    step), then the rest of `mj_step` ([`World::step_after_forward`]: MuJoCo's checks and the
+//!    integrator) — bit for bit `mj_step`, so a recorded step costs one forward pass, not two.
 //!
 //! Observers see the world read-only, through a [`StepView`]; they cannot change the
 //! trajectory. Nothing in the loop allocates (observers are a slice the caller owns; the
@@ -458,17 +458,17 @@ impl<C: Controller> Simulation<C> {
     /// controls has run already (a recorded instant) and is not repeated.
     fn advance_from(&mut self, forward_done: bool) -> Result<(), SimError> {
         let reached_secs = self.world.time_secs() + self.world.timestep_secs();
-        if forward_done {
-            self.world.step_after_forward();
-        } else {
-            self.world.step();
+        // The step's forward pass (unless the recording ran it), then the contact forces it found
+        // — the forces at the step's start, as a recorded row shows them — then the rest of
+        // `mj_step`: bit for bit `mj_step` (`World::step_after_forward`), at the same cost.
+        if !forward_done {
+            self.world.forward();
         }
-        self.steps += 1;
-        self.sensed = false;
-        // The contacts and forces of the forward pass this step started from: the forces that
-        // acted during it (with RK4, those of its last stage).
         let largest_n = self.world.link_contact_normal_forces(&mut self.link_normal_n);
         self.contact_peaks.add_step(reached_secs, &self.link_normal_n, largest_n);
+        self.world.step_after_forward();
+        self.steps += 1;
+        self.sensed = false;
         self.world.check_finite(self.steps, reached_secs)?;
         self.energy_guard.check(&mut self.world, self.steps, reached_secs)
     }
