@@ -310,6 +310,11 @@ fn measure_causes_of_estimation_misses() {
         floor: [f64; 3],
         obstacle: [f64; 3],
         z: f64,
+        /// The true obstacle point along the link (m), and the link's horizontal axis.
+        point_along_m: Option<f64>,
+        axis: [f64; 3],
+        /// The true floor force's horizontal part one instant earlier.
+        floor_before: [f64; 3],
     }
     #[derive(Default)]
     struct Probe {
@@ -318,10 +323,13 @@ fn measure_causes_of_estimation_misses() {
         threshold_n: f64,
         prev_t: f64,
         prev: Vec<Truth>,
-        /// False forces: (time, link, est obstacle, ext error, floor error, true |F_h|/(μ N), true N, est N, z).
-        phantoms: Vec<(f64, usize, f64, f64, f64, f64, f64, f64, f64)>,
+        /// False forces: (time, link, est obstacle, ext error, floor error, true |F_h|/(μ N), true N, est N, z,
+        /// cos(est floor_h, true floor_h), cos(true floor_h, true floor_h one instant earlier)).
+        phantoms: Vec<(f64, usize, f64, f64, f64, f64, f64, f64, f64, f64, f64)>,
         /// Misses: (time, link, true obstacle, est obstacle, ext error, floor error, true |F_h|/(μ N)).
         misses: Vec<(f64, usize, f64, f64, f64, f64, f64)>,
+        /// Contact points scored per second of the run: (scored, within 1 cm).
+        points_by_second: [(u64, u64); 10],
     }
     impl Observer<SimError> for Probe {
         fn on_record(&mut self, view: &StepView<'_>, snap: &Snapshot) -> Result<(), SimError> {
@@ -340,6 +348,7 @@ fn measure_causes_of_estimation_misses() {
                     let ext_err = d(est.external_force_n[i], t.total);
                     let floor_err = d(est.floor_force_n[i], t.floor);
                     let over = h(t.floor) / (self.mu_max * t.floor[2].max(1e-9));
+                    let cos = |a: [f64; 3], b: [f64; 3]| (a[0] * b[0] + a[1] * b[1]) / (h(a) * h(b)).max(1e-12);
                     if t.obstacle == [0.0; 3] && e_obs > self.weight_n {
                         self.phantoms.push((
                             self.prev_t,
@@ -351,7 +360,17 @@ fn measure_causes_of_estimation_misses() {
                             t.floor[2],
                             est.floor_force_n[i][2],
                             t.z,
+                            cos(est.floor_force_n[i], t.floor),
+                            cos(t.floor, t.floor_before),
                         ));
+                    }
+                    let lateral = (t.axis[0] * t.obstacle[1] - t.axis[1] * t.obstacle[0]).abs();
+                    if let (true, Some(truth)) = (lateral > 1.0, t.point_along_m) {
+                        let bin = &mut self.points_by_second[(self.prev_t as usize).min(9)];
+                        bin.0 += 1;
+                        if est.contact_point_along_m[i].is_some_and(|p| (p - truth).abs() <= 0.01) {
+                            bin.1 += 1;
+                        }
                     }
                     if h(t.obstacle) >= self.threshold_n && !est.contact[i] {
                         self.misses.push((self.prev_t, i, h(t.obstacle), e_obs, ext_err, floor_err, over));
@@ -359,7 +378,13 @@ fn measure_causes_of_estimation_misses() {
                 }
             }
             for i in 0..n {
+                let floor_before = self.prev[i].floor;
+                let a = simserpent::state::x_axis(snap.link_quat[i]);
+                let ah = a[0].hypot(a[1]).max(1e-12);
                 self.prev[i] = Truth {
+                    floor_before,
+                    point_along_m: snap.link_obstacle_point_m[i].map(|p| snap.along_link_axis_m(i, p)),
+                    axis: [a[0] / ah, a[1] / ah, 0.0],
                     total: snap.link_contact_force_n[i],
                     floor: snap.link_floor_force_n[i],
                     obstacle: snap.link_obstacle_force_n[i],
@@ -379,7 +404,10 @@ fn measure_causes_of_estimation_misses() {
         _ => GroundModel::Isotropic,
     };
     for seed in seeds {
-        let config = simserpent::experiments::estimation::peg_field_config(&Config::default(), model, seed, 1.0);
+        let mut config = simserpent::experiments::estimation::peg_field_config(&Config::default(), model, seed, 1.0);
+        if std::env::var("IDENTIFY").is_ok() {
+            config.estimation.friction = simserpent::config::FloorFrictionSource::Identify;
+        }
         let mu = config.snake.ground_friction;
         let mut probe = Probe {
             mu_max: mu.iter().fold(0.0f64, |a, &b| a.max(b)),
@@ -395,10 +423,15 @@ fn measure_causes_of_estimation_misses() {
         let in_ramp = ph.iter().filter(|p| p.0 < config.gait.ramp_secs).count();
         let ext_dominated = ph.iter().filter(|p| p.3 > p.4).count();
         let over_mu = ph.iter().filter(|p| p.5 > 1.05).count();
+        let against = ph.iter().filter(|p| p.9 < 0.0).count();
+        let flipped = ph.iter().filter(|p| p.10 < 0.0).count();
+        let big = ph.iter().filter(|p| p.2 > 5.0 * probe.weight_n).count();
         let worst = ph.iter().max_by(|a, b| a.2.total_cmp(&b.2));
         eprintln!(
             "seed {seed} {model:?}: false forces > m·g: {} ({in_ramp} in the ramp), external-estimate error larger than \
-             floor-share error on {ext_dominated}, true floor friction > 1.05 μN on {over_mu}; worst {worst:?}",
+             floor-share error on {ext_dominated}, true floor friction > 1.05 μN on {over_mu}, estimated floor \
+             friction against the true one on {against}, true floor friction reversed since the previous instant on \
+             {flipped}, > 5 m·g on {big}; worst {worst:?}",
             ph.len()
         );
         let m = &probe.misses;
@@ -410,5 +443,11 @@ fn measure_causes_of_estimation_misses() {
              floor friction > 1.05 μN)",
             m.len()
         );
+        let bins: Vec<String> = probe
+            .points_by_second
+            .iter()
+            .map(|(n, w)| format!("{:.1} % of {n}", 100.0 * *w as f64 / (*n).max(1) as f64))
+            .collect();
+        eprintln!("seed {seed}: contact points within 1 cm per second of the run: {}", bins.join(", "));
     }
 }
