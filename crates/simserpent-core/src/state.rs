@@ -544,6 +544,10 @@ pub const CONTACT_FORCE_WINDOW_SECS: f64 = 0.01;
 ///   links and windows. A force averaged over a fixed time: as dt → 0 it converges to
 ///   max |∫_window F dt| / window, and an impact that ends inside the window counts with its whole
 ///   impulse (m·Δv, whatever the contact's stiffness). Before the run's first step the force is 0.
+///   The forces are those at each step's start (as a recorded row shows them): with the Euler and
+///   implicit integrators exactly the forces the step applies (the window's impulse is the
+///   momentum change), with RK4 the first of its four evaluations, a sample whose error is first
+///   order in the step (on a 2-ms impact +20 % at 1 ms, +11 % at 0.5 ms, +6 % at 0.25 ms).
 /// - **Per-step peak** (`peak_step_n`): the largest single contact's normal force at any step.
 ///   A sample of the sharpest transient; it depends on the timestep and the contact stiffness
 ///   and does not converge as dt → 0 under a stiff impact.
