@@ -451,3 +451,24 @@ fn measure_causes_of_estimation_misses() {
         eprintln!("seed {seed}: contact points within 1 cm per second of the run: {}", bins.join(", "));
     }
 }
+
+#[test]
+fn seeds_and_floor_are_options_of_the_estimation_experiment_only() {
+    use simserpent::experiments::{ExperimentError, ExperimentOptions, run_experiment_with};
+    let dir = tempfile::tempdir().unwrap();
+    let with = |seeds: Option<Vec<u64>>, floor: Option<GroundModel>| ExperimentOptions {
+        seeds,
+        floor,
+        ..ExperimentOptions::default()
+    };
+    let err = run_experiment_with("collision", &Config::default(), dir.path(), &with(Some(vec![3]), None)).unwrap_err();
+    assert!(matches!(&err, ExperimentError::Option(m) if m.contains("`collision` takes neither")), "{err}");
+    let err =
+        run_experiment_with("estimation", &Config::default(), dir.path(), &with(None, Some(GroundModel::Viscous)))
+            .unwrap_err();
+    assert!(matches!(&err, ExperimentError::Option(m) if m.contains("isotropic or an anisotropic")), "{err}");
+    let err = run_experiment_with("estimation", &Config::default(), dir.path(), &with(Some(vec![]), None)).unwrap_err();
+    assert!(matches!(err, ExperimentError::Option(_)));
+    // Nothing was written for a refused option.
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
