@@ -750,6 +750,14 @@ fn estimate_command(run_folder: &Path, overrides: &[String]) -> Result<(), Failu
         pct(t.point_within_rate()),
         t.points
     );
+    outln!(
+        "false force: {} of {} link-steps without obstacle contact show more than {:.2} N (one link's weight) of \
+         obstacle force, the largest {:.2} N",
+        pct(t.false_force_rate()),
+        t.free_link_steps,
+        t.false_force_threshold_n,
+        t.false_force_max_n
+    );
     outln!("estimates, scores and plots: {}", outcome.folder.display());
     Ok(())
 }
