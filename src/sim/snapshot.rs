@@ -69,11 +69,11 @@ impl World {
             // The normal points from geom 0 to geom 1: geom 1 feels +f·n, geom 0 −f·n.
             for (side, sign) in [(1, 1.0), (0, -1.0)] {
                 let g = contact.geom[side].max(0) as usize;
-                if let Some(Some(link)) = idx.geom_link.get(g) {
-                    if let Some(acc) = out.get_mut(*link) {
-                        for k in 0..3 {
-                            acc[k] += sign * f * fr[k];
-                        }
+                if let Some(Some(link)) = idx.geom_link.get(g)
+                    && let Some(acc) = out.get_mut(*link)
+                {
+                    for k in 0..3 {
+                        acc[k] += sign * f * fr[k];
                     }
                 }
             }

@@ -325,9 +325,9 @@ fn measure_causes_of_estimation_misses() {
         prev: Vec<Truth>,
         /// False forces: (time, link, est obstacle, ext error, floor error, true |F_h|/(μ N), true N, est N, z,
         /// cos(est floor_h, true floor_h), cos(true floor_h, true floor_h one instant earlier)).
-        phantoms: Vec<(f64, usize, f64, f64, f64, f64, f64, f64, f64, f64, f64)>,
+        phantoms: Vec<[f64; 11]>,
         /// Misses: (time, link, true obstacle, est obstacle, ext error, floor error, true |F_h|/(μ N)).
-        misses: Vec<(f64, usize, f64, f64, f64, f64, f64)>,
+        misses: Vec<[f64; 7]>,
         /// Contact points scored per second of the run: (scored, within 1 cm).
         points_by_second: [(u64, u64); 10],
     }
@@ -350,9 +350,9 @@ fn measure_causes_of_estimation_misses() {
                     let over = h(t.floor) / (self.mu_max * t.floor[2].max(1e-9));
                     let cos = |a: [f64; 3], b: [f64; 3]| (a[0] * b[0] + a[1] * b[1]) / (h(a) * h(b)).max(1e-12);
                     if t.obstacle == [0.0; 3] && e_obs > self.weight_n {
-                        self.phantoms.push((
+                        self.phantoms.push([
                             self.prev_t,
-                            i,
+                            i as f64,
                             e_obs,
                             ext_err,
                             floor_err,
@@ -362,7 +362,7 @@ fn measure_causes_of_estimation_misses() {
                             t.z,
                             cos(est.floor_force_n[i], t.floor),
                             cos(t.floor, t.floor_before),
-                        ));
+                        ]);
                     }
                     let lateral = (t.axis[0] * t.obstacle[1] - t.axis[1] * t.obstacle[0]).abs();
                     if let (true, Some(truth)) = (lateral > 1.0, t.point_along_m) {
@@ -373,7 +373,7 @@ fn measure_causes_of_estimation_misses() {
                         }
                     }
                     if h(t.obstacle) >= self.threshold_n && !est.contact[i] {
-                        self.misses.push((self.prev_t, i, h(t.obstacle), e_obs, ext_err, floor_err, over));
+                        self.misses.push([self.prev_t, i as f64, h(t.obstacle), e_obs, ext_err, floor_err, over]);
                     }
                 }
             }
@@ -420,13 +420,13 @@ fn measure_causes_of_estimation_misses() {
         let steps = (10.0 / config.general.timestep_secs).round() as u64;
         sim.run(LoopPlan { steps, record_every_n_steps: 1 }, &mut [&mut probe]).unwrap();
         let ph = &probe.phantoms;
-        let in_ramp = ph.iter().filter(|p| p.0 < config.gait.ramp_secs).count();
-        let ext_dominated = ph.iter().filter(|p| p.3 > p.4).count();
-        let over_mu = ph.iter().filter(|p| p.5 > 1.05).count();
-        let against = ph.iter().filter(|p| p.9 < 0.0).count();
-        let flipped = ph.iter().filter(|p| p.10 < 0.0).count();
-        let big = ph.iter().filter(|p| p.2 > 5.0 * probe.weight_n).count();
-        let worst = ph.iter().max_by(|a, b| a.2.total_cmp(&b.2));
+        let in_ramp = ph.iter().filter(|p| p[0] < config.gait.ramp_secs).count();
+        let ext_dominated = ph.iter().filter(|p| p[3] > p[4]).count();
+        let over_mu = ph.iter().filter(|p| p[5] > 1.05).count();
+        let against = ph.iter().filter(|p| p[9] < 0.0).count();
+        let flipped = ph.iter().filter(|p| p[10] < 0.0).count();
+        let big = ph.iter().filter(|p| p[2] > 5.0 * probe.weight_n).count();
+        let worst = ph.iter().max_by(|a, b| a[2].total_cmp(&b[2]));
         eprintln!(
             "seed {seed} {model:?}: false forces > m·g: {} ({in_ramp} in the ramp), external-estimate error larger than \
              floor-share error on {ext_dominated}, true floor friction > 1.05 μN on {over_mu}, estimated floor \
@@ -435,9 +435,9 @@ fn measure_causes_of_estimation_misses() {
             ph.len()
         );
         let m = &probe.misses;
-        let m_ramp = m.iter().filter(|p| p.0 < config.gait.ramp_secs).count();
-        let m_small = m.iter().filter(|p| p.2 < 2.0 * probe.threshold_n).count();
-        let m_over = m.iter().filter(|p| p.6 > 1.05).count();
+        let m_ramp = m.iter().filter(|p| p[0] < config.gait.ramp_secs).count();
+        let m_small = m.iter().filter(|p| p[2] < 2.0 * probe.threshold_n).count();
+        let m_over = m.iter().filter(|p| p[6] > 1.05).count();
         eprintln!(
             "seed {seed}: misses {} ({m_ramp} in the ramp, {m_small} with true force < 2×threshold, {m_over} with true \
              floor friction > 1.05 μN)",
