@@ -117,7 +117,13 @@ fn failed_runs_are_recorded_and_redone_finished_runs_skipped() {
     let table = SummaryTable::read_csv(&dir.path().join("summary.csv")).unwrap();
     assert_eq!(column(&table, "status"), ["failed", "failed", "complete", "complete"]);
     assert!(column(&table, "error")[0].contains("snake.n_links"), "{:?}", column(&table, "error"));
-    for metric in ["mean_speed_m_per_s", "distance_m", "actuator_energy_j", "peak_contact_force_n"] {
+    for metric in [
+        "mean_speed_m_per_s",
+        "distance_m",
+        "actuator_energy_j",
+        "peak_contact_force_10ms_n",
+        "peak_contact_force_step_n",
+    ] {
         let values = column(&table, metric);
         assert!(values[0].is_empty(), "failed run has no {metric}");
         assert!(values[2].parse::<f64>().unwrap() >= 0.0, "{metric}: {}", values[2]);
