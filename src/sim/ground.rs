@@ -28,44 +28,59 @@
 //! friction); and the switch happens at step boundaries, so a link sliding at v crosses up to
 //! v·dt into a region with the old friction (0.5 mm at 0.5 m/s and 1 ms).
 //!
-//! **SimSerpent's floor friction** (`physics.floor_friction = "stick_slip"`, the default; every
-//! ground model but viscous): the link–ground contacts are frictionless (condim 1, see `model`), and before
-//! every step each link gets, at each end of its ground contact (slot 0: contact points ahead of
-//! its centre of mass along its axis, slot 1: behind; a capsule lying on a plane touches it at
-//! both caps), an elasto-plastic Coulomb force:
-//! - N, the contact point and the normal are those of the latest evaluation of the contacts (the
-//!   previous step's last stage — with RK4 an evaluation near the end of that step — or the
-//!   recording's forward pass): MuJoCo's normal force of the link–ground contacts, read before
-//!   anything else this step, summed per slot, point and normal weighted by N. Why the previous
-//!   step's N: the contacts of x_k are only known after a forward pass, which would cost a
-//!   quarter of an RK4 step; N of a resting or sliding link changes little within a step, and
-//!   what lags by one step is only the friction's bound after an abrupt load change.
-//! - v, the velocity of the contact point at x_k (centre-of-mass velocity + ω × r), tangential.
-//! - An anchor on the ground per slot, with the deflection z of the contact point from it. The
-//!   trial force −k·(z + v·dt) − c·v (k = m·ω², c = 2·m·ω: critically damped with
-//!   ω = 1/`floor_stick_time_constant_secs` (`"auto"`: max(5 ms, 5 timesteps)), m = N/g the
-//!   mass the contact carries) is kept if it
-//!   lies inside the friction ellipse (F_axial/(μ_axial·N))² + (F_lateral/(μ_lateral·N))² ≤ 1
-//!   (stick: z grows by v·dt), else replaced by its nearest point on the ellipse (slide: the
-//!   anchor is dragged, z = −F/k). In steady sliding that is μ·N against the sliding direction
-//!   (maximum dissipation on the ellipse), while sticking it is whatever holds the link, with no
-//!   creep. μ_axial is `axial_friction` for a force toward the tail and `backward_friction`
-//!   (directional) toward the head; the coefficients come from the region under the link.
-//! - **Obstacle contacts** (`obstacle_*` geoms: cylinders, pegs, walls, mesh obstacles) are
-//!   frictionless in MuJoCo too and get the same law, one slot per link and touching obstacle
-//!   geom (at most 4 per link), isotropic with `terrain.obstacle_friction[0]`, the link's axis as
-//!   the first tangent, and a stick spring–damper scaled by min(N/g, half the link's mass) (see
-//!   [`ObstacleSlot`]). Why: a link sliding along a wall or peg with MuJoCo's friction hops off it
-//!   exactly as off the floor (measured with a capsule pressed against a wall by 2 N and pushed
-//!   along it: no contact on 86 % of the steps and peaks of 22 × the push at solref (20 ms, 1),
-//!   99 % and 148 × at (2 ms, 0.5); frictionless: contact on every step, the push to 10⁻⁴).
-//! - The sum of the slots' forces and their moments about the centre of mass goes into
-//!   `xfrc_applied`, held over the step; [`Ground::fill_snapshot`] adds it to the recorded
-//!   floor forces and shares each slot's force among its contact rows.
+//! **SimSerpent's contact law** (`physics.floor_friction = "stick_slip"`, the default; every
+//! ground model but viscous): MuJoCo finds the contacts of the links with the ground (floor,
+//! slopes, heightfields, mesh terrain) and the obstacles (`obstacle_*` geoms), but its solver
+//! does not act on them (the model gives those geoms `margin` 0 and a `gap` of
+//! [`crate::model::OWN_CONTACT_GAP_M`], so each contact is listed with its distance and excluded
+//! from the constraints). Before every step, from the state x_k alone:
+//! - **Contacts of x_k**: `mj_kinematics`, `mj_comPos`, `mj_comVel` and `mj_collision` at the
+//!   state itself, so every force of the step belongs to contacts that exist at its start.
+//! - **Normal force** of each contact point: N = max(0, k·δ + c·δ̇), δ the penetration
+//!   (−distance), δ̇ its rate (the link point's velocity relative to the other geom's body, along
+//!   the normal). k = m/2 · ω² with m the link's mass, so a link lying on the floor on its two
+//!   end caps sinks g/ω² under its own weight whatever the rest of the body does (a straight
+//!   body at rest carries each link's weight on that link); c = m_eff · 2ζω with m_eff the
+//!   point's effective mass along the normal for the link alone, 1/m_eff = 1/m + (r×n)ᵀI⁻¹(r×n).
+//!   ω = 1/τ_env and ζ from `physics.environment_contact_time_constant_secs` (`"auto"`: max(2 ms,
+//!   2 timesteps), so ω·dt ≤ 0.5) and `environment_contact_damping_ratio`; with
+//!   `physics.contact_stiffness_per_s2 > 0` ω² and 2ζω are that stiffness and
+//!   `contact_damping_per_s`. A contact opening (N = 0) carries nothing, not even friction.
+//! - **Friction**, per link: ground slots (slot 0: contact points ahead of the centre of mass
+//!   along the link's axis, slot 1: behind; a capsule lying on a plane touches it at both caps)
+//!   and obstacle slots (one per touching obstacle geom, at most 4 per link), each an
+//!   elasto-plastic Coulomb force bounded by μ times the N of the same contacts:
+//!   - N, the point and the normal of a slot: Σ N of its contacts, point and normal weighted by N.
+//!   - v, the velocity of the contact point at x_k (centre-of-mass velocity + ω × r), tangential.
+//!   - An anchor on the ground per slot, with the deflection z of the contact point from it. The
+//!     trial force −k_t·(z + v·dt) − c_t·v (k_t = m_s·ω_s², c_t = 2·m_s·ω_s: critically damped
+//!     with ω_s = 1/`floor_stick_time_constant_secs` (`"auto"`: max(5 ms, 5 timesteps)); m_s =
+//!     min(N/g, m/2), the mass the slot carries up to half the link's) is kept if it lies inside
+//!     the friction ellipse (F_axial/(μ_axial·N))² + (F_lateral/(μ_lateral·N))² ≤ 1 (stick: z
+//!     grows by v·dt), else replaced by its nearest point on the ellipse (slide: the anchor is
+//!     dragged, z = −F/k_t). In steady sliding that is μ·N against the sliding direction
+//!     (maximum dissipation on the ellipse), while sticking it is whatever holds the link, with
+//!     no creep. μ_axial is `axial_friction` for a force toward the tail and
+//!     `backward_friction` (directional) toward the head; the coefficients come from the region
+//!     under the link. Obstacle slots are isotropic with `terrain.obstacle_friction[0]` and the
+//!     link's axis as the first tangent.
+//! - Normal and friction forces of a link and their moments about its centre of mass go into
+//!   `xfrc_applied`, held over the step. [`Ground::own_normal_forces_n`] gives the recorded
+//!   contact rows their normal force; [`Ground::fill_snapshot`] adds the friction.
+//!
+//! **Why it is stable** with forces held over an explicit step: the normal spring–damper acts on
+//! a point of one link at ω·dt ≤ 0.5, and its damper is scaled by that point's effective mass
+//! (c·dt/m_eff = 2ζω·dt ≤ 1 < 2), the bound of a held damper; joints only add mass to a point,
+//! so the link alone is the worst case. The stick spring–damper is scaled by at most half the
+//! link's mass (c_t·dt/m ≤ 2·dt/τ_s ≤ 0.4). Why not MuJoCo's contacts: its soft constraints share
+//! the load of a statically indeterminate contact set by the contacts' effective masses, and a
+//! force held from its previous evaluation lags the contact by a step (friction on open
+//! contacts, above μN after an impact, period-2 cycles); with MuJoCo's own friction sliding
+//! contacts hop (see SPEC).
 //!
 //! Velocities are those of the state at the start of the step: kinematics and centre-of-mass
-//! velocities are recomputed first (`mj_kinematics`, `mj_comPos`, `mj_comVel`), because after
-//! `mj_step` MuJoCo's derived quantities belong to an integrator stage, not to the new state.
+//! velocities are recomputed first, because after `mj_step` MuJoCo's derived quantities belong
+//! to an integrator stage, not to the new state.
 
 use super::World;
 use crate::config::{Config, FloorFriction, GroundModel};
@@ -246,6 +261,17 @@ impl Ground {
     }
 }
 
+/// A link–ground or link–obstacle contact of SimSerpent's contact law at one instant: MuJoCo's
+/// geometry (geoms, point, normal from geom 1 to geom 2, distance) and the law's normal force.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OwnContact {
+    pub geom: [usize; 2],
+    pub position_m: [f64; 3],
+    pub normal: [f64; 3],
+    pub distance_m: f64,
+    pub normal_force_n: f64,
+}
+
 /// Slots per link: the front and the back half of its contact (a capsule lying on a plane
 /// touches it at both end caps).
 const SLOTS: usize = 2;
@@ -261,8 +287,8 @@ struct StickSlip {
     obstacle_geom: Vec<bool>,
     /// Link–obstacle friction coefficient (`terrain.obstacle_friction[0]`, isotropic).
     obstacle_mu: f64,
-    /// Half of each link's mass (kg): the largest mass an obstacle contact's stick spring–damper
-    /// is scaled for (see [`ObstacleSlot`]).
+    /// Half of each link's mass (kg): the largest mass a slot's stick spring–damper is scaled
+    /// for (see [`ObstacleSlot`]).
     half_link_mass_kg: Vec<f64>,
     /// Obstacle contacts per link, one slot per touching obstacle geom.
     obstacle_slots: Vec<[ObstacleSlot; OBSTACLE_SLOTS]>,
@@ -276,6 +302,29 @@ struct StickSlip {
     /// |gravity| (m/s²; 9.81 without gravity): N / g is the mass a contact supports.
     gravity_m_per_s2: f64,
     timestep_secs: f64,
+    /// Each link's mass (kg) and principal moments of inertia (kg·m², in its inertial frame).
+    link_mass_kg: Vec<f64>,
+    link_inertia_kg_m2: Vec<[f64; 3]>,
+    /// Normal law of a contact point: stiffness (1/s²: k = m_eff · this) and damping (1/s:
+    /// c = m_eff · this) per kilogram of the point's effective mass.
+    normal_stiffness_per_s2: f64,
+    normal_damping_per_s: f64,
+    /// Velocity of each link's centre of mass at x_k: [angular; linear] (world frame).
+    link_velocity: Vec<[f64; 6]>,
+    /// The ground and obstacle geoms with their collision bits as compiled (geom, contype,
+    /// conaffinity): set for this law's own collision detection, zero during MuJoCo's step.
+    env_geoms: Vec<(usize, i32, i32)>,
+    /// The link–ground and link–obstacle contacts of the latest evaluation with their normal
+    /// forces, and the time of that evaluation (capacity kept: no allocation once warmed up).
+    own_contacts: Vec<OwnContact>,
+    evaluated_at_secs: f64,
+    /// Elastic energy of the contacts at x_k (J): ½·k·δ² of the normal springs, ½·k_t·|z|² of
+    /// the stick springs.
+    elastic_energy_j: f64,
+    /// Normal force (N) and its moment about the centre of mass (N·m) of each link's ground and
+    /// obstacle contacts in the latest prepared step (world frame; not part of `force_n`).
+    normal_force_n: Vec<[f64; 3]>,
+    normal_torque_nm: Vec<[f64; 3]>,
     /// Accumulated contact of this step per link and slot: Σ N, Σ N·point, Σ N·normal.
     normal_n: Vec<[f64; SLOTS]>,
     point_weighted: Vec<[[f64; 3]; SLOTS]>,
@@ -298,15 +347,17 @@ const OBSTACLE_SLOTS: usize = 4;
 
 /// One link's contact with one obstacle geom: the same elasto-plastic law as a ground slot, with
 /// the isotropic coefficient `terrain.obstacle_friction[0]`. The stick spring–damper is scaled by
-/// the mass m = min(N/g, half the link's mass) (a ground slot: m = N/g, the mass it carries; a
-/// link pressed hard against a peg would otherwise get a damper too stiff for a force held over
-/// the step), so its presliding displacement is μ·g·τ² at small loads and grows at large ones.
+/// the mass m = min(N/g, half the link's mass), as a ground slot's (a link pressed hard against a
+/// peg would otherwise get a damper too stiff for a force held over the step), so its presliding
+/// displacement is μ·g·τ² at small loads and grows at large ones.
 #[derive(Debug, Clone, Copy)]
 struct ObstacleSlot {
     /// The obstacle geom, or `usize::MAX` when the slot is free.
     geom: usize,
-    /// Whether a contact with `geom` was seen in the latest evaluation.
+    /// Whether a contact with `geom` was seen in the latest evaluation, and whether the link
+    /// touches it at x_k.
     seen: bool,
+    touching: bool,
     normal_n: f64,
     point_weighted: [f64; 3],
     normal_weighted: [f64; 3],
@@ -319,6 +370,7 @@ impl ObstacleSlot {
     const FREE: Self = Self {
         geom: usize::MAX,
         seen: false,
+        touching: false,
         normal_n: 0.0,
         point_weighted: [0.0; 3],
         normal_weighted: [0.0; 3],
@@ -334,6 +386,22 @@ impl StickSlip {
         let omega = 1.0 / config.floor_stick_time_constant_secs();
         let g = config.general.gravity_m_per_s2;
         let g_abs = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+        // The environment contact's stiffness and damping per unit mass: MuJoCo's direct form
+        // when given, else ω = 1/τ_env with damping 2ζω.
+        // when given, else MuJoCo's reading of solref (natural frequency ω = 1/(τ·ζ), damping
+        // 2ζω = 2/τ); both bounded for a force held over an explicit step (ω·dt ≤ 1,
+        // 2ζω·dt ≤ 1/2: see the module docs).
+        let p = &config.physics;
+        let dt = config.general.timestep_secs;
+        let (omega_sq, damping) = if p.contact_stiffness_per_s2 > 0.0 {
+            (p.contact_stiffness_per_s2, p.contact_damping_per_s)
+        } else {
+            let tau = config.environment_contact_time_constant_secs();
+            let zeta = p.environment_contact_damping_ratio;
+            (1.0 / (tau * zeta * tau * zeta), 2.0 / tau)
+        };
+        let normal_stiffness_per_s2 = omega_sq.min(1.0 / (dt * dt));
+        let normal_damping_per_s = damping.min(0.5 / dt);
         Self {
             link_of_geom: world.index.geom_link.clone(),
             ground_geom: world.index.geom_class.iter().map(|c| *c == GeomClass::Floor).collect(),
@@ -347,6 +415,20 @@ impl StickSlip {
             two_omega_per_s: 2.0 * omega,
             gravity_m_per_s2: if g_abs > 0.1 { g_abs } else { 9.81 },
             timestep_secs: config.general.timestep_secs,
+            link_mass_kg: world.index.links.iter().map(|l| body_mass[l.body]).collect(),
+            link_inertia_kg_m2: world.index.links.iter().map(|l| world.model().body_inertia()[l.body]).collect(),
+            normal_stiffness_per_s2,
+            normal_damping_per_s,
+            link_velocity: vec![[0.0; 6]; n],
+            env_geoms: (0..world.index.geom_class.len())
+                .filter(|&g| world.index.geom_class[g] == GeomClass::Floor)
+                .map(|g| (g, world.model().geom_contype()[g], world.model().geom_conaffinity()[g]))
+                .collect(),
+            own_contacts: Vec::new(),
+            evaluated_at_secs: f64::NAN,
+            elastic_energy_j: 0.0,
+            normal_force_n: vec![[0.0; 3]; n],
+            normal_torque_nm: vec![[0.0; 3]; n],
             normal_n: vec![[0.0; SLOTS]; n],
             point_weighted: vec![[[0.0; 3]; SLOTS]; n],
             normal_weighted: vec![[[0.0; 3]; SLOTS]; n],
@@ -365,6 +447,12 @@ impl Ground {
         self.stick_slip.as_ref().map(|s| s.force_n.as_slice())
     }
 
+    /// Elastic energy stored in SimSerpent's contacts at the state of the latest prepared step
+    /// (J): ½·k·δ² of the normal springs and ½·k_t·|z|² of the stick springs (0 without them).
+    pub fn elastic_energy_j(&self) -> f64 {
+        self.stick_slip.as_ref().map_or(0.0, |s| s.elastic_energy_j)
+    }
+
     /// Its moment about each link's centre of mass (N·m, world frame).
     pub fn applied_friction_torque_nm(&self) -> Option<&[[f64; 3]]> {
         self.stick_slip.as_ref().map(|s| s.torque_nm.as_slice())
@@ -380,10 +468,8 @@ impl Ground {
     /// applied at its slot (ground: its end of the link; obstacle: that obstacle geom), in
     /// proportion to its normal force among the rows of that slot, in its `friction_force_n`
     /// (along the link's axis in the contact plane and across it) and `force_on_geom2_n`; the
-    /// rows of a link then add up to the link's recorded floor and obstacle forces. (The friction
-    /// of a step was computed from the previous evaluation's contacts: at a slot that has just
-    /// lost its contact the friction still acts for this step and no row carries it; the link's
-    /// columns do.)
+    /// rows of a link then add up to the link's recorded floor and obstacle forces (the friction
+    /// was computed from the contacts of the same state, so every slot with friction has rows).
     ///
     /// One pass over the rows finds each row's slot and adds up Σ N per ground slot; a second
     /// shares out the friction (no allocation but for more contacts than ever).
@@ -476,93 +562,189 @@ impl Ground {
         }
     }
 
-    /// `physics.floor_friction = "stick_slip"`: the friction of every link's ground contacts
-    /// into `xfrc_applied`.
+    /// The link–ground and link–obstacle contacts of SimSerpent's contact law with their normal
+    /// forces, when its latest evaluation is of `world`'s current instant (empty otherwise, and
+    /// with `physics.floor_friction = "mujoco"`): MuJoCo's own contact list does not hold them.
+    pub fn own_contacts(&self, world: &World) -> &[OwnContact] {
+        match self.stick_slip.as_ref() {
+            Some(st) if st.evaluated_at_secs == world.time_secs() => &st.own_contacts,
+            _ => &[],
+        }
+    }
+
+    /// `physics.floor_friction = "stick_slip"`: the contacts of x_k (collision detection at the
+    /// state itself), their normal forces and the friction of every link's ground and obstacle
+    /// contacts into `xfrc_applied`.
     fn before_step_stick_slip(&mut self, world: &mut World) {
         let Some(st) = self.stick_slip.as_mut() else { return };
-        // Normal forces and points of the latest evaluation (the previous step's last stage, or
-        // a recording's forward pass), per link and slot; read before the kinematics below.
-        for v in &mut st.normal_n {
-            *v = [0.0; SLOTS];
-        }
-        for v in st.point_weighted.iter_mut().chain(st.normal_weighted.iter_mut()) {
-            *v = [[0.0; 3]; SLOTS];
-        }
         for slot in st.obstacle_slots.iter_mut().flatten() {
             slot.seen = false;
+            slot.touching = false;
             slot.normal_n = 0.0;
             slot.point_weighted = [0.0; 3];
             slot.normal_weighted = [0.0; 3];
         }
+        // Obstacle contacts: MuJoCo's normal forces of the latest evaluation (the previous
+        // step's last stage, or a recording's forward pass), per link and obstacle geom; read
+        // before the collision detection below replaces the contact list.
         {
             let d = &world.data;
-            let xipos = d.xipos();
-            let xmat = d.xmat();
             for (c, contact) in d.contact().iter().enumerate() {
                 let (g1, g2) = (contact.geom[0], contact.geom[1]);
                 if g1 < 0 || g2 < 0 || contact.exclude != 0 {
                     continue;
                 }
                 let (g1, g2) = (g1 as usize, g2 as usize);
-                let n = d.contact_force(c)[0];
-                // The link side and the sign that turns MuJoCo's normal (geom1 → geom2) into the
-                // normal pointing from the obstacle or ground into the link.
-                // Link–obstacle contacts: one slot per obstacle geom.
-                let obstacle = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
-                    (Some(l), None) if st.obstacle_geom[g2] => Some((l, g2, -1.0)),
-                    (None, Some(l)) if st.obstacle_geom[g1] => Some((l, g1, 1.0)),
-                    _ => None,
-                };
-                if let Some((link, geom, sign)) = obstacle {
-                    if n <= 0.0 {
-                        continue;
-                    }
-                    let slots = &mut st.obstacle_slots[link];
-                    let k = slots
-                        .iter()
-                        .position(|s| s.geom == geom)
-                        .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
-                        .or_else(|| slots.iter().position(|s| !s.seen));
-                    let Some(k) = k else { continue };
-                    let slot = &mut slots[k];
-                    if slot.geom != geom {
-                        *slot = ObstacleSlot { geom, ..ObstacleSlot::FREE };
-                    }
-                    slot.seen = true;
-                    slot.normal_n += n;
-                    for j in 0..3 {
-                        slot.point_weighted[j] += n * contact.pos[j];
-                        slot.normal_weighted[j] += n * sign * contact.frame[j];
-                    }
-                    continue;
-                }
-                let (link, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
-                    (Some(l), None) if st.ground_geom[g2] => (l, -1.0),
-                    (None, Some(l)) if st.ground_geom[g1] => (l, 1.0),
+                let (link, geom, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
+                    (Some(l), None) if st.obstacle_geom[g2] => (l, g2, -1.0),
+                    (None, Some(l)) if st.obstacle_geom[g1] => (l, g1, 1.0),
                     _ => continue,
                 };
+                let n = d.contact_force(c)[0];
                 if n <= 0.0 {
                     continue;
                 }
+                let slots = &mut st.obstacle_slots[link];
+                let k = slots
+                    .iter()
+                    .position(|s| s.geom == geom)
+                    .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
+                    .or_else(|| slots.iter().position(|s| !s.seen));
+                let Some(k) = k else { continue };
+                let slot = &mut slots[k];
+                if slot.geom != geom {
+                    *slot = ObstacleSlot { geom, ..ObstacleSlot::FREE };
+                }
+                slot.seen = true;
+                slot.normal_n += n;
+                for j in 0..3 {
+                    slot.point_weighted[j] += n * contact.pos[j];
+                    slot.normal_weighted[j] += n * sign * contact.frame[j];
+                }
+            }
+        }
+        // Kinematics, centre-of-mass velocities and contacts of the state x_k; the ground geoms
+        // collide only here, not in MuJoCo's step.
+        for &(g, contype, conaffinity) in &st.env_geoms {
+            world.set_geom_collision(g, contype, conaffinity);
+        }
+        world.data.kinematics();
+        world.data.com_pos();
+        world.data.com_vel();
+        world.data.collision();
+        for (i, &body) in self.bodies.iter().enumerate() {
+            st.link_velocity[i] = world.data.object_velocity(MjtObjBase::mjOBJ_BODY, body, false);
+        }
+        for v in &mut st.normal_n {
+            *v = [0.0; SLOTS];
+        }
+        for v in st.point_weighted.iter_mut().chain(st.normal_weighted.iter_mut()) {
+            *v = [[0.0; 3]; SLOTS];
+        }
+        for v in st.normal_force_n.iter_mut().chain(st.normal_torque_nm.iter_mut()) {
+            *v = [0.0; 3];
+        }
+        {
+            let d = &world.data;
+            let xipos = d.xipos();
+            let xmat = d.xmat();
+            let ximat = d.ximat();
+            let geom_body = d.model().geom_bodyid();
+            let dt = st.timestep_secs;
+            st.evaluated_at_secs = d.time();
+            st.own_contacts.clear();
+            st.elastic_energy_j = 0.0;
+            for contact in d.contact() {
+                let (g1, g2) = (contact.geom[0], contact.geom[1]);
+                if g1 < 0 || g2 < 0 || contact.exclude > 1 {
+                    continue;
+                }
+                let (g1, g2) = (g1 as usize, g2 as usize);
+                // The link side, the other geom, whether it is an obstacle, and the sign that
+                // turns MuJoCo's normal (geom1 → geom2) into the normal pointing from the
+                // obstacle or ground into the link.
+                let (link, other, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
+                    (Some(l), None) => (l, g2, -1.0),
+                    (None, Some(l)) => (l, g1, 1.0),
+                    _ => continue,
+                };
+                if st.obstacle_geom[other] {
+                    // An obstacle contact of x_k: its slot's friction may act this step.
+                    if contact.dist < 0.0
+                        && let Some(slot) = st.obstacle_slots[link].iter_mut().find(|s| s.geom == other)
+                    {
+                        slot.touching = true;
+                    }
+                    continue;
+                }
+                if !st.ground_geom[other] {
+                    continue;
+                }
                 let body = self.bodies[link];
-                let m = xmat[body];
-                let axis = [m[0], m[3], m[6]];
                 let com = xipos[body];
-                let along = (contact.pos[0] - com[0]) * axis[0]
-                    + (contact.pos[1] - com[1]) * axis[1]
-                    + (contact.pos[2] - com[2]) * axis[2];
+                let nrm = [0, 1, 2].map(|k| sign * contact.frame[k]);
+                let r = sub(contact.pos, com);
+                let vel = st.link_velocity[link];
+                let mut v_point = add([vel[3], vel[4], vel[5]], cross([vel[0], vel[1], vel[2]], r));
+                let other_body = geom_body[other].max(0) as usize;
+                if other_body != 0 {
+                    let vo = d.object_velocity(MjtObjBase::mjOBJ_BODY, other_body, false);
+                    let ro = sub(contact.pos, xipos[other_body]);
+                    v_point = sub(v_point, add([vo[3], vo[4], vo[5]], cross([vo[0], vo[1], vo[2]], ro)));
+                }
+                // Penetration and its rate; the point's effective mass along the normal for the
+                // link alone (1/m + (r × n)ᵀ I⁻¹ (r × n)).
+                let depth = -contact.dist;
+                let approach = -dot(v_point, nrm);
+                let mass = st.link_mass_kg[link];
+                let rn = cross(r, nrm);
+                let im = ximat[body];
+                let inertia = st.link_inertia_kg_m2[link];
+                let mut inv_mass = 1.0 / mass;
+                for j in 0..3 {
+                    let u = rn[0] * im[j] + rn[1] * im[3 + j] + rn[2] * im[6 + j];
+                    if inertia[j] > 0.0 {
+                        inv_mass += u * u / inertia[j];
+                    }
+                }
+                // The spring acts on the penetration predicted for the middle of the step (a force
+                // held over the step then conserves the energy of an undamped contact).
+                let stiffness = st.normal_stiffness_per_s2 / inv_mass;
+                let damping = st.normal_damping_per_s / inv_mass;
+                let n = if depth > 0.0 {
+                    (stiffness * (depth + 0.5 * dt * approach) + damping * approach).max(0.0)
+                } else {
+                    0.0
+                };
+                st.own_contacts.push(OwnContact {
+                    geom: [g1, g2],
+                    position_m: contact.pos,
+                    normal: [contact.frame[0], contact.frame[1], contact.frame[2]],
+                    distance_m: contact.dist,
+                    normal_force_n: n,
+                });
+                if depth > 0.0 {
+                    st.elastic_energy_j += 0.5 * stiffness * depth * depth;
+                }
+                if n <= 0.0 {
+                    continue;
+                }
+                let f = nrm.map(|x| n * x);
+                st.normal_force_n[link] = add(st.normal_force_n[link], f);
+                st.normal_torque_nm[link] = add(st.normal_torque_nm[link], cross(r, f));
+                let m = xmat[body];
+                let along = r[0] * m[0] + r[1] * m[3] + r[2] * m[6];
                 let slot = usize::from(along < 0.0);
                 st.normal_n[link][slot] += n;
                 for k in 0..3 {
                     st.point_weighted[link][slot][k] += n * contact.pos[k];
-                    st.normal_weighted[link][slot][k] += n * sign * contact.frame[k];
+                    st.normal_weighted[link][slot][k] += n * nrm[k];
                 }
             }
         }
-        // Velocities of the state x_k.
-        world.data.kinematics();
-        world.data.com_pos();
-        world.data.com_vel();
+        for &(g, _, _) in &st.env_geoms {
+            world.set_geom_collision(g, 0, 0);
+        }
         let surfaces = !self.map.is_empty();
         let dt = st.timestep_secs;
         for (i, &body) in self.bodies.iter().enumerate() {
@@ -580,7 +762,7 @@ impl Ground {
             };
             let xmat = world.data.xmat()[body];
             let axis = [xmat[0], xmat[3], xmat[6]];
-            let vel = world.data.object_velocity(MjtObjBase::mjOBJ_BODY, body, false);
+            let vel = st.link_velocity[i];
             let (w, v_com) = ([vel[0], vel[1], vel[2]], [vel[3], vel[4], vel[5]]);
             let mut force = [0.0; 3];
             let mut torque = [0.0; 3];
@@ -602,9 +784,11 @@ impl Ground {
                 let l = cross(nrm, a);
                 // The anchor stays on the ground: the deflection keeps only its tangential part
                 // and grows by the contact point's motion over the step.
-                let z_pred = add(tangential(*z, nrm), v_t.map(|x| x * dt));
-                let mass = n_force / st.gravity_m_per_s2;
+                let z_now = tangential(*z, nrm);
+                let z_pred = add(z_now, v_t.map(|x| x * dt));
+                let mass = (n_force / st.gravity_m_per_s2).min(st.half_link_mass_kg[i]);
                 let (k, c) = (mass * st.omega_sq_per_s2, mass * st.two_omega_per_s);
+                st.elastic_energy_j += 0.5 * k * dot(z_now, z_now);
                 let trial = [0, 1, 2].map(|j| -k * z_pred[j] - c * v_t[j]);
                 let (ta, tl) = (dot(trial, a), dot(trial, l));
                 let mu_a = if ta > 0.0 { mu_back } else { mu_fwd };
@@ -623,7 +807,7 @@ impl Ground {
             let (mut o_force, mut o_torque) = ([0.0; 3], [0.0; 3]);
             let mu = st.obstacle_mu;
             for slot in st.obstacle_slots[i].iter_mut() {
-                if !slot.seen {
+                if !slot.seen || !slot.touching {
                     *slot = ObstacleSlot::FREE;
                     continue;
                 }
@@ -632,9 +816,11 @@ impl Ground {
                 let nrm = normalized(slot.normal_weighted).unwrap_or([0.0, 0.0, 1.0]);
                 let r = sub(p, com);
                 let v_t = tangential(add(v_com, cross(w, r)), nrm);
-                let z_pred = add(tangential(slot.deflection_m, nrm), v_t.map(|x| x * dt));
+                let z_now = tangential(slot.deflection_m, nrm);
+                let z_pred = add(z_now, v_t.map(|x| x * dt));
                 let mass = (n_force / st.gravity_m_per_s2).min(st.half_link_mass_kg[i]);
                 let (k, c) = (mass * st.omega_sq_per_s2, mass * st.two_omega_per_s);
+                st.elastic_energy_j += 0.5 * k * dot(z_now, z_now);
                 let trial = [0, 1, 2].map(|j| -k * z_pred[j] - c * v_t[j]);
                 let limit = mu * n_force;
                 let size = dot(trial, trial).sqrt();
@@ -658,6 +844,8 @@ impl Ground {
             let torque = add(torque, o_torque);
             st.force_n[i] = force;
             st.torque_nm[i] = torque;
+            let force = add(force, st.normal_force_n[i]);
+            let torque = add(torque, st.normal_torque_nm[i]);
             let slot = &mut world.data.xfrc_applied_mut()[body];
             *slot = [force[0], force[1], force[2], torque[0], torque[1], torque[2]];
         }

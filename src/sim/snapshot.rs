@@ -1,6 +1,6 @@
 //! Reading a [`Snapshot`] (everything of thesis table 3 at one instant) out of the engine.
 
-use super::{World, read3};
+use super::{OwnContact, World, read3};
 use crate::control::Observation;
 use crate::state::{ContactRow, Snapshot};
 use mujoco_rs::prelude::MjtObjBase;
@@ -10,6 +10,19 @@ impl World {
     /// `snapshot` (no allocation, except when a step has more contacts than any before it).
     /// `link_region` is left as it is (the ground model fills it).
     pub fn read_snapshot(&self, snapshot: &mut Snapshot, obs_true: &Observation, obs_measured: &Observation) {
+        self.read_snapshot_with(snapshot, obs_true, obs_measured, &[]);
+    }
+
+    /// [`World::read_snapshot`], with the contacts of SimSerpent's own contact law (link–ground
+    /// and link–obstacle, which MuJoCo's contact list does not hold then) after MuJoCo's rows
+    /// (see [`super::Ground::own_contacts`]).
+    pub fn read_snapshot_with(
+        &self,
+        snapshot: &mut Snapshot,
+        obs_true: &Observation,
+        obs_measured: &Observation,
+        own: &[OwnContact],
+    ) {
         let s = snapshot;
         let d = &self.data;
         let idx = &self.index;
@@ -51,10 +64,10 @@ impl World {
         }
         s.observation_true.copy_from(obs_true);
         s.observation_measured.copy_from(obs_measured);
-        self.read_contacts(s);
+        self.read_contacts(s, own);
     }
 
-    fn read_contacts(&self, s: &mut Snapshot) {
+    fn read_contacts(&self, s: &mut Snapshot, own: &[OwnContact]) {
         let d = &self.data;
         let idx = &self.index;
         let geom_body = d.model().geom_bodyid();
@@ -80,6 +93,21 @@ impl World {
             };
             let link = geom.map(|g| idx.geom_link.get(g).copied().flatten());
             let class = geom.map(|g| idx.geom_class.get(g).copied());
+            s.add_contact(row, link, class);
+        }
+        for c in own {
+            let row = ContactRow {
+                geom: c.geom,
+                body: c.geom.map(|g| geom_body[g] as usize),
+                position_m: c.position_m,
+                normal: c.normal,
+                distance_m: c.distance_m,
+                normal_force_n: c.normal_force_n,
+                friction_force_n: [0.0; 2],
+                force_on_geom2_n: c.normal.map(|x| c.normal_force_n * x),
+            };
+            let link = c.geom.map(|g| idx.geom_link.get(g).copied().flatten());
+            let class = c.geom.map(|g| idx.geom_class.get(g).copied());
             s.add_contact(row, link, class);
         }
         s.end_contacts();

@@ -413,7 +413,9 @@ impl<C: Controller> Simulation<C> {
     /// public so a caller can take the loop apart (tests, a custom read-out).
     pub fn control(&mut self) {
         if self.controller_state.is_some() {
-            // Fresh sensors for this instant, then its whole state.
+            // The ground model's forces of the coming step (they depend on the state only), then
+            // fresh sensors for this instant and its whole state.
+            self.ground.before_step(&mut self.world);
             self.world.forward();
         }
         if self.controller.reads_sensors() || self.controller_state.is_some() {
@@ -421,14 +423,17 @@ impl<C: Controller> Simulation<C> {
         }
         match self.controller_state.as_mut() {
             Some(state) => {
-                self.world.read_snapshot(state, &self.obs_true, &self.obs);
+                let own = self.ground.own_contacts(&self.world);
+                self.world.read_snapshot_with(state, &self.obs_true, &self.obs, own);
                 self.ground.fill_snapshot(state);
                 self.controller.update_with_state(&self.obs, state, &mut self.cmd);
             }
             None => self.controller.update(&self.obs, &mut self.cmd),
         }
         self.world.apply_command(&self.cmd);
-        self.ground.before_step(&mut self.world);
+        if self.controller_state.is_none() {
+            self.ground.before_step(&mut self.world);
+        }
     }
 
     /// Advances the physics by one timestep with the controls already written, then checks
@@ -543,6 +548,6 @@ fn read_instant(
     snapshot: &mut Snapshot,
 ) {
     world.forward();
-    world.read_snapshot(snapshot, obs_true, obs);
+    world.read_snapshot_with(snapshot, obs_true, obs, ground.own_contacts(world));
     ground.fill_snapshot(snapshot);
 }

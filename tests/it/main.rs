@@ -10,6 +10,7 @@
 mod cli;
 mod closed_loop;
 mod common;
+mod contact_events;
 mod config;
 mod defaults;
 mod dying_processes;
