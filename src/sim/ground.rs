@@ -272,6 +272,11 @@ pub struct OwnContact {
     pub normal_force_n: f64,
 }
 
+/// How far from a ground geom a link's contacts are looked for (m): a contact whose penetration
+/// predicted for the middle of the step is positive acts from that step on (at up to 20 m/s
+/// with 1 ms steps).
+const DETECTION_MARGIN_M: f64 = 0.01;
+
 /// Slots per link: the front and the back half of its contact (a capsule lying on a plane
 /// touches it at both end caps).
 const SLOTS: usize = 2;
@@ -299,6 +304,8 @@ struct StickSlip {
     /// Stick spring–damper per unit of supported mass: ω² (1/s²) and 2ω (1/s), ω = 1/τ.
     omega_sq_per_s2: f64,
     two_omega_per_s: f64,
+    /// Gravity (m/s², world frame).
+    gravity_vector_m_per_s2: [f64; 3],
     /// |gravity| (m/s²; 9.81 without gravity): N / g is the mass a contact supports.
     gravity_m_per_s2: f64,
     timestep_secs: f64,
@@ -311,15 +318,15 @@ struct StickSlip {
     normal_damping_per_s: f64,
     /// Velocity of each link's centre of mass at x_k: [angular; linear] (world frame).
     link_velocity: Vec<[f64; 6]>,
-    /// The ground and obstacle geoms with their collision bits as compiled (geom, contype,
-    /// conaffinity): set for this law's own collision detection, zero during MuJoCo's step.
-    env_geoms: Vec<(usize, i32, i32)>,
+    /// The ground geoms with their collision bits and margin as compiled (geom, contype,
+    /// conaffinity, margin): set, with the margin [`DETECTION_MARGIN_M`], for this law's own
+    /// collision detection; zero (and the compiled margin) during MuJoCo's step.
+    env_geoms: Vec<(usize, i32, i32, f64)>,
     /// The link–ground and link–obstacle contacts of the latest evaluation with their normal
     /// forces, and the time of that evaluation (capacity kept: no allocation once warmed up).
     own_contacts: Vec<OwnContact>,
     evaluated_at_secs: f64,
-    /// Elastic energy of the contacts at x_k (J): ½·k·δ² of the normal springs, ½·k_t·|z|² of
-    /// the stick springs.
+    /// Elastic energy of the normal springs at x_k (J): Σ ½·k·δ².
     elastic_energy_j: f64,
     /// Normal force (N) and its moment about the centre of mass (N·m) of each link's ground and
     /// obstacle contacts in the latest prepared step (world frame; not part of `force_n`).
@@ -414,6 +421,7 @@ impl StickSlip {
             omega_sq_per_s2: omega * omega,
             two_omega_per_s: 2.0 * omega,
             gravity_m_per_s2: if g_abs > 0.1 { g_abs } else { 9.81 },
+            gravity_vector_m_per_s2: g,
             timestep_secs: config.general.timestep_secs,
             link_mass_kg: world.index.links.iter().map(|l| body_mass[l.body]).collect(),
             link_inertia_kg_m2: world.index.links.iter().map(|l| world.model().body_inertia()[l.body]).collect(),
@@ -422,7 +430,10 @@ impl StickSlip {
             link_velocity: vec![[0.0; 6]; n],
             env_geoms: (0..world.index.geom_class.len())
                 .filter(|&g| world.index.geom_class[g] == GeomClass::Floor)
-                .map(|g| (g, world.model().geom_contype()[g], world.model().geom_conaffinity()[g]))
+                .map(|g| {
+                    let m = world.model();
+                    (g, m.geom_contype()[g], m.geom_conaffinity()[g], m.geom_margin()[g])
+                })
                 .collect(),
             own_contacts: Vec::new(),
             evaluated_at_secs: f64::NAN,
@@ -447,8 +458,9 @@ impl Ground {
         self.stick_slip.as_ref().map(|s| s.force_n.as_slice())
     }
 
-    /// Elastic energy stored in SimSerpent's contacts at the state of the latest prepared step
-    /// (J): ½·k·δ² of the normal springs and ½·k_t·|z|² of the stick springs (0 without them).
+    /// Elastic energy stored in the normal springs of SimSerpent's contacts at the state of the
+    /// latest prepared step (J): Σ ½·k·δ² (0 without them). The stick springs' energy is not
+    /// part of it: their stiffness follows the load, so it is no conserved quantity.
     pub fn elastic_energy_j(&self) -> f64 {
         self.stick_slip.as_ref().map_or(0.0, |s| s.elastic_energy_j)
     }
@@ -572,6 +584,13 @@ impl Ground {
         }
     }
 
+    /// Largest normal force of SimSerpent's contact law among the contacts of its latest
+    /// evaluation (N; 0 without them): the part of a peak contact force that MuJoCo's contact
+    /// list does not hold.
+    pub fn peak_own_normal_force_n(&self) -> f64 {
+        self.stick_slip.as_ref().map_or(0.0, |st| st.own_contacts.iter().map(|c| c.normal_force_n).fold(0.0, f64::max))
+    }
+
     /// `physics.floor_friction = "stick_slip"`: the contacts of x_k (collision detection at the
     /// state itself), their normal forces and the friction of every link's ground and obstacle
     /// contacts into `xfrc_applied`.
@@ -625,8 +644,8 @@ impl Ground {
         }
         // Kinematics, centre-of-mass velocities and contacts of the state x_k; the ground geoms
         // collide only here, not in MuJoCo's step.
-        for &(g, contype, conaffinity) in &st.env_geoms {
-            world.set_geom_collision(g, contype, conaffinity);
+        for &(g, contype, conaffinity, margin) in &st.env_geoms {
+            world.set_geom_collision(g, contype, conaffinity, margin.max(DETECTION_MARGIN_M));
         }
         world.data.kinematics();
         world.data.com_pos();
@@ -707,15 +726,33 @@ impl Ground {
                         inv_mass += u * u / inertia[j];
                     }
                 }
-                // The spring acts on the penetration predicted for the middle of the step (a force
-                // held over the step then conserves the energy of an undamped contact).
+                // Held over the step, the spring force is the spring energy's change over the
+                // penetration's change from now to the end of the step (predicted at the present
+                // rate and gravity): k·(δ₁⁺² − δ₀⁺²) / (2·(δ₁ − δ₀)), which is k at the mean penetration while
+                // the contact lasts the whole step, and does the spring's work exactly when it
+                // starts or ends within it. The damper acts over the part of the step in contact.
                 let stiffness = st.normal_stiffness_per_s2 / inv_mass;
                 let damping = st.normal_damping_per_s / inv_mass;
-                let n = if depth > 0.0 {
-                    (stiffness * (depth + 0.5 * dt * approach) + damping * approach).max(0.0)
+                let free_approach_accel = -dot(st.gravity_vector_m_per_s2, nrm);
+                let (d0, d1) = (depth, depth + dt * approach + 0.5 * dt * dt * free_approach_accel);
+                let (p0, p1) = (d0.max(0.0), d1.max(0.0));
+                let crossing = (d0 > 0.0) != (d1 > 0.0);
+                let spring = if crossing {
+                    stiffness * (p1 * p1 - p0 * p0) / (2.0 * (d1 - d0))
+                } else {
+                    0.5 * stiffness * (p0 + p1)
+                };
+                let fraction = if crossing {
+                    p0.max(p1) / (d1 - d0).abs()
+                } else if d0 > 0.0 {
+                    1.0
                 } else {
                     0.0
                 };
+                let n = if spring > 0.0 { (spring + fraction * damping * approach).max(0.0) } else { 0.0 };
+                if depth <= 0.0 && n <= 0.0 {
+                    continue; // within the detection margin, not touching
+                }
                 st.own_contacts.push(OwnContact {
                     geom: [g1, g2],
                     position_m: contact.pos,
@@ -742,8 +779,8 @@ impl Ground {
                 }
             }
         }
-        for &(g, _, _) in &st.env_geoms {
-            world.set_geom_collision(g, 0, 0);
+        for &(g, _, _, margin) in &st.env_geoms {
+            world.set_geom_collision(g, 0, 0, margin);
         }
         let surfaces = !self.map.is_empty();
         let dt = st.timestep_secs;
@@ -788,7 +825,6 @@ impl Ground {
                 let z_pred = add(z_now, v_t.map(|x| x * dt));
                 let mass = (n_force / st.gravity_m_per_s2).min(st.half_link_mass_kg[i]);
                 let (k, c) = (mass * st.omega_sq_per_s2, mass * st.two_omega_per_s);
-                st.elastic_energy_j += 0.5 * k * dot(z_now, z_now);
                 let trial = [0, 1, 2].map(|j| -k * z_pred[j] - c * v_t[j]);
                 let (ta, tl) = (dot(trial, a), dot(trial, l));
                 let mu_a = if ta > 0.0 { mu_back } else { mu_fwd };
@@ -820,7 +856,6 @@ impl Ground {
                 let z_pred = add(z_now, v_t.map(|x| x * dt));
                 let mass = (n_force / st.gravity_m_per_s2).min(st.half_link_mass_kg[i]);
                 let (k, c) = (mass * st.omega_sq_per_s2, mass * st.two_omega_per_s);
-                st.elastic_energy_j += 0.5 * k * dot(z_now, z_now);
                 let trial = [0, 1, 2].map(|j| -k * z_pred[j] - c * v_t[j]);
                 let limit = mu * n_force;
                 let size = dot(trial, trial).sqrt();

@@ -646,9 +646,9 @@ impl World {
         state::peak_contact_force_n((0..d.contact().len()).map(|c| d.contact_force(c)[0]))
     }
 
-    /// Sets the collision bits of geom `geom` (MuJoCo's `contype`, `conaffinity`): SimSerpent's
-    /// contact law switches the ground and obstacle geoms off for MuJoCo's step.
-    pub(crate) fn set_geom_collision(&mut self, geom: usize, contype: i32, conaffinity: i32) {
+    /// Sets the collision bits and margin of geom `geom` (MuJoCo's `contype`, `conaffinity`,
+    /// `margin`): SimSerpent's contact law switches the ground geoms off for MuJoCo's step.
+    pub(crate) fn set_geom_collision(&mut self, geom: usize, contype: i32, conaffinity: i32, margin: f64) {
         // SAFETY: only the values of an existing geom's collision bits change; no size, index
         // or address of the model changes, which is what `model_mut` requires us to keep.
         #[allow(unsafe_code)]
@@ -658,6 +658,9 @@ impl World {
         }
         if let Some(a) = model.geom_conaffinity_mut().get_mut(geom) {
             *a = conaffinity;
+        }
+        if let Some(m) = model.geom_margin_mut().get_mut(geom) {
+            *m = margin;
         }
     }
 

@@ -10,8 +10,8 @@
 mod cli;
 mod closed_loop;
 mod common;
-mod contact_events;
 mod config;
+mod contact_events;
 mod defaults;
 mod dying_processes;
 mod estimation;
