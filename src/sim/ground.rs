@@ -29,27 +29,33 @@
 //! v·dt into a region with the old friction (0.5 mm at 0.5 m/s and 1 ms).
 //!
 //! **SimSerpent's contact law** (`physics.floor_friction = "stick_slip"`, the default; every
-//! ground model but viscous): MuJoCo finds the contacts of the links with the ground (floor,
-//! slopes, heightfields, mesh terrain) and the obstacles (`obstacle_*` geoms), but its solver
-//! does not act on them (the model gives those geoms `margin` 0 and a `gap` of
-//! [`crate::model::OWN_CONTACT_GAP_M`], so each contact is listed with its distance and excluded
-//! from the constraints). Before every step, from the state x_k alone:
+//! ground model but viscous): MuJoCo finds the links' contacts with the ground (floor, slopes,
+//! heightfields, mesh terrain) but its step does not act on them: the ground geoms collide only in
+//! this law's own collision detection (their `contype`/`conaffinity` are restored for it, with a
+//! detection margin of [`DETECTION_MARGIN_M`], and zeroed again before MuJoCo's step; the
+//! compiled model, and the MJCF written to the run folder, keep MuJoCo's contacts). Before every
+//! step, from the state x_k alone:
 //! - **Contacts of x_k**: `mj_kinematics`, `mj_comPos`, `mj_comVel` and `mj_collision` at the
-//!   state itself, so every force of the step belongs to contacts that exist at its start.
-//! - **Normal force** of each contact point: N = max(0, k·δ + c·δ̇), δ the penetration
-//!   (−distance), δ̇ its rate (the link point's velocity relative to the other geom's body, along
-//!   the normal). k = m/2 · ω² with m the link's mass, so a link lying on the floor on its two
-//!   end caps sinks g/ω² under its own weight whatever the rest of the body does (a straight
-//!   body at rest carries each link's weight on that link); c = m_eff · 2ζω with m_eff the
-//!   point's effective mass along the normal for the link alone, 1/m_eff = 1/m + (r×n)ᵀI⁻¹(r×n).
-//!   ω = 1/τ_env and ζ from `physics.environment_contact_time_constant_secs` (`"auto"`: max(2 ms,
-//!   2 timesteps), so ω·dt ≤ 0.5) and `environment_contact_damping_ratio`; with
-//!   `physics.contact_stiffness_per_s2 > 0` ω² and 2ζω are that stiffness and
-//!   `contact_damping_per_s`. A contact opening (N = 0) carries nothing, not even friction.
+//!   state itself, so the ground forces of the step belong to contacts of its start.
+//! - **Normal force** of each link–ground contact point: N = max(0, F_s + c·δ̇·f), δ the
+//!   penetration (−distance), δ̇ its rate (the link point's velocity relative to the ground body,
+//!   along the normal). The spring's held force is its energy's change over the penetration's
+//!   predicted change in the step, F_s = k·(δ₁⁺² − δ₀⁺²)/(2·(δ₁ − δ₀)) with δ₁ = δ₀ + δ̇·dt + ½·a·dt²
+//!   (a: gravity along the normal): k·(δ₀ + δ₁)/2 while the contact lasts the whole step, and the
+//!   spring's exact work when it starts or ends within the step; f is the part of the step in
+//!   contact. k = s·m_eff·ω², c = s·m_eff·b, with m_eff the point's effective mass along the
+//!   normal for the link alone, 1/m_eff = 1/m + (r×n)ᵀI⁻¹(r×n), and s = 2/max(2, the link's
+//!   penetrating ground points) (a capsule on a plane touches with its two caps; the many points
+//!   of a heightfield or mesh share the same total); ω = 1/(τ·ζ) and b = 2/τ from
+//!   `physics.environment_contact_time_constant_secs` (τ, `"auto"`: max(2 ms, 2 timesteps)) and
+//!   `environment_contact_damping_ratio` (ζ), MuJoCo's reading of `solref`, or ω² and b given
+//!   directly (`contact_stiffness_per_s2`, `contact_damping_per_s`); bounded by ω·dt ≤ 1 and
+//!   b·dt ≤ ½. Every link of the same shape has the same compliance, so a straight body at rest
+//!   carries each link's weight on that link; a capsule lying on the floor sinks about
+//!   m·g/(2·m_eff·ω²) (≈ 10 µm with the defaults).
 //! - **Friction**, per link: ground slots (slot 0: contact points ahead of the centre of mass
-//!   along the link's axis, slot 1: behind; a capsule lying on a plane touches it at both caps)
-//!   and obstacle slots (one per touching obstacle geom, at most 4 per link), each an
-//!   elasto-plastic Coulomb force bounded by μ times the N of the same contacts:
+//!   along the link's axis, slot 1: behind; a capsule lying on a plane touches it at both caps),
+//!   each an elasto-plastic Coulomb force bounded by μ times the N of the same contacts:
 //!   - N, the point and the normal of a slot: Σ N of its contacts, point and normal weighted by N.
 //!   - v, the velocity of the contact point at x_k (centre-of-mass velocity + ω × r), tangential.
 //!   - An anchor on the ground per slot, with the deflection z of the contact point from it. The
@@ -62,21 +68,25 @@
 //!     (maximum dissipation on the ellipse), while sticking it is whatever holds the link, with
 //!     no creep. μ_axial is `axial_friction` for a force toward the tail and
 //!     `backward_friction` (directional) toward the head; the coefficients come from the region
-//!     under the link. Obstacle slots are isotropic with `terrain.obstacle_friction[0]` and the
-//!     link's axis as the first tangent.
+//!     under the link.
+//! - **Obstacle contacts** (`obstacle_*` geoms: cylinders, pegs, walls, mesh obstacles) keep
+//!   MuJoCo's normal force (frictionless, condim 1: a stiff impact needs its implicit solver)
+//!   and get the same friction law, one slot per link and touching obstacle geom (at most 4 per
+//!   link), isotropic with `terrain.obstacle_friction[0]`, the link's axis as the first tangent,
+//!   bounded by MuJoCo's normal force of the latest evaluation (the previous step's last stage,
+//!   or a recording's forward pass) and acting only on an obstacle the link touches at x_k.
 //! - Normal and friction forces of a link and their moments about its centre of mass go into
-//!   `xfrc_applied`, held over the step. [`Ground::own_normal_forces_n`] gives the recorded
-//!   contact rows their normal force; [`Ground::fill_snapshot`] adds the friction.
+//!   `xfrc_applied`, held over the step. [`Ground::own_contacts`] gives a snapshot its
+//!   link–ground contact rows; [`Ground::fill_snapshot`] adds the friction.
 //!
-//! **Why it is stable** with forces held over an explicit step: the normal spring–damper acts on
-//! a point of one link at ω·dt ≤ 0.5, and its damper is scaled by that point's effective mass
-//! (c·dt/m_eff = 2ζω·dt ≤ 1 < 2), the bound of a held damper; joints only add mass to a point,
-//! so the link alone is the worst case. The stick spring–damper is scaled by at most half the
-//! link's mass (c_t·dt/m ≤ 2·dt/τ_s ≤ 0.4). Why not MuJoCo's contacts: its soft constraints share
-//! the load of a statically indeterminate contact set by the contacts' effective masses, and a
-//! force held from its previous evaluation lags the contact by a step (friction on open
-//! contacts, above μN after an impact, period-2 cycles); with MuJoCo's own friction sliding
-//! contacts hop (see SPEC).
+//! **Why it is stable** with forces held over an explicit step: for one contact point the held
+//! spring–damper maps (δ, δ̇) to the next step with eigenvalues of modulus √(1 − b·dt) while
+//! ω·dt ≤ 1.2 (the energy-consistent spring alone neither gains nor loses energy), so b·dt ≤ ½
+//! leaves room for the damping the stick springs add through the link's rotation (at b·dt = 1
+//! a pushed link's pitch oscillates and grows). m_eff is the link alone: joints only add mass
+//! to a point, which lowers ω·dt and b·dt. The stick spring–damper is scaled by at most half
+//! the link's mass (c_t·dt/m ≤ 2·dt/τ_s ≤ 0.4). Cost per step: one `mj_collision` (the
+//! kinematics and velocities were computed for friction already) and a loop over the contacts.
 //!
 //! Velocities are those of the state at the start of the step: kinematics and centre-of-mass
 //! velocities are recomputed first, because after `mj_step` MuJoCo's derived quantities belong
@@ -87,6 +97,7 @@ use crate::config::{Config, FloorFriction, GroundModel};
 use crate::model::{SurfaceMap, names};
 use crate::state::{ContactRow, GeomClass, Snapshot, x_axis};
 use mujoco_rs::prelude::MjtObjBase;
+use mujoco_rs::wrappers::mj_model::MjtGeomBase;
 
 /// Below this axial speed (m/s) a link counts as not sliding (directional model).
 const SLIDING_EPSILON_M_PER_S: f64 = 1e-3;
@@ -288,6 +299,9 @@ struct StickSlip {
     link_of_geom: Vec<Option<usize>>,
     /// Whether each geom carries the snake like the floor (floor, slope, heightfield, mesh terrain).
     ground_geom: Vec<bool>,
+    /// Whether each ground geom's contacts get this law's normal force (planes and boxes); the
+    /// others (heightfields, meshes) keep MuJoCo's.
+    own_ground_geom: Vec<bool>,
     /// Whether each geom is an obstacle (`obstacle_*`: cylinders, pegs, walls, mesh obstacles).
     obstacle_geom: Vec<bool>,
     /// Link–obstacle friction coefficient (`terrain.obstacle_friction[0]`, isotropic).
@@ -316,6 +330,8 @@ struct StickSlip {
     /// c = m_eff · this) per kilogram of the point's effective mass.
     normal_stiffness_per_s2: f64,
     normal_damping_per_s: f64,
+    /// Penetrating ground contact points of each link at x_k.
+    ground_points: Vec<usize>,
     /// Velocity of each link's centre of mass at x_k: [angular; linear] (world frame).
     link_velocity: Vec<[f64; 6]>,
     /// The ground geoms with their collision bits and margin as compiled (geom, contype,
@@ -409,9 +425,20 @@ impl StickSlip {
         };
         let normal_stiffness_per_s2 = omega_sq.min(1.0 / (dt * dt));
         let normal_damping_per_s = damping.min(0.5 / dt);
+        // The ground geoms whose contacts this law computes: planes and boxes (the floor, slopes,
+        // steps). Heightfields and meshes stay MuJoCo's contacts: their many, flickering contact
+        // points (one per prism or face) do not make a compliance held over an explicit step.
+        let geom_type = world.model().geom_type();
+        let own_ground: Vec<bool> = (0..world.index.geom_class.len())
+            .map(|g| {
+                world.index.geom_class[g] == GeomClass::Floor
+                    && matches!(geom_type[g], MjtGeomBase::mjGEOM_PLANE | MjtGeomBase::mjGEOM_BOX)
+            })
+            .collect();
         Self {
             link_of_geom: world.index.geom_link.clone(),
             ground_geom: world.index.geom_class.iter().map(|c| *c == GeomClass::Floor).collect(),
+            own_ground_geom: own_ground.clone(),
             obstacle_geom: world.index.geom_class.iter().map(|c| *c == GeomClass::Obstacle).collect(),
             obstacle_mu: config.terrain.obstacle_friction[0],
             half_link_mass_kg: world.index.links.iter().map(|l| 0.5 * body_mass[l.body]).collect(),
@@ -428,8 +455,9 @@ impl StickSlip {
             normal_stiffness_per_s2,
             normal_damping_per_s,
             link_velocity: vec![[0.0; 6]; n],
+            ground_points: vec![0; n],
             env_geoms: (0..world.index.geom_class.len())
-                .filter(|&g| world.index.geom_class[g] == GeomClass::Floor)
+                .filter(|&g| own_ground[g])
                 .map(|g| {
                     let m = world.model();
                     (g, m.geom_contype()[g], m.geom_conaffinity()[g], m.geom_margin()[g])
@@ -584,6 +612,17 @@ impl Ground {
         }
     }
 
+    /// Takes the ground geoms whose contacts SimSerpent's contact law computes away from MuJoCo
+    /// (their collision bits zero, as during every step), so that every forward pass of the
+    /// simulation, from its first, sees the same model. Does nothing without the law.
+    pub fn detach_own_contacts(&self, world: &mut World) {
+        if let Some(st) = self.stick_slip.as_ref() {
+            for &(g, _, _, margin) in &st.env_geoms {
+                world.set_geom_collision(g, 0, 0, margin);
+            }
+        }
+    }
+
     /// Largest normal force of SimSerpent's contact law among the contacts of its latest
     /// evaluation (N; 0 without them): the part of a peak contact force that MuJoCo's contact
     /// list does not hold.
@@ -596,6 +635,12 @@ impl Ground {
     /// contacts into `xfrc_applied`.
     fn before_step_stick_slip(&mut self, world: &mut World) {
         let Some(st) = self.stick_slip.as_mut() else { return };
+        for v in &mut st.normal_n {
+            *v = [0.0; SLOTS];
+        }
+        for v in st.point_weighted.iter_mut().chain(st.normal_weighted.iter_mut()) {
+            *v = [[0.0; 3]; SLOTS];
+        }
         for slot in st.obstacle_slots.iter_mut().flatten() {
             slot.seen = false;
             slot.touching = false;
@@ -603,11 +648,14 @@ impl Ground {
             slot.point_weighted = [0.0; 3];
             slot.normal_weighted = [0.0; 3];
         }
-        // Obstacle contacts: MuJoCo's normal forces of the latest evaluation (the previous
-        // step's last stage, or a recording's forward pass), per link and obstacle geom; read
-        // before the collision detection below replaces the contact list.
+        // Obstacle, heightfield and mesh contacts: MuJoCo's normal forces of the latest
+        // evaluation (the previous step's last stage, or a recording's forward pass), per link and
+        // obstacle geom or ground slot; read before the collision detection below replaces the
+        // contact list.
         {
             let d = &world.data;
+            let xipos = d.xipos();
+            let xmat = d.xmat();
             for (c, contact) in d.contact().iter().enumerate() {
                 let (g1, g2) = (contact.geom[0], contact.geom[1]);
                 if g1 < 0 || g2 < 0 || contact.exclude != 0 {
@@ -615,12 +663,27 @@ impl Ground {
                 }
                 let (g1, g2) = (g1 as usize, g2 as usize);
                 let (link, geom, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
-                    (Some(l), None) if st.obstacle_geom[g2] => (l, g2, -1.0),
-                    (None, Some(l)) if st.obstacle_geom[g1] => (l, g1, 1.0),
+                    (Some(l), None) => (l, g2, -1.0),
+                    (None, Some(l)) => (l, g1, 1.0),
                     _ => continue,
                 };
                 let n = d.contact_force(c)[0];
                 if n <= 0.0 {
+                    continue;
+                }
+                if st.ground_geom[geom] && !st.own_ground_geom[geom] {
+                    let body = self.bodies[link];
+                    let (m, com) = (xmat[body], xipos[body]);
+                    let r = sub(contact.pos, com);
+                    let slot = usize::from(r[0] * m[0] + r[1] * m[3] + r[2] * m[6] < 0.0);
+                    st.normal_n[link][slot] += n;
+                    for k in 0..3 {
+                        st.point_weighted[link][slot][k] += n * contact.pos[k];
+                        st.normal_weighted[link][slot][k] += n * sign * contact.frame[k];
+                    }
+                    continue;
+                }
+                if !st.obstacle_geom[geom] {
                     continue;
                 }
                 let slots = &mut st.obstacle_slots[link];
@@ -654,12 +717,6 @@ impl Ground {
         for (i, &body) in self.bodies.iter().enumerate() {
             st.link_velocity[i] = world.data.object_velocity(MjtObjBase::mjOBJ_BODY, body, false);
         }
-        for v in &mut st.normal_n {
-            *v = [0.0; SLOTS];
-        }
-        for v in st.point_weighted.iter_mut().chain(st.normal_weighted.iter_mut()) {
-            *v = [[0.0; 3]; SLOTS];
-        }
         for v in st.normal_force_n.iter_mut().chain(st.normal_torque_nm.iter_mut()) {
             *v = [0.0; 3];
         }
@@ -673,6 +730,21 @@ impl Ground {
             st.evaluated_at_secs = d.time();
             st.own_contacts.clear();
             st.elastic_energy_j = 0.0;
+            // Penetrating ground contact points per link: a link's two end caps on a plane share
+            // its compliance; more points (a heightfield, a mesh) share the same total.
+            st.ground_points.fill(0);
+            for contact in d.contact() {
+                let (g1, g2) = (contact.geom[0], contact.geom[1]);
+                if g1 < 0 || g2 < 0 || contact.dist >= 0.0 {
+                    continue;
+                }
+                let (g1, g2) = (g1 as usize, g2 as usize);
+                match (st.link_of_geom[g1], st.link_of_geom[g2]) {
+                    (Some(l), None) if st.own_ground_geom[g2] => st.ground_points[l] += 1,
+                    (None, Some(l)) if st.own_ground_geom[g1] => st.ground_points[l] += 1,
+                    _ => {}
+                }
+            }
             for contact in d.contact() {
                 let (g1, g2) = (contact.geom[0], contact.geom[1]);
                 if g1 < 0 || g2 < 0 || contact.exclude > 1 {
@@ -696,7 +768,7 @@ impl Ground {
                     }
                     continue;
                 }
-                if !st.ground_geom[other] {
+                if !st.own_ground_geom[other] {
                     continue;
                 }
                 let body = self.bodies[link];
@@ -731,8 +803,9 @@ impl Ground {
                 // rate and gravity): k·(δ₁⁺² − δ₀⁺²) / (2·(δ₁ − δ₀)), which is k at the mean penetration while
                 // the contact lasts the whole step, and does the spring's work exactly when it
                 // starts or ends within it. The damper acts over the part of the step in contact.
-                let stiffness = st.normal_stiffness_per_s2 / inv_mass;
-                let damping = st.normal_damping_per_s / inv_mass;
+                let share = 2.0 / st.ground_points[link].max(2) as f64;
+                let stiffness = share * st.normal_stiffness_per_s2 / inv_mass;
+                let damping = share * st.normal_damping_per_s / inv_mass;
                 let free_approach_accel = -dot(st.gravity_vector_m_per_s2, nrm);
                 let (d0, d1) = (depth, depth + dt * approach + 0.5 * dt * dt * free_approach_accel);
                 let (p0, p1) = (d0.max(0.0), d1.max(0.0));

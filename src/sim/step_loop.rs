@@ -229,11 +229,17 @@ impl Simulation<Box<dyn Controller>> {
 impl<C: Controller> Simulation<C> {
     /// The world with a controller of your own, of a type known at compile time (so the
     /// caller can reach it through [`Simulation::controller_mut`]).
-    pub fn with_typed_controller(config: &Config, world: World, mut controller: C) -> Self {
+    pub fn with_typed_controller(config: &Config, mut world: World, mut controller: C) -> Self {
         let (nl, nj) = (world.n_links(), world.n_joints());
         controller.reset();
         let controller_state = controller.needs_full_state().then(|| Snapshot::new(nl, nj));
         let ground = Ground::new(config, &world);
+        if ground.is_active() {
+            // The ground contacts of SimSerpent's contact law are never MuJoCo's: the state's
+            // sensors are evaluated again without them (as after every reset).
+            ground.detach_own_contacts(&mut world);
+            world.forward();
+        }
         Self {
             initial_ground: ground.clone(),
             ground,
