@@ -846,10 +846,8 @@ impl Ground {
                 let along = r[0] * m[0] + r[1] * m[3] + r[2] * m[6];
                 let slot = usize::from(along < 0.0);
                 st.normal_n[link][slot] += n;
-                for k in 0..3 {
-                    st.point_weighted[link][slot][k] += n * contact.pos[k];
-                    st.normal_weighted[link][slot][k] += n * nrm[k];
-                }
+                st.point_weighted[link][slot] = add(st.point_weighted[link][slot], contact.pos.map(|x| n * x));
+                st.normal_weighted[link][slot] = add(st.normal_weighted[link][slot], f);
             }
         }
         for &(g, _, _, margin) in &st.env_geoms {

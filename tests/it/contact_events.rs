@@ -239,18 +239,16 @@ fn the_gait_ramp_and_steady_undulation_stay_within_the_reference_envelope() {
         for _ in 0..steps {
             sim.control();
             sim.snapshot(&mut s);
-            for i in 0..n {
-                sum[i] += s.link_floor_force_n[i][2] / (s.link_mass_kg[i] * G) / steps as f64;
+            for (i, total) in sum.iter_mut().enumerate() {
+                *total += s.link_floor_force_n[i][2] / (s.link_mass_kg[i] * G) / steps as f64;
             }
             sim.advance().unwrap();
         }
         eprintln!("μ {mu}, mean load per link 1–3 s: {sum:.3?}");
-        for i in 0..n {
+        for (i, (load, reference)) in sum.iter().zip(loads).enumerate() {
             assert!(
-                (sum[i] / loads[i] - 1.0).abs() <= 0.05,
-                "μ {mu}: link {i} carries {} × m g, reference {}",
-                sum[i],
-                loads[i]
+                (load / reference - 1.0).abs() <= 0.05,
+                "μ {mu}: link {i} carries {load} × m g, reference {reference}"
             );
         }
     }
