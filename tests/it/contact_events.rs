@@ -16,10 +16,14 @@ use simserpent::state::x_axis;
 use crate::common::{G, default_config_with};
 
 /// The validation suite's scene settings (`validation/scenes.py`): the default snake on a bare
-/// floor, isotropic μ everywhere, recorded every step, plus the scene's own keys.
+/// floor, isotropic μ everywhere, plus the scene's own keys; position servos with the gains the
+/// reference figures below were computed with (kp 5 N·m/rad, kv 0.1 N·m·s/rad: stiffer servos
+/// lift the links more during the ramp, in both engines).
 fn scene(mu: f64, keys: &[&str]) -> Config {
     let mut sets: Vec<String> = [
         "control.controller=\"gait\"".to_string(),
+        "control.position_kp_nm_per_rad=5.0".to_string(),
+        "control.position_kv_nm_s_per_rad=0.1".to_string(),
         "ground.model=\"isotropic\"".to_string(),
         format!("snake.ground_friction=[{mu}, 0.0, 0.0]"),
         format!("snake.link_friction=[{mu}, 0.0, 0.0]"),
