@@ -460,7 +460,11 @@ impl EnvCore {
         let (dx, dy) = (com[0] - self.com[0], com[1] - self.com[1]);
         let progress = dx * self.forward_xy[0] + dy * self.forward_xy[1];
         self.com = com;
-        let peak = if error.is_none() { self.sim.world().peak_contact_force_n() } else { f64::NAN };
+        let peak = if error.is_none() {
+            self.sim.world().peak_contact_force_n().max(self.sim.ground().peak_own_normal_force_n())
+        } else {
+            f64::NAN
+        };
         let mut terms = RewardTerms {
             forward_progress_m: progress,
             forward_velocity_m_per_s: progress / period,

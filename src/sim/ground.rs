@@ -28,50 +28,76 @@
 //! friction); and the switch happens at step boundaries, so a link sliding at v crosses up to
 //! v·dt into a region with the old friction (0.5 mm at 0.5 m/s and 1 ms).
 //!
-//! **SimSerpent's floor friction** (`physics.floor_friction = "stick_slip"`, the default; every
-//! ground model but viscous): the link–ground contacts are frictionless (condim 1, see `model`), and before
-//! every step each link gets, at each end of its ground contact (slot 0: contact points ahead of
-//! its centre of mass along its axis, slot 1: behind; a capsule lying on a plane touches it at
-//! both caps), an elasto-plastic Coulomb force:
-//! - N, the contact point and the normal are those of the latest evaluation of the contacts (the
-//!   previous step's last stage — with RK4 an evaluation near the end of that step — or the
-//!   recording's forward pass): MuJoCo's normal force of the link–ground contacts, read before
-//!   anything else this step, summed per slot, point and normal weighted by N. Why the previous
-//!   step's N: the contacts of x_k are only known after a forward pass, which would cost a
-//!   quarter of an RK4 step; N of a resting or sliding link changes little within a step, and
-//!   what lags by one step is only the friction's bound after an abrupt load change.
-//! - v, the velocity of the contact point at x_k (centre-of-mass velocity + ω × r), tangential.
-//! - An anchor on the ground per slot, with the deflection z of the contact point from it. The
-//!   trial force −k·(z + v·dt) − c·v (k = m·ω², c = 2·m·ω: critically damped with
-//!   ω = 1/`floor_stick_time_constant_secs` (`"auto"`: max(5 ms, 5 timesteps)), m = N/g the
-//!   mass the contact carries) is kept if it
-//!   lies inside the friction ellipse (F_axial/(μ_axial·N))² + (F_lateral/(μ_lateral·N))² ≤ 1
-//!   (stick: z grows by v·dt), else replaced by its nearest point on the ellipse (slide: the
-//!   anchor is dragged, z = −F/k). In steady sliding that is μ·N against the sliding direction
-//!   (maximum dissipation on the ellipse), while sticking it is whatever holds the link, with no
-//!   creep. μ_axial is `axial_friction` for a force toward the tail and `backward_friction`
-//!   (directional) toward the head; the coefficients come from the region under the link.
-//! - **Obstacle contacts** (`obstacle_*` geoms: cylinders, pegs, walls, mesh obstacles) are
-//!   frictionless in MuJoCo too and get the same law, one slot per link and touching obstacle
-//!   geom (at most 4 per link), isotropic with `terrain.obstacle_friction[0]`, the link's axis as
-//!   the first tangent, and a stick spring–damper scaled by min(N/g, half the link's mass) (see
-//!   [`ObstacleSlot`]). Why: a link sliding along a wall or peg with MuJoCo's friction hops off it
-//!   exactly as off the floor (measured with a capsule pressed against a wall by 2 N and pushed
-//!   along it: no contact on 86 % of the steps and peaks of 22 × the push at solref (20 ms, 1),
-//!   99 % and 148 × at (2 ms, 0.5); frictionless: contact on every step, the push to 10⁻⁴).
-//! - The sum of the slots' forces and their moments about the centre of mass goes into
-//!   `xfrc_applied`, held over the step; [`Ground::fill_snapshot`] adds it to the recorded
-//!   floor forces and shares each slot's force among its contact rows.
+//! **SimSerpent's contact law** (`physics.floor_friction = "stick_slip"`, the default; every
+//! ground model but viscous): MuJoCo finds the links' contacts with the ground (floor, slopes,
+//! heightfields, mesh terrain) but its step does not act on them: the ground geoms collide only in
+//! this law's own collision detection (their `contype`/`conaffinity` are restored for it, with a
+//! detection margin of [`DETECTION_MARGIN_M`], and zeroed again before MuJoCo's step; the
+//! compiled model, and the MJCF written to the run folder, keep MuJoCo's contacts). Before every
+//! step, from the state x_k alone:
+//! - **Contacts of x_k**: `mj_kinematics`, `mj_comPos`, `mj_comVel` and `mj_collision` at the
+//!   state itself, so the ground forces of the step belong to contacts of its start.
+//! - **Normal force** of each link–ground contact point: N = max(0, F_s + c·δ̇·f), δ the
+//!   penetration (−distance), δ̇ its rate (the link point's velocity relative to the ground body,
+//!   along the normal). The spring's held force is its energy's change over the penetration's
+//!   predicted change in the step, F_s = k·(δ₁⁺² − δ₀⁺²)/(2·(δ₁ − δ₀)) with δ₁ = δ₀ + δ̇·dt + ½·a·dt²
+//!   (a: gravity along the normal): k·(δ₀ + δ₁)/2 while the contact lasts the whole step, and the
+//!   spring's exact work when it starts or ends within the step; f is the part of the step in
+//!   contact. k = s·m_eff·ω², c = s·m_eff·b, with m_eff the point's effective mass along the
+//!   normal for the link alone, 1/m_eff = 1/m + (r×n)ᵀI⁻¹(r×n), and s = 2/max(2, the link's
+//!   penetrating ground points) (a capsule on a plane touches with its two caps; the many points
+//!   of a heightfield or mesh share the same total); ω = 1/(τ·ζ) and b = 2/τ from
+//!   `physics.environment_contact_time_constant_secs` (τ, `"auto"`: max(2 ms, 2 timesteps)) and
+//!   `environment_contact_damping_ratio` (ζ), MuJoCo's reading of `solref`, or ω² and b given
+//!   directly (`contact_stiffness_per_s2`, `contact_damping_per_s`); bounded by ω·dt ≤ 1 and
+//!   b·dt ≤ ½. Every link of the same shape has the same compliance, so a straight body at rest
+//!   carries each link's weight on that link; a capsule lying on the floor sinks about
+//!   m·g/(2·m_eff·ω²) (≈ 10 µm with the defaults).
+//! - **Friction**, per link: ground slots (slot 0: contact points ahead of the centre of mass
+//!   along the link's axis, slot 1: behind; a capsule lying on a plane touches it at both caps),
+//!   each an elasto-plastic Coulomb force bounded by μ times the N of the same contacts:
+//!   - N, the point and the normal of a slot: Σ N of its contacts, point and normal weighted by N.
+//!   - v, the velocity of the contact point at x_k (centre-of-mass velocity + ω × r), tangential.
+//!   - An anchor on the ground per slot, with the deflection z of the contact point from it. The
+//!     trial force −k_t·(z + v·dt) − c_t·v (k_t = m_s·ω_s², c_t = 2·m_s·ω_s: critically damped
+//!     with ω_s = 1/`floor_stick_time_constant_secs` (`"auto"`: max(5 ms, 5 timesteps)); m_s =
+//!     min(N/g, m/2), the mass the slot carries up to half the link's) is kept if it lies inside
+//!     the friction ellipse (F_axial/(μ_axial·N))² + (F_lateral/(μ_lateral·N))² ≤ 1 (stick: z
+//!     grows by v·dt), else replaced by its nearest point on the ellipse (slide: the anchor is
+//!     dragged, z = −F/k_t). In steady sliding that is μ·N against the sliding direction
+//!     (maximum dissipation on the ellipse), while sticking it is whatever holds the link, with
+//!     no creep. μ_axial is `axial_friction` for a force toward the tail and
+//!     `backward_friction` (directional) toward the head; the coefficients come from the region
+//!     under the link.
+//! - **Obstacle contacts** (`obstacle_*` geoms: cylinders, pegs, walls, mesh obstacles) keep
+//!   MuJoCo's normal force (frictionless, condim 1: a stiff impact needs its implicit solver)
+//!   and get the same friction law, one slot per link and touching obstacle geom (at most 4 per
+//!   link), isotropic with `terrain.obstacle_friction[0]`, the link's axis as the first tangent,
+//!   bounded by MuJoCo's normal force of the latest evaluation (the previous step's last stage,
+//!   or a recording's forward pass) and acting only on an obstacle the link touches at x_k.
+//! - Normal and friction forces of a link and their moments about its centre of mass go into
+//!   `xfrc_applied`, held over the step. [`Ground::own_contacts`] gives a snapshot its
+//!   link–ground contact rows; [`Ground::fill_snapshot`] adds the friction.
+//!
+//! **Why it is stable** with forces held over an explicit step: for one contact point the held
+//! spring–damper maps (δ, δ̇) to the next step with eigenvalues of modulus √(1 − b·dt) while
+//! ω·dt ≤ 1.2 (the energy-consistent spring alone neither gains nor loses energy), so b·dt ≤ ½
+//! leaves room for the damping the stick springs add through the link's rotation (at b·dt = 1
+//! a pushed link's pitch oscillates and grows). m_eff is the link alone: joints only add mass
+//! to a point, which lowers ω·dt and b·dt. The stick spring–damper is scaled by at most half
+//! the link's mass (c_t·dt/m ≤ 2·dt/τ_s ≤ 0.4). Cost per step: one `mj_collision` (the
+//! kinematics and velocities were computed for friction already) and a loop over the contacts.
 //!
 //! Velocities are those of the state at the start of the step: kinematics and centre-of-mass
-//! velocities are recomputed first (`mj_kinematics`, `mj_comPos`, `mj_comVel`), because after
-//! `mj_step` MuJoCo's derived quantities belong to an integrator stage, not to the new state.
+//! velocities are recomputed first, because after `mj_step` MuJoCo's derived quantities belong
+//! to an integrator stage, not to the new state.
 
 use super::World;
 use crate::config::{Config, FloorFriction, GroundModel};
 use crate::model::{SurfaceMap, names};
 use crate::state::{ContactRow, GeomClass, Snapshot, x_axis};
 use mujoco_rs::prelude::MjtObjBase;
+use mujoco_rs::wrappers::mj_model::MjtGeomBase;
 
 /// Below this axial speed (m/s) a link counts as not sliding (directional model).
 const SLIDING_EPSILON_M_PER_S: f64 = 1e-3;
@@ -246,6 +272,22 @@ impl Ground {
     }
 }
 
+/// A link–ground or link–obstacle contact of SimSerpent's contact law at one instant: MuJoCo's
+/// geometry (geoms, point, normal from geom 1 to geom 2, distance) and the law's normal force.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OwnContact {
+    pub geom: [usize; 2],
+    pub position_m: [f64; 3],
+    pub normal: [f64; 3],
+    pub distance_m: f64,
+    pub normal_force_n: f64,
+}
+
+/// How far from a ground geom a link's contacts are looked for (m): a contact whose penetration
+/// predicted for the middle of the step is positive acts from that step on (at up to 20 m/s
+/// with 1 ms steps).
+const DETECTION_MARGIN_M: f64 = 0.01;
+
 /// Slots per link: the front and the back half of its contact (a capsule lying on a plane
 /// touches it at both end caps).
 const SLOTS: usize = 2;
@@ -257,12 +299,15 @@ struct StickSlip {
     link_of_geom: Vec<Option<usize>>,
     /// Whether each geom carries the snake like the floor (floor, slope, heightfield, mesh terrain).
     ground_geom: Vec<bool>,
+    /// Whether each ground geom's contacts get this law's normal force (planes and boxes); the
+    /// others (heightfields, meshes) keep MuJoCo's.
+    own_ground_geom: Vec<bool>,
     /// Whether each geom is an obstacle (`obstacle_*`: cylinders, pegs, walls, mesh obstacles).
     obstacle_geom: Vec<bool>,
     /// Link–obstacle friction coefficient (`terrain.obstacle_friction[0]`, isotropic).
     obstacle_mu: f64,
-    /// Half of each link's mass (kg): the largest mass an obstacle contact's stick spring–damper
-    /// is scaled for (see [`ObstacleSlot`]).
+    /// Half of each link's mass (kg): the largest mass a slot's stick spring–damper is scaled
+    /// for (see [`ObstacleSlot`]).
     half_link_mass_kg: Vec<f64>,
     /// Obstacle contacts per link, one slot per touching obstacle geom.
     obstacle_slots: Vec<[ObstacleSlot; OBSTACLE_SLOTS]>,
@@ -273,9 +318,36 @@ struct StickSlip {
     /// Stick spring–damper per unit of supported mass: ω² (1/s²) and 2ω (1/s), ω = 1/τ.
     omega_sq_per_s2: f64,
     two_omega_per_s: f64,
+    /// Gravity (m/s², world frame).
+    gravity_vector_m_per_s2: [f64; 3],
     /// |gravity| (m/s²; 9.81 without gravity): N / g is the mass a contact supports.
     gravity_m_per_s2: f64,
     timestep_secs: f64,
+    /// Each link's mass (kg) and principal moments of inertia (kg·m², in its inertial frame).
+    link_mass_kg: Vec<f64>,
+    link_inertia_kg_m2: Vec<[f64; 3]>,
+    /// Normal law of a contact point: stiffness (1/s²: k = m_eff · this) and damping (1/s:
+    /// c = m_eff · this) per kilogram of the point's effective mass.
+    normal_stiffness_per_s2: f64,
+    normal_damping_per_s: f64,
+    /// Penetrating ground contact points of each link at x_k.
+    ground_points: Vec<usize>,
+    /// Velocity of each link's centre of mass at x_k: [angular; linear] (world frame).
+    link_velocity: Vec<[f64; 6]>,
+    /// The ground geoms with their collision bits and margin as compiled (geom, contype,
+    /// conaffinity, margin): set, with the margin [`DETECTION_MARGIN_M`], for this law's own
+    /// collision detection; zero (and the compiled margin) during MuJoCo's step.
+    env_geoms: Vec<(usize, i32, i32, f64)>,
+    /// The link–ground and link–obstacle contacts of the latest evaluation with their normal
+    /// forces, and the time of that evaluation (capacity kept: no allocation once warmed up).
+    own_contacts: Vec<OwnContact>,
+    evaluated_at_secs: f64,
+    /// Elastic energy of the normal springs at x_k (J): Σ ½·k·δ².
+    elastic_energy_j: f64,
+    /// Normal force (N) and its moment about the centre of mass (N·m) of each link's ground and
+    /// obstacle contacts in the latest prepared step (world frame; not part of `force_n`).
+    normal_force_n: Vec<[f64; 3]>,
+    normal_torque_nm: Vec<[f64; 3]>,
     /// Accumulated contact of this step per link and slot: Σ N, Σ N·point, Σ N·normal.
     normal_n: Vec<[f64; SLOTS]>,
     point_weighted: Vec<[[f64; 3]; SLOTS]>,
@@ -298,15 +370,17 @@ const OBSTACLE_SLOTS: usize = 4;
 
 /// One link's contact with one obstacle geom: the same elasto-plastic law as a ground slot, with
 /// the isotropic coefficient `terrain.obstacle_friction[0]`. The stick spring–damper is scaled by
-/// the mass m = min(N/g, half the link's mass) (a ground slot: m = N/g, the mass it carries; a
-/// link pressed hard against a peg would otherwise get a damper too stiff for a force held over
-/// the step), so its presliding displacement is μ·g·τ² at small loads and grows at large ones.
+/// the mass m = min(N/g, half the link's mass), as a ground slot's (a link pressed hard against a
+/// peg would otherwise get a damper too stiff for a force held over the step), so its presliding
+/// displacement is μ·g·τ² at small loads and grows at large ones.
 #[derive(Debug, Clone, Copy)]
 struct ObstacleSlot {
     /// The obstacle geom, or `usize::MAX` when the slot is free.
     geom: usize,
-    /// Whether a contact with `geom` was seen in the latest evaluation.
+    /// Whether a contact with `geom` was seen in the latest evaluation, and whether the link
+    /// touches it at x_k.
     seen: bool,
+    touching: bool,
     normal_n: f64,
     point_weighted: [f64; 3],
     normal_weighted: [f64; 3],
@@ -319,6 +393,7 @@ impl ObstacleSlot {
     const FREE: Self = Self {
         geom: usize::MAX,
         seen: false,
+        touching: false,
         normal_n: 0.0,
         point_weighted: [0.0; 3],
         normal_weighted: [0.0; 3],
@@ -334,9 +409,36 @@ impl StickSlip {
         let omega = 1.0 / config.floor_stick_time_constant_secs();
         let g = config.general.gravity_m_per_s2;
         let g_abs = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+        // The environment contact's stiffness and damping per unit mass: MuJoCo's direct form
+        // when given, else ω = 1/τ_env with damping 2ζω.
+        // when given, else MuJoCo's reading of solref (natural frequency ω = 1/(τ·ζ), damping
+        // 2ζω = 2/τ); both bounded for a force held over an explicit step (ω·dt ≤ 1,
+        // 2ζω·dt ≤ 1/2: see the module docs).
+        let p = &config.physics;
+        let dt = config.general.timestep_secs;
+        let (omega_sq, damping) = if p.contact_stiffness_per_s2 > 0.0 {
+            (p.contact_stiffness_per_s2, p.contact_damping_per_s)
+        } else {
+            let tau = config.environment_contact_time_constant_secs();
+            let zeta = p.environment_contact_damping_ratio;
+            (1.0 / (tau * zeta * tau * zeta), 2.0 / tau)
+        };
+        let normal_stiffness_per_s2 = omega_sq.min(1.0 / (dt * dt));
+        let normal_damping_per_s = damping.min(0.5 / dt);
+        // The ground geoms whose contacts this law computes: planes and boxes (the floor, slopes,
+        // steps). Heightfields and meshes stay MuJoCo's contacts: their many, flickering contact
+        // points (one per prism or face) do not make a compliance held over an explicit step.
+        let geom_type = world.model().geom_type();
+        let own_ground: Vec<bool> = (0..world.index.geom_class.len())
+            .map(|g| {
+                world.index.geom_class[g] == GeomClass::Floor
+                    && matches!(geom_type[g], MjtGeomBase::mjGEOM_PLANE | MjtGeomBase::mjGEOM_BOX)
+            })
+            .collect();
         Self {
             link_of_geom: world.index.geom_link.clone(),
             ground_geom: world.index.geom_class.iter().map(|c| *c == GeomClass::Floor).collect(),
+            own_ground_geom: own_ground.clone(),
             obstacle_geom: world.index.geom_class.iter().map(|c| *c == GeomClass::Obstacle).collect(),
             obstacle_mu: config.terrain.obstacle_friction[0],
             half_link_mass_kg: world.index.links.iter().map(|l| 0.5 * body_mass[l.body]).collect(),
@@ -346,7 +448,26 @@ impl StickSlip {
             omega_sq_per_s2: omega * omega,
             two_omega_per_s: 2.0 * omega,
             gravity_m_per_s2: if g_abs > 0.1 { g_abs } else { 9.81 },
+            gravity_vector_m_per_s2: g,
             timestep_secs: config.general.timestep_secs,
+            link_mass_kg: world.index.links.iter().map(|l| body_mass[l.body]).collect(),
+            link_inertia_kg_m2: world.index.links.iter().map(|l| world.model().body_inertia()[l.body]).collect(),
+            normal_stiffness_per_s2,
+            normal_damping_per_s,
+            link_velocity: vec![[0.0; 6]; n],
+            ground_points: vec![0; n],
+            env_geoms: (0..world.index.geom_class.len())
+                .filter(|&g| own_ground[g])
+                .map(|g| {
+                    let m = world.model();
+                    (g, m.geom_contype()[g], m.geom_conaffinity()[g], m.geom_margin()[g])
+                })
+                .collect(),
+            own_contacts: Vec::new(),
+            evaluated_at_secs: f64::NAN,
+            elastic_energy_j: 0.0,
+            normal_force_n: vec![[0.0; 3]; n],
+            normal_torque_nm: vec![[0.0; 3]; n],
             normal_n: vec![[0.0; SLOTS]; n],
             point_weighted: vec![[[0.0; 3]; SLOTS]; n],
             normal_weighted: vec![[[0.0; 3]; SLOTS]; n],
@@ -365,6 +486,13 @@ impl Ground {
         self.stick_slip.as_ref().map(|s| s.force_n.as_slice())
     }
 
+    /// Elastic energy stored in the normal springs of SimSerpent's contacts at the state of the
+    /// latest prepared step (J): Σ ½·k·δ² (0 without them). The stick springs' energy is not
+    /// part of it: their stiffness follows the load, so it is no conserved quantity.
+    pub fn elastic_energy_j(&self) -> f64 {
+        self.stick_slip.as_ref().map_or(0.0, |s| s.elastic_energy_j)
+    }
+
     /// Its moment about each link's centre of mass (N·m, world frame).
     pub fn applied_friction_torque_nm(&self) -> Option<&[[f64; 3]]> {
         self.stick_slip.as_ref().map(|s| s.torque_nm.as_slice())
@@ -380,10 +508,8 @@ impl Ground {
     /// applied at its slot (ground: its end of the link; obstacle: that obstacle geom), in
     /// proportion to its normal force among the rows of that slot, in its `friction_force_n`
     /// (along the link's axis in the contact plane and across it) and `force_on_geom2_n`; the
-    /// rows of a link then add up to the link's recorded floor and obstacle forces. (The friction
-    /// of a step was computed from the previous evaluation's contacts: at a slot that has just
-    /// lost its contact the friction still acts for this step and no row carries it; the link's
-    /// columns do.)
+    /// rows of a link then add up to the link's recorded floor and obstacle forces (the friction
+    /// was computed from the contacts of the same state, so every slot with friction has rows).
     ///
     /// One pass over the rows finds each row's slot and adds up Σ N per ground slot; a second
     /// shares out the friction (no allocation but for more contacts than ever).
@@ -476,12 +602,39 @@ impl Ground {
         }
     }
 
-    /// `physics.floor_friction = "stick_slip"`: the friction of every link's ground contacts
-    /// into `xfrc_applied`.
+    /// The link–ground and link–obstacle contacts of SimSerpent's contact law with their normal
+    /// forces, when its latest evaluation is of `world`'s current instant (empty otherwise, and
+    /// with `physics.floor_friction = "mujoco"`): MuJoCo's own contact list does not hold them.
+    pub fn own_contacts(&self, world: &World) -> &[OwnContact] {
+        match self.stick_slip.as_ref() {
+            Some(st) if st.evaluated_at_secs == world.time_secs() => &st.own_contacts,
+            _ => &[],
+        }
+    }
+
+    /// Takes the ground geoms whose contacts SimSerpent's contact law computes away from MuJoCo
+    /// (their collision bits zero, as during every step), so that every forward pass of the
+    /// simulation, from its first, sees the same model. Does nothing without the law.
+    pub fn detach_own_contacts(&self, world: &mut World) {
+        if let Some(st) = self.stick_slip.as_ref() {
+            for &(g, _, _, margin) in &st.env_geoms {
+                world.set_geom_collision(g, 0, 0, margin);
+            }
+        }
+    }
+
+    /// Largest normal force of SimSerpent's contact law among the contacts of its latest
+    /// evaluation (N; 0 without them): the part of a peak contact force that MuJoCo's contact
+    /// list does not hold.
+    pub fn peak_own_normal_force_n(&self) -> f64 {
+        self.stick_slip.as_ref().map_or(0.0, |st| st.own_contacts.iter().map(|c| c.normal_force_n).fold(0.0, f64::max))
+    }
+
+    /// `physics.floor_friction = "stick_slip"`: the contacts of x_k (collision detection at the
+    /// state itself), their normal forces and the friction of every link's ground and obstacle
+    /// contacts into `xfrc_applied`.
     fn before_step_stick_slip(&mut self, world: &mut World) {
         let Some(st) = self.stick_slip.as_mut() else { return };
-        // Normal forces and points of the latest evaluation (the previous step's last stage, or
-        // a recording's forward pass), per link and slot; read before the kinematics below.
         for v in &mut st.normal_n {
             *v = [0.0; SLOTS];
         }
@@ -490,10 +643,15 @@ impl Ground {
         }
         for slot in st.obstacle_slots.iter_mut().flatten() {
             slot.seen = false;
+            slot.touching = false;
             slot.normal_n = 0.0;
             slot.point_weighted = [0.0; 3];
             slot.normal_weighted = [0.0; 3];
         }
+        // Obstacle, heightfield and mesh contacts: MuJoCo's normal forces of the latest
+        // evaluation (the previous step's last stage, or a recording's forward pass), per link and
+        // obstacle geom or ground slot; read before the collision detection below replaces the
+        // contact list.
         {
             let d = &world.data;
             let xipos = d.xipos();
@@ -504,65 +662,197 @@ impl Ground {
                     continue;
                 }
                 let (g1, g2) = (g1 as usize, g2 as usize);
-                let n = d.contact_force(c)[0];
-                // The link side and the sign that turns MuJoCo's normal (geom1 → geom2) into the
-                // normal pointing from the obstacle or ground into the link.
-                // Link–obstacle contacts: one slot per obstacle geom.
-                let obstacle = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
-                    (Some(l), None) if st.obstacle_geom[g2] => Some((l, g2, -1.0)),
-                    (None, Some(l)) if st.obstacle_geom[g1] => Some((l, g1, 1.0)),
-                    _ => None,
-                };
-                if let Some((link, geom, sign)) = obstacle {
-                    if n <= 0.0 {
-                        continue;
-                    }
-                    let slots = &mut st.obstacle_slots[link];
-                    let k = slots
-                        .iter()
-                        .position(|s| s.geom == geom)
-                        .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
-                        .or_else(|| slots.iter().position(|s| !s.seen));
-                    let Some(k) = k else { continue };
-                    let slot = &mut slots[k];
-                    if slot.geom != geom {
-                        *slot = ObstacleSlot { geom, ..ObstacleSlot::FREE };
-                    }
-                    slot.seen = true;
-                    slot.normal_n += n;
-                    for j in 0..3 {
-                        slot.point_weighted[j] += n * contact.pos[j];
-                        slot.normal_weighted[j] += n * sign * contact.frame[j];
-                    }
-                    continue;
-                }
-                let (link, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
-                    (Some(l), None) if st.ground_geom[g2] => (l, -1.0),
-                    (None, Some(l)) if st.ground_geom[g1] => (l, 1.0),
+                let (link, geom, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
+                    (Some(l), None) => (l, g2, -1.0),
+                    (None, Some(l)) => (l, g1, 1.0),
                     _ => continue,
                 };
+                let n = d.contact_force(c)[0];
                 if n <= 0.0 {
                     continue;
                 }
-                let body = self.bodies[link];
-                let m = xmat[body];
-                let axis = [m[0], m[3], m[6]];
-                let com = xipos[body];
-                let along = (contact.pos[0] - com[0]) * axis[0]
-                    + (contact.pos[1] - com[1]) * axis[1]
-                    + (contact.pos[2] - com[2]) * axis[2];
-                let slot = usize::from(along < 0.0);
-                st.normal_n[link][slot] += n;
-                for k in 0..3 {
-                    st.point_weighted[link][slot][k] += n * contact.pos[k];
-                    st.normal_weighted[link][slot][k] += n * sign * contact.frame[k];
+                if st.ground_geom[geom] && !st.own_ground_geom[geom] {
+                    let body = self.bodies[link];
+                    let (m, com) = (xmat[body], xipos[body]);
+                    let r = sub(contact.pos, com);
+                    let slot = usize::from(r[0] * m[0] + r[1] * m[3] + r[2] * m[6] < 0.0);
+                    st.normal_n[link][slot] += n;
+                    for k in 0..3 {
+                        st.point_weighted[link][slot][k] += n * contact.pos[k];
+                        st.normal_weighted[link][slot][k] += n * sign * contact.frame[k];
+                    }
+                    continue;
+                }
+                if !st.obstacle_geom[geom] {
+                    continue;
+                }
+                let slots = &mut st.obstacle_slots[link];
+                let k = slots
+                    .iter()
+                    .position(|s| s.geom == geom)
+                    .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
+                    .or_else(|| slots.iter().position(|s| !s.seen));
+                let Some(k) = k else { continue };
+                let slot = &mut slots[k];
+                if slot.geom != geom {
+                    *slot = ObstacleSlot { geom, ..ObstacleSlot::FREE };
+                }
+                slot.seen = true;
+                slot.normal_n += n;
+                for j in 0..3 {
+                    slot.point_weighted[j] += n * contact.pos[j];
+                    slot.normal_weighted[j] += n * sign * contact.frame[j];
                 }
             }
         }
-        // Velocities of the state x_k.
+        // Kinematics, centre-of-mass velocities and contacts of the state x_k; the ground geoms
+        // collide only here, not in MuJoCo's step.
+        for &(g, contype, conaffinity, margin) in &st.env_geoms {
+            world.set_geom_collision(g, contype, conaffinity, margin.max(DETECTION_MARGIN_M));
+        }
         world.data.kinematics();
         world.data.com_pos();
         world.data.com_vel();
+        world.data.collision();
+        for (i, &body) in self.bodies.iter().enumerate() {
+            st.link_velocity[i] = world.data.object_velocity(MjtObjBase::mjOBJ_BODY, body, false);
+        }
+        for v in st.normal_force_n.iter_mut().chain(st.normal_torque_nm.iter_mut()) {
+            *v = [0.0; 3];
+        }
+        {
+            let d = &world.data;
+            let xipos = d.xipos();
+            let xmat = d.xmat();
+            let ximat = d.ximat();
+            let geom_body = d.model().geom_bodyid();
+            let dt = st.timestep_secs;
+            st.evaluated_at_secs = d.time();
+            st.own_contacts.clear();
+            st.elastic_energy_j = 0.0;
+            // Penetrating ground contact points per link: a link's two end caps on a plane share
+            // its compliance; more points (a heightfield, a mesh) share the same total.
+            st.ground_points.fill(0);
+            for contact in d.contact() {
+                let (g1, g2) = (contact.geom[0], contact.geom[1]);
+                if g1 < 0 || g2 < 0 || contact.dist >= 0.0 {
+                    continue;
+                }
+                let (g1, g2) = (g1 as usize, g2 as usize);
+                match (st.link_of_geom[g1], st.link_of_geom[g2]) {
+                    (Some(l), None) if st.own_ground_geom[g2] => st.ground_points[l] += 1,
+                    (None, Some(l)) if st.own_ground_geom[g1] => st.ground_points[l] += 1,
+                    _ => {}
+                }
+            }
+            for contact in d.contact() {
+                let (g1, g2) = (contact.geom[0], contact.geom[1]);
+                if g1 < 0 || g2 < 0 || contact.exclude > 1 {
+                    continue;
+                }
+                let (g1, g2) = (g1 as usize, g2 as usize);
+                // The link side, the other geom, whether it is an obstacle, and the sign that
+                // turns MuJoCo's normal (geom1 → geom2) into the normal pointing from the
+                // obstacle or ground into the link.
+                let (link, other, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
+                    (Some(l), None) => (l, g2, -1.0),
+                    (None, Some(l)) => (l, g1, 1.0),
+                    _ => continue,
+                };
+                if st.obstacle_geom[other] {
+                    // An obstacle contact of x_k: its slot's friction may act this step.
+                    if contact.dist < 0.0
+                        && let Some(slot) = st.obstacle_slots[link].iter_mut().find(|s| s.geom == other)
+                    {
+                        slot.touching = true;
+                    }
+                    continue;
+                }
+                if !st.own_ground_geom[other] {
+                    continue;
+                }
+                let body = self.bodies[link];
+                let com = xipos[body];
+                let nrm = [0, 1, 2].map(|k| sign * contact.frame[k]);
+                let r = sub(contact.pos, com);
+                let vel = st.link_velocity[link];
+                let mut v_point = add([vel[3], vel[4], vel[5]], cross([vel[0], vel[1], vel[2]], r));
+                let other_body = geom_body[other].max(0) as usize;
+                if other_body != 0 {
+                    let vo = d.object_velocity(MjtObjBase::mjOBJ_BODY, other_body, false);
+                    let ro = sub(contact.pos, xipos[other_body]);
+                    v_point = sub(v_point, add([vo[3], vo[4], vo[5]], cross([vo[0], vo[1], vo[2]], ro)));
+                }
+                // Penetration and its rate; the point's effective mass along the normal for the
+                // link alone (1/m + (r × n)ᵀ I⁻¹ (r × n)).
+                let depth = -contact.dist;
+                let approach = -dot(v_point, nrm);
+                let mass = st.link_mass_kg[link];
+                let rn = cross(r, nrm);
+                let im = ximat[body];
+                let inertia = st.link_inertia_kg_m2[link];
+                let mut inv_mass = 1.0 / mass;
+                for j in 0..3 {
+                    let u = rn[0] * im[j] + rn[1] * im[3 + j] + rn[2] * im[6 + j];
+                    if inertia[j] > 0.0 {
+                        inv_mass += u * u / inertia[j];
+                    }
+                }
+                // Held over the step, the spring force is the spring energy's change over the
+                // penetration's change from now to the end of the step (predicted at the present
+                // rate and gravity): k·(δ₁⁺² − δ₀⁺²) / (2·(δ₁ − δ₀)), which is k at the mean penetration while
+                // the contact lasts the whole step, and does the spring's work exactly when it
+                // starts or ends within it. The damper acts over the part of the step in contact.
+                let share = 2.0 / st.ground_points[link].max(2) as f64;
+                let stiffness = share * st.normal_stiffness_per_s2 / inv_mass;
+                let damping = share * st.normal_damping_per_s / inv_mass;
+                let free_approach_accel = -dot(st.gravity_vector_m_per_s2, nrm);
+                let (d0, d1) = (depth, depth + dt * approach + 0.5 * dt * dt * free_approach_accel);
+                let (p0, p1) = (d0.max(0.0), d1.max(0.0));
+                let crossing = (d0 > 0.0) != (d1 > 0.0);
+                let spring = if crossing {
+                    stiffness * (p1 * p1 - p0 * p0) / (2.0 * (d1 - d0))
+                } else {
+                    0.5 * stiffness * (p0 + p1)
+                };
+                let fraction = if crossing {
+                    p0.max(p1) / (d1 - d0).abs()
+                } else if d0 > 0.0 {
+                    1.0
+                } else {
+                    0.0
+                };
+                let n = if spring > 0.0 { (spring + fraction * damping * approach).max(0.0) } else { 0.0 };
+                if depth <= 0.0 && n <= 0.0 {
+                    continue; // within the detection margin, not touching
+                }
+                st.own_contacts.push(OwnContact {
+                    geom: [g1, g2],
+                    position_m: contact.pos,
+                    normal: [contact.frame[0], contact.frame[1], contact.frame[2]],
+                    distance_m: contact.dist,
+                    normal_force_n: n,
+                });
+                if depth > 0.0 {
+                    st.elastic_energy_j += 0.5 * stiffness * depth * depth;
+                }
+                if n <= 0.0 {
+                    continue;
+                }
+                let f = nrm.map(|x| n * x);
+                st.normal_force_n[link] = add(st.normal_force_n[link], f);
+                st.normal_torque_nm[link] = add(st.normal_torque_nm[link], cross(r, f));
+                let m = xmat[body];
+                let along = r[0] * m[0] + r[1] * m[3] + r[2] * m[6];
+                let slot = usize::from(along < 0.0);
+                st.normal_n[link][slot] += n;
+                st.point_weighted[link][slot] = add(st.point_weighted[link][slot], contact.pos.map(|x| n * x));
+                st.normal_weighted[link][slot] = add(st.normal_weighted[link][slot], f);
+            }
+        }
+        for &(g, _, _, margin) in &st.env_geoms {
+            world.set_geom_collision(g, 0, 0, margin);
+        }
         let surfaces = !self.map.is_empty();
         let dt = st.timestep_secs;
         for (i, &body) in self.bodies.iter().enumerate() {
@@ -580,7 +870,7 @@ impl Ground {
             };
             let xmat = world.data.xmat()[body];
             let axis = [xmat[0], xmat[3], xmat[6]];
-            let vel = world.data.object_velocity(MjtObjBase::mjOBJ_BODY, body, false);
+            let vel = st.link_velocity[i];
             let (w, v_com) = ([vel[0], vel[1], vel[2]], [vel[3], vel[4], vel[5]]);
             let mut force = [0.0; 3];
             let mut torque = [0.0; 3];
@@ -602,8 +892,9 @@ impl Ground {
                 let l = cross(nrm, a);
                 // The anchor stays on the ground: the deflection keeps only its tangential part
                 // and grows by the contact point's motion over the step.
-                let z_pred = add(tangential(*z, nrm), v_t.map(|x| x * dt));
-                let mass = n_force / st.gravity_m_per_s2;
+                let z_now = tangential(*z, nrm);
+                let z_pred = add(z_now, v_t.map(|x| x * dt));
+                let mass = (n_force / st.gravity_m_per_s2).min(st.half_link_mass_kg[i]);
                 let (k, c) = (mass * st.omega_sq_per_s2, mass * st.two_omega_per_s);
                 let trial = [0, 1, 2].map(|j| -k * z_pred[j] - c * v_t[j]);
                 let (ta, tl) = (dot(trial, a), dot(trial, l));
@@ -623,7 +914,7 @@ impl Ground {
             let (mut o_force, mut o_torque) = ([0.0; 3], [0.0; 3]);
             let mu = st.obstacle_mu;
             for slot in st.obstacle_slots[i].iter_mut() {
-                if !slot.seen {
+                if !slot.seen || !slot.touching {
                     *slot = ObstacleSlot::FREE;
                     continue;
                 }
@@ -632,7 +923,8 @@ impl Ground {
                 let nrm = normalized(slot.normal_weighted).unwrap_or([0.0, 0.0, 1.0]);
                 let r = sub(p, com);
                 let v_t = tangential(add(v_com, cross(w, r)), nrm);
-                let z_pred = add(tangential(slot.deflection_m, nrm), v_t.map(|x| x * dt));
+                let z_now = tangential(slot.deflection_m, nrm);
+                let z_pred = add(z_now, v_t.map(|x| x * dt));
                 let mass = (n_force / st.gravity_m_per_s2).min(st.half_link_mass_kg[i]);
                 let (k, c) = (mass * st.omega_sq_per_s2, mass * st.two_omega_per_s);
                 let trial = [0, 1, 2].map(|j| -k * z_pred[j] - c * v_t[j]);
@@ -658,6 +950,8 @@ impl Ground {
             let torque = add(torque, o_torque);
             st.force_n[i] = force;
             st.torque_nm[i] = torque;
+            let force = add(force, st.normal_force_n[i]);
+            let torque = add(torque, st.normal_torque_nm[i]);
             let slot = &mut world.data.xfrc_applied_mut()[body];
             *slot = [force[0], force[1], force[2], torque[0], torque[1], torque[2]];
         }

@@ -16,7 +16,7 @@ mod snapshot;
 mod step_loop;
 
 pub use crate::state::{ContactRow, GeomClass, Snapshot};
-pub use ground::Ground;
+pub use ground::{Ground, OwnContact};
 pub use index::{Index, JointIndex, LinkIndex};
 pub use noise::SensorNoise;
 pub use safety::EnergyGuard;
@@ -596,6 +596,13 @@ impl World {
         self.data.qvel_mut()
     }
 
+    /// Applied generalized forces (MuJoCo's `qfrc_applied`), writable: an external load held
+    /// until changed (nothing in the step loop writes it). For the head's free joint, entries
+    /// 0–2 are a force (N, world frame) at the head link's centre of mass.
+    pub fn qfrc_applied_mut(&mut self) -> &mut [f64] {
+        self.data.qfrc_applied_mut()
+    }
+
     /// The actuator controls, writable (the bare-engine benchmark writes them directly).
     pub fn ctrl_mut(&mut self) -> &mut [f64] {
         self.data.ctrl_mut()
@@ -637,6 +644,24 @@ impl World {
     pub fn peak_contact_force_n(&self) -> f64 {
         let d = &self.data;
         state::peak_contact_force_n((0..d.contact().len()).map(|c| d.contact_force(c)[0]))
+    }
+
+    /// Sets the collision bits and margin of geom `geom` (MuJoCo's `contype`, `conaffinity`,
+    /// `margin`): SimSerpent's contact law switches the ground geoms off for MuJoCo's step.
+    pub(crate) fn set_geom_collision(&mut self, geom: usize, contype: i32, conaffinity: i32, margin: f64) {
+        // SAFETY: only the values of an existing geom's collision bits change; no size, index
+        // or address of the model changes, which is what `model_mut` requires us to keep.
+        #[allow(unsafe_code)]
+        let model = unsafe { self.data.model_mut() };
+        if let Some(t) = model.geom_contype_mut().get_mut(geom) {
+            *t = contype;
+        }
+        if let Some(a) = model.geom_conaffinity_mut().get_mut(geom) {
+            *a = conaffinity;
+        }
+        if let Some(m) = model.geom_margin_mut().get_mut(geom) {
+            *m = margin;
+        }
     }
 
     /// Sets the friction of contact pair `pair` (tangent 1, tangent 2, torsional, rolling 1, 2).

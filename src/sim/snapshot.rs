@@ -1,6 +1,6 @@
 //! Reading a [`Snapshot`] (everything of thesis table 3 at one instant) out of the engine.
 
-use super::{World, read3};
+use super::{OwnContact, World, read3};
 use crate::control::Observation;
 use crate::state::{ContactRow, Snapshot};
 use mujoco_rs::prelude::MjtObjBase;
@@ -10,6 +10,19 @@ impl World {
     /// `snapshot` (no allocation, except when a step has more contacts than any before it).
     /// `link_region` is left as it is (the ground model fills it).
     pub fn read_snapshot(&self, snapshot: &mut Snapshot, obs_true: &Observation, obs_measured: &Observation) {
+        self.read_snapshot_with(snapshot, obs_true, obs_measured, &[]);
+    }
+
+    /// [`World::read_snapshot`], with the contacts of SimSerpent's own contact law (link–ground
+    /// and link–obstacle, which MuJoCo's contact list does not hold then) after MuJoCo's rows
+    /// (see [`super::Ground::own_contacts`]).
+    pub fn read_snapshot_with(
+        &self,
+        snapshot: &mut Snapshot,
+        obs_true: &Observation,
+        obs_measured: &Observation,
+        own: &[OwnContact],
+    ) {
         let s = snapshot;
         let d = &self.data;
         let idx = &self.index;
@@ -51,37 +64,44 @@ impl World {
         }
         s.observation_true.copy_from(obs_true);
         s.observation_measured.copy_from(obs_measured);
-        self.read_contacts(s);
+        self.read_contacts(s, own);
     }
 
     /// The contacts' normal forces of the last forward pass (the forces of the step that starts
-    /// from it), per link: the vector sum over the link's contacts, into `out` (N, world; sized
-    /// for the links). Returns the largest single contact normal force (N). No allocation.
-    pub fn link_contact_normal_forces(&self, out: &mut [[f64; 3]]) -> f64 {
+    /// from it), per link: the vector sum over the link's contacts — MuJoCo's and those of
+    /// SimSerpent's own contact law (`own`, [`super::Ground::own_contacts`]) — into `out` (N,
+    /// world; sized for the links). Returns the largest single contact normal force (N). No
+    /// allocation.
+    pub fn link_contact_normal_forces(&self, own: &[OwnContact], out: &mut [[f64; 3]]) -> f64 {
         let d = &self.data;
         let idx = &self.index;
         out.fill([0.0; 3]);
         let mut largest_n: f64 = 0.0;
-        for (c, contact) in d.contact().iter().enumerate() {
-            let f = d.contact_force(c)[0];
+        // The normal points from geom 0 to geom 1: geom 1 feels +f·n, geom 0 −f·n.
+        let mut add = |geom: [usize; 2], f: f64, n: [f64; 3]| {
             largest_n = largest_n.max(f.abs());
-            let fr = &contact.frame;
-            // The normal points from geom 0 to geom 1: geom 1 feels +f·n, geom 0 −f·n.
             for (side, sign) in [(1, 1.0), (0, -1.0)] {
-                let g = contact.geom[side].max(0) as usize;
-                if let Some(Some(link)) = idx.geom_link.get(g)
+                if let Some(Some(link)) = idx.geom_link.get(geom[side])
                     && let Some(acc) = out.get_mut(*link)
                 {
                     for k in 0..3 {
-                        acc[k] += sign * f * fr[k];
+                        acc[k] += sign * f * n[k];
                     }
                 }
             }
+        };
+        for (c, contact) in d.contact().iter().enumerate() {
+            let fr = &contact.frame;
+            let geom = [contact.geom[0].max(0) as usize, contact.geom[1].max(0) as usize];
+            add(geom, d.contact_force(c)[0], [fr[0], fr[1], fr[2]]);
+        }
+        for c in own {
+            add(c.geom, c.normal_force_n, c.normal);
         }
         largest_n
     }
 
-    fn read_contacts(&self, s: &mut Snapshot) {
+    fn read_contacts(&self, s: &mut Snapshot, own: &[OwnContact]) {
         let d = &self.data;
         let idx = &self.index;
         let geom_body = d.model().geom_bodyid();
@@ -107,6 +127,21 @@ impl World {
             };
             let link = geom.map(|g| idx.geom_link.get(g).copied().flatten());
             let class = geom.map(|g| idx.geom_class.get(g).copied());
+            s.add_contact(row, link, class);
+        }
+        for c in own {
+            let row = ContactRow {
+                geom: c.geom,
+                body: c.geom.map(|g| geom_body[g] as usize),
+                position_m: c.position_m,
+                normal: c.normal,
+                distance_m: c.distance_m,
+                normal_force_n: c.normal_force_n,
+                friction_force_n: [0.0; 2],
+                force_on_geom2_n: c.normal.map(|x| c.normal_force_n * x),
+            };
+            let link = c.geom.map(|g| idx.geom_link.get(g).copied().flatten());
+            let class = c.geom.map(|g| idx.geom_class.get(g).copied());
             s.add_contact(row, link, class);
         }
         s.end_contacts();

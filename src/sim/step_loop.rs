@@ -234,11 +234,17 @@ impl Simulation<Box<dyn Controller>> {
 impl<C: Controller> Simulation<C> {
     /// The world with a controller of your own, of a type known at compile time (so the
     /// caller can reach it through [`Simulation::controller_mut`]).
-    pub fn with_typed_controller(config: &Config, world: World, mut controller: C) -> Self {
+    pub fn with_typed_controller(config: &Config, mut world: World, mut controller: C) -> Self {
         let (nl, nj) = (world.n_links(), world.n_joints());
         controller.reset();
         let controller_state = controller.needs_full_state().then(|| Snapshot::new(nl, nj));
         let ground = Ground::new(config, &world);
+        if ground.is_active() {
+            // The ground contacts of SimSerpent's contact law are never MuJoCo's: the state's
+            // sensors are evaluated again without them (as after every reset).
+            ground.detach_own_contacts(&mut world);
+            world.forward();
+        }
         Self {
             initial_ground: ground.clone(),
             ground,
@@ -430,7 +436,9 @@ impl<C: Controller> Simulation<C> {
     /// public so a caller can take the loop apart (tests, a custom read-out).
     pub fn control(&mut self) {
         if self.controller_state.is_some() {
-            // Fresh sensors for this instant, then its whole state.
+            // The ground model's forces of the coming step (they depend on the state only), then
+            // fresh sensors for this instant and its whole state.
+            self.ground.before_step(&mut self.world);
             self.world.forward();
         }
         if self.controller.reads_sensors() || self.controller_state.is_some() {
@@ -438,14 +446,17 @@ impl<C: Controller> Simulation<C> {
         }
         match self.controller_state.as_mut() {
             Some(state) => {
-                self.world.read_snapshot(state, &self.obs_true, &self.obs);
+                let own = self.ground.own_contacts(&self.world);
+                self.world.read_snapshot_with(state, &self.obs_true, &self.obs, own);
                 self.ground.fill_snapshot(state);
                 self.controller.update_with_state(&self.obs, state, &mut self.cmd);
             }
             None => self.controller.update(&self.obs, &mut self.cmd),
         }
         self.world.apply_command(&self.cmd);
-        self.ground.before_step(&mut self.world);
+        if self.controller_state.is_none() {
+            self.ground.before_step(&mut self.world);
+        }
     }
 
     /// Advances the physics by one timestep with the controls already written, then checks
@@ -464,7 +475,8 @@ impl<C: Controller> Simulation<C> {
         if !forward_done {
             self.world.forward();
         }
-        let largest_n = self.world.link_contact_normal_forces(&mut self.link_normal_n);
+        let own = self.ground.own_contacts(&self.world);
+        let largest_n = self.world.link_contact_normal_forces(own, &mut self.link_normal_n);
         self.contact_peaks.add_step(reached_secs, &self.link_normal_n, largest_n);
         self.world.step_after_forward();
         self.steps += 1;
@@ -564,6 +576,6 @@ fn read_instant(
     snapshot: &mut Snapshot,
 ) {
     world.forward();
-    world.read_snapshot(snapshot, obs_true, obs);
+    world.read_snapshot_with(snapshot, obs_true, obs, ground.own_contacts(world));
     ground.fill_snapshot(snapshot);
 }

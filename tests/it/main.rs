@@ -11,6 +11,7 @@ mod cli;
 mod closed_loop;
 mod common;
 mod config;
+mod contact_events;
 mod defaults;
 mod dying_processes;
 mod estimation;

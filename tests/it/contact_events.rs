@@ -1,0 +1,338 @@
+//! Contact events with the default contact law (`physics.floor_friction = "stick_slip"`),
+//! measured from every step's snapshot as the recorded tables show it (`Simulation::control`, the
+//! recording's forward pass at x_k, then the step): a straight snake at rest, launched sideways,
+//! standing upright, hit sideways on the cylinders, the gait's ramp, a slowly ramped push that
+//! breaks a link away, and a coasting snake.
+//!
+//! Figures of the reference engine (Drake, the same chain, `validation/`): a straight chain
+//! launched sideways rolls as one body (0 % airborne, the floor carrying its weight); during the
+//! gait's ramp links lift 0.65–1.2 mm and land at 7–16 × a link's weight. Run with
+//! `--nocapture` to see ours.
+
+use simserpent::config::Config;
+use simserpent::sim::{Simulation, Snapshot, World};
+use simserpent::state::x_axis;
+
+use crate::common::{G, default_config_with};
+
+/// The validation suite's scene settings (`validation/scenes.py`): the default snake on a bare
+/// floor, isotropic μ everywhere, plus the scene's own keys; position servos with the gains the
+/// reference figures below were computed with (kp 5 N·m/rad, kv 0.1 N·m·s/rad: stiffer servos
+/// lift the links more during the ramp, in both engines).
+fn scene(mu: f64, keys: &[&str]) -> Config {
+    let mut sets: Vec<String> = [
+        "control.controller=\"gait\"".to_string(),
+        "control.position_kp_nm_per_rad=5.0".to_string(),
+        "control.position_kv_nm_s_per_rad=0.1".to_string(),
+        "ground.model=\"isotropic\"".to_string(),
+        format!("snake.ground_friction=[{mu}, 0.0, 0.0]"),
+        format!("snake.link_friction=[{mu}, 0.0, 0.0]"),
+        format!("terrain.obstacle_friction=[{mu}, 0.0, 0.0]"),
+        "terrain.kind=\"none\"".to_string(),
+    ]
+    .into();
+    sets.extend(keys.iter().map(|k| k.to_string()));
+    default_config_with(&sets).unwrap()
+}
+
+/// A straight snake (no gait, servos holding it straight) on the bare floor.
+fn straight(mu: f64, keys: &[&str]) -> Config {
+    let mut k = vec!["gait.kind=\"none\""];
+    k.extend_from_slice(keys);
+    scene(mu, &k)
+}
+
+/// Height of a link's lowest point above the floor (m): its capsule's axis segment end nearest
+/// the floor, minus the radius.
+fn lift_m(c: &Config, s: &Snapshot, i: usize) -> f64 {
+    let (l, r) = (c.snake.link_length_m, c.snake.link_radius_m);
+    let a = x_axis(s.link_quat[i]);
+    s.link_position_m[i][2] - (0.5 * l - r) * a[2].abs() - r
+}
+
+/// What one run segment shows, every step.
+#[derive(Debug, Default, Clone, Copy)]
+struct Events {
+    /// Link-steps without floor normal force / all link-steps.
+    airborne_fraction: f64,
+    /// Largest floor normal force of one link / its weight.
+    peak_over_weight: f64,
+    /// Largest |Σ floor normal force / weight − 1| of the whole snake.
+    total_load_error: f64,
+    /// Largest |floor normal force / weight − 1| of one link.
+    link_load_error: f64,
+    /// Largest lift of a link's lowest point above the floor (m).
+    max_lift_m: f64,
+    /// Largest |friction| / (μ N) of a contact row, and friction on rows without normal force.
+    friction_over_mu_n: f64,
+    friction_without_contact_n: f64,
+}
+
+/// Steps `sim` for `secs`, reading every instant's snapshot.
+fn measure(c: &Config, sim: &mut Simulation, secs: f64, mu: f64) -> Events {
+    let n = c.snake.n_links;
+    let dt = c.general.timestep_secs;
+    let mut s = Snapshot::new(n, n.saturating_sub(1));
+    let steps = (secs / dt).round() as usize;
+    let mut e = Events::default();
+    let mut airborne = 0usize;
+    for _ in 0..steps {
+        sim.control();
+        sim.snapshot(&mut s);
+        let (mut total, mut weight) = (0.0, 0.0);
+        for i in 0..n {
+            let w = s.link_mass_kg[i] * G;
+            let fz = s.link_floor_force_n[i][2];
+            if fz <= 0.0 {
+                airborne += 1;
+            }
+            total += fz;
+            weight += w;
+            e.peak_over_weight = e.peak_over_weight.max(fz / w);
+            e.link_load_error = e.link_load_error.max((fz / w - 1.0).abs());
+            e.max_lift_m = e.max_lift_m.max(lift_m(c, &s, i));
+        }
+        e.total_load_error = e.total_load_error.max((total / weight - 1.0).abs());
+        for row in &s.contacts {
+            let f = row.friction_force_n[0].hypot(row.friction_force_n[1]);
+            if row.normal_force_n > 0.0 {
+                e.friction_over_mu_n = e.friction_over_mu_n.max(f / (mu * row.normal_force_n));
+            } else {
+                e.friction_without_contact_n = e.friction_without_contact_n.max(f);
+            }
+        }
+        sim.advance().unwrap();
+    }
+    e.airborne_fraction = airborne as f64 / (steps * n) as f64;
+    e
+}
+
+fn run_for(sim: &mut Simulation, c: &Config, secs: f64) {
+    for _ in 0..(secs / c.general.timestep_secs).round() as usize {
+        sim.step().unwrap();
+    }
+}
+
+fn simulation(c: &Config) -> Simulation {
+    Simulation::new(c, World::from_config(c).unwrap())
+}
+
+#[test]
+fn a_straight_snake_at_rest_carries_each_links_weight_on_that_link() {
+    let c = straight(0.5, &[]);
+    let mut sim = simulation(&c);
+    run_for(&mut sim, &c, 0.5);
+    let e = measure(&c, &mut sim, 0.5, 0.5);
+    eprintln!("{e:?}");
+    assert!(
+        e.link_load_error <= 0.02,
+        "a link's floor load differs from its weight by {:.2} %",
+        e.link_load_error * 100.0
+    );
+    assert_eq!(e.airborne_fraction, 0.0);
+}
+
+#[test]
+fn a_straight_snake_launched_sideways_rolls_without_lifting() {
+    for mu in [0.5, 1.0] {
+        let c = straight(mu, &["initial_state.linear_velocity_m_per_s=[0.0, 5.0, 0.0]"]);
+        // The snake starts touching the floor exactly and settles onto its sink under its own
+        // weight (g/ω² ≈ 10 µm) within the first steps; measured from 50 ms on.
+        let mut sim = simulation(&c);
+        run_for(&mut sim, &c, 0.05);
+        let e = measure(&c, &mut sim, 0.95, mu);
+        eprintln!("μ {mu}: {e:?}");
+        assert_eq!(e.airborne_fraction, 0.0, "μ {mu}: {e:?}");
+        assert!(e.total_load_error <= 0.02, "μ {mu}: Σ N / W − 1 up to {:.2} %", e.total_load_error * 100.0);
+        assert!(e.friction_over_mu_n <= 1.0 + 1e-9 && e.friction_without_contact_n == 0.0, "μ {mu}: {e:?}");
+    }
+}
+
+#[test]
+fn an_upright_snake_stands() {
+    // Standing on the head's tip: the body (along −x of the head) pointing up.
+    let c = straight(0.5, &["snake.head_rotation_deg=[0.0, 90.0, 0.0]"]);
+    let mut world = World::from_config(&c).unwrap();
+    // The configured pose holds the tip one radius above the floor: lower it onto the floor.
+    world.qpos_mut()[2] -= c.snake.link_radius_m;
+    world.forward();
+    let mut sim = Simulation::new(&c, world);
+    let n = c.snake.n_links;
+    let mut s = Snapshot::new(n, n - 1);
+    sim.control();
+    sim.snapshot(&mut s);
+    let start = s.link_position_m[n - 1];
+    run_for(&mut sim, &c, 2.0);
+    sim.control();
+    sim.snapshot(&mut s);
+    let top = s.link_position_m[n - 1];
+    let off = (top[0] - start[0]).hypot(top[1] - start[1]);
+    eprintln!("top link {off:e} m off the vertical");
+    assert!(off <= 1e-3, "the top link is {off} m off the vertical after 2 s");
+}
+
+/// The sideways hit on the cylinders: the straight snake at 5 m/s into the two-cylinder terrain
+/// (distance 0.3 m, radius 0.2 m).
+fn hit(mu: f64) -> Config {
+    straight(
+        mu,
+        &[
+            "initial_state.linear_velocity_m_per_s=[0.0, 5.0, 0.0]",
+            "terrain.kind=\"two_cylinders\"",
+            "terrain.two_cylinders.distance_m=0.3",
+            "terrain.two_cylinders.radius_m=0.2",
+        ],
+    )
+}
+
+/// At μ 0.5 the reference (Drake) throws the snake off the floor too: its largest lift is 182 mm.
+#[test]
+fn a_sideways_hit_on_the_cylinders_stays_within_the_reference_lift() {
+    let c = hit(0.5);
+    let e = measure(&c, &mut simulation(&c), 1.0, 0.5);
+    eprintln!("{e:?}");
+    assert!(e.max_lift_m <= 1.5 * 0.182, "a link lifts {} mm (reference 182 mm)", e.max_lift_m * 1e3);
+    assert!(e.friction_without_contact_n == 0.0, "{e:?}");
+}
+
+/// At μ 1 the reference lifts the snake 8.3 mm; here the link–obstacle friction is bounded by
+/// MuJoCo's obstacle normal force of the latest evaluation (the previous step's), not of the same
+/// step, and the snake lifts farther: this prints both μ.
+#[test]
+#[ignore = "probe: the sideways hit at μ 0.5 and 1 (run with --ignored --nocapture)"]
+fn measure_sideways_hit() {
+    for mu in [0.5, 1.0] {
+        let c = hit(mu);
+        let e = measure(&c, &mut simulation(&c), 1.0, mu);
+        eprintln!("μ {mu}: {e:?}");
+    }
+}
+
+/// The reference's largest lift (m) and landing (× m g) in the gait's 1-s ramp (Drake), and its
+/// mean floor load per link over 1–3 s (× m g, head to tail).
+const RAMP_REFERENCE: [(f64, f64, f64, [f64; 10]); 2] = [
+    (0.5, 0.874e-3, 15.8, [0.998, 0.997, 1.000, 1.004, 1.005, 1.003, 1.000, 0.996, 0.996, 1.001]),
+    (1.0, 3.55e-3, 68.1, [1.002, 0.998, 1.000, 1.004, 1.004, 1.000, 0.995, 0.992, 0.997, 1.011]),
+];
+
+#[test]
+fn the_gait_ramp_and_steady_undulation_stay_within_the_reference_envelope() {
+    for (mu, lift, peak, loads) in RAMP_REFERENCE {
+        let c = scene(
+            mu,
+            &[
+                "gait.kind=\"sine_wave\"",
+                "gait.sine_wave.amplitude_deg=30.0",
+                "gait.sine_wave.frequency_hz=0.5",
+                "gait.sine_wave.phase_lag_deg=40.0",
+                "gait.sine_wave.offset_deg=0.0",
+                "gait.ramp_secs=1.0",
+            ],
+        );
+        let mut sim = simulation(&c);
+        let e = measure(&c, &mut sim, 1.0, mu);
+        eprintln!("μ {mu}, ramp: {e:?}");
+        assert!(e.max_lift_m <= 1.5 * lift, "μ {mu}: largest lift {} mm", e.max_lift_m * 1e3);
+        assert!(e.peak_over_weight <= 2.0 * peak, "μ {mu}: peak {} × m g", e.peak_over_weight);
+        assert!(e.friction_over_mu_n <= 1.0 + 1e-9 && e.friction_without_contact_n == 0.0, "μ {mu}: {e:?}");
+        // Steady undulation, 1–3 s: each link's mean floor load.
+        let n = c.snake.n_links;
+        let mut s = Snapshot::new(n, n - 1);
+        let mut sum = vec![0.0; n];
+        let steps = (2.0 / c.general.timestep_secs).round() as usize;
+        for _ in 0..steps {
+            sim.control();
+            sim.snapshot(&mut s);
+            for (i, total) in sum.iter_mut().enumerate() {
+                *total += s.link_floor_force_n[i][2] / (s.link_mass_kg[i] * G) / steps as f64;
+            }
+            sim.advance().unwrap();
+        }
+        eprintln!("μ {mu}, mean load per link 1–3 s: {sum:.3?}");
+        for (i, (load, reference)) in sum.iter().zip(loads).enumerate() {
+            assert!(
+                (load / reference - 1.0).abs() <= 0.05,
+                "μ {mu}: link {i} carries {load} × m g, reference {reference}"
+            );
+        }
+    }
+}
+
+/// One link on the floor pushed along its axis by a force ramped slowly through μ·m·g: it stays
+/// put until the push reaches μ·N and slides from there.
+#[test]
+fn a_slowly_ramped_push_breaks_a_link_away_at_mu_n() {
+    for mu in [0.5, 1.0] {
+        let c = straight(mu, &["snake.n_links=1"]);
+        let mu_n = mu * c.snake.link_mass_kg * G;
+        let mut sim = simulation(&c);
+        run_for(&mut sim, &c, 0.2);
+        let dt = c.general.timestep_secs;
+        // From 0 at a quarter of μN per second.
+        let rate = 0.25 * mu_n;
+        let mut s = Snapshot::new(1, 0);
+        let mut broke_at = None;
+        for k in 0..(4.4 / dt) as usize {
+            let push = rate * k as f64 * dt;
+            // The head's free joint: a force along x at the link's body origin, on its axis.
+            sim.world_mut().qfrc_applied_mut()[0] = push;
+            sim.control();
+            sim.snapshot(&mut s);
+            // Break-away: the first step faster than 1 mm/s. Sliding from t_b on, m·dv/dt =
+            // rate·(t − t_b), so v = rate·(t − t_b)²/(2m): the push at t_b is the push now less
+            // √(2·m·v·rate) (the validation suite's reading).
+            let v = s.link_velocity_m_per_s[0][0];
+            if v > 1e-3 {
+                broke_at = Some(push - (2.0 * c.snake.link_mass_kg * v * rate).sqrt());
+                break;
+            }
+            sim.advance().unwrap();
+        }
+        let ratio = broke_at.expect("the link broke away") / mu_n;
+        eprintln!("μ {mu}: broke away at {ratio} μN");
+        assert!((ratio - 1.0).abs() <= 0.01, "μ {mu}: broke away at {ratio} × μN");
+    }
+}
+
+/// Motors off (torque control, PID gains 0), launched at 1 m/s sideways spinning at 2 rad/s:
+/// the largest rise of kinetic + potential energy in one step (the validation suite's figure;
+/// Drake's is 2.7e-6 J at μ 0.5).
+#[test]
+#[ignore = "probe: prints the coasting snake's largest energy rise in a step (run with --ignored --nocapture)"]
+fn measure_coasting_energy() {
+    for mu in [0.5, 1.0] {
+        let c = straight(
+            mu,
+            &[
+                "initial_state.linear_velocity_m_per_s=[0.0, 1.0, 0.0]",
+                "initial_state.angular_velocity_rad_per_s=[0.0, 0.0, 2.0]",
+                "control.method=\"torque\"",
+                "control.pid_kp_nm_per_rad=0.0",
+                "control.pid_ki_nm_per_rad_s=0.0",
+                "control.pid_kd_nm_s_per_rad=0.0",
+            ],
+        );
+        let mut sim = simulation(&c);
+        let n = c.snake.n_links;
+        let mut s = Snapshot::new(n, n - 1);
+        let (mut previous, mut previous_el): (Option<f64>, f64) = (None, 0.0);
+        let (mut rise, mut rise_el) = (f64::NEG_INFINITY, f64::NEG_INFINITY);
+        for _ in 0..(2.0 / c.general.timestep_secs) as usize {
+            sim.control();
+            sim.snapshot(&mut s);
+            let potential: f64 = (0..n).map(|i| s.link_mass_kg[i] * G * s.link_position_m[i][2]).sum();
+            let e = sim.world_mut().kinetic_energy_j() + potential;
+            let el = e + sim.ground().elastic_energy_j();
+            if let Some(p) = previous {
+                rise = rise.max(e - p);
+                rise_el = rise_el.max(el - previous_el);
+            }
+            previous = Some(e);
+            previous_el = el;
+            sim.advance().unwrap();
+        }
+        eprintln!(
+            "μ {mu}: largest rise in a step: kinetic + potential {rise:e} J, with the floor's elastic energy {rise_el:e} J"
+        );
+    }
+}
