@@ -25,6 +25,7 @@ mod legacy_convert;
 mod limits;
 mod locomotion;
 mod model;
+mod oal_bench;
 mod parquet;
 mod physics;
 mod plot;
