@@ -12,7 +12,10 @@
 //! - the form-closure pattern against `snake.joint_range_deg`: when `gait.kind` or
 //!   `terrain.kind` is `"form_closure"`;
 //! - the corridor width against the snake's thickness: when `terrain.kind = "cylinder_path"`;
-//! - the record interval against the duration: when `recording.enabled`.
+//! - the record interval against the duration: when `recording.enabled`;
+//! - a contact law's offsets and amplitudes against `snake.joint_range_deg`, its windows against
+//!   the number of joints, and what it needs of the gait, the actuators and the estimation: when
+//!   `control.controller` selects it.
 //!
 //! The ranges of every other key are checked whatever is selected. Whether obstacles overlap the
 //! snake is checked by model generation, not here.
@@ -234,22 +237,16 @@ impl Config {
         non_negative("follow_the_leader_reflex.propulsive_gain_rad_per_n", r.propulsive_gain_rad_per_n)?;
         non_negative("follow_the_leader_reflex.resisting_gain_rad_per_n", r.resisting_gain_rad_per_n)?;
         non_negative("follow_the_leader_reflex.force_filter_secs", r.force_filter_secs)?;
-        self.below_joint_range("follow_the_leader_reflex.max_offset_deg", r.max_offset_deg)?;
+        positive("follow_the_leader_reflex.max_offset_deg", r.max_offset_deg)?;
 
         let a = &self.directional_admittance;
         finite("directional_admittance.goal_heading_deg", a.goal_heading_deg)?;
-        let nj = self.snake.n_joints();
-        ensure(
-            a.windows >= 1 && a.windows <= nj.max(1),
-            "directional_admittance.windows",
-            a.windows,
-            format!("must be 1 ..= the number of joints ({nj})"),
-        )?;
+        ensure(a.windows >= 1, "directional_admittance.windows", a.windows, "must be at least 1")?;
         positive("directional_admittance.window_sigma_joints", a.window_sigma_joints)?;
         positive("directional_admittance.stiffness_nm_per_rad", a.stiffness_nm_per_rad)?;
         positive("directional_admittance.damping_nm_s_per_rad", a.damping_nm_s_per_rad)?;
         non_negative("directional_admittance.min_amplitude_deg", a.min_amplitude_deg)?;
-        self.below_joint_range("directional_admittance.max_amplitude_deg", a.max_amplitude_deg)?;
+        positive("directional_admittance.max_amplitude_deg", a.max_amplitude_deg)?;
         ensure(
             a.min_amplitude_deg <= a.max_amplitude_deg,
             "directional_admittance.min_amplitude_deg",
@@ -278,12 +275,29 @@ impl Config {
         non_negative("jam_resolution.min_propulsion", j.min_propulsion)?;
         ensure(j.min_propulsion < 1.0, "jam_resolution.min_propulsion", fmt_f(j.min_propulsion), "must be below 1")?;
         positive("jam_resolution.offset_filter_secs", j.offset_filter_secs)?;
-        self.below_joint_range("jam_resolution.max_offset_deg", j.max_offset_deg)?;
+        positive("jam_resolution.max_offset_deg", j.max_offset_deg)?;
 
+        // What ties a law to the snake (its joints and their range): when it is selected.
         let (name, contacts) = match self.control.controller {
-            ControllerKind::FollowTheLeaderReflex => ("follow_the_leader_reflex", r.contacts),
-            ControllerKind::DirectionalAdmittance => ("directional_admittance", a.contacts),
-            ControllerKind::JamResolution => ("jam_resolution", j.contacts),
+            ControllerKind::FollowTheLeaderReflex => {
+                self.below_joint_range("follow_the_leader_reflex.max_offset_deg", r.max_offset_deg)?;
+                ("follow_the_leader_reflex", r.contacts)
+            }
+            ControllerKind::DirectionalAdmittance => {
+                let nj = self.snake.n_joints();
+                ensure(
+                    a.windows <= nj.max(1),
+                    "directional_admittance.windows",
+                    a.windows,
+                    format!("must be 1 ..= the number of joints ({nj})"),
+                )?;
+                self.below_joint_range("directional_admittance.max_amplitude_deg", a.max_amplitude_deg)?;
+                ("directional_admittance", a.contacts)
+            }
+            ControllerKind::JamResolution => {
+                self.below_joint_range("jam_resolution.max_offset_deg", j.max_offset_deg)?;
+                ("jam_resolution", j.contacts)
+            }
             _ => return Ok(()),
         };
         ensure(
