@@ -138,7 +138,7 @@ impl Layout {
             Family::Lattice => {
                 let k = (index % 6) as usize;
                 let s = LATTICE_SPACING_OF_WAVELENGTH[k / 2];
-                if k % 2 == 0 { Layout::Square(s) } else { Layout::Hexagonal(s) }
+                if k.is_multiple_of(2) { Layout::Square(s) } else { Layout::Hexagonal(s) }
             }
             Family::Random => Layout::Random(RANDOM_PEGS_PER_M2[(index % 3) as usize]),
         }
@@ -156,6 +156,9 @@ impl Layout {
     }
 }
 
+/// Builds a controller for a run from the run's config and its number of joints.
+pub type MakeController = Arc<dyn Fn(&Config, usize) -> Box<dyn Controller> + Send + Sync>;
+
 /// A controller plugged into the benchmark: built per run from the run's config and its number
 /// of joints. It runs on the benchmark's base gait settings (`config.gait.sine_wave`) and servos.
 #[derive(Clone)]
@@ -163,7 +166,7 @@ pub struct Plugged {
     /// Its condition name in the tables.
     pub name: String,
     /// Builds it for a run.
-    pub make: Arc<dyn Fn(&Config, usize) -> Box<dyn Controller> + Send + Sync>,
+    pub make: MakeController,
     /// Whether its runs need the step loop's contact estimates (`[estimation]` on).
     pub estimation: bool,
 }
@@ -849,10 +852,10 @@ pub fn run_bench(
             continue;
         }
         let mut worst = f64::INFINITY;
-        for fl in 0..bench.floors.len() {
+        for (fl, passive) in chosen_passive.iter().enumerate() {
             for fa in 0..bench.families.len() {
                 let mut baselines = vec![0usize];
-                baselines.extend(chosen_passive[fl]);
+                baselines.extend(*passive);
                 for other in baselines {
                     let a = values(fl, fa, true, k, success);
                     let b = values(fl, fa, true, other, success);

@@ -205,8 +205,8 @@ impl DirectionalAdmittance {
             // Fʷ and the admittance, one explicit Euler step (stable for dt < B/K).
             for (w, row) in self.window.iter().enumerate() {
                 let mut f = 0.0;
-                for j in 0..n {
-                    f += r * row[j] * (omega * t - j as f64 * self.wave.phase_lag_rad).sin() * self.torque_nm[j];
+                for (j, (g, tau)) in row.iter().zip(&self.torque_nm).enumerate() {
+                    f += r * g * (omega * t - j as f64 * self.wave.phase_lag_rad).sin() * tau;
                 }
                 self.generalised_force_nm[w] = f;
                 let beta = &mut self.amplitude_rad[w];

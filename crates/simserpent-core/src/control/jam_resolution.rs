@@ -333,8 +333,8 @@ mod tests {
         let f = c.jam_resolution.push_force_n;
         let mut tau = [0.0; 9];
         ctl.body.add_joint_torques(5, ctl.body.centre_m(5), [-f * n[0], -f * n[1]], &mut tau);
-        for j in 0..9 {
-            let expected = tau[j] / c.control.position_kp_nm_per_rad;
+        for (j, t) in tau.iter().enumerate() {
+            let expected = t / c.control.position_kp_nm_per_rad;
             assert!((ctl.targets_rad()[j] - expected).abs() < 1e-12, "joint {j}");
         }
         assert!(ctl.targets_rad()[4] < 0.0 && ctl.targets_rad()[0] < ctl.targets_rad()[4]);
