@@ -154,7 +154,8 @@ enum Command {
     },
     /// Run one of the thesis' experiments with its physics checks: configure, collision,
     /// undulation, form-closure, oal, estimation, bounce (the project assignment's ball drop), hoal (obstacle-aided
-    /// locomotion with force feedback against open-loop waves). Writes runs/experiment-<name>-<UTC time>/report.md; exits 1
+    /// locomotion with force feedback against open-loop waves), oal-bench (the obstacle-aided locomotion benchmark:
+    /// contact laws against open loop and passive compliance on paired peg fields). Writes runs/experiment-<name>-<UTC time>/report.md; exits 1
     /// if a check fails.
     Experiment {
         /// Which experiment.
@@ -443,6 +444,7 @@ impl ExitCodeOf for simserpent::experiments::ExperimentError {
         match self {
             ExperimentError::Unknown(_) | ExperimentError::Option(_) => 2,
             ExperimentError::Run(e) => e.exit_code(),
+            ExperimentError::Interrupted { .. } => 130,
             _ => 1,
         }
     }

@@ -12,6 +12,7 @@ mod data;
 pub mod estimation;
 pub mod hoal;
 mod locomotion;
+pub mod oal_bench;
 mod pictures;
 mod report;
 
@@ -52,6 +53,14 @@ pub enum ExperimentError {
     /// A file of a run folder is not one SimSerpent reads ([`crate::files`]).
     #[error(transparent)]
     File(#[from] crate::files::FileError),
+    /// An interrupt (SIGINT/SIGTERM, [`crate::interrupt`]) stopped the experiment between runs.
+    #[error("interrupted after {done} of {planned} runs")]
+    Interrupted {
+        /// Runs finished.
+        done: usize,
+        /// Runs planned.
+        planned: usize,
+    },
     /// No such experiment.
     #[error("unknown experiment `{0}`; available: {list}", list = NAMES.join(", "))]
     Unknown(String),
@@ -67,19 +76,20 @@ impl ExperimentError {
         use crate::sim::SimError;
         matches!(
             self,
-            ExperimentError::Run(
-                RunError::Interrupted { .. }
-                    | RunError::InterruptedSetUp
-                    | RunError::Sim(SimError::Interrupted { .. })
-                    | RunError::Plot(crate::plot::PlotError::Interrupted { .. })
-            )
+            ExperimentError::Interrupted { .. }
+                | ExperimentError::Run(
+                    RunError::Interrupted { .. }
+                        | RunError::InterruptedSetUp
+                        | RunError::Sim(SimError::Interrupted { .. })
+                        | RunError::Plot(crate::plot::PlotError::Interrupted { .. })
+                )
         )
     }
 }
 
 /// The experiments, by command name.
-pub const NAMES: [&str; 8] =
-    ["configure", "collision", "undulation", "form-closure", "oal", "estimation", "bounce", "hoal"];
+pub const NAMES: [&str; 9] =
+    ["configure", "collision", "undulation", "form-closure", "oal", "estimation", "bounce", "hoal", "oal-bench"];
 
 /// How an experiment runs: length of its runs, threads, progress.
 #[derive(Debug, Clone, Default)]
@@ -324,6 +334,9 @@ pub fn run_experiment_with(
     let cases = match name {
         "estimation" => "Each case below wrote estimation_<case>.csv and plots/ next to this report.",
         "hoal" => "The runs are in memory: hoal_runs.csv and plots/ next to this report.",
+        "oal-bench" => {
+            "The runs are in memory: oal_runs.csv, oal_summary.csv, oal_paired.csv and plots/ next to this report."
+        }
         _ => "Each case below is a run folder next to this report (config.toml, model.xml, tables).",
     };
     report.intro = format!(
@@ -342,6 +355,7 @@ pub fn run_experiment_with(
         "estimation" => estimation::run(&ctx, base),
         "bounce" => bounce::run(&ctx, base),
         "hoal" => hoal::run(&ctx, base),
+        "oal-bench" => oal_bench::run(&ctx, base),
         _ => locomotion::configure(&ctx, base),
     };
     let path = folder.join("report.md");

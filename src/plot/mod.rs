@@ -465,6 +465,99 @@ pub fn plot_lines(
     both(dir, stem, (900, 500), |root: &dyn AnyArea| root.line(title, x_label, y_label, &series))
 }
 
+/// One labelled value with its interval.
+struct Bar<'a> {
+    label: &'a str,
+    value: f64,
+    lo: f64,
+    hi: f64,
+}
+
+/// Draws one value per label with its interval (a dot and a whisker; one row per label, the
+/// values along x) into `<dir>/<stem>.png` and
+/// `.svg` (e.g. a success rate per condition with its 90 % bootstrap interval). `values`, `lo` and
+/// `hi` are per label.
+#[allow(clippy::too_many_arguments)]
+pub fn plot_intervals(
+    dir: &Path,
+    stem: &str,
+    title: &str,
+    y_label: &str,
+    labels: &[String],
+    values: &[f64],
+    lo: &[f64],
+    hi: &[f64],
+) -> Result<Vec<PathBuf>, PlotError> {
+    register_font();
+    let bars: Vec<Bar<'_>> = labels
+        .iter()
+        .zip(values)
+        .zip(lo.iter().zip(hi))
+        .map(|((label, value), (lo, hi))| Bar { label, value: *value, lo: *lo, hi: *hi })
+        .collect();
+    let height = 120 + 32 * bars.len() as u32;
+    both(dir, stem, (1000, height), |root: &dyn AnyArea| root.intervals(title, y_label, &bars))
+}
+
+fn interval_chart<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    value_label: &str,
+    bars: &[Bar<'_>],
+) -> DrawResult {
+    // One row per label (top to bottom), the values along x.
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let (x0, x1) = range(bars.iter().flat_map(|b| [b.value, b.lo, b.hi]));
+    let n = bars.len().max(1);
+    let row = |k: usize| (n - 1 - k) as f64;
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, (FAMILY, 20))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(260)
+        .build_cartesian_2d(x0..x1, -0.5..(n as f64 - 0.5))
+        .map_err(|e| e.to_string())?;
+    let label_of = |y: &f64| {
+        let k = y.round();
+        if (y - k).abs() < 1e-6 && k >= 0.0 && (k as usize) < n {
+            bars[n - 1 - k as usize].label.to_string()
+        } else {
+            String::new()
+        }
+    };
+    chart
+        .configure_mesh()
+        .y_labels(n)
+        .y_label_formatter(&label_of)
+        .x_desc(value_label)
+        .label_style((FAMILY, 14))
+        .axis_desc_style((FAMILY, 16))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    let c = color(0);
+    for (k, b) in bars.iter().enumerate() {
+        let y = row(k);
+        if b.lo.is_finite() && b.hi.is_finite() {
+            chart
+                .draw_series(std::iter::once(PathElement::new(vec![(b.lo, y), (b.hi, y)], c.stroke_width(2))))
+                .map_err(|e| e.to_string())?;
+            for x in [b.lo, b.hi] {
+                chart
+                    .draw_series(std::iter::once(PathElement::new(
+                        vec![(x, y - 0.15), (x, y + 0.15)],
+                        c.stroke_width(2),
+                    )))
+                    .map_err(|e| e.to_string())?;
+            }
+        }
+        if b.value.is_finite() {
+            chart.draw_series(std::iter::once(Circle::new((b.value, y), 5, c.filled()))).map_err(|e| e.to_string())?;
+        }
+    }
+    Ok(())
+}
+
 /// Draws paths `(name, x, y)` seen from above over circular obstacles `(centre, radius)` (m)
 /// into `<dir>/<stem>.png` and `.svg` under `title` (equal scales; an open circle marks each
 /// path's start, a filled one its end; a legend names up to six paths).
@@ -721,6 +814,7 @@ fn contact_stats(time: &[f64], c: &Table) -> ContactStats {
 /// The two backends behind one object-safe face, so every panel is drawn by one closure.
 trait AnyArea {
     fn line(&self, title: &str, x_label: &str, y_label: &str, series: &[Series<'_>]) -> DrawResult;
+    fn intervals(&self, title: &str, y_label: &str, bars: &[Bar<'_>]) -> DrawResult;
     fn top(&self, title: &str, paths: &[Series<'_>], obstacles: &[Obstacle], size: (u32, u32)) -> DrawResult;
     fn grid(
         &self,
@@ -753,6 +847,10 @@ impl<DB: DrawingBackend> AnyArea for DrawingArea<DB, Shift> {
     }
     fn line(&self, title: &str, x_label: &str, y_label: &str, series: &[Series<'_>]) -> DrawResult {
         line_chart(self, title, x_label, y_label, series)?;
+        self.present().map_err(|e| e.to_string())
+    }
+    fn intervals(&self, title: &str, y_label: &str, bars: &[Bar<'_>]) -> DrawResult {
+        interval_chart(self, title, y_label, bars)?;
         self.present().map_err(|e| e.to_string())
     }
     fn top(&self, title: &str, paths: &[Series<'_>], obstacles: &[Obstacle], size: (u32, u32)) -> DrawResult {

@@ -504,6 +504,44 @@ wedge_secs = 0.7
 relax_secs = 2.5
 relax_amplitude_deg = 45.0
 relax_phase_lag_deg = -50.0
+
+[follow_the_leader_reflex]
+contacts = "true"
+feedback = false
+goal_heading_deg = 5.0
+propulsive_gain_rad_per_n = 0.03
+resisting_gain_rad_per_n = 0.01
+force_filter_secs = 0.1
+max_offset_deg = 20.0
+
+[directional_admittance]
+contacts = "true"
+feedback = false
+goal_heading_deg = -5.0
+windows = 2
+window_sigma_joints = 2.0
+stiffness_nm_per_rad = 8.0
+damping_nm_s_per_rad = 1.5
+min_amplitude_deg = 5.0
+max_amplitude_deg = 70.0
+wedge_force_n = 4.0
+wedge_speed_m_per_s = 0.02
+wedge_secs = 1.5
+filter_secs = 0.4
+escape_stiffness_ratio = 0.5
+escape_secs = 1.0
+
+[jam_resolution]
+contacts = "true"
+feedback = false
+goal_heading_deg = 15.0
+jam_window_secs = 1.5
+jam_min_progress_m = 0.04
+resolve_secs = 1.0
+push_force_n = 3.0
+min_propulsion = 0.3
+offset_filter_secs = 0.1
+max_offset_deg = 25.0
 "#;
 
 fn all_fields_expected() -> Config {
@@ -884,6 +922,44 @@ fn all_fields_expected() -> Config {
         relax_amplitude_deg: 45.0,
         relax_phase_lag_deg: -50.0,
     };
+    c.follow_the_leader_reflex = FollowTheLeaderReflex {
+        contacts: ContactSource::True,
+        feedback: false,
+        goal_heading_deg: 5.0,
+        propulsive_gain_rad_per_n: 0.03,
+        resisting_gain_rad_per_n: 0.01,
+        force_filter_secs: 0.1,
+        max_offset_deg: 20.0,
+    };
+    c.directional_admittance = DirectionalAdmittance {
+        contacts: ContactSource::True,
+        feedback: false,
+        goal_heading_deg: -5.0,
+        windows: 2,
+        window_sigma_joints: 2.0,
+        stiffness_nm_per_rad: 8.0,
+        damping_nm_s_per_rad: 1.5,
+        min_amplitude_deg: 5.0,
+        max_amplitude_deg: 70.0,
+        wedge_force_n: 4.0,
+        wedge_speed_m_per_s: 0.02,
+        wedge_secs: 1.5,
+        filter_secs: 0.4,
+        escape_stiffness_ratio: 0.5,
+        escape_secs: 1.0,
+    };
+    c.jam_resolution = JamResolution {
+        contacts: ContactSource::True,
+        feedback: false,
+        goal_heading_deg: 15.0,
+        jam_window_secs: 1.5,
+        jam_min_progress_m: 0.04,
+        resolve_secs: 1.0,
+        push_force_n: 3.0,
+        min_propulsion: 0.3,
+        offset_filter_secs: 0.1,
+        max_offset_deg: 25.0,
+    };
     c
 }
 
@@ -1104,6 +1180,57 @@ const RULES: &[(&[&str], &str)] = &[
     (&["rail.drift_heading_gain=9"], "rail.drift_heading_gain"),
     (&["rail.drift_heading_filter_secs=0"], "rail.drift_heading_filter_secs"),
     (&["control.controller=\"rail\"", "estimation.enabled=false"], "rail.contacts"),
+    (
+        &[
+            "control.controller=\"follow_the_leader_reflex\"",
+            "estimation.enabled=true",
+            "follow_the_leader_reflex.max_offset_deg=90",
+        ],
+        "follow_the_leader_reflex.max_offset_deg",
+    ),
+    (&["follow_the_leader_reflex.propulsive_gain_rad_per_n=-1"], "follow_the_leader_reflex.propulsive_gain_rad_per_n"),
+    (&["follow_the_leader_reflex.force_filter_secs=-1"], "follow_the_leader_reflex.force_filter_secs"),
+    (
+        &[
+            "control.controller=\"follow_the_leader_reflex\"",
+            "estimation.enabled=true",
+            "gait.sine_wave.phase_lag_deg=-30",
+        ],
+        "gait.sine_wave.phase_lag_deg",
+    ),
+    (
+        &["control.controller=\"follow_the_leader_reflex\"", "estimation.enabled=false"],
+        "follow_the_leader_reflex.contacts",
+    ),
+    (&["control.controller=\"follow_the_leader_reflex\"", "gait.kind=\"serpenoid\""], "gait.kind"),
+    (&["directional_admittance.windows=0"], "directional_admittance.windows"),
+    (
+        &[
+            "control.controller=\"directional_admittance\"",
+            "estimation.enabled=true",
+            "directional_admittance.windows=50",
+        ],
+        "directional_admittance.windows",
+    ),
+    (
+        &["directional_admittance.min_amplitude_deg=50", "directional_admittance.max_amplitude_deg=40"],
+        "directional_admittance.min_amplitude_deg",
+    ),
+    (&["directional_admittance.escape_stiffness_ratio=2"], "directional_admittance.escape_stiffness_ratio"),
+    (&["directional_admittance.damping_nm_s_per_rad=0"], "directional_admittance.damping_nm_s_per_rad"),
+    (
+        &["control.controller=\"directional_admittance\"", "estimation.enabled=true", "gait.sine_wave.amplitude_deg=5"],
+        "gait.sine_wave.amplitude_deg",
+    ),
+    (&["control.controller=\"directional_admittance\"", "estimation.enabled=false"], "directional_admittance.contacts"),
+    (&["jam_resolution.min_propulsion=1"], "jam_resolution.min_propulsion"),
+    (&["jam_resolution.push_force_n=0"], "jam_resolution.push_force_n"),
+    (&["jam_resolution.jam_window_secs=0"], "jam_resolution.jam_window_secs"),
+    (
+        &["control.controller=\"jam_resolution\"", "estimation.enabled=true", "control.method=\"velocity\""],
+        "control.method",
+    ),
+    (&["control.controller=\"jam_resolution\"", "estimation.enabled=false"], "jam_resolution.contacts"),
     (&["terrain.cylinder_path.width_m=0.1"], "terrain.cylinder_path.width_m"),
     (&["terrain.cylinder_path.width_m=0.15"], "terrain.cylinder_path.width_m"),
     (&["terrain.cylinder_path.start_m=nan"], "terrain.cylinder_path.start_m"),

@@ -26,6 +26,7 @@ mod legacy_convert;
 mod limits;
 mod locomotion;
 mod model;
+mod oal_bench;
 mod parquet;
 mod physics;
 mod plot;

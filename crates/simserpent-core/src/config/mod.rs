@@ -191,6 +191,9 @@ pub struct Config {
     pub path_following: PathFollowing,
     pub obstacle_aided: ObstacleAided,
     pub rail: Rail,
+    pub follow_the_leader_reflex: FollowTheLeaderReflex,
+    pub directional_admittance: DirectionalAdmittance,
+    pub jam_resolution: JamResolution,
 }
 
 /// How the original tool's geometry is reproduced (`[legacy]`; user guide, "Use the original tool's config").
@@ -487,6 +490,15 @@ pub enum ControllerKind {
     ObstacleAided,
     /// Follow-the-leader obstacle-aided locomotion (`control::Rail`, `[rail]`).
     Rail,
+    /// Kano & Ishiguro's decentralised follow-the-leader body with a lateral-pressure reflex
+    /// (`control::FollowTheLeaderReflex`, `[follow_the_leader_reflex]`).
+    FollowTheLeaderReflex,
+    /// Shape-based directional admittance with a mode switch when wedged (Travers et al. 2018,
+    /// Wang et al. 2020; `control::DirectionalAdmittance`, `[directional_admittance]`).
+    DirectionalAdmittance,
+    /// Propulsion-aware jam resolution through the contact Jacobian (Liljebäck et al.;
+    /// `control::JamResolution`, `[jam_resolution]`).
+    JamResolution,
 }
 
 /// Which actuator kind the controller drives.
@@ -1418,7 +1430,91 @@ pub enum Propagation {
     Wave,
 }
 
-/// `obstacle_aided.contacts`.
+/// The decentralised follow-the-leader body with a lateral-pressure reflex
+/// (`[follow_the_leader_reflex]`; `control::FollowTheLeaderReflex`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FollowTheLeaderReflex {
+    /// Which contacts the reflex reads.
+    pub contacts: ContactSource,
+    /// Whether the contacts feed the law (false: the `[gait.sine_wave]` wave alone).
+    pub feedback: bool,
+    /// The goal direction (degrees from +x): a contact force with a component along it is
+    /// propulsive, one against it resisting.
+    pub goal_heading_deg: f64,
+    /// Bend toward a peg on the propulsive flank: joint offset (rad) per newton of lateral force.
+    pub propulsive_gain_rad_per_n: f64,
+    /// Relax away from a peg on the resisting flank: joint offset (rad) per newton.
+    pub resisting_gain_rad_per_n: f64,
+    /// Time constant (s) of the low-pass filter on each link's contact force.
+    pub force_filter_secs: f64,
+    /// Largest offset of one joint (degrees).
+    pub max_offset_deg: f64,
+}
+
+/// Shape-based directional admittance (`[directional_admittance]`;
+/// `control::DirectionalAdmittance`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DirectionalAdmittance {
+    /// Which contacts the law reads.
+    pub contacts: ContactSource,
+    /// Whether the contacts feed the law (false: the `[gait.sine_wave]` wave alone).
+    pub feedback: bool,
+    /// The goal direction (degrees from +x).
+    pub goal_heading_deg: f64,
+    /// Number of body windows, each with its own wave amplitude.
+    pub windows: usize,
+    /// Width (standard deviation, in joints) of each window's Gaussian.
+    pub window_sigma_joints: f64,
+    /// Stiffness K of the amplitude admittance (N·m per rad of amplitude).
+    pub stiffness_nm_per_rad: f64,
+    /// Damping B of the amplitude admittance (N·m·s per rad of amplitude).
+    pub damping_nm_s_per_rad: f64,
+    /// Bounds of each window's amplitude (degrees).
+    pub min_amplitude_deg: f64,
+    pub max_amplitude_deg: f64,
+    /// Wedged: the filtered resisting force above `wedge_force_n` (N) while the filtered
+    /// progress speed is below `wedge_speed_m_per_s` (m/s) for `wedge_secs` (s).
+    pub wedge_force_n: f64,
+    pub wedge_speed_m_per_s: f64,
+    pub wedge_secs: f64,
+    /// Time constant (s) of the low-pass filters on the resisting force and the speed.
+    pub filter_secs: f64,
+    /// The escape mode (after a wedge): every contact, propulsive or resisting, is complied to,
+    /// with the stiffness scaled by `escape_stiffness_ratio`, for `escape_secs` (s).
+    pub escape_stiffness_ratio: f64,
+    pub escape_secs: f64,
+}
+
+/// Propulsion-aware jam resolution (`[jam_resolution]`; `control::JamResolution`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JamResolution {
+    /// Which contacts the law reads.
+    pub contacts: ContactSource,
+    /// Whether the contacts feed the law (false: the `[gait.sine_wave]` wave alone).
+    pub feedback: bool,
+    /// The goal direction (degrees from +x).
+    pub goal_heading_deg: f64,
+    /// A jam: the centre of mass gains less than `jam_min_progress_m` (m) along the goal
+    /// within `jam_window_secs` (s).
+    pub jam_window_secs: f64,
+    pub jam_min_progress_m: f64,
+    /// How long (s) a resolution acts once a jam is detected.
+    pub resolve_secs: f64,
+    /// The total contact force (N) the joint-torque increments ask of the propelling contacts.
+    pub push_force_n: f64,
+    /// A contact can propel when its normal's component along the goal is at least this
+    /// (cosine, 0..1).
+    pub min_propulsion: f64,
+    /// Time constant (s) of the joint offsets toward their target.
+    pub offset_filter_secs: f64,
+    /// Largest offset of one joint (degrees).
+    pub max_offset_deg: f64,
+}
+
+/// Where a contact-feeling controller reads its contacts (`obstacle_aided.contacts`, …).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ContactSource {

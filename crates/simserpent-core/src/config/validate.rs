@@ -12,7 +12,10 @@
 //! - the form-closure pattern against `snake.joint_range_deg`: when `gait.kind` or
 //!   `terrain.kind` is `"form_closure"`;
 //! - the corridor width against the snake's thickness: when `terrain.kind = "cylinder_path"`;
-//! - the record interval against the duration: when `recording.enabled`.
+//! - the record interval against the duration: when `recording.enabled`;
+//! - a contact law's offsets and amplitudes against `snake.joint_range_deg`, its windows against
+//!   the number of joints, and what it needs of the gait, the actuators and the estimation: when
+//!   `control.controller` selects it.
 //!
 //! The ranges of every other key are checked whatever is selected. Whether obstacles overlap the
 //! snake is checked by model generation, not here.
@@ -20,8 +23,8 @@
 use super::surfaces::{self, FrictionSource, SurfaceShape};
 use super::text::{fmt_a, fmt_f};
 use super::{
-    Config, ConfigError, ContactSource, ControllerKind, GaitKind, GroundModel, JointAxes, LegacyGeometry, TerrainKind,
-    WaveSpeed,
+    Config, ConfigError, ContactSource, ControlMethod, ControllerKind, GaitKind, GroundModel, JointAxes,
+    LegacyGeometry, TerrainKind, WaveSpeed,
 };
 
 /// The most surfaces a config may have (`ground.surfaces`).
@@ -222,7 +225,126 @@ impl Config {
         self.validate_estimation()?;
         self.validate_path_following()?;
         self.validate_obstacle_aided()?;
-        self.validate_rail()
+        self.validate_rail()?;
+        self.validate_contact_laws()
+    }
+
+    /// `[follow_the_leader_reflex]`, `[directional_admittance]`, `[jam_resolution]`, and what the
+    /// selected one of them needs of the gait, the actuators and the estimation.
+    fn validate_contact_laws(&self) -> Check {
+        let r = &self.follow_the_leader_reflex;
+        finite("follow_the_leader_reflex.goal_heading_deg", r.goal_heading_deg)?;
+        non_negative("follow_the_leader_reflex.propulsive_gain_rad_per_n", r.propulsive_gain_rad_per_n)?;
+        non_negative("follow_the_leader_reflex.resisting_gain_rad_per_n", r.resisting_gain_rad_per_n)?;
+        non_negative("follow_the_leader_reflex.force_filter_secs", r.force_filter_secs)?;
+        positive("follow_the_leader_reflex.max_offset_deg", r.max_offset_deg)?;
+
+        let a = &self.directional_admittance;
+        finite("directional_admittance.goal_heading_deg", a.goal_heading_deg)?;
+        ensure(a.windows >= 1, "directional_admittance.windows", a.windows, "must be at least 1")?;
+        positive("directional_admittance.window_sigma_joints", a.window_sigma_joints)?;
+        positive("directional_admittance.stiffness_nm_per_rad", a.stiffness_nm_per_rad)?;
+        positive("directional_admittance.damping_nm_s_per_rad", a.damping_nm_s_per_rad)?;
+        non_negative("directional_admittance.min_amplitude_deg", a.min_amplitude_deg)?;
+        positive("directional_admittance.max_amplitude_deg", a.max_amplitude_deg)?;
+        ensure(
+            a.min_amplitude_deg <= a.max_amplitude_deg,
+            "directional_admittance.min_amplitude_deg",
+            fmt_f(a.min_amplitude_deg),
+            format!("must not exceed directional_admittance.max_amplitude_deg ({})", fmt_f(a.max_amplitude_deg)),
+        )?;
+        positive("directional_admittance.wedge_force_n", a.wedge_force_n)?;
+        finite("directional_admittance.wedge_speed_m_per_s", a.wedge_speed_m_per_s)?;
+        positive("directional_admittance.wedge_secs", a.wedge_secs)?;
+        positive("directional_admittance.filter_secs", a.filter_secs)?;
+        positive("directional_admittance.escape_stiffness_ratio", a.escape_stiffness_ratio)?;
+        ensure(
+            a.escape_stiffness_ratio <= 1.0,
+            "directional_admittance.escape_stiffness_ratio",
+            fmt_f(a.escape_stiffness_ratio),
+            "must be in (0, 1]",
+        )?;
+        non_negative("directional_admittance.escape_secs", a.escape_secs)?;
+
+        let j = &self.jam_resolution;
+        finite("jam_resolution.goal_heading_deg", j.goal_heading_deg)?;
+        positive("jam_resolution.jam_window_secs", j.jam_window_secs)?;
+        non_negative("jam_resolution.jam_min_progress_m", j.jam_min_progress_m)?;
+        positive("jam_resolution.resolve_secs", j.resolve_secs)?;
+        positive("jam_resolution.push_force_n", j.push_force_n)?;
+        non_negative("jam_resolution.min_propulsion", j.min_propulsion)?;
+        ensure(j.min_propulsion < 1.0, "jam_resolution.min_propulsion", fmt_f(j.min_propulsion), "must be below 1")?;
+        positive("jam_resolution.offset_filter_secs", j.offset_filter_secs)?;
+        positive("jam_resolution.max_offset_deg", j.max_offset_deg)?;
+
+        // What ties a law to the snake (its joints and their range): when it is selected.
+        let (name, contacts) = match self.control.controller {
+            ControllerKind::FollowTheLeaderReflex => {
+                self.below_joint_range("follow_the_leader_reflex.max_offset_deg", r.max_offset_deg)?;
+                ("follow_the_leader_reflex", r.contacts)
+            }
+            ControllerKind::DirectionalAdmittance => {
+                let nj = self.snake.n_joints();
+                ensure(
+                    a.windows <= nj.max(1),
+                    "directional_admittance.windows",
+                    a.windows,
+                    format!("must be 1 ..= the number of joints ({nj})"),
+                )?;
+                self.below_joint_range("directional_admittance.max_amplitude_deg", a.max_amplitude_deg)?;
+                ("directional_admittance", a.contacts)
+            }
+            ControllerKind::JamResolution => {
+                self.below_joint_range("jam_resolution.max_offset_deg", j.max_offset_deg)?;
+                ("jam_resolution", j.contacts)
+            }
+            _ => return Ok(()),
+        };
+        ensure(
+            self.gait.kind == GaitKind::SineWave,
+            "gait.kind",
+            format!("{:?}", self.gait.kind),
+            format!("control.controller = \"{name}\" shapes the sine wave: it needs gait.kind = \"sine_wave\""),
+        )?;
+        ensure(
+            contacts == ContactSource::True || self.estimation.enabled,
+            &format!("{name}.contacts"),
+            "\"estimated\"",
+            "reads the step loop's contact estimates: set estimation.enabled = true (or contacts = \"true\")",
+        )?;
+        let w = &self.gait.sine_wave;
+        if self.control.controller == ControllerKind::FollowTheLeaderReflex {
+            ensure(
+                w.phase_lag_deg > 0.0 && w.frequency_hz > 0.0,
+                "gait.sine_wave.phase_lag_deg",
+                fmt_f(w.phase_lag_deg),
+                "control.controller = \"follow_the_leader_reflex\" passes each joint's offset to the joint behind it as \
+                 the wave travels toward the tail: it needs phase_lag_deg > 0 and frequency_hz > 0",
+            )?;
+        }
+        if self.control.controller == ControllerKind::DirectionalAdmittance {
+            ensure(
+                a.min_amplitude_deg <= w.amplitude_deg && w.amplitude_deg <= a.max_amplitude_deg,
+                "gait.sine_wave.amplitude_deg",
+                fmt_f(w.amplitude_deg),
+                format!(
+                    "control.controller = \"directional_admittance\" needs it within directional_admittance's \
+                     [min_amplitude_deg, max_amplitude_deg] = [{}, {}]",
+                    fmt_f(a.min_amplitude_deg),
+                    fmt_f(a.max_amplitude_deg)
+                ),
+            )?;
+        }
+        if self.control.controller == ControllerKind::JamResolution {
+            ensure(
+                self.control.method != ControlMethod::Velocity,
+                "control.method",
+                "\"velocity\"",
+                "control.controller = \"jam_resolution\" turns torque increments into joint offsets through the \
+                 servo stiffness: use \"position\", \"torque\" or \"intvelocity\"",
+            )?;
+        }
+        Ok(())
     }
 
     /// A controller's joint offset (deg) must stay inside the joint's range.

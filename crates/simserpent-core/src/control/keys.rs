@@ -9,6 +9,7 @@
 //! | `path_following` (`kind = "sine_wave"`) | `ramp_secs`, `sine_wave.amplitude_deg`, `frequency_hz`, `phase_lag_deg` | `sine_wave.offset_deg` (its heading control sets the offset), the other kinds' sections |
 //! | `obstacle_aided` (`kind = "sine_wave"`) | `ramp_secs`, `sine_wave.frequency_hz` | `sine_wave.amplitude_deg`, `phase_lag_deg`, `offset_deg` (its own wave, `[obstacle_aided]`), the other kinds' sections |
 //! | `rail` | `ramp_secs` | `kind` and every gait section (`[rail]` draws the shape) |
+//! | `follow_the_leader_reflex`, `directional_admittance`, `jam_resolution` (`kind = "sine_wave"`) | `ramp_secs`, every `sine_wave` key | the other kinds' sections |
 //!
 //! `path_following` and `obstacle_aided` with any other `gait.kind` run that gait open loop, as
 //! `gait` does; their own sections are then unused. The sections `[path_following]`,
@@ -63,6 +64,9 @@ fn controller_name(kind: ControllerKind) -> &'static str {
         ControllerKind::PathFollowing => "path_following",
         ControllerKind::ObstacleAided => "obstacle_aided",
         ControllerKind::Rail => "rail",
+        ControllerKind::FollowTheLeaderReflex => "follow_the_leader_reflex",
+        ControllerKind::DirectionalAdmittance => "directional_admittance",
+        ControllerKind::JamResolution => "jam_resolution",
     }
 }
 
@@ -70,9 +74,14 @@ fn controller_name(kind: ControllerKind) -> &'static str {
 /// back to the open-loop gait without a sine wave; see [`super::controller_from_config`]).
 pub fn effective_controller(config: &Config) -> ControllerKind {
     match (config.control.controller, config.gait.kind) {
-        (ControllerKind::PathFollowing | ControllerKind::ObstacleAided, GaitKind::SineWave) => {
-            config.control.controller
-        }
+        (
+            ControllerKind::PathFollowing
+            | ControllerKind::ObstacleAided
+            | ControllerKind::FollowTheLeaderReflex
+            | ControllerKind::DirectionalAdmittance
+            | ControllerKind::JamResolution,
+            GaitKind::SineWave,
+        ) => config.control.controller,
         (ControllerKind::Rail, _) => ControllerKind::Rail,
         _ => ControllerKind::Gait,
     }
@@ -101,6 +110,9 @@ pub fn unused_key_rules(config: &Config) -> Vec<(String, String)> {
         ("path_following", ControllerKind::PathFollowing),
         ("obstacle_aided", ControllerKind::ObstacleAided),
         ("rail", ControllerKind::Rail),
+        ("follow_the_leader_reflex", ControllerKind::FollowTheLeaderReflex),
+        ("directional_admittance", ControllerKind::DirectionalAdmittance),
+        ("jam_resolution", ControllerKind::JamResolution),
     ] {
         if active != owner {
             let why = if chosen == owner {
@@ -121,6 +133,12 @@ pub fn unused_key_rules(config: &Config) -> Vec<(String, String)> {
     };
     let kind_is = format!("gait.kind = \"{}\" uses only its own section", kind_name(kind));
     match active {
+        // The contact laws shape the whole sine wave (amplitude, frequency, phase lag, offset).
+        ControllerKind::FollowTheLeaderReflex
+        | ControllerKind::DirectionalAdmittance
+        | ControllerKind::JamResolution => {
+            other_kinds(&mut out, &kind_is);
+        }
         ControllerKind::Gait => {
             other_kinds(&mut out, &kind_is);
             match kind {
@@ -321,9 +339,15 @@ mod tests {
         let mut checked = 0;
         let mut mismatches = Vec::new();
         let mut matrix = Vec::new();
-        for controller in
-            [ControllerKind::Gait, ControllerKind::PathFollowing, ControllerKind::ObstacleAided, ControllerKind::Rail]
-        {
+        for controller in [
+            ControllerKind::Gait,
+            ControllerKind::PathFollowing,
+            ControllerKind::ObstacleAided,
+            ControllerKind::Rail,
+            ControllerKind::FollowTheLeaderReflex,
+            ControllerKind::DirectionalAdmittance,
+            ControllerKind::JamResolution,
+        ] {
             // (Integrated velocity takes the same set-points as velocity in every controller.)
             for method in [ControlMethod::Position, ControlMethod::Velocity, ControlMethod::Torque] {
                 for kind in [

@@ -4,16 +4,23 @@
 //! never touch MuJoCo. The simulation calls [`Controller::update`] once per physics step, before
 //! the step, with the state at the start of that step (see ARCHITECTURE.md for the exact order).
 
+pub mod contact_jacobian;
+mod directional_admittance;
+mod follow_the_leader_reflex;
 mod gait;
+mod jam_resolution;
 mod keys;
 mod obstacle_aided;
 mod path;
 mod pid;
 mod rail;
 
+pub use directional_admittance::DirectionalAdmittance;
+pub use follow_the_leader_reflex::FollowTheLeaderReflex;
 pub use gait::{
     FormClosureShift, Hold, JointTrajectory, SineWave, Still, TwoPlaneWave, serpenoid, trajectory_from_config,
 };
+pub use jam_resolution::{JamResolution, Resolution};
 pub use keys::{UnusedKey, effective_controller, nothing_moves, unused_key_rules, unused_keys};
 pub use obstacle_aided::{ObstacleAided, ObstacleAidedState};
 pub use path::{Guidance, PathFollowing};
@@ -143,12 +150,23 @@ impl Controller for HeldCommand {
 /// The controller that `config.control.controller` selects, for `n_joints` joints: the gait
 /// ([`TrajectoryController`]), path following ([`PathFollowing`]) or obstacle-aided locomotion
 /// ([`ObstacleAided`]; validation requires the sine wave for it) or follow-the-leader
-/// obstacle-aided locomotion ([`Rail`], any gait). Path following steers the
+/// obstacle-aided locomotion ([`Rail`], any gait), or one of the contact laws from the literature
+/// on the sine wave ([`FollowTheLeaderReflex`], [`DirectionalAdmittance`], [`JamResolution`];
+/// validation requires the sine wave for them). Path following steers the
 /// sine wave; with another `gait.kind` (none, serpenoid, form closure, …) the gait runs open
 /// loop.
 pub fn controller_from_config(config: &Config, n_joints: usize) -> Box<dyn Controller> {
     match (config.control.controller, config.gait.kind) {
         (crate::config::ControllerKind::Rail, _) => Box::new(Rail::from_config(config, n_joints)),
+        (crate::config::ControllerKind::FollowTheLeaderReflex, crate::config::GaitKind::SineWave) => {
+            Box::new(FollowTheLeaderReflex::from_config(config, n_joints))
+        }
+        (crate::config::ControllerKind::DirectionalAdmittance, crate::config::GaitKind::SineWave) => {
+            Box::new(DirectionalAdmittance::from_config(config, n_joints))
+        }
+        (crate::config::ControllerKind::JamResolution, crate::config::GaitKind::SineWave) => {
+            Box::new(JamResolution::from_config(config, n_joints))
+        }
         (crate::config::ControllerKind::PathFollowing, crate::config::GaitKind::SineWave) => {
             Box::new(PathFollowing::from_config(config, n_joints))
         }

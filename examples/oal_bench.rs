@@ -1,0 +1,209 @@
+//! The obstacle-aided locomotion benchmark at a size of one's choosing, with a controller of
+//! one's own plugged in beside the built-in contact laws (`simserpent experiment oal-bench` runs
+//! the fixed quick and full sizes).
+//!
+//! ```text
+//! cargo run --release --example oal_bench -- [--tune N] [--held N] [--duration S] [--threads N]
+//!     [--out DIR] [--floors isotropic,anisotropic] [--families lattice,random] [--passive 10,5,2.5]
+//!     [--no-laws] [--mine]
+//! cargo run --release --example oal_bench -- cost     # per-step cost of each controller (µs)
+//! ```
+//!
+//! `--mine` adds [`PushAway`] (below): a force-feedback controller in ~30 lines, the template
+//! for one's own. The report goes to `<DIR>/oal-bench-<UTC time>/report.md`.
+
+use simserpent::config::Config;
+use simserpent::control::{Command, Controller, Observation, SineWave};
+use simserpent::experiments::oal_bench::{self, Bench, Family, Floor, Plugged};
+use std::sync::Arc;
+
+/// The base wave plus, at every link the estimates say touches a peg, a bend of its two joints
+/// away from the peg proportional to the contact force across the link (`GAIN_RAD_PER_N`).
+struct PushAway {
+    wave: SineWave,
+    base_rad: Vec<f64>,
+    base_velocity_rad_per_s: Vec<f64>,
+}
+
+const GAIN_RAD_PER_N: f64 = 0.01;
+
+impl Controller for PushAway {
+    fn update(&mut self, obs: &Observation, cmd: &mut Command) {
+        use simserpent::control::JointTrajectory;
+        self.wave.targets(obs.time_secs, &mut self.base_rad, &mut self.base_velocity_rad_per_s);
+        cmd.position_rad.copy_from_slice(&self.base_rad);
+        let c = &obs.contacts;
+        if !c.active {
+            return;
+        }
+        // The link's heading from the head's yaw and the encoders (a yaw-only snake).
+        let mut heading = simserpent::state::yaw_rad(obs.head_quat);
+        for i in 0..c.contact.len() {
+            if i > 0 {
+                heading += obs.joint_angle_rad[i - 1];
+            }
+            if !c.contact[i] {
+                continue;
+            }
+            let f = c.obstacle_force_n[i];
+            let across = -f[0] * heading.sin() + f[1] * heading.cos();
+            for j in [i.wrapping_sub(1), i] {
+                if let Some(q) = cmd.position_rad.get_mut(j) {
+                    *q -= GAIN_RAD_PER_N * across;
+                }
+            }
+        }
+    }
+}
+
+fn push_away(config: &Config, n_joints: usize) -> Box<dyn Controller> {
+    let w = &config.gait.sine_wave;
+    Box::new(PushAway {
+        wave: SineWave {
+            amplitude_rad: w.amplitude_deg.to_radians(),
+            frequency_hz: w.frequency_hz,
+            phase_lag_rad: w.phase_lag_deg.to_radians(),
+            offset_rad: w.offset_deg.to_radians(),
+            ramp_secs: config.gait.ramp_secs,
+        },
+        base_rad: vec![0.0; n_joints],
+        base_velocity_rad_per_s: vec![0.0; n_joints],
+    })
+}
+
+fn list<T>(value: &str, parse: impl Fn(&str) -> Option<T>) -> Result<Vec<T>, String> {
+    value.split(',').map(|s| parse(s.trim()).ok_or_else(|| format!("cannot read `{s}` in `{value}`"))).collect()
+}
+
+/// The per-step cost (µs) of each controller's update on a synthetic observation with two
+/// contacts, `n_links` links (median of 5 rounds of 20 000 updates).
+fn cost(n_links: usize) -> Vec<(String, f64)> {
+    use simserpent::config::{ControllerKind, GaitKind};
+    let mut out = Vec::new();
+    let kinds = [
+        ("gait (open loop)", ControllerKind::Gait),
+        ("follow_the_leader_reflex", ControllerKind::FollowTheLeaderReflex),
+        ("directional_admittance", ControllerKind::DirectionalAdmittance),
+        ("jam_resolution", ControllerKind::JamResolution),
+        ("obstacle_aided", ControllerKind::ObstacleAided),
+        ("rail", ControllerKind::Rail),
+    ];
+    for (name, kind) in kinds {
+        let mut c = Config::default();
+        c.snake.n_links = n_links;
+        c.control.controller = kind;
+        c.gait.kind = GaitKind::SineWave;
+        c.gait.sine_wave.amplitude_deg = 80.0;
+        c.gait.sine_wave.phase_lag_deg = 30.0;
+        c.estimation.enabled = true;
+        let nj = n_links - 1;
+        let mut ctl = simserpent::control::controller_from_config(&c, nj);
+        let mut obs = Observation::new(n_links, nj);
+        obs.head_quat = [1.0, 0.0, 0.0, 0.0];
+        obs.contacts = simserpent::estimation::ContactEstimates::new(n_links);
+        obs.contacts.active = true;
+        for (i, f) in [(2usize, [1.0, -4.0, 0.0]), (n_links / 2, [-1.5, 3.0, 0.0])] {
+            obs.contacts.contact[i] = true;
+            obs.contacts.obstacle_force_n[i] = f;
+        }
+        let mut cmd = Command::new(nj);
+        let dt = c.general.timestep_secs;
+        let mut rounds = Vec::new();
+        let mut k = 0u64;
+        for _ in 0..5 {
+            let start = std::time::Instant::now();
+            for _ in 0..20_000 {
+                obs.time_secs = k as f64 * dt;
+                k += 1;
+                ctl.update(&obs, &mut cmd);
+            }
+            rounds.push(start.elapsed().as_secs_f64() / 20_000.0 * 1e6);
+        }
+        rounds.sort_by(f64::total_cmp);
+        std::hint::black_box(&cmd);
+        out.push((name.to_string(), rounds[2]));
+    }
+    out
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("cost") {
+        println!("| controller | µs per step, 10 links | µs per step, 30 links |\n|---|---|---|");
+        let (ten, thirty) = (cost(10), cost(30));
+        for ((name, a), (_, b)) in ten.iter().zip(&thirty) {
+            println!("| {name} | {a:.3} | {b:.3} |");
+        }
+        return Ok(());
+    }
+    let mut bench = Bench { tuning_fields: 5, held_out_fields: 30, duration_secs: 15.0, ..Bench::full() };
+    let (mut threads, mut out) = (0usize, "runs".to_string());
+    let mut i = 0;
+    while i < args.len() {
+        let value = args.get(i + 1).cloned().unwrap_or_default();
+        let number = |v: &str| v.parse::<f64>().map_err(|_| format!("{}: not a number: `{v}`", args[i]));
+        match args[i].as_str() {
+            "--tune" => bench.tuning_fields = number(&value)? as u64,
+            "--held" => bench.held_out_fields = number(&value)? as u64,
+            "--duration" => bench.duration_secs = number(&value)?,
+            "--threads" => threads = number(&value)? as usize,
+            "--out" => out = value,
+            "--floors" => {
+                bench.floors = list(&value, |s| match s {
+                    "isotropic" => Some(Floor::Isotropic),
+                    "anisotropic" => Some(Floor::Anisotropic),
+                    _ => None,
+                })?
+            }
+            "--families" => {
+                bench.families = list(&value, |s| match s {
+                    "lattice" => Some(Family::Lattice),
+                    "random" => Some(Family::Random),
+                    _ => None,
+                })?
+            }
+            "--passive" => bench.passive_kp_nm_per_rad = list(&value, |s| s.parse().ok())?,
+            "--no-laws" => {
+                bench.laws = false;
+                i += 1;
+                continue;
+            }
+            "--mine" => {
+                bench.plugged.push(Plugged { name: "push_away".into(), make: Arc::new(push_away), estimation: true });
+                i += 1;
+                continue;
+            }
+            other => return Err(format!("unknown argument `{other}` (see the example's documentation)").into()),
+        }
+        i += 2;
+    }
+    simserpent::interrupt::install_handler()?;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
+    let unix_secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH)?.as_secs();
+    let folder = simserpent::record::create_run_folder(
+        std::path::Path::new(&out),
+        "oal-bench",
+        &simserpent::record::utc_stamp(unix_secs),
+    )?;
+    let start = std::time::Instant::now();
+    let outcome = oal_bench::run_bench(&bench, &Config::default(), &pool, &folder, true)?;
+    let report = simserpent::experiments::Report {
+        title: "SimSerpent obstacle-aided locomotion benchmark".into(),
+        intro: format!(
+            "`cargo run --release --example oal_bench -- {}`: {} runs.",
+            args.join(" "),
+            outcome.runs_planned
+        ),
+        sections: vec![outcome.section],
+    };
+    std::fs::write(folder.join("report.md"), report.to_markdown())?;
+    println!("{}", report.to_markdown());
+    eprintln!(
+        "{}: {} runs in {:.1} s on {} threads",
+        folder.display(),
+        outcome.runs_planned,
+        start.elapsed().as_secs_f64(),
+        pool.current_num_threads()
+    );
+    Ok(())
+}

@@ -1,0 +1,111 @@
+//! The contact laws of `control` (follow-the-leader reflex, directional admittance, jam
+//! resolution) in the step loop, and the obstacle-aided locomotion benchmark.
+
+use simserpent::config::{Config, ContactSource, ControllerKind};
+use simserpent::experiments::oal_bench::{self, Bench, Family, Floor, Layout};
+use simserpent::sim::{LoopPlan, Observer, SimError, Simulation, StepView, World};
+use simserpent::state::Snapshot;
+
+/// The centre of mass every 50 steps.
+#[derive(Default)]
+struct Path(Vec<[f64; 3]>);
+
+impl Observer<SimError> for Path {
+    fn on_record(&mut self, _: &StepView<'_>, snap: &Snapshot) -> Result<(), SimError> {
+        self.0.push(snap.centre_of_mass_m());
+        Ok(())
+    }
+}
+
+fn run(config: &Config, secs: f64) -> Vec<[f64; 3]> {
+    config.validate().unwrap();
+    let world = World::from_config(config).unwrap();
+    let mut sim = Simulation::new(config, world);
+    let mut path = Path::default();
+    let steps = (secs / config.general.timestep_secs).round() as u64;
+    sim.run(LoopPlan { steps, record_every_n_steps: 50 }, &mut [&mut path]).unwrap();
+    path.0
+}
+
+/// A medium random field of the benchmark on the isotropic floor, base gait, open loop.
+fn field() -> Config {
+    oal_bench::field_config(&Config::default(), Floor::Isotropic, Layout::Random(3.0), 1000)
+}
+
+fn with_law(kind: ControllerKind, source: ContactSource, feedback: bool) -> Config {
+    let mut c = field();
+    c.control.controller = kind;
+    c.estimation.enabled = true;
+    c.follow_the_leader_reflex.contacts = source;
+    c.follow_the_leader_reflex.feedback = feedback;
+    c.directional_admittance.contacts = source;
+    c.directional_admittance.feedback = feedback;
+    c.jam_resolution.contacts = source;
+    c.jam_resolution.feedback = feedback;
+    c
+}
+
+const LAWS: [ControllerKind; 3] =
+    [ControllerKind::FollowTheLeaderReflex, ControllerKind::DirectionalAdmittance, ControllerKind::JamResolution];
+
+/// With `feedback = false` each law sends the open-loop gait's set-points, so the run is the
+/// open-loop run bit for bit (sensing and estimation do not touch the physics): the benchmark's
+/// "feedback off" condition is the open loop.
+#[test]
+fn each_law_without_feedback_is_the_open_loop_run_bit_for_bit() {
+    let secs = 3.0;
+    let open = run(&field(), secs);
+    for kind in LAWS {
+        let off = run(&with_law(kind, ContactSource::Estimated, false), secs);
+        assert_eq!(off, open, "{kind:?}");
+    }
+}
+
+/// With feedback each law, fed the estimates or the true contacts, runs on a peg field and
+/// changes the run (the pegs are felt), and the run is repeatable. (The jam resolution acts
+/// only on a jam: a jam rule asking for 1 m of progress every 2 s makes it act here.)
+#[test]
+fn each_law_feels_the_pegs_with_estimated_and_true_contacts() {
+    let secs = 8.0;
+    let open = run(&field(), secs);
+    for kind in LAWS {
+        for source in [ContactSource::Estimated, ContactSource::True] {
+            let mut config = with_law(kind, source, true);
+            config.jam_resolution.jam_min_progress_m = 1.0;
+            let path = run(&config, secs);
+            assert!(path.iter().flatten().all(|x| x.is_finite()), "{kind:?} {source:?}");
+            assert_ne!(path, open, "{kind:?} {source:?}: the law changed nothing");
+            assert_eq!(run(&config, secs), path, "{kind:?} {source:?}: not repeatable");
+        }
+    }
+}
+
+/// A small benchmark: every condition runs, the tables are written, and two runs of the same
+/// benchmark give the same tables.
+#[test]
+fn a_small_benchmark_writes_its_tables_and_repeats() {
+    let bench = Bench {
+        tuning_fields: 1,
+        held_out_fields: 1,
+        duration_secs: 2.0,
+        floors: vec![Floor::Isotropic],
+        families: vec![Family::Random],
+        passive_kp_nm_per_rad: vec![5.0],
+        path_fields: 1,
+        ..Bench::full()
+    };
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let mut tables = Vec::new();
+    for _ in 0..2 {
+        let dir = tempfile::tempdir().unwrap();
+        let outcome = oal_bench::run_bench(&bench, &Config::default(), &pool, dir.path(), false).unwrap();
+        assert_eq!(outcome.runs_planned, 2 * bench.conditions().len());
+        let runs = std::fs::read_to_string(dir.path().join("oal_runs.csv")).unwrap();
+        assert_eq!(runs.lines().count(), 1 + outcome.runs_planned);
+        for name in ["oal_summary.csv", "oal_paired.csv", "plots/oal_success_isotropic_random.png"] {
+            assert!(dir.path().join(name).exists(), "{name}");
+        }
+        tables.push(runs);
+    }
+    assert_eq!(tables[0], tables[1]);
+}
