@@ -305,7 +305,7 @@ fn the_summary_reports_tracking_per_joint_and_warns_when_the_gait_is_not_tracked
         dir.path(),
         1.0,
         &[
-            "control.position_kp_nm_per_rad=200.0",
+            "control.position_kp_nm_per_rad=400.0",
             "control.position_kv_nm_s_per_rad=1.0",
             "snake.torque_range_nm=[-20.0, 20.0]",
         ],
@@ -313,7 +313,7 @@ fn the_summary_reports_tracking_per_joint_and_warns_when_the_gait_is_not_tracked
     let summary = run::run(&stiff, &RunOptions::default()).unwrap();
     let tracking = summary.tracking.clone().unwrap();
     let reached: Vec<String> = tracking.iter().map(|t| format!("{:.0}", t.reached_amplitude_percent)).collect();
-    println!("figures: kp 200, kv 1, +-20 N m, 10 deg at 1 Hz, bare floor: reached amplitude % per joint {reached:?}");
+    println!("figures: kp 400, kv 1, +-20 N m, 10 deg at 1 Hz, bare floor: reached amplitude % per joint {reached:?}");
     assert!(tracking.iter().all(|t| t.tracks()), "{tracking:?}");
     assert!(run::tracking_warning(&stiff, &summary).is_none());
     // The command line prints the table and the warning.
