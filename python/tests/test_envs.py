@@ -195,14 +195,14 @@ def longest_pause_of_this_thread(step) -> tuple[float, float]:
 def test_steps_release_the_gil():
     """Python code in another thread runs while an env steps (py.detach in Rust); a call that
     held the GIL would stop this thread for all but one switch interval (5 ms)."""
-    long_step = {**NOISY, "env.control_period_secs": 0.5, "env.max_episode_secs": 10.0}
+    long_step = {**NOISY, "env.control_period_secs": 2.0, "env.max_episode_secs": 20.0}
     vec = SimSerpentVectorEnv(num_envs=4, overrides=long_step, threads=1)
     vec.reset(seed=0)
     duration, pause = longest_pause_of_this_thread(lambda: vec.step(np.zeros((4, 4), dtype=np.float32)))
     assert duration > 0.05, "the step was too short to tell"
     assert pause < 0.5 * duration, (pause, duration)
     # One env does a quarter of the vector's work per step: hold each action four times longer.
-    single = simserpent.World(simserpent.load_config(overrides={**long_step, "env.control_period_secs": 2.0}))
+    single = simserpent.World(simserpent.load_config(overrides={**long_step, "env.control_period_secs": 8.0}))
     single.reset(0)
     duration, pause = longest_pause_of_this_thread(lambda: single.step(np.zeros(4)))
     assert duration > 0.05, "the step was too short to tell"

@@ -273,7 +273,9 @@ def test_set_state_with_estimation_and_noise_continues_bit_for_bit():
             np.testing.assert_array_equal(x[i], z[i], err_msg=f"action {k}")
         assert_estimates_equal(x[2], y[2], f"action {k}")
         assert_estimates_equal(x[2], z[2], f"action {k}")
-    assert first[-1][2]["floor_force_n"][:, 2].sum() > 1.0  # the floor carries the weight
+    # The floor carries the weight: on average over the branch (links lift and land while the
+    # gait starts, so one instant's estimated support swings).
+    assert np.mean([x[2]["floor_force_n"][:, 2].sum() for x in first]) > 1.0
 
     # The Gymnasium env: its info (distance from the episode's start, the estimates) too.
     from simserpent.envs import SimSerpentEnv
