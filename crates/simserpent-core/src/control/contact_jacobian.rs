@@ -20,7 +20,7 @@
 //! set-point offset Δq = Δτ/k. Bending joints j = i − 1 and j = i of a contacted link i with
 //! Δq = +c·pᵢ (c > 0) wraps the body around its peg (presses into it); Δq = −c·pᵢ bends away.
 
-use super::{Observation, planar_chain, wrap_angle_rad};
+use super::{GyroYaw, Observation, planar_chain};
 use crate::estimation::ContactEstimates;
 
 /// Which way a contact force pushes relative to the goal.
@@ -50,9 +50,7 @@ pub fn flank(force_n: [f64; 2], goal: [f64; 2]) -> Option<Flank> {
 pub struct PlanarBody {
     yaw_joint: Vec<bool>,
     link_length_m: f64,
-    head_yaw_rad: f64,
-    last_time_secs: f64,
-    started: bool,
+    yaw: GyroYaw,
     /// Link headings θᵢ (rad).
     pub heading_rad: Vec<f64>,
     /// Front end oᵢ of each link (m); joint j is at `front_m[j + 1]`.
@@ -68,9 +66,7 @@ impl PlanarBody {
         Self {
             yaw_joint,
             link_length_m,
-            head_yaw_rad: 0.0,
-            last_time_secs: 0.0,
-            started: false,
+            yaw: GyroYaw::default(),
             heading_rad: vec![0.0; n_links],
             front_m: vec![[0.0; 2]; n_links],
             com_m: [0.0; 2],
@@ -79,7 +75,7 @@ impl PlanarBody {
 
     /// Forgets the head yaw (the next [`PlanarBody::sense`] calibrates it again).
     pub fn reset(&mut self) {
-        self.started = false;
+        self.yaw.reset();
     }
 
     /// Number of links.
@@ -90,19 +86,10 @@ impl PlanarBody {
     /// Updates headings, joint positions and centre of mass from `obs`; returns the time step
     /// since the last call (s; 0 at the first).
     pub fn sense(&mut self, obs: &Observation) -> f64 {
-        let t = obs.time_secs;
-        if !self.started {
-            self.head_yaw_rad = crate::state::yaw_rad(obs.head_quat);
-            self.last_time_secs = t;
-            self.started = true;
-        }
-        let dt = (t - self.last_time_secs).max(0.0);
-        self.last_time_secs = t;
-        self.head_yaw_rad =
-            wrap_angle_rad(self.head_yaw_rad + obs.imu_gyro_rad_per_s.first().map_or(0.0, |g| g[2]) * dt);
+        let dt = self.yaw.update(obs);
         let head = [obs.head_position_m[0], obs.head_position_m[1]];
         let (_, com) = planar_chain(
-            self.head_yaw_rad,
+            self.yaw.yaw_rad,
             head,
             &obs.joint_angle_rad,
             &self.yaw_joint,

@@ -204,6 +204,39 @@ pub fn low_pass_gain(dt_secs: f64, tau_secs: f64) -> f64 {
     if tau_secs > 0.0 { (dt_secs / tau_secs).clamp(0.0, 1.0) } else { 1.0 }
 }
 
+/// The head's yaw as the robot knows it: calibrated from the head's orientation at the first
+/// update, then integrated from the head IMU's gyro (z) and wrapped to (−π, π].
+#[derive(Debug, Clone, Default)]
+pub struct GyroYaw {
+    /// The head's yaw (rad).
+    pub yaw_rad: f64,
+    /// The time of the last update (s).
+    pub last_time_secs: f64,
+    started: bool,
+}
+
+impl GyroYaw {
+    /// Forgets the calibration (the next update calibrates again).
+    pub fn reset(&mut self) {
+        self.started = false;
+    }
+
+    /// Integrates the gyro up to `obs.time_secs`; returns the time step since the last update
+    /// (s; 0 at the first).
+    pub fn update(&mut self, obs: &Observation) -> f64 {
+        let t = obs.time_secs;
+        if !self.started {
+            self.yaw_rad = crate::state::yaw_rad(obs.head_quat);
+            self.last_time_secs = t;
+            self.started = true;
+        }
+        let dt = (t - self.last_time_secs).max(0.0);
+        self.last_time_secs = t;
+        self.yaw_rad = wrap_angle_rad(self.yaw_rad + obs.imu_gyro_rad_per_s.first().map_or(0.0, |g| g[2]) * dt);
+        dt
+    }
+}
+
 /// The snake in the ground plane from what the robot knows: the head's yaw and position (a
 /// tracking system) and the encoders. Link i's heading is θ₀ = `head_yaw_rad`, θᵢ = θᵢ₋₁ +
 /// qᵢ₋₁ over the yaw joints (our joint angle is the child's heading minus the parent's); link i

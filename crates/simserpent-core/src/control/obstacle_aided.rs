@@ -147,8 +147,8 @@
 
 use super::gait::ramp;
 use super::{
-    Command, ContactFeed, Controller, Observation, Pid, command_joint, feel, joint_pid, low_pass_gain, planar_chain,
-    wrap_angle_rad, yaw_joints,
+    Command, ContactFeed, Controller, GyroYaw, Observation, Pid, command_joint, feel, joint_pid, low_pass_gain,
+    planar_chain, wrap_angle_rad, yaw_joints,
 };
 use crate::config::{Config, ContactSource, ControlMethod, Propagation, Recovery, SwitchExit, WaveSpeed, WaveSwitch};
 use crate::state::ContactEstimates;
@@ -240,9 +240,7 @@ pub struct ObstacleAided {
     /// θᵢ (rad), scratch.
     heading_rad: Vec<f64>,
     phase_rad: f64,
-    last_time_secs: f64,
-    head_yaw_rad: f64,
-    started: bool,
+    yaw: GyroYaw,
     checkpoint: Option<(f64, [f64; 2], [f64; 2])>,
     recovering_until_secs: f64,
     /// Latest values, for logging and tests.
@@ -339,9 +337,7 @@ impl ObstacleAided {
             offset_rad: vec![0.0; n_joints],
             heading_rad: vec![0.0; n_joints + 1],
             phase_rad: 0.0,
-            last_time_secs: 0.0,
-            head_yaw_rad: 0.0,
-            started: false,
+            yaw: GyroYaw::default(),
             checkpoint: None,
             recovering_until_secs: f64::NEG_INFINITY,
             last: ObstacleAidedState::default(),
@@ -507,7 +503,7 @@ impl ObstacleAided {
     fn chain(&mut self, obs: &Observation) -> (f64, [f64; 2]) {
         let head = [obs.head_position_m[0], obs.head_position_m[1]];
         planar_chain(
-            self.head_yaw_rad,
+            self.yaw.yaw_rad,
             head,
             &obs.joint_angle_rad,
             &self.yaw_joint,
@@ -519,17 +515,8 @@ impl ObstacleAided {
     /// One update with the given contacts.
     fn step(&mut self, obs: &Observation, contacts: &ContactEstimates, cmd: &mut Command) {
         let t = obs.time_secs;
-        let q = obs.head_quat;
-        if !self.started {
-            // The starting heading is known (calibration); from then on the gyro integrates it.
-            self.head_yaw_rad = crate::state::yaw_rad(q);
-            self.last_time_secs = t;
-            self.started = true;
-        }
-        let dt = (t - self.last_time_secs).max(0.0);
-        self.last_time_secs = t;
-        self.head_yaw_rad =
-            wrap_angle_rad(self.head_yaw_rad + obs.imu_gyro_rad_per_s.first().map_or(0.0, |g| g[2]) * dt);
+        // The starting heading is known (calibration); from then on the gyro integrates it.
+        let dt = self.yaw.update(obs);
         let (mean_heading, com) = self.chain(obs);
         let u = [mean_heading.cos(), mean_heading.sin()];
         // The centre of mass's velocity along the goal direction, low-pass filtered.
@@ -673,7 +660,7 @@ impl Controller for ObstacleAided {
         self.pids.iter_mut().for_each(Pid::reset);
         self.offset_rad.fill(0.0);
         self.phase_rad = 0.0;
-        self.started = false;
+        self.yaw.reset();
         self.checkpoint = None;
         self.recovering_until_secs = f64::NEG_INFINITY;
         self.speed_m_per_s = 0.0;
@@ -1024,7 +1011,7 @@ mod tests {
         let mut switched_at = None;
         let mut back_at = None;
         let oa = run_still(&c, 300, push, |oa, cmd| {
-            let t = oa.last_time_secs;
+            let t = oa.yaw.last_time_secs;
             if oa.last.switched && switched_at.is_none() {
                 switched_at = Some(t);
             }
