@@ -73,8 +73,10 @@
 //!   MuJoCo's normal force (frictionless, condim 1: a stiff impact needs its implicit solver)
 //!   and get the same friction law, one slot per link and touching obstacle geom (at most 4 per
 //!   link), isotropic with `terrain.obstacle_friction[0]`, the link's axis as the first tangent,
-//!   bounded by MuJoCo's normal force of the latest evaluation (the previous step's last stage,
-//!   or a recording's forward pass) and acting only on an obstacle the link touches at x_k.
+//!   bounded by MuJoCo's normal force **of the same state**: on a step where a link touches an
+//!   obstacle at x_k, a forward pass at x_k (ground geoms detached, the step's ground forces in
+//!   `xfrc_applied`) gives every link–obstacle contact its normal force N_k, and the slot's
+//!   friction is bounded by μ·N_k; a slot without contact at x_k has none. See "Obstacles" below.
 //! - Normal and friction forces of a link and their moments about its centre of mass go into
 //!   `xfrc_applied`, held over the step. [`Ground::own_contacts`] gives a snapshot its
 //!   link–ground contact rows; [`Ground::fill_snapshot`] adds the friction.
@@ -87,6 +89,18 @@
 //! to a point, which lowers ω·dt and b·dt. The stick spring–damper is scaled by at most half
 //! the link's mass (c_t·dt/m ≤ 2·dt/τ_s ≤ 0.4). Cost per step: one `mj_collision` (the
 //! kinematics and velocities were computed for friction already) and a loop over the contacts.
+//!
+//! **Obstacles.** MuJoCo's own friction on the link–obstacle contacts (condim 3) would bound
+//! friction by the normal force of the same solve, but its convex contact model turns sliding
+//! into separation: a link pushed against a wall with 2 N and sliding along it loses the contact
+//! on 488 of 500 steps (its normal velocity grows with μ times the sliding speed), the hop this
+//! law removes from the floor. The normal force stays MuJoCo's (an explicit compliant obstacle
+//! law is unstable at 5 m/s impacts), and the friction is bounded by the N of a forward pass at
+//! the step's own state, not of the previous step: a contact that opens or closes between steps
+//! gets no friction from a stale N (no period-2 cycle of N and friction). The step's own solve
+//! then finds the N of x_k with the friction applied, which differs from N_k by the friction's
+//! coupling through the link's inertia. Cost: one more forward pass on steps with an obstacle
+//! contact only (none in the default job's first 10 s).
 //!
 //! Velocities are those of the state at the start of the step: kinematics and centre-of-mass
 //! velocities are recomputed first, because after `mj_step` MuJoCo's derived quantities belong
@@ -377,10 +391,8 @@ const OBSTACLE_SLOTS: usize = 4;
 struct ObstacleSlot {
     /// The obstacle geom, or `usize::MAX` when the slot is free.
     geom: usize,
-    /// Whether a contact with `geom` was seen in the latest evaluation, and whether the link
-    /// touches it at x_k.
+    /// Whether a contact with `geom` and a positive normal force was seen at x_k.
     seen: bool,
-    touching: bool,
     normal_n: f64,
     point_weighted: [f64; 3],
     normal_weighted: [f64; 3],
@@ -393,7 +405,6 @@ impl ObstacleSlot {
     const FREE: Self = Self {
         geom: usize::MAX,
         seen: false,
-        touching: false,
         normal_n: 0.0,
         point_weighted: [0.0; 3],
         normal_weighted: [0.0; 3],
@@ -641,17 +652,9 @@ impl Ground {
         for v in st.point_weighted.iter_mut().chain(st.normal_weighted.iter_mut()) {
             *v = [[0.0; 3]; SLOTS];
         }
-        for slot in st.obstacle_slots.iter_mut().flatten() {
-            slot.seen = false;
-            slot.touching = false;
-            slot.normal_n = 0.0;
-            slot.point_weighted = [0.0; 3];
-            slot.normal_weighted = [0.0; 3];
-        }
-        // Obstacle, heightfield and mesh contacts: MuJoCo's normal forces of the latest
-        // evaluation (the previous step's last stage, or a recording's forward pass), per link and
-        // obstacle geom or ground slot; read before the collision detection below replaces the
-        // contact list.
+        // Heightfield and mesh ground contacts: MuJoCo's normal forces of the latest evaluation
+        // (the previous step's last stage, or a recording's forward pass), per link and ground
+        // slot; read before the collision detection below replaces the contact list.
         {
             let d = &world.data;
             let xipos = d.xipos();
@@ -681,27 +684,6 @@ impl Ground {
                         st.point_weighted[link][slot][k] += n * contact.pos[k];
                         st.normal_weighted[link][slot][k] += n * sign * contact.frame[k];
                     }
-                    continue;
-                }
-                if !st.obstacle_geom[geom] {
-                    continue;
-                }
-                let slots = &mut st.obstacle_slots[link];
-                let k = slots
-                    .iter()
-                    .position(|s| s.geom == geom)
-                    .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
-                    .or_else(|| slots.iter().position(|s| !s.seen));
-                let Some(k) = k else { continue };
-                let slot = &mut slots[k];
-                if slot.geom != geom {
-                    *slot = ObstacleSlot { geom, ..ObstacleSlot::FREE };
-                }
-                slot.seen = true;
-                slot.normal_n += n;
-                for j in 0..3 {
-                    slot.point_weighted[j] += n * contact.pos[j];
-                    slot.normal_weighted[j] += n * sign * contact.frame[j];
                 }
             }
         }
@@ -720,6 +702,8 @@ impl Ground {
         for v in st.normal_force_n.iter_mut().chain(st.normal_torque_nm.iter_mut()) {
             *v = [0.0; 3];
         }
+        // Whether a link touches an obstacle at x_k.
+        let mut obstacle_contact = false;
         {
             let d = &world.data;
             let xipos = d.xipos();
@@ -760,12 +744,7 @@ impl Ground {
                     _ => continue,
                 };
                 if st.obstacle_geom[other] {
-                    // An obstacle contact of x_k: its slot's friction may act this step.
-                    if contact.dist < 0.0
-                        && let Some(slot) = st.obstacle_slots[link].iter_mut().find(|s| s.geom == other)
-                    {
-                        slot.touching = true;
-                    }
+                    obstacle_contact |= contact.dist < 0.0;
                     continue;
                 }
                 if !st.own_ground_geom[other] {
@@ -910,11 +889,87 @@ impl Ground {
                 force = add(force, f_world);
                 torque = add(torque, cross(r, f_world));
             }
+            st.force_n[i] = force;
+            st.torque_nm[i] = torque;
+            st.obstacle_force_n[i] = [0.0; 3];
+            st.obstacle_torque_nm[i] = [0.0; 3];
+            let force = add(force, st.normal_force_n[i]);
+            let torque = add(torque, st.normal_torque_nm[i]);
+            let slot = &mut world.data.xfrc_applied_mut()[body];
+            *slot = [force[0], force[1], force[2], torque[0], torque[1], torque[2]];
+        }
+        if obstacle_contact {
+            self.obstacle_friction(world);
+        } else {
+            for slot in st.obstacle_slots.iter_mut().flatten() {
+                *slot = ObstacleSlot::FREE;
+            }
+        }
+    }
+
+    /// The friction of the links' obstacle contacts at x_k, bounded by MuJoCo's normal forces of
+    /// the same state: a forward pass at x_k with the ground forces of the step in
+    /// `xfrc_applied` (and the ground geoms detached, as in MuJoCo's step) gives each link–obstacle
+    /// contact its normal force; the elasto-plastic law of each link's obstacle slots then adds
+    /// its friction to `xfrc_applied`. Runs only on steps where a link touches an obstacle.
+    fn obstacle_friction(&mut self, world: &mut World) {
+        let Some(st) = self.stick_slip.as_mut() else { return };
+        for slot in st.obstacle_slots.iter_mut().flatten() {
+            slot.seen = false;
+            slot.normal_n = 0.0;
+            slot.point_weighted = [0.0; 3];
+            slot.normal_weighted = [0.0; 3];
+        }
+        world.data.forward();
+        {
+            let d = &world.data;
+            for (c, contact) in d.contact().iter().enumerate() {
+                let (g1, g2) = (contact.geom[0], contact.geom[1]);
+                if g1 < 0 || g2 < 0 || contact.exclude != 0 {
+                    continue;
+                }
+                let (g1, g2) = (g1 as usize, g2 as usize);
+                let (link, geom, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
+                    (Some(l), None) => (l, g2, -1.0),
+                    (None, Some(l)) => (l, g1, 1.0),
+                    _ => continue,
+                };
+                if !st.obstacle_geom[geom] {
+                    continue;
+                }
+                let n = d.contact_force(c)[0];
+                if n <= 0.0 {
+                    continue;
+                }
+                let slots = &mut st.obstacle_slots[link];
+                let k = slots
+                    .iter()
+                    .position(|s| s.geom == geom)
+                    .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
+                    .or_else(|| slots.iter().position(|s| !s.seen));
+                let Some(k) = k else { continue };
+                let slot = &mut slots[k];
+                if slot.geom != geom {
+                    *slot = ObstacleSlot { geom, ..ObstacleSlot::FREE };
+                }
+                slot.seen = true;
+                slot.normal_n += n;
+                for j in 0..3 {
+                    slot.point_weighted[j] += n * contact.pos[j];
+                    slot.normal_weighted[j] += n * sign * contact.frame[j];
+                }
+            }
+        }
+        let dt = st.timestep_secs;
+        for (i, &body) in self.bodies.iter().enumerate() {
+            let com = world.data.xipos()[body];
+            let vel = st.link_velocity[i];
+            let (w, v_com) = ([vel[0], vel[1], vel[2]], [vel[3], vel[4], vel[5]]);
             // Obstacle contacts: the same law, isotropic, with the link's axis as the first tangent.
             let (mut o_force, mut o_torque) = ([0.0; 3], [0.0; 3]);
             let mu = st.obstacle_mu;
             for slot in st.obstacle_slots[i].iter_mut() {
-                if !slot.seen || !slot.touching {
+                if !slot.seen {
                     *slot = ObstacleSlot::FREE;
                     continue;
                 }
@@ -946,14 +1001,13 @@ impl Ground {
             }
             st.obstacle_force_n[i] = o_force;
             st.obstacle_torque_nm[i] = o_torque;
-            let force = add(force, o_force);
-            let torque = add(torque, o_torque);
-            st.force_n[i] = force;
-            st.torque_nm[i] = torque;
-            let force = add(force, st.normal_force_n[i]);
-            let torque = add(torque, st.normal_torque_nm[i]);
+            st.force_n[i] = add(st.force_n[i], o_force);
+            st.torque_nm[i] = add(st.torque_nm[i], o_torque);
             let slot = &mut world.data.xfrc_applied_mut()[body];
-            *slot = [force[0], force[1], force[2], torque[0], torque[1], torque[2]];
+            for k in 0..3 {
+                slot[k] += o_force[k];
+                slot[3 + k] += o_torque[k];
+            }
         }
     }
 }
