@@ -14,11 +14,16 @@ is not skewed by a machine whose load changes (``--with estimation.enabled=true`
 the contact estimator in the loop). ``--only`` keeps the variants whose name contains one of
 the given substrings (e.g. ``--only SimSerpent-v0``).
 
-throughput: env steps per second (wall, and per CPU-second of this process) of
+throughput: env steps per second (wall, and per CPU-second of this process and its children) of
   - ``gym.make("SimSerpent-v0")`` (the 10-link default snake and terrain, random actions in
     [-1, 1]) with the default physics and with ``env.preset = "fast"``;
-  - the Rust vector env (``SimSerpentVectorEnv``, 8 envs) on 1 and 2 threads (default and fast);
-  - Gymnasium's ``Swimmer-v5`` (``gymnasium[mujoco]`` on the same ``mujoco`` wheel).
+  - the Rust vector env (``SimSerpentVectorEnv``) of 2, 4 and 8 envs on all cores, and of 8
+    envs on 1 thread (default and fast);
+  - Gymnasium's ``SyncVectorEnv`` and ``AsyncVectorEnv`` of 8 ``SimSerpent-v0`` (fast);
+  - Gymnasium's ``Swimmer-v5`` and ``Ant-v5`` (``gymnasium[mujoco]``), one env and
+    ``AsyncVectorEnv`` of 8.
+  The speed-up column is the wall-clock env steps/s over one ``SimSerpent-v0`` of the same
+  preset (for Gymnasium's envs: over one env of the same kind).
   Variants are measured round-robin, best of ``--repeats`` (the machine may be shared); the
   output ends with a markdown table (with date, CPU and load average) for BENCHMARKS.md.
 
@@ -80,7 +85,7 @@ def timed(step, reset, seconds):
     loaded machine the second is the one-core figure (a vector env on k threads uses up to k
     CPUs, so its CPU figure is per core)."""
     reset()
-    n, t0, c0 = 0, time.perf_counter(), time.process_time()
+    n, t0, c0 = 0, time.perf_counter(), cpu_secs()
     while True:
         for _ in range(50):
             if step():
@@ -88,7 +93,28 @@ def timed(step, reset, seconds):
             n += 1
         dt = time.perf_counter() - t0
         if dt >= seconds:
-            return np.array([n / dt, n / max(time.process_time() - c0, 1e-9)])
+            return np.array([n / dt, n / max(cpu_secs() - c0, 1e-9)])
+
+
+def cpu_secs():
+    """CPU time of this process and its finished-or-running children (AsyncVectorEnv's workers
+    are children: their time counts once they report it, so it is read from /proc)."""
+    total = time.process_time()
+    try:
+        me = os.getpid()
+        for pid in os.listdir("/proc"):
+            if not pid.isdigit():
+                continue
+            try:
+                with open(f"/proc/{pid}/stat") as f:
+                    fields = f.read().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == me:  # ppid
+                total += (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except OSError:
+        pass
+    return total
 
 
 def single(overrides, actions, seconds):
@@ -103,9 +129,9 @@ def single(overrides, actions, seconds):
     return lambda: timed(step, lambda: env.reset(seed=0), seconds)
 
 
-def vector(overrides, actions, seconds, threads):
-    vec = SimSerpentVectorEnv(num_envs=8, overrides={**overrides, "env.max_episode_secs": 1000.0}, threads=threads)
-    batches = actions[: (len(actions) // 8) * 8].reshape(-1, 8, actions.shape[1])
+def vector(overrides, actions, seconds, threads, n=8):
+    vec = SimSerpentVectorEnv(num_envs=n, overrides={**overrides, "env.max_episode_secs": 1000.0}, threads=threads)
+    batches = actions[: (len(actions) // n) * n].reshape(-1, n, actions.shape[1])
     k = [0]
 
     def step():
@@ -113,13 +139,31 @@ def vector(overrides, actions, seconds, threads):
         vec.step(batches[k[0] % len(batches)])
         return False
 
-    return lambda: 8 * timed(step, lambda: vec.reset(seed=0), seconds)
+    return lambda: n * timed(step, lambda: vec.reset(seed=0), seconds)
 
 
-def swimmer(seconds):
-    env = gym.make("Swimmer-v5")
+def gym_vector(env_id, mode, seconds, n=8, **kwargs):
+    """Gymnasium's SyncVectorEnv or AsyncVectorEnv (``mode`` "sync" or "async") of ``n``
+    environments ``env_id`` (autoreset inside; random actions from the action space)."""
+    vec = gym.make_vec(env_id, num_envs=n, vectorization_mode=mode, **kwargs)
     rng = np.random.default_rng(0)
-    acts = rng.uniform(-1, 1, size=(4096, 2)).astype(np.float32)
+    space = vec.single_action_space
+    acts = rng.uniform(space.low, space.high, size=(256, n, *space.shape)).astype(space.dtype)
+    k = [0]
+
+    def step():
+        k[0] += 1
+        vec.step(acts[k[0] % 256])
+        return False
+
+    return lambda: n * timed(step, lambda: vec.reset(seed=0), seconds)
+
+
+def gym_single(env_id, seconds):
+    env = gym.make(env_id)
+    rng = np.random.default_rng(0)
+    space = env.action_space
+    acts = rng.uniform(space.low, space.high, size=(4096, *space.shape)).astype(space.dtype)
     k = [0]
 
     def step():
@@ -128,6 +172,10 @@ def swimmer(seconds):
         return te or tr
 
     return lambda: timed(step, lambda: env.reset(seed=0), seconds)
+
+
+def swimmer(seconds):
+    return gym_single("Swimmer-v5", seconds)
 
 
 def machine():
@@ -153,17 +201,29 @@ def throughput(a):
         for tag, more in kinds:
             o = {"env.preset": preset, **sets, **more}
             variants.append((f"SimSerpent-v0, `preset = \"{preset}\"`{tag}", single(o, actions, a.seconds)))
+    cores = os.cpu_count() or 1
+    baseline = {}
     for preset in ["default", "fast"]:
-        for threads in (1, 2):
+        baseline[f"SimSerpent-v0, `preset = \"{preset}\"`"] = preset
+        for n, threads in ((8, 1), (2, 0), (4, 0), (8, 0)):
             for tag, more in kinds:
                 o = {"env.preset": preset, **sets, **more}
-                s = "s" if threads > 1 else ""
-                name = f"Rust vector env, 8 envs, {threads} thread{s}, `preset = \"{preset}\"`{tag}"
-                variants.append((name, vector(o, actions, a.seconds, threads)))
-    try:
-        variants.append(("Gymnasium Swimmer-v5 (same `mujoco` wheel)", swimmer(a.seconds)))
-    except Exception as e:  # pragma: no cover - gymnasium[mujoco] extras
-        print(f"Swimmer-v5 not available: {e}")
+                where = "1 thread" if threads == 1 else f"{cores} threads"
+                name = f"Rust vector env, {n} envs, {where}, `preset = \"{preset}\"`{tag}"
+                variants.append((name, vector(o, actions, a.seconds, threads, n)))
+                baseline[name] = preset
+    fast = {"env.preset": "fast", **sets}
+    for mode in ("sync", "async"):
+        name = f"Gymnasium {mode.capitalize()}VectorEnv, 8 SimSerpent-v0, `preset = \"fast\"`"
+        variants.append((name, gym_vector("SimSerpent-v0", mode, a.seconds, overrides=fast)))
+        baseline[name] = "fast"
+    for env_id in ("Swimmer-v5", "Ant-v5"):
+        try:
+            variants.append((f"Gymnasium {env_id}", gym_single(env_id, a.seconds)))
+            variants.append((f"Gymnasium AsyncVectorEnv, 8 {env_id}", gym_vector(env_id, "async", a.seconds)))
+            baseline[f"Gymnasium AsyncVectorEnv, 8 {env_id}"] = f"Gymnasium {env_id}"
+        except Exception as e:  # pragma: no cover - gymnasium[mujoco] extras
+            print(f"{env_id} not available: {e}")
     if a.only:
         variants = [(n, f) for n, f in variants if any(o in n for o in a.only)]
         if not variants:
@@ -182,11 +242,16 @@ def throughput(a):
         + (f"; every SimSerpent variant with {describe(sets)}" if sets else "")
         + "\n"
     )
-    print("| variant (10-link default snake, random actions) | env steps/s, wall | env steps per CPU-second |")
-    print("|---|---:|---:|")
+    print("| variant (10-link default snake, random actions) | env steps/s, wall | env steps per CPU-second "
+          "| speed-up over one env (wall) |")
+    print("|---|---:|---:|---:|")
     for name, _ in variants:
         wall, cpu = results[name]
-        print(f"| {name} | {wall:,.0f} | {cpu:,.0f} |", flush=True)
+        base = baseline.get(name)
+        if base in ("default", "fast"):
+            base = f"SimSerpent-v0, `preset = \"{base}\"`"
+        ratio = f"{wall / results[base][0]:.2f}" if base in results and base != name else ""
+        print(f"| {name} | {wall:,.0f} | {cpu:,.0f} | {ratio} |", flush=True)
     return {"variants": results, "machine": m, "load_average_1min": [min(loads), max(loads)], "set": sets,
             "with": extra}
 

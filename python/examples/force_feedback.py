@@ -21,8 +21,11 @@ from above) relative to link j. Link yaw: the head's yaw plus the joint angles i
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 import simserpent
 
@@ -40,16 +43,24 @@ OVERRIDES = {
 }
 
 
-def head_yaw_rad(quat_wxyz) -> float:
+def head_yaw_rad(quat_wxyz: Sequence[float]) -> float:
     w, x, y, z = quat_wxyz
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
-def make_controller(config, gain_rad_per_n: float = 0.05, max_offset_rad: float = 0.3, log=None):
+Log = list[tuple[float, int, float]]
+
+
+def make_controller(
+    config: simserpent.Config,
+    gain_rad_per_n: float = 0.05,
+    max_offset_rad: float = 0.3,
+    log: Log | None = None,
+) -> Callable[[dict[str, Any]], npt.NDArray[np.float64]]:
     """The gait plus compliance to the estimated obstacle forces (position servos)."""
     gait = simserpent.Gait(config)
 
-    def controller(obs):
+    def controller(obs: dict[str, Any]) -> npt.NDArray[np.float64]:
         target = np.asarray(gait(obs["time_secs"]), dtype=float)
         contacts = obs.get("contacts")  # absent unless [estimation] enabled = true
         if contacts is None:
@@ -65,14 +76,14 @@ def make_controller(config, gain_rad_per_n: float = 0.05, max_offset_rad: float 
         offset = np.clip(-gain_rad_per_n * lateral_n[1:], -max_offset_rad, max_offset_rad)
         if log is not None:
             log.append((obs["time_secs"], int(contacts["contact"].sum()), float(np.abs(offset).max())))
-        return target + offset
+        return np.asarray(target + offset, dtype=np.float64)
 
     return controller
 
 
-def main(duration_secs: float = 5.0, run_folder=None):
+def main(duration_secs: float = 5.0, run_folder: str | None = None) -> tuple[dict[str, Any], Log]:
     config = simserpent.load_config(overrides={**OVERRIDES, "general.duration_secs": duration_secs})
-    log = []
+    log: Log = []
     summary = simserpent.run(config, run_folder=run_folder, controller=make_controller(config, log=log))
     touching = sum(1 for _, n, _ in log if n > 0)
     print(f"run folder: {summary['run_folder']}")

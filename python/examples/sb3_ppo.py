@@ -29,7 +29,7 @@ import gymnasium as gym  # noqa: E402
 import simserpent  # noqa: E402,F401  (registers SimSerpent-v0)
 
 
-def main():
+def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--steps", type=int, default=200_000)
     ap.add_argument("--envs", type=int, default=4)
@@ -60,7 +60,7 @@ def main():
     while not done:
         action, _ = model.predict(obs, deterministic=True)
         obs, reward, terminated, truncated, info = env.step(action)
-        total += reward
+        total += float(reward)
         done = terminated or truncated
     env.close()
     print(f"return {total:.3f}, distance {info['distance_from_origin']:.3f} m; video in {a.video_dir}/")

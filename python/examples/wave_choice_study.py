@@ -34,16 +34,25 @@ gains more, against the majority class.
 """
 
 import sys
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import pandas as pd
+
+Array = npt.NDArray[Any]
+#: A table (pandas.DataFrame).
+Frame = Any
+#: fit on (x_train, y_train), predict x_test
+Predict = Callable[[Array, Array, Array], Array]
 
 WAVES = [(a, lag) for a in (50, 65, 80) for lag in (-60, -45, -30, 30)]
 DENSITIES = ["sparse", "medium", "dense"]
 FOLDS = 5
 
 
-def load(path):
+def load(path: str) -> tuple[Frame, Frame]:
     df = pd.read_csv(path)
     # The first window holds the ramp-in: nothing was sensed before it.
     df = df[df.window >= 1].reset_index(drop=True)
@@ -51,7 +60,7 @@ def load(path):
     return df, pegs.drop_duplicates()
 
 
-def sensed_features(df):
+def sensed_features(df: Frame) -> Array:
     c, s = np.cos(df.yaw_mean), np.sin(df.yaw_mean)
     f = {
         "prev_amplitude": [WAVES[p][0] for p in df.prev_wave],
@@ -67,10 +76,10 @@ def sensed_features(df):
         f[f"across{i}"] = -df[f"fx{i}"] * s + df[f"fy{i}"] * c
         f[f"magnitude{i}"] = df[f"fa{i}"]
         f[f"contact{i}"] = df[f"fc{i}"]
-    return pd.DataFrame(f).to_numpy(float)
+    return np.asarray(pd.DataFrame(f).to_numpy(float))
 
 
-def peg_features(df, pegs):
+def peg_features(df: Frame, pegs: Frame) -> tuple[Array, Array]:
     """Pegs in the body's frame (centre: the links' mean, x: tail to head): counts in cells of
     0.4 m (x from -1.0 to 1.4 m, y from -0.6 to 0.6 m), split at x = 0.6 m (about the head);
     each link's distance to the nearest peg's surface; the body's heading."""
@@ -95,23 +104,23 @@ def peg_features(df, pegs):
     return np.hstack([along, nearest, pose]), np.hstack([ahead, pose])
 
 
-def folds_of(df):
+def folds_of(df: Frame) -> Array:
     fields = sorted(set(zip(df.density, df.seed)))
     order = np.random.default_rng(0).permutation(len(fields))
     fold = {fields[i]: j % FOLDS for j, i in enumerate(order)}
     return np.array([fold[(d, s)] for d, s in zip(df.density, df.seed)])
 
 
-def ridge_predict(x_train, y_train, x_test, lam=10.0):
+def ridge_predict(x_train: Array, y_train: Array, x_test: Array, lam: float = 10.0) -> Array:
     mu, sd = x_train.mean(0), x_train.std(0) + 1e-9
     a = np.hstack([np.ones((len(x_train), 1)), (x_train - mu) / sd])
     b = np.hstack([np.ones((len(x_test), 1)), (x_test - mu) / sd])
     reg = lam * np.eye(a.shape[1])
     reg[0, 0] = 0.0
-    return b @ np.linalg.solve(a.T @ a + reg, a.T @ y_train)
+    return np.asarray(b @ np.linalg.solve(a.T @ a + reg, a.T @ y_train))
 
 
-def gbm_predict(x_train, y_train, x_test):
+def gbm_predict(x_train: Array, y_train: Array, x_test: Array) -> Array:
     from sklearn.ensemble import HistGradientBoostingRegressor
 
     out = np.zeros((len(x_test), y_train.shape[1]))
@@ -123,7 +132,7 @@ def gbm_predict(x_train, y_train, x_test):
     return out
 
 
-def cross_validated(x, y, fold, predict):
+def cross_validated(x: Array, y: Array, fold: Array, predict: Predict) -> Array:
     pred = np.zeros(y.shape)
     for f in range(FOLDS):
         train, test = fold != f, fold == f
@@ -131,12 +140,12 @@ def cross_validated(x, y, fold, predict):
     return pred
 
 
-def per_density(df, values):
-    out = [500.0 * values[(df.density == d).to_numpy()].mean() for d in DENSITIES]
-    return out + [500.0 * values.mean()]
+def per_density(df: Frame, values: Array) -> list[float]:
+    out = [500.0 * float(values[(df.density == d).to_numpy()].mean()) for d in DENSITIES]
+    return out + [500.0 * float(values.mean())]
 
 
-def main(path):
+def main(path: str) -> None:
     df, pegs = load(path)
     gains = df[[f"gain{k}" for k in range(len(WAVES))]].to_numpy()
     rows = np.arange(len(df))
@@ -149,7 +158,7 @@ def main(path):
         "pegs ahead": ahead,
         "all": np.hstack([sensed, along, ahead]),
     }
-    models = [("ridge", ridge_predict)]
+    models: list[tuple[str, Predict]] = [("ridge", ridge_predict)]
     try:
         import sklearn  # noqa: F401
 

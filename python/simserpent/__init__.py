@@ -12,12 +12,19 @@ the Python conveniences:
 - :func:`estimate` -- the contact estimator on a recorded run folder (``simserpent estimate``);
 - :class:`Gait` -- the config's gait as a function of time (a base policy for RL);
 - :func:`open_run` -- a run folder's tables as pandas DataFrames;
+- :func:`plot` and :func:`render` -- a run folder's plots, pictures and video, the files
+  ``simserpent plot`` and ``simserpent render`` make (the same code);
 - :mod:`simserpent.envs` -- the Gymnasium environment ``SimSerpent-v0`` (registered on import)
   and a vector environment stepped in Rust on all cores;
 - :mod:`simserpent.ray_sweep` -- sweeps and cross-entropy optimisation on a Ray cluster.
 
 Errors are :class:`SimSerpentError` subclasses (:class:`ConfigError`, :class:`ModelError`,
-:class:`SimulationError`, :class:`RecordError`, :class:`SweepError`) carrying the CLI's message.
+:class:`SimulationError`, :class:`RecordError`, :class:`SweepError`, :class:`EstimateError`,
+:class:`PlotError`, :class:`RenderError`) carrying the CLI's message.
+
+The package carries its own MuJoCo 3.17 library (``mujoco_version()``); the ``mujoco`` Python
+package is not needed, and any release of it can be installed beside (it is used only to draw
+an environment, ``render_mode="rgb_array"``).
 """
 
 from __future__ import annotations
@@ -30,14 +37,9 @@ from pathlib import Path
 from typing import Any, Union
 
 if os.name == "nt":
-    # Windows finds DLLs beside the program, not through an rpath: the extension needs the
-    # mujoco.dll of the `mujoco` wheel (pip install mujoco==3.17.0).
-    import importlib.util
-
-    _mujoco = importlib.util.find_spec("mujoco")
-    if _mujoco is not None and _mujoco.submodule_search_locations:
-        for _folder in _mujoco.submodule_search_locations:
-            os.add_dll_directory(_folder)
+    # Windows finds DLLs beside the program, not through an rpath: the wheel carries mujoco.dll
+    # beside the extension.
+    os.add_dll_directory(os.path.dirname(os.path.abspath(__file__)))  # type: ignore[attr-defined,unused-ignore]
 
 from . import _core  # noqa: E402
 from ._core import (  # noqa: E402
@@ -45,7 +47,9 @@ from ._core import (  # noqa: E402
     ConfigError,
     EstimateError,
     ModelError,
+    PlotError,
     RecordError,
+    RenderError,
     SimSerpentError,
     SimulationError,
     SweepError,
@@ -90,7 +94,9 @@ __all__ = [
     "ConfigError",
     "EstimateError",
     "ModelError",
+    "PlotError",
     "RecordError",
+    "RenderError",
     "Run",
     "SimSerpentError",
     "SimulationError",
@@ -106,6 +112,8 @@ __all__ = [
     "make_world",
     "mujoco_version",
     "open_run",
+    "plot",
+    "render",
     "run",
     "toml_literal",
 ]
@@ -237,7 +245,7 @@ class Gait:
     action of the environment of this config (normalised to [-1, 1] by
     ``snake.joint_range_deg`` when ``env.normalize_action``, clipped)."""
 
-    def __init__(self, config: ConfigLike = None, overrides: Overrides = None):
+    def __init__(self, config: ConfigLike = None, overrides: Overrides = None) -> None:
         self.config = load_config(config, overrides)
         self._core = _core.Gait(self.config)
         cfg = json.loads(self.config.to_json())
@@ -245,13 +253,13 @@ class Gait:
         self._normalised = bool(cfg["env"]["normalize_action"])
         self.n_joints: int = self._core.n_joints
 
-    def targets(self, t_secs: float):
+    def targets(self, t_secs: float) -> tuple[Any, Any]:
         return self._core.targets(float(t_secs))
 
-    def __call__(self, t_secs: float):
+    def __call__(self, t_secs: float) -> Any:
         return self.targets(t_secs)[0]
 
-    def action(self, t_secs: float):
+    def action(self, t_secs: float) -> Any:
         import numpy as np
 
         angles = np.clip(self.targets(t_secs)[0], -self._range_rad, self._range_rad)
@@ -268,7 +276,7 @@ class Run:
     part files, read as one table) when there is no CSV (Parquet needs pyarrow).
     """
 
-    def __init__(self, path: Union[str, "os.PathLike[str]"]):
+    def __init__(self, path: Union[str, "os.PathLike[str]"]) -> None:
         self.path = Path(path)
         manifest = self.path / "manifest.json"
         if not manifest.is_file():
@@ -278,7 +286,7 @@ class Run:
 
     @property
     def status(self) -> str:
-        return self.manifest.get("status", "")
+        return str(self.manifest.get("status", ""))
 
     @property
     def summary(self) -> dict[str, Any] | None:
@@ -301,7 +309,7 @@ class Run:
     def tables(self) -> dict[str, Any]:
         return {name: self[name] for name in self.table_names}
 
-    def __getitem__(self, name: str):
+    def __getitem__(self, name: str) -> Any:
         if name not in self._cache:
             import pandas as pd
 
@@ -314,7 +322,7 @@ class Run:
                 raise KeyError(f"{self.path} has no table {name!r}; it has {self.table_names}")
         return self._cache[name]
 
-    def __getattr__(self, name: str):
+    def __getattr__(self, name: str) -> Any:
         if name.startswith("_"):
             raise AttributeError(name)
         try:
@@ -329,6 +337,40 @@ class Run:
 def open_run(run_dir: Union[str, "os.PathLike[str]"]) -> Run:
     """Opens a run folder; its tables are pandas DataFrames (``open_run(p).links``)."""
     return Run(run_dir)
+
+
+def plot(run_dir: Union[str, "os.PathLike[str]"]) -> list[Path]:
+    """Plots a run folder as ``simserpent plot RUN_FOLDER`` does (same code, the GIL released):
+    the standard panels as PNG and SVG into ``RUN_DIR/plots/``. Returns the files written. A
+    panel whose columns were not recorded is left out with a :class:`UserWarning` saying why.
+
+    Raises :class:`PlotError` naming the missing file or table (plots are made from the CSV
+    tables: ``recording.enabled = true`` with a CSV format)."""
+    import warnings
+
+    files, skipped = _core.plot_run_folder(os.fspath(run_dir))
+    for panel, reason in skipped:
+        warnings.warn(f"{os.fspath(run_dir)}: plot {panel} left out: {reason}", UserWarning, stacklevel=2)
+    return [Path(f) for f in files]
+
+
+def render(
+    run_dir: Union[str, "os.PathLike[str]"],
+    video: bool = True,
+    images: bool = False,
+    overrides: Overrides = None,
+) -> list[Path]:
+    """Replays a run folder's ``state.csv`` into pictures, as ``simserpent render RUN_FOLDER``
+    does (same code, offscreen through EGL, the GIL released): a video (``video``:
+    ``RUN_DIR/video_<camera>.mp4`` or ``.gif`` by ``video.format``, at ``video.frames_per_sec``)
+    and/or the images at ``render.image_times_secs`` (``images``:
+    ``RUN_DIR/images/<camera>_<t>s.png``). ``overrides`` change the run's config for the
+    pictures (``{"render.camera": "top", "render.image_times_secs": [0.5, 2.0]}``). Returns the
+    files written.
+
+    Raises :class:`RenderError` (no ``state.csv``, no EGL, encoder failed) or
+    :class:`ConfigError` (a bad override; ``images=True`` with no image times)."""
+    return [Path(f) for f in _core.render_run_folder(os.fspath(run_dir), bool(video), bool(images), _override_list(overrides))]
 
 
 # Registers SimSerpent-v0 with Gymnasium (when gymnasium is installed).

@@ -30,25 +30,46 @@ The observation, actions, reward and episode end are set by the config's ``[env]
   says when).
 
 Rendering (``render_mode`` ``"rgb_array"``, ``"depth_array"``, ``"human"``) draws the env's own
-model at its true state with the official :class:`mujoco.Renderer` (offscreen; without a
-display and without ``MUJOCO_GL`` set, ``MUJOCO_GL=egl`` is set if ``mujoco`` was not imported
-yet) or :mod:`mujoco.viewer` (``"human"``, needs a display).
+model at its true state with the official :class:`mujoco.Renderer` of the ``mujoco`` package
+(offscreen; without a display and without ``MUJOCO_GL`` set, ``MUJOCO_GL=egl`` is set if
+``mujoco`` was not imported yet) or :mod:`mujoco.viewer` (``"human"``, needs a display). The
+simulation itself does not need the ``mujoco`` package (the wheel carries its own MuJoCo 3.17);
+rendering does: ``mujoco`` 3.2 or later, 3.x or 4.x (tested with 3.17.0 and 4.0.0;
+``pip install mujoco``). The camera follows the snake's centre of mass at the config's
+``render.camera_distance_m``, ``render.camera_azimuth_deg`` and ``render.camera_elevation_deg``
+(the CLI's framing; keyword arguments override them).
+
+``metadata["render_modes"]`` of an environment lists the modes that work where it runs:
+``"human"`` only with a display, ``"rgb_array"`` and ``"depth_array"`` only with the ``mujoco``
+package installed (Gymnasium's ``check_env`` renders every listed mode, and Swimmer-v5, which
+always lists ``"human"``, aborts in it without a display).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json as _json
+import math
 import os
-from typing import Any
+from typing import TYPE_CHECKING, Any, Union
 
 import gymnasium as gym
 import numpy as np
+import numpy.typing as npt
 from gymnasium import spaces
+from gymnasium.envs.registration import EnvSpec
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from . import _core
+
+if TYPE_CHECKING:
+    from . import Config, ConfigLike, Overrides
+
+#: An observation or action vector (float64; actions may be float32).
+Array = npt.NDArray[np.float64]
+ObsArray = npt.NDArray[np.float64]
+ActArray = npt.NDArray[Any]
 
 ENV_ID = "SimSerpent-v0"
 
@@ -59,16 +80,22 @@ TERM_NAMES: list[str] = list(_core.TERM_NAMES)
 
 RENDER_MODES = ["human", "rgb_array", "depth_array"]
 
+#: The ``mujoco`` releases rendering is tested with (the Python package draws the env's MJCF).
+RENDER_MUJOCO_VERSIONS = ("3.17.0", "4.0.0")
 
-def _config(config, overrides):
+
+def _config(config: ConfigLike, overrides: Overrides) -> Config:
     from . import load_config
 
     return load_config(config, overrides)
 
 
-def _spaces(core) -> tuple[spaces.Box, spaces.Box]:
+def _spaces(core: _core.Env) -> tuple[Any, Any]:
+    """(observation space, action space): float64 boxes; a float32 box in [-1, 1] for
+    normalised actions."""
     n = core.observation_size
-    observation_space = spaces.Box(-np.inf, np.inf, shape=(n,), dtype=np.float64)
+    observation_space: Any = spaces.Box(-np.inf, np.inf, shape=(n,), dtype=np.float64)
+    action_space: Any
     if core.normalize_action:
         action_space = spaces.Box(-1.0, 1.0, shape=(core.action_size,), dtype=np.float32)
     else:
@@ -89,6 +116,33 @@ def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
+def has_mujoco_package() -> bool:
+    """Whether the ``mujoco`` Python package (which rendering uses) is installed."""
+    import importlib.util
+
+    return importlib.util.find_spec("mujoco") is not None
+
+
+def available_render_modes() -> list[str]:
+    """The render modes that work here: ``"human"`` needs a display and the ``mujoco`` package,
+    ``"rgb_array"`` and ``"depth_array"`` the ``mujoco`` package."""
+    if not has_mujoco_package():
+        return []
+    return [m for m in RENDER_MODES if m != "human" or has_display()]
+
+
+def _mujoco_for_rendering(render_mode: str) -> Any:
+    """Imports the ``mujoco`` package, with an error naming what to install if it is missing."""
+    try:
+        import mujoco
+    except ImportError:
+        raise ImportError(
+            f"render_mode={render_mode!r} draws with the `mujoco` package, which is not installed; "
+            f"pip install mujoco (3.2 or later, 3.x or 4.x; tested: {', '.join(RENDER_MUJOCO_VERSIONS)})"
+        ) from None
+    return mujoco
+
+
 class MujocoRendering:
     """Draws a :class:`simserpent.World` with the official MuJoCo renderer: the world's own
     MJCF compiled by the ``mujoco`` package (the same libmujoco), its true state copied in
@@ -96,8 +150,9 @@ class MujocoRendering:
     that follows the snake's centre of mass from above at an angle (or a camera of the model
     by name or id). The model is compiled at the first ``render()``."""
 
-    def __init__(self, world, render_mode: str, width: int = 480, height: int = 480,
-                 camera: str | int | None = None, distance_m: float | None = None, quality: str = "fast"):
+    def __init__(self, world: _core.Env, render_mode: str, width: int = 480, height: int = 480,
+                 camera: str | int | None = None, distance_m: float | None = None, quality: str = "fast",
+                 azimuth_deg: float = 90.0, elevation_deg: float = -35.0):
         if quality not in ("fast", "full"):
             raise ValueError(f"render quality {quality!r}: allowed 'fast' (no shadows, reflections, MSAA) or 'full'")
         self.quality = quality
@@ -107,11 +162,18 @@ class MujocoRendering:
         if self.width < 1 or self.height < 1:
             raise ValueError(f"render width and height must be at least 1, got {width} x {height}")
         self._camera_arg = camera
+        if distance_m is not None and not (math.isfinite(distance_m) and distance_m > 0):
+            raise ValueError(f"camera_distance_m must be a positive number of metres, got {distance_m!r}")
+        for name, value in (("camera_azimuth_deg", azimuth_deg), ("camera_elevation_deg", elevation_deg)):
+            if not math.isfinite(value):
+                raise ValueError(f"{name} must be a finite angle in degrees, got {value!r}")
         self._distance_m = distance_m
-        self.model = None
-        self.data = None
-        self._renderer = None
-        self._viewer = None
+        self._azimuth_deg = float(azimuth_deg)
+        self._elevation_deg = float(elevation_deg)
+        self.model: Any = None
+        self.data: Any = None
+        self._renderer: Any = None
+        self._viewer: Any = None
 
     def _setup(self) -> None:
         import sys
@@ -119,7 +181,7 @@ class MujocoRendering:
         if "mujoco" not in sys.modules and not has_display() and self.render_mode != "human":
             # Offscreen without a display: EGL (MuJoCo reads MUJOCO_GL when it is imported).
             os.environ.setdefault("MUJOCO_GL", "egl")
-        import mujoco
+        mujoco = _mujoco_for_rendering(self.render_mode)
 
         self._mujoco = mujoco
         try:
@@ -137,15 +199,21 @@ class MujocoRendering:
             # switched off in the scene below); ~10x faster on a software rasteriser.
             self.model.vis.quality.offsamples = 0
         self.data = mujoco.MjData(self.model)
-        self._spec = mujoco.mjtState.mjSTATE_INTEGRATION
+        if (self.model.nq, self.model.nv, self.model.na) != (
+            len(self.world.qpos), len(self.world.qvel), len(self.world.act)
+        ):
+            raise _core.ModelError(
+                f"mujoco {mujoco.__version__} compiled the environment's MJCF into a model of other sizes "
+                f"(nq {self.model.nq}, nv {self.model.nv}, na {self.model.na}); rendering is tested with mujoco "
+                f"{', '.join(RENDER_MUJOCO_VERSIONS)}"
+            )
         self.camera = mujoco.MjvCamera()
         camera = self._camera_arg
         if camera is None:
             mujoco.mjv_defaultFreeCamera(self.model, self.camera)
-            extent = self.model.stat.extent
-            self.camera.distance = self._distance_m if self._distance_m is not None else max(1.0, 1.2 * extent)
-            self.camera.elevation = -45.0
-            self.camera.azimuth = 90.0
+            self.camera.distance = self._distance_m if self._distance_m is not None else 2.5
+            self.camera.elevation = self._elevation_deg
+            self.camera.azimuth = self._azimuth_deg
             self._follow = True
         else:
             if isinstance(camera, int):
@@ -163,19 +231,26 @@ class MujocoRendering:
         if self.model is None:
             self._setup()
         mujoco = self._mujoco
-        mujoco.mj_setState(self.model, self.data, self.world.integration_state(), self._spec)
+        # The state by its parts (not mj_setState's packed layout, which differs between MuJoCo
+        # releases): time, positions, velocities, activations.
+        self.data.time = self.world.time
+        self.data.qpos[:] = self.world.qpos
+        self.data.qvel[:] = self.world.qvel
+        if self.model.na:
+            self.data.act[:] = self.world.act
         mujoco.mj_forward(self.model, self.data)
         if self._follow:
             self.camera.lookat[:] = self.world.centre_of_mass
 
-    def render(self):
+    def render(self) -> npt.NDArray[Any] | None:
         self.sync()
         mujoco = self._mujoco
         if self.render_mode == "human":
             if self._viewer is None:
-                import mujoco.viewer
+                import importlib
 
-                self._viewer = mujoco.viewer.launch_passive(self.model, self.data)
+                viewer = importlib.import_module("mujoco.viewer")
+                self._viewer = viewer.launch_passive(self.model, self.data)
             self._viewer.sync()
             return None
         if self._renderer is None:
@@ -187,7 +262,8 @@ class MujocoRendering:
                 self._renderer.scene.flags[mujoco.mjtRndFlag.mjRND_REFLECTION] = False
         r = self._renderer
         r.update_scene(self.data, camera=self.camera)
-        return r.render()
+        frame: npt.NDArray[Any] = r.render()
+        return frame
 
     def close(self) -> None:
         if self._renderer is not None:
@@ -198,11 +274,19 @@ class MujocoRendering:
             self._viewer = None
 
 
-class SimSerpentEnv(gym.Env):
+class SimSerpentEnv(gym.Env[ObsArray, ActArray]):
     """One snake. ``SimSerpentEnv(config=None, overrides=None, render_mode=None, width=480,
-    height=480, camera=None, render_quality="fast")`` (``"fast"``: no shadows, reflections or
-    MSAA, as the CLI's ``render.quality`` default; ``"full"``: MuJoCo's defaults): ``config`` as for :func:`simserpent.load_config` (a path, a
-    dict, a :class:`simserpent.Config` or ``None``).
+    height=480, camera=None, render_quality="fast", camera_distance_m=None,
+    camera_azimuth_deg=None, camera_elevation_deg=None)``: ``config`` as for
+    :func:`simserpent.load_config` (a path, a dict, a :class:`simserpent.Config` or ``None``).
+
+    Rendering: ``render_quality`` ``"fast"`` (no shadows, reflections or MSAA, as the CLI's
+    ``render.quality`` default) or ``"full"`` (MuJoCo's defaults); ``camera`` ``None`` (a camera
+    that follows the snake's centre of mass at ``camera_distance_m`` (m),
+    ``camera_azimuth_deg`` and ``camera_elevation_deg``; by default the config's
+    ``render.camera_distance_m``, ``render.camera_azimuth_deg``, ``render.camera_elevation_deg``:
+    2.5 m, 90 deg, -35 deg, where the default 2 m snake spans most of the picture's width) or a
+    camera of the model, by name or id.
 
     ``unwrapped.world`` is the :class:`simserpent.World` (true state ``qpos``, ``qvel``,
     ``time``; ``get_state()``/``set_state()`` for branching rollouts).
@@ -210,9 +294,10 @@ class SimSerpentEnv(gym.Env):
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 50}
 
-    def __init__(self, config=None, overrides=None, render_mode: str | None = None,
+    def __init__(self, config: ConfigLike = None, overrides: Overrides = None, render_mode: str | None = None,
                  width: int = 480, height: int = 480, camera: str | int | None = None,
-                 render_quality: str = "fast"):
+                 render_quality: str = "fast", camera_distance_m: float | None = None,
+                 camera_azimuth_deg: float | None = None, camera_elevation_deg: float | None = None) -> None:
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise ValueError(f"render_mode {render_mode!r} is not supported; allowed: {RENDER_MODES} or None")
         if render_mode == "human" and not has_display():
@@ -226,24 +311,44 @@ class SimSerpentEnv(gym.Env):
         self.observation_space, self.action_space = _spaces(self.core)
         self.observation_names: list[str] = list(self.core.observation_names)
         self.observation_version: int = self.core.observation_version
-        self.metadata = {**type(self).metadata, "render_fps": int(round(1.0 / self.dt))}
+        # Only the modes that work here (check_env renders every listed one).
+        self.metadata = {
+            **type(self).metadata,
+            "render_modes": available_render_modes(),
+            "render_fps": int(round(1.0 / self.dt)),
+        }
         self.render_mode = render_mode
+        if render_mode is not None:
+            _mujoco_for_rendering(render_mode)
+        view = _json.loads(self.config.to_json())["render"]
         self._renderer = (
-            MujocoRendering(self.core, render_mode, width, height, camera, quality=render_quality)
+            MujocoRendering(
+                self.core,
+                render_mode,
+                width,
+                height,
+                camera,
+                distance_m=float(view["camera_distance_m"] if camera_distance_m is None else camera_distance_m),
+                quality=render_quality,
+                azimuth_deg=float(view["camera_azimuth_deg"] if camera_azimuth_deg is None else camera_azimuth_deg),
+                elevation_deg=float(
+                    view["camera_elevation_deg"] if camera_elevation_deg is None else camera_elevation_deg
+                ),
+            )
             if render_mode
             else None
         )
-        self._spec = None
+        self._spec: EnvSpec | None = None
         self._estimation = bool(_json.loads(self.config.to_json())["estimation"]["enabled"])
 
     # gym.make sets the spec after construction; fill in the env's own episode length so that
     # spec.max_episode_steps says when it truncates (no TimeLimit wrapper is needed).
     @property
-    def spec(self):
+    def spec(self) -> EnvSpec | None:
         return self._spec
 
     @spec.setter
-    def spec(self, value):
+    def spec(self, value: EnvSpec | None) -> None:
         if value is not None and value.max_episode_steps is None:
             value = dataclasses.replace(value, max_episode_steps=int(self.core.max_episode_steps))
         self._spec = value
@@ -271,7 +376,9 @@ class SimSerpentEnv(gym.Env):
             "distance_from_origin": float(np.hypot(x - x0, y - y0)),
         }
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[ObsArray, dict[str, Any]]:
         super().reset(seed=seed)
         # The noise seed comes from the env's generator: the same seed, the same episode.
         episode_seed = int(self.np_random.integers(0, _SEED_MAX))
@@ -281,7 +388,7 @@ class SimSerpentEnv(gym.Env):
             self.render()
         return obs, info
 
-    def step(self, action):
+    def step(self, action: ActArray) -> tuple[ObsArray, float, bool, bool, dict[str, Any]]:
         a = action if isinstance(action, np.ndarray) and action.ndim == 1 else np.asarray(action).reshape(-1)
         obs, reward, terminated, truncated, info = self.core.step(a)
         # The episode's start is part of the world's state (restored by set_state).
@@ -297,7 +404,7 @@ class SimSerpentEnv(gym.Env):
         """The contact estimates of the latest step (see :meth:`simserpent.World.contact_estimates`)."""
         return self.core.contact_estimates()
 
-    def render(self):
+    def render(self) -> npt.NDArray[Any] | None:
         if self._renderer is None:
             gym.logger.warn(
                 "render() called without a render_mode; make the env with render_mode='rgb_array' "
@@ -306,15 +413,15 @@ class SimSerpentEnv(gym.Env):
             return None
         return self._renderer.render()
 
-    def get_state(self):
+    def get_state(self) -> _core.WorldState:
         """The whole state (see :meth:`simserpent.World.get_state`)."""
         return self.core.get_state()
 
-    def set_state(self, state) -> None:
+    def set_state(self, state: _core.WorldState) -> None:
         """Back to a state from :meth:`get_state`: the same actions give the same trajectory."""
         self.core.set_state(state)
 
-    def close(self):
+    def close(self) -> None:
         if self._renderer is not None:
             self._renderer.close()
         super().close()
@@ -330,7 +437,7 @@ def _reset_mask(options: dict[str, Any] | None, n: int) -> np.ndarray:
     return mask
 
 
-def _seed_list(seed, n: int) -> list[int | None]:
+def _seed_list(seed: int | np.integer[Any] | list[int | None] | None, n: int) -> list[int | None]:
     """Per-environment seeds as Gymnasium's SyncVectorEnv takes them: an int s gives s, s+1, ...;
     a list gives one per environment; None gives none."""
     if seed is None:
@@ -343,7 +450,7 @@ def _seed_list(seed, n: int) -> list[int | None]:
     return [None if s is None else int(s) for s in seeds]
 
 
-def _autoreset_mode(mode) -> AutoresetMode:
+def _autoreset_mode(mode: AutoresetMode | str) -> AutoresetMode:
     """An AutoresetMode, or its value ("NextStep") or name ("next_step", "SAME_STEP")."""
     if isinstance(mode, str):
         by_name = {m.name.lower(): m for m in AutoresetMode}
@@ -373,8 +480,9 @@ class SimSerpentVectorEnv(VectorEnv):
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": [], "render_fps": 50}
 
-    def __init__(self, num_envs: int = 8, config=None, overrides=None, threads: int = 0, render_mode=None,
-                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP):
+    def __init__(self, num_envs: int = 8, config: ConfigLike = None, overrides: Overrides = None, threads: int = 0,
+                 render_mode: str | None = None,
+                 autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP) -> None:
         mode = _autoreset_mode(autoreset_mode)
         if render_mode is not None:
             raise ValueError(
@@ -406,9 +514,13 @@ class SimSerpentVectorEnv(VectorEnv):
         return int(self.core.max_episode_steps)
 
     def _draw(self, i: int) -> int:
-        return int(self._rngs[i].integers(0, _SEED_MAX))
+        rng = self._rngs[i]
+        assert rng is not None, "reset() seeds every environment's generator first"
+        return int(rng.integers(0, _SEED_MAX))
 
-    def reset(self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None):
+    def reset(
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[ObsArray, dict[str, Any]]:
         n = self.num_envs
         mask = _reset_mask(options, n)
         seeds = _seed_list(seed, n)
@@ -431,7 +543,9 @@ class SimSerpentVectorEnv(VectorEnv):
         info["_env_seed"] = mask & (seed_values >= 0)
         return obs, info
 
-    def step(self, actions):
+    def step(
+        self, actions: ActArray
+    ) -> tuple[ObsArray, Array, npt.NDArray[np.bool_], npt.NDArray[np.bool_], dict[str, Any]]:
         a = actions if isinstance(actions, np.ndarray) and actions.ndim == 2 else np.asarray(actions).reshape(
             self.num_envs, -1
         )
@@ -442,7 +556,7 @@ class SimSerpentVectorEnv(VectorEnv):
         )
         # Each environment that was reset draws the seed of its next episode from its generator.
         for i in np.flatnonzero(was_reset):
-            self._next_seeds[i] = self._draw(i)
+            self._next_seeds[i] = self._draw(int(i))
         n = self.num_envs
         stepped = ~was_reset if self.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP else np.ones(n, dtype=bool)
         infos: dict[str, Any] = {}
@@ -466,7 +580,7 @@ class SimSerpentVectorEnv(VectorEnv):
             infos["_final_info"] = was_reset.copy()
         return obs, rewards, terminated, truncated, infos
 
-    def close_extras(self, **kwargs):
+    def close_extras(self, **kwargs: Any) -> None:
         pass
 
 

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _core, load_config, toml_literal
+from . import ConfigLike, Overrides, _core, load_config, toml_literal
 
 #: The metric columns of a run, as in the CLI's sweep summary (`simserpent::sweep::METRICS`).
 METRICS = tuple(_core.SWEEP_METRICS)
@@ -75,11 +75,11 @@ def init_ray(address: str | None = None, num_cpus: int | None = None, **kwargs: 
         ray.init(address="local", num_cpus=num_cpus or os.cpu_count() or 1, **kwargs)
 
 
-def _abs(path) -> str | None:
+def _abs(path: str | os.PathLike[str] | None) -> str | None:
     return None if path is None else str(Path(path).resolve())
 
 
-def _overrides(overrides) -> list[str]:
+def _overrides(overrides: Overrides) -> list[str]:
     from . import _override_list
 
     return _override_list(overrides)
@@ -93,14 +93,14 @@ def _remote_sweep_run(sweep_args: dict[str, Any], index: int) -> list[str]:
 def sweep(
     config: str | os.PathLike[str] | None = None,
     vary: Sequence[str] = (),
-    overrides=None,
+    overrides: Overrides = None,
     sample: str = "grid",
     samples: int = 10,
     seed: int = 0,
     sweep_dir: str | os.PathLike[str] | None = None,
     address: str | None = None,
     num_cpus: int | None = None,
-):
+) -> tuple[Any, str]:
     """Runs a sweep on Ray; returns ``(summary DataFrame, path of summary.csv)``.
 
     Arguments as ``simserpent sweep``: ``config`` (a config file; ``None``: the embedded
@@ -144,8 +144,8 @@ def _evaluate(config_json: str, sets: list[str], run_folder: str) -> dict[str, A
 
 def cross_entropy(
     params: Mapping[str, tuple[float, float]],
-    config=None,
-    overrides=None,
+    config: ConfigLike = None,
+    overrides: Overrides = None,
     objective: str = "forward_speed_m_per_s",
     iterations: int = 5,
     population: int = 8,

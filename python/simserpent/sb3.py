@@ -17,13 +17,20 @@ tested without torch::
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING, Any, Union
 
 import numpy as np
+import numpy.typing as npt
 from gymnasium.vector import AutoresetMode
 
 from .envs import TERM_NAMES, SimSerpentVectorEnv
+
+if TYPE_CHECKING:
+    from . import ConfigLike, Overrides
+
+#: Which environments: all (None), one, or several.
+Indices = Union[None, int, Iterable[int]]
 
 try:  # pragma: no cover - depends on what is installed
     from stable_baselines3.common.vec_env import VecEnv as _Base
@@ -70,7 +77,9 @@ class SB3VecEnv(_Base):
     """SB3's ``VecEnv`` protocol over :class:`simserpent.envs.SimSerpentVectorEnv` (same-step
     autoreset)."""
 
-    def __init__(self, num_envs: int = 8, config=None, overrides=None, threads: int = 0):
+    def __init__(
+        self, num_envs: int = 8, config: ConfigLike = None, overrides: Overrides = None, threads: int = 0
+    ) -> None:
         self.venv = SimSerpentVectorEnv(
             num_envs=num_envs, config=config, overrides=overrides, threads=threads,
             autoreset_mode=AutoresetMode.SAME_STEP,
@@ -79,7 +88,7 @@ class SB3VecEnv(_Base):
         self._actions: np.ndarray | None = None
         self.metadata = {"render_modes": [], "render_fps": self.venv.metadata["render_fps"]}
 
-    def reset(self):
+    def reset(self) -> npt.NDArray[np.float64]:
         seeds = list(self._seeds)
         seed = None if all(s is None for s in seeds) else seeds
         obs, info = self.venv.reset(seed=seed)
@@ -91,7 +100,9 @@ class SB3VecEnv(_Base):
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = np.asarray(actions).reshape(self.num_envs, -1)
 
-    def step_wait(self):
+    def step_wait(
+        self,
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float32], npt.NDArray[np.bool_], list[dict[str, Any]]]:
         obs, rewards, terminated, truncated, infos = self.venv.step(self._actions)
         dones = terminated | truncated
         out: list[dict[str, Any]] = []
@@ -108,27 +119,27 @@ class SB3VecEnv(_Base):
     def close(self) -> None:
         self.venv.close()
 
-    def get_attr(self, attr_name: str, indices=None) -> list[Any]:
+    def get_attr(self, attr_name: str, indices: Indices = None) -> list[Any]:
         value = getattr(self.venv, attr_name)
         return [value for _ in self._indices(indices)]
 
-    def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
+    def set_attr(self, attr_name: str, value: Any, indices: Indices = None) -> None:
         setattr(self.venv, attr_name, value)
 
-    def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs) -> list[Any]:
+    def env_method(self, method_name: str, *method_args: Any, indices: Indices = None, **method_kwargs: Any) -> list[Any]:
         method = getattr(self.venv, method_name)
         return [method(*method_args, **method_kwargs) for _ in self._indices(indices)]
 
-    def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
+    def env_is_wrapped(self, wrapper_class: type, indices: Indices = None) -> list[bool]:
         return [False for _ in self._indices(indices)]
 
     def get_images(self) -> Sequence[np.ndarray | None]:
         return [None for _ in range(self.num_envs)]
 
-    def render(self, mode: str | None = None):
+    def render(self, mode: str | None = None) -> None:
         return None
 
-    def _indices(self, indices) -> list[int]:
+    def _indices(self, indices: Indices) -> list[int]:
         if indices is None:
             return list(range(self.num_envs))
         if isinstance(indices, int):

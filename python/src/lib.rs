@@ -31,6 +31,18 @@ create_exception!(_core, RecordError, SimSerpentError, "The run folder or a tabl
 create_exception!(_core, SweepError, SimSerpentError, "Bad sweep arguments, or the sweep folder could not be written.");
 create_exception!(
     _core,
+    RenderError,
+    SimSerpentError,
+    "Pictures or a video of a run folder cannot be made (no state.csv, no EGL, encoder failed)."
+);
+create_exception!(
+    _core,
+    PlotError,
+    SimSerpentError,
+    "A run folder cannot be plotted (missing table or column, a file cannot be written)."
+);
+create_exception!(
+    _core,
     EstimateError,
     SimSerpentError,
     "A run folder cannot be estimated (missing file or column, unreadable table, plot failed)."
@@ -50,6 +62,30 @@ fn error_text(error: &dyn std::error::Error) -> String {
         cause = c.source();
     }
     text
+}
+
+/// A seed argument: a Python integer (or numpy integer) from 0 to 2**64 - 1. The error names the
+/// function, the argument, the value and what is allowed.
+fn seed_arg(function: &str, value: &Bound<'_, PyAny>) -> PyResult<u64> {
+    let allowed = "a whole number from 0 to 2**64 - 1 (18446744073709551615)";
+    let shown = || value.repr().map(|r| r.to_string()).unwrap_or_else(|_| "?".into());
+    if value.is_instance_of::<pyo3::types::PyBool>() {
+        return Err(pyo3::exceptions::PyTypeError::new_err(format!(
+            "{function}: seed must be {allowed}, got the bool {}",
+            shown()
+        )));
+    }
+    if let Ok(seed) = value.extract::<u64>() {
+        return Ok(seed);
+    }
+    if value.call_method0("__index__").is_ok() {
+        return Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "{function}: seed must be {allowed}, got {}",
+            shown()
+        )));
+    }
+    let kind = value.get_type().name().map(|s| s.to_string()).unwrap_or_default();
+    Err(pyo3::exceptions::PyTypeError::new_err(format!("{function}: seed must be {allowed}, got {kind} {}", shown())))
 }
 
 fn config_err(source: &str, e: &LibConfigError) -> PyErr {
@@ -497,9 +533,22 @@ fn read_action(action: &Bound<'_, PyAny>, out: &mut [f64]) -> PyResult<()> {
         out.iter_mut().zip(a.iter()).for_each(|(o, x)| *o = f64::from(*x));
     } else {
         let v: Vec<f64> = action.extract().map_err(|_| {
+            let kind = action.get_type().name().map(|s| s.to_string()).unwrap_or_default();
+            // A numpy array: say its dtype and shape (the usual mistakes: strings, objects, 2-D).
+            let what = match (action.getattr("dtype"), action.getattr("shape")) {
+                (Ok(dtype), Ok(shape)) => format!(
+                    "a numpy array of dtype {} and shape {}",
+                    dtype.str().map(|s| s.to_string()).unwrap_or_default(),
+                    shape.repr().map(|s| s.to_string()).unwrap_or_default()
+                ),
+                _ => {
+                    let shown = action.repr().map(|r| r.to_string()).unwrap_or_default();
+                    let shown: String = shown.chars().take(80).collect();
+                    format!("{kind} {shown}")
+                }
+            };
             pyo3::exceptions::PyTypeError::new_err(format!(
-                "an action must be a 1-D array or sequence of {n} numbers (float64 or float32), got {}",
-                action.get_type().name().map(|s| s.to_string()).unwrap_or_default()
+                "step: action must be a 1-D array or sequence of {n} real numbers (one per joint), got {what}"
             ))
         })?;
         if v.len() != n {
@@ -513,12 +562,110 @@ fn read_action(action: &Bound<'_, PyAny>, out: &mut [f64]) -> PyResult<()> {
 /// A saved state of a `World` (`World.get_state()`): everything that decides the rest of the
 /// trajectory; `World.set_state(state)` continues bit for bit from it.
 #[pyclass(name = "WorldState", module = "simserpent._core", frozen)]
+#[derive(Clone)]
 struct PyEnvState {
     inner: EnvState,
+    /// How this state was reached (for pickling).
+    replay: Replay,
+    /// The config of the world it was saved from.
+    config: PyConfig,
+}
+
+/// How a world reached its state: its config, the seed of its latest reset (`None`: never
+/// reset) and every action since, in order (one row of `action_size` values per step). The
+/// same config, seed, actions and build give the same state bit for bit, so this is what a
+/// saved state pickles to.
+#[derive(Clone)]
+struct Replay {
+    seed: Option<u64>,
+    action_size: usize,
+    actions: Vec<f64>,
+}
+
+/// A pickled [`PyEnvState`] back: builds the world of the config, resets it with the seed,
+/// replays the actions and checks that the time and `qpos` reached are the pickled ones.
+#[pyfunction]
+fn _world_state_from_replay(
+    py: Python<'_>,
+    config_toml: &str,
+    source: String,
+    seed: Option<u64>,
+    actions: Vec<f64>,
+    time: f64,
+    qpos: Vec<f64>,
+) -> PyResult<PyEnvState> {
+    let config = _config_from_toml(config_toml, source)?;
+    let c = config.inner.clone();
+    let (inner, action_size) = py
+        .detach(|| -> Result<(EnvState, usize), SimError> {
+            let mut core = EnvCore::new(&c)?;
+            let mut obs = vec![0.0; core.observation_size()];
+            if let Some(seed) = seed {
+                core.reset(seed, &mut obs)?;
+            }
+            let na = core.action_size().max(1);
+            for action in actions.chunks(na) {
+                core.step(action, &mut obs);
+            }
+            Ok((core.save_state(), na))
+        })
+        .map_err(|e| sim_err(&config.source, &e))?;
+    let data = inner.world().data();
+    if data.time().to_bits() != time.to_bits()
+        || data.qpos().len() != qpos.len()
+        || data.qpos().iter().zip(&qpos).any(|(a, b)| a.to_bits() != b.to_bits())
+    {
+        return Err(SimSerpentError::new_err(format!(
+            "cannot unpickle the WorldState: replaying its episode (seed {seed:?}, {} steps) reached t = {} s, \
+             not the pickled t = {time} s (bit for bit); a state is unpickled by replaying it with the build that \
+             pickled it (simserpent {}, MuJoCo {})",
+            actions.len() / action_size,
+            data.time(),
+            env!("CARGO_PKG_VERSION"),
+            mujoco_rs::mujoco_version()
+        )));
+    }
+    Ok(PyEnvState { inner, replay: Replay { seed, action_size, actions }, config })
 }
 
 #[pymethods]
 impl PyEnvState {
+    /// Pickling: the config, the seed of the episode and its actions (see `Replay`); unpickling
+    /// replays them (the same build gives the same state bit for bit, which is checked).
+    #[allow(clippy::type_complexity)]
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, (String, String, Option<u64>, Vec<f64>, f64, Vec<f64>))> {
+        let f = py.import("simserpent._core")?.getattr("_world_state_from_replay")?;
+        let data = self.inner.world().data();
+        Ok((
+            f,
+            (
+                self.config.inner.to_toml_string(),
+                self.config.source.clone(),
+                self.replay.seed,
+                self.replay.actions.clone(),
+                data.time(),
+                data.qpos().to_vec(),
+            ),
+        ))
+    }
+
+    fn __copy__(&self) -> Self {
+        self.clone()
+    }
+
+    fn __deepcopy__(&self, _memo: &Bound<'_, PyAny>) -> Self {
+        self.clone()
+    }
+
+    /// Number of actions since the episode's reset (what unpickling replays).
+    #[getter]
+    fn steps(&self) -> usize {
+        self.replay.actions.len() / self.replay.action_size.max(1)
+    }
+
     /// Simulated time (s).
     #[getter]
     fn time(&self) -> f64 {
@@ -544,6 +691,9 @@ struct Env {
     /// The action, copied out of the numpy array so the step can run without the GIL.
     action: Vec<f64>,
     source: String,
+    config: PyConfig,
+    /// The seed of the latest reset and the actions since (for pickling saved states).
+    replay: Replay,
 }
 
 #[pymethods]
@@ -552,13 +702,18 @@ impl Env {
     fn new(config: &PyConfig) -> PyResult<Self> {
         let core = EnvCore::new(&config.inner).map_err(|e| sim_err(&config.source, &e))?;
         let obs = vec![0.0; core.observation_size()];
-        let action = vec![0.0; core.action_size()];
-        Ok(Self { core, obs, action, source: config.source.clone() })
+        let na = core.action_size();
+        let action = vec![0.0; na];
+        Ok(Self { core, obs, action, source: config.source.clone(), config: config.clone(), replay: Replay { seed: None, action_size: na, actions: Vec::new() } })
     }
 
-    /// Starts an episode; returns the first observation.
-    fn reset<'py>(&mut self, py: Python<'py>, seed: u64) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    /// Starts an episode with the sensor- and reset-noise seed `seed` (0 to 2**64 - 1); returns
+    /// the first observation.
+    fn reset<'py>(&mut self, py: Python<'py>, seed: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let seed = seed_arg("World.reset", seed)?;
         self.core.reset(seed, &mut self.obs).map_err(|e| sim_err(&self.source, &e))?;
+        self.replay.seed = Some(seed);
+        self.replay.actions.clear();
         Ok(PyArray1::from_slice(py, &self.obs))
     }
 
@@ -571,7 +726,8 @@ impl Env {
     ) -> PyResult<(Bound<'py, PyArray1<f64>>, f64, bool, bool, Bound<'py, PyDict>)> {
         read_action(action, &mut self.action)?;
         // The physics runs without the GIL: other Python threads (e.g. one env per thread) go on.
-        let Self { core, obs, action, .. } = self;
+        let Self { core, obs, action, replay, .. } = self;
+        replay.actions.extend_from_slice(action);
         let out = py.detach(|| core.step(action, obs));
         let info = step_info(py, &out, self.core.time_secs())?;
         Ok((PyArray1::from_slice(py, &self.obs), out.reward, out.terminated, out.truncated, info))
@@ -706,12 +862,14 @@ impl Env {
     /// A copy of the whole state (engine, held action, sensor-noise streams, ground model,
     /// episode bookkeeping).
     fn get_state(&self) -> PyEnvState {
-        PyEnvState { inner: self.core.save_state() }
+        PyEnvState { inner: self.core.save_state(), replay: self.replay.clone(), config: self.config.clone() }
     }
     /// Goes back to a state from `get_state` (of this world or one of the same config): the
     /// same actions then give the same trajectory bit for bit.
     fn set_state(&mut self, state: &PyEnvState) -> PyResult<()> {
-        self.core.restore_state(&state.inner).map_err(|e| sim_err(&self.source, &e))
+        self.core.restore_state(&state.inner).map_err(|e| sim_err(&self.source, &e))?;
+        self.replay.clone_from(&state.replay);
+        Ok(())
     }
 }
 
@@ -1173,6 +1331,41 @@ impl Sweep {
     }
 }
 
+/// `simserpent plot RUN_FOLDER` (with the GIL released): the standard panels as PNG and SVG into
+/// `RUN_FOLDER/plots/`. Returns (files written, [(panel, why it was left out)]).
+#[pyfunction]
+fn plot_run_folder(py: Python<'_>, run_folder: PathBuf) -> PyResult<(Vec<String>, Vec<(String, String)>)> {
+    let out = py
+        .detach(|| simserpent::plot::plot_run_folder(&run_folder))
+        .map_err(|e| PlotError::new_err(error_text(&e)))?;
+    Ok((out.files.iter().map(|f| f.display().to_string()).collect(), out.skipped))
+}
+
+/// `simserpent render RUN_FOLDER [--video] [--images] [--set ...]` (with the GIL released): replays
+/// the run's `state.csv` into a video and/or the images at `render.image_times_secs`. Returns the
+/// files written.
+#[pyfunction]
+#[pyo3(signature = (run_folder, video, images, overrides=Vec::new()))]
+fn render_run_folder(
+    py: Python<'_>,
+    run_folder: PathBuf,
+    video: bool,
+    images: bool,
+    overrides: Vec<String>,
+) -> PyResult<Vec<String>> {
+    if !video && !images {
+        return Err(pyo3::exceptions::PyValueError::new_err(
+            "render: nothing to render; give video=True and/or images=True",
+        ));
+    }
+    let options = simserpent::render::ReplayOptions { video, images, overrides, progress: false };
+    let files = py.detach(|| simserpent::render::render_run_folder(&run_folder, &options)).map_err(|e| match e {
+        simserpent::render::RenderError::Config { .. } => ConfigError::new_err(error_text(&e)),
+        _ => RenderError::new_err(error_text(&e)),
+    })?;
+    Ok(files.iter().map(|f| f.display().to_string()).collect())
+}
+
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
@@ -1183,6 +1376,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("RecordError", py.get_type::<RecordError>())?;
     m.add("SweepError", py.get_type::<SweepError>())?;
     m.add("EstimateError", py.get_type::<EstimateError>())?;
+    m.add("RenderError", py.get_type::<RenderError>())?;
+    m.add("PlotError", py.get_type::<PlotError>())?;
     m.add_class::<PyConfig>()?;
     m.add_class::<Env>()?;
     m.add_class::<VecEnv>()?;
@@ -1190,6 +1385,9 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Gait>()?;
     m.add_class::<PyEnvState>()?;
     m.add_function(wrap_pyfunction!(_config_from_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(_world_state_from_replay, m)?)?;
+    m.add_function(wrap_pyfunction!(plot_run_folder, m)?)?;
+    m.add_function(wrap_pyfunction!(render_run_folder, m)?)?;
     m.add("TERM_NAMES", RewardTerms::NAMES.to_vec())?;
     m.add("ENV_FAST_PRESET", config::ENV_FAST_PRESET.to_vec())?;
     m.add_function(wrap_pyfunction!(load_config, m)?)?;
