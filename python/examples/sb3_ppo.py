@@ -54,15 +54,14 @@ def main() -> None:
 
     # A video of one episode of the trained policy.
     env = gym.make("SimSerpent-v0", render_mode="rgb_array", overrides=overrides)
-    env = gym.wrappers.RecordVideo(env, a.video_dir, episode_trigger=lambda e: True, name_prefix="ppo")
-    obs, _ = env.reset(seed=123)
-    done, total = False, 0.0
-    while not done:
-        action, _ = model.predict(obs, deterministic=True)
-        obs, reward, terminated, truncated, info = env.step(action)
-        total += float(reward)
-        done = terminated or truncated
-    env.close()
+    with gym.wrappers.RecordVideo(env, a.video_dir, episode_trigger=lambda e: True, name_prefix="ppo") as video:
+        obs, _ = video.reset(seed=123)
+        done, total = False, 0.0
+        while not done:
+            action, _ = model.predict(obs, deterministic=True)
+            obs, reward, terminated, truncated, info = video.step(action)
+            total += float(reward)
+            done = terminated or truncated
     print(f"return {total:.3f}, distance {info['distance_from_origin']:.3f} m; video in {a.video_dir}/")
 
 

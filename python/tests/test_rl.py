@@ -203,7 +203,7 @@ def test_world_step_accepts_float32_arrays_and_lists():
         np.testing.assert_array_equal(results[0], r)
     with pytest.raises(ValueError, match="4 joints"):
         w.step([0.0, 1.0])
-    with pytest.raises(TypeError, match="sequence of 4 numbers"):
+    with pytest.raises(TypeError, match="sequence of 4 real numbers"):
         w.step("abcd")
 
 
