@@ -23,7 +23,9 @@ throughput: env steps per second (wall, and per CPU-second of this process and i
   - Gymnasium's ``Swimmer-v5`` and ``Ant-v5`` (``gymnasium[mujoco]``), one env and
     ``AsyncVectorEnv`` of 8.
   The speed-up column is the wall-clock env steps/s over one ``SimSerpent-v0`` of the same
-  preset (for Gymnasium's envs: over one env of the same kind).
+  preset (for Gymnasium's envs: over one env of the same kind); "CPU cores used" is CPU time
+  over wall time (what the scheduler gave the process: on a loaded machine with
+  ``sched_autogroup`` the share is per session, not per thread, so more threads get no more CPU).
   Variants are measured round-robin, best of ``--repeats`` (the machine may be shared); the
   output ends with a markdown table (with date, CPU and load average) for BENCHMARKS.md.
 
@@ -243,15 +245,15 @@ def throughput(a):
         + "\n"
     )
     print("| variant (10-link default snake, random actions) | env steps/s, wall | env steps per CPU-second "
-          "| speed-up over one env (wall) |")
-    print("|---|---:|---:|---:|")
+          "| CPU cores used | speed-up over one env (wall) |")
+    print("|---|---:|---:|---:|---:|")
     for name, _ in variants:
         wall, cpu = results[name]
         base = baseline.get(name)
         if base in ("default", "fast"):
             base = f"SimSerpent-v0, `preset = \"{base}\"`"
         ratio = f"{wall / results[base][0]:.2f}" if base in results and base != name else ""
-        print(f"| {name} | {wall:,.0f} | {cpu:,.0f} | {ratio} |", flush=True)
+        print(f"| {name} | {wall:,.0f} | {cpu:,.0f} | {wall / cpu:.2f} | {ratio} |", flush=True)
     return {"variants": results, "machine": m, "load_average_1min": [min(loads), max(loads)], "set": sets,
             "with": extra}
 

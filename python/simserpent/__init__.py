@@ -149,7 +149,19 @@ def _override_list(overrides: Overrides) -> list[str]:
         return [f"{k}={toml_literal(v)}" for k, v in overrides.items()]
     if isinstance(overrides, str):
         return [overrides]
+    if not isinstance(overrides, Iterable):
+        raise TypeError(
+            "overrides must be a dict {'snake.n_links': 15}, a list of 'key.path=value' strings or None, "
+            f"got {type(overrides).__name__} {overrides!r}"
+        )
     return [str(o) for o in overrides]
+
+
+def _fspath(function: str, name: str, value: Any) -> str:
+    """A path argument as a string, or a TypeError naming the function, argument and value."""
+    if not isinstance(value, (str, os.PathLike)):
+        raise TypeError(f"{function}: {name} must be a path (str or os.PathLike), got {type(value).__name__} {value!r}")
+    return os.fspath(value)
 
 
 def _jsonable(value: Any) -> Any:
@@ -181,6 +193,11 @@ def load_config(source: ConfigLike = None, overrides: Overrides = None) -> Confi
         return _core.load_config(overrides=sets)
     if isinstance(source, Mapping):
         return _core.load_config(json=json.dumps(_jsonable(source)), overrides=sets)
+    if not isinstance(source, (str, os.PathLike)):
+        raise TypeError(
+            "load_config: source must be a path to a .toml or .json file, a dict, a simserpent.Config or None, "
+            f"got {type(source).__name__} {source!r}"
+        )
     return _core.load_config(path=os.fspath(source), overrides=sets)
 
 
@@ -215,7 +232,8 @@ def run(
     cfg = load_config(config, overrides)
     if controller is not None and not callable(controller):
         raise TypeError(f"controller must be callable (obs dict -> command), got {type(controller).__name__}")
-    return _core.run(cfg, os.fspath(run_folder) if run_folder is not None else None, controller)
+    folder = _fspath("run", "run_folder", run_folder) if run_folder is not None else None
+    return _core.run(cfg, folder, controller)
 
 
 def estimate(run_folder: Union[str, "os.PathLike[str]"], overrides: Overrides = None) -> dict[str, Any]:
@@ -235,7 +253,7 @@ def estimate(run_folder: Union[str, "os.PathLike[str]"], overrides: Overrides = 
     Raises :class:`EstimateError` naming the missing file or column (and the recording switch
     that writes it), or :class:`ConfigError` for a bad override.
     """
-    return _core.estimate(os.fspath(run_folder), _override_list(overrides))
+    return _core.estimate(_fspath("estimate", "run_folder", run_folder), _override_list(overrides))
 
 
 class Gait:
@@ -254,7 +272,11 @@ class Gait:
         self.n_joints: int = self._core.n_joints
 
     def targets(self, t_secs: float) -> tuple[Any, Any]:
-        return self._core.targets(float(t_secs))
+        try:
+            t = float(t_secs)
+        except (TypeError, ValueError):
+            raise TypeError(f"Gait.targets: t_secs must be a number of seconds, got {type(t_secs).__name__} {t_secs!r}") from None
+        return self._core.targets(t)
 
     def __call__(self, t_secs: float) -> Any:
         return self.targets(t_secs)[0]
@@ -277,7 +299,7 @@ class Run:
     """
 
     def __init__(self, path: Union[str, "os.PathLike[str]"]) -> None:
-        self.path = Path(path)
+        self.path = Path(_fspath("open_run", "run_dir", path))
         manifest = self.path / "manifest.json"
         if not manifest.is_file():
             raise RecordError(f"{self.path}: not a run folder (no manifest.json)")
@@ -348,7 +370,7 @@ def plot(run_dir: Union[str, "os.PathLike[str]"]) -> list[Path]:
     tables: ``recording.enabled = true`` with a CSV format)."""
     import warnings
 
-    files, skipped = _core.plot_run_folder(os.fspath(run_dir))
+    files, skipped = _core.plot_run_folder(_fspath("plot", "run_dir", run_dir))
     for panel, reason in skipped:
         warnings.warn(f"{os.fspath(run_dir)}: plot {panel} left out: {reason}", UserWarning, stacklevel=2)
     return [Path(f) for f in files]
@@ -370,7 +392,8 @@ def render(
 
     Raises :class:`RenderError` (no ``state.csv``, no EGL, encoder failed) or
     :class:`ConfigError` (a bad override; ``images=True`` with no image times)."""
-    return [Path(f) for f in _core.render_run_folder(os.fspath(run_dir), bool(video), bool(images), _override_list(overrides))]
+    folder = _fspath("render", "run_dir", run_dir)
+    return [Path(f) for f in _core.render_run_folder(folder, bool(video), bool(images), _override_list(overrides))]
 
 
 # Registers SimSerpent-v0 with Gymnasium (when gymnasium is installed).

@@ -158,6 +158,8 @@ class MujocoRendering:
         self.quality = quality
         self.world = world
         self.render_mode = render_mode
+        if not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in (width, height)):
+            raise TypeError(f"render width and height must be whole numbers of pixels, got {width!r} x {height!r}")
         self.width, self.height = int(width), int(height)
         if self.width < 1 or self.height < 1:
             raise ValueError(f"render width and height must be at least 1, got {width} x {height}")
@@ -484,6 +486,13 @@ class SimSerpentVectorEnv(VectorEnv):
                  render_mode: str | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP) -> None:
         mode = _autoreset_mode(autoreset_mode)
+        for name, value, low in (("num_envs", num_envs, 1), ("threads", threads, 0)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+                raise ValueError(
+                    f"SimSerpentVectorEnv: {name} must be a whole number >= {low}"
+                    + (" (0: one thread per core)" if name == "threads" else "")
+                    + f", got {value!r}"
+                )
         if render_mode is not None:
             raise ValueError(
                 f"SimSerpentVectorEnv render_mode {render_mode!r}: the Rust vector env does not render; "
@@ -550,7 +559,13 @@ class SimSerpentVectorEnv(VectorEnv):
             self.num_envs, -1
         )
         if a.dtype not in (np.float64, np.float32):
-            a = a.astype(np.float64)
+            try:
+                a = a.astype(np.float64)
+            except (TypeError, ValueError):
+                raise TypeError(
+                    f"step: actions must be real numbers, shape ({self.num_envs}, action size), "
+                    f"got a numpy array of dtype {a.dtype} and shape {a.shape}"
+                ) from None
         obs, rewards, terminated, truncated, terms, errors, was_reset, final_obs = self.core.step(
             a, self._next_seeds.tolist()
         )

@@ -88,6 +88,13 @@ fn seed_arg(function: &str, value: &Bound<'_, PyAny>) -> PyResult<u64> {
     Err(pyo3::exceptions::PyTypeError::new_err(format!("{function}: seed must be {allowed}, got {kind} {}", shown())))
 }
 
+/// A value for an error message: its type and its (shortened) repr.
+fn describe(value: &Bound<'_, PyAny>) -> String {
+    let kind = value.get_type().name().map(|s| s.to_string()).unwrap_or_default();
+    let shown: String = value.repr().map(|r| r.to_string()).unwrap_or_default().chars().take(80).collect();
+    format!("{kind} {shown}")
+}
+
 fn config_err(source: &str, e: &LibConfigError) -> PyErr {
     ConfigError::new_err(format!("config {source}: {}", error_text(e)))
 }
@@ -699,12 +706,27 @@ struct Env {
 #[pymethods]
 impl Env {
     #[new]
-    fn new(config: &PyConfig) -> PyResult<Self> {
+    fn new(config: &Bound<'_, PyAny>) -> PyResult<Self> {
+        let config = config.cast::<PyConfig>().map_err(|_| {
+            pyo3::exceptions::PyTypeError::new_err(format!(
+                "World(config): config must be a simserpent.Config (from simserpent.load_config(...); \
+                 simserpent.make_world(path_or_dict) loads one), got {}",
+                describe(config)
+            ))
+        })?;
+        let config = config.get();
         let core = EnvCore::new(&config.inner).map_err(|e| sim_err(&config.source, &e))?;
         let obs = vec![0.0; core.observation_size()];
         let na = core.action_size();
         let action = vec![0.0; na];
-        Ok(Self { core, obs, action, source: config.source.clone(), config: config.clone(), replay: Replay { seed: None, action_size: na, actions: Vec::new() } })
+        Ok(Self {
+            core,
+            obs,
+            action,
+            source: config.source.clone(),
+            config: config.clone(),
+            replay: Replay { seed: None, action_size: na, actions: Vec::new() },
+        })
     }
 
     /// Starts an episode with the sensor- and reset-noise seed `seed` (0 to 2**64 - 1); returns
@@ -866,7 +888,14 @@ impl Env {
     }
     /// Goes back to a state from `get_state` (of this world or one of the same config): the
     /// same actions then give the same trajectory bit for bit.
-    fn set_state(&mut self, state: &PyEnvState) -> PyResult<()> {
+    fn set_state(&mut self, state: &Bound<'_, PyAny>) -> PyResult<()> {
+        let state = state.cast::<PyEnvState>().map_err(|_| {
+            pyo3::exceptions::PyTypeError::new_err(format!(
+                "World.set_state: state must be a WorldState from World.get_state(), got {}",
+                describe(state)
+            ))
+        })?;
+        let state = state.get();
         self.core.restore_state(&state.inner).map_err(|e| sim_err(&self.source, &e))?;
         self.replay.clone_from(&state.replay);
         Ok(())
@@ -1335,9 +1364,8 @@ impl Sweep {
 /// `RUN_FOLDER/plots/`. Returns (files written, [(panel, why it was left out)]).
 #[pyfunction]
 fn plot_run_folder(py: Python<'_>, run_folder: PathBuf) -> PyResult<(Vec<String>, Vec<(String, String)>)> {
-    let out = py
-        .detach(|| simserpent::plot::plot_run_folder(&run_folder))
-        .map_err(|e| PlotError::new_err(error_text(&e)))?;
+    let out =
+        py.detach(|| simserpent::plot::plot_run_folder(&run_folder)).map_err(|e| PlotError::new_err(error_text(&e)))?;
     Ok((out.files.iter().map(|f| f.display().to_string()).collect(), out.skipped))
 }
 

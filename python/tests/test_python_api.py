@@ -257,3 +257,32 @@ def test_bad_arguments_get_clear_errors():
     with pytest.raises(ValueError, match="action has 3 values; this snake has 4 joints"):
         w.step([0.0, 0.0, 0.0])
     w.step(np.zeros(4, dtype=np.int64))  # integers are numbers
+
+
+def test_bad_arguments_of_the_other_public_functions_get_clear_errors():
+    from simserpent.envs import SimSerpentVectorEnv
+
+    with pytest.raises(TypeError, match=r"World\(config\): config must be a simserpent.Config .*got str 'x'"):
+        simserpent.World("x")
+    w = simserpent.make_world(overrides=SMALL)
+    with pytest.raises(TypeError, match="World.set_state: state must be a WorldState .*got int 1"):
+        w.set_state(1)
+    with pytest.raises(TypeError, match="load_config: source must be a path .*got int 123"):
+        simserpent.load_config(123)
+    with pytest.raises(TypeError, match="overrides must be a dict .*got int 5"):
+        simserpent.load_config(overrides=5)
+    for function in (simserpent.plot, simserpent.render, simserpent.estimate, simserpent.open_run):
+        with pytest.raises(TypeError, match=r"run_(dir|folder) must be a path \(str or os.PathLike\), got NoneType None"):
+            function(None)
+    with pytest.raises(TypeError, match="Gait.targets: t_secs must be a number of seconds, got str 'x'"):
+        simserpent.Gait(overrides=SMALL).targets("x")
+    with pytest.raises(ValueError, match="num_envs must be a whole number >= 1, got -1"):
+        SimSerpentVectorEnv(num_envs=-1, overrides=SMALL)
+    with pytest.raises(ValueError, match=r"threads must be a whole number >= 0 \(0: one thread per core\), got -1"):
+        SimSerpentVectorEnv(num_envs=2, overrides=SMALL, threads=-1)
+    vec = SimSerpentVectorEnv(num_envs=2, overrides=SMALL)
+    vec.reset(seed=0)
+    with pytest.raises(TypeError, match=r"actions must be real numbers.*dtype <U1 and shape \(2, 4\)"):
+        vec.step(np.array([["a"] * 4] * 2))
+    with pytest.raises(TypeError, match="render width and height must be whole numbers of pixels, got 'a' x 48"):
+        SimSerpentEnv(overrides=SMALL, render_mode="rgb_array", width="a", height=48)
