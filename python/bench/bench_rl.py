@@ -25,7 +25,7 @@ throughput: env steps per second (wall, and per CPU-second of this process and i
   The speed-up column is the wall-clock env steps/s over one ``SimSerpent-v0`` of the same
   preset (for Gymnasium's envs: over one env of the same kind); "CPU cores used" is CPU time
   over wall time (what the scheduler gave the process: on a loaded machine with
-  ``sched_autogroup`` the share is per session, not per thread, so more threads get no more CPU).
+  ``sched_autogroup`` the share is per autogroup, not per thread, so more threads get no more CPU).
   Variants are measured round-robin, best of ``--repeats`` (the machine may be shared); the
   output ends with a markdown table (with date, CPU and load average) for BENCHMARKS.md.
 
