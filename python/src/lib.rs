@@ -1360,10 +1360,13 @@ impl Sweep {
     }
 }
 
+/// A panel `plot_run_folder` left out: (panel, why).
+type SkippedPanel = (String, String);
+
 /// `simserpent plot RUN_FOLDER` (with the GIL released): the standard panels as PNG and SVG into
 /// `RUN_FOLDER/plots/`. Returns (files written, [(panel, why it was left out)]).
 #[pyfunction]
-fn plot_run_folder(py: Python<'_>, run_folder: PathBuf) -> PyResult<(Vec<String>, Vec<(String, String)>)> {
+fn plot_run_folder(py: Python<'_>, run_folder: PathBuf) -> PyResult<(Vec<String>, Vec<SkippedPanel>)> {
     let out =
         py.detach(|| simserpent::plot::plot_run_folder(&run_folder)).map_err(|e| PlotError::new_err(error_text(&e)))?;
     Ok((out.files.iter().map(|f| f.display().to_string()).collect(), out.skipped))
