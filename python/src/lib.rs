@@ -736,6 +736,9 @@ impl Env {
         self.core.reset(seed, &mut self.obs).map_err(|e| sim_err(&self.source, &e))?;
         self.replay.seed = Some(seed);
         self.replay.actions.clear();
+        // Room for a whole episode's actions (at most 8 MB), so steps do not allocate.
+        let episode = usize::try_from(self.core.max_episode_steps()).unwrap_or(usize::MAX);
+        self.replay.actions.reserve(episode.saturating_mul(self.replay.action_size).min(1 << 20));
         Ok(PyArray1::from_slice(py, &self.obs))
     }
 
