@@ -17,6 +17,13 @@
 //!   every table at the configured interval, run folder and manifest;
 //! - **full (Parquet)**: the same, recording Parquet tables instead (feature `parquet`);
 //! - **full (MCAP)**: the same, writing only the ROS 2 bag (`run.mcap`) instead;
+//! - built with the cargo feature `ros2`, also **full (MCAP + ROS 2 bridge)**: the same with the
+//!   live bridge of `run --ros2` publishing every topic over DDS (free clock, as fast as it goes:
+//!   `ros2.real_time_factor = 0`; on loopback only: `ros2.interfaces = ["127.0.0.1"]`; the rest
+//!   of `[ros2]` as configured, e.g. `--set ros2.publish_rate_hz=1000` for every step) — the
+//!   bridge's encoding and writing run on the step-loop thread, RustDDS's sending on its own.
+//!   Nobody sends commands, so the joints hold zero instead of following the gait: the physics
+//!   differs a little from the other full modes (compare the bridge's cost between builds);
 //! - with `--inline-writers`, also **full (CSV / Parquet / MCAP, writers inline)**: the same
 //!   runs with the files formatted and written on the step-loop thread
 //!   ([`RunOptions::inline_writers`], the synchronous path) instead of on writer threads —
@@ -153,6 +160,9 @@ pub fn modes(inline_writers: bool, discard_rows: bool) -> Vec<&'static str> {
         m.push(FULL_PARQUET);
     }
     m.push(FULL_MCAP);
+    if cfg!(feature = "ros2") {
+        m.push(FULL_MCAP_ROS2);
+    }
     if inline_writers {
         m.push(FULL_CSV_INLINE);
         if cfg!(feature = "parquet") {
@@ -180,6 +190,8 @@ pub const FULL_CSV: &str = "full pipeline (CSV)";
 pub const FULL_PARQUET: &str = "full pipeline (Parquet)";
 /// `run::run` writing only the ROS 2 bag (`run.mcap`, user guide, "ROS 2").
 pub const FULL_MCAP: &str = "full pipeline (MCAP)";
+/// [`FULL_MCAP`] with the live ROS 2 bridge publishing (cargo feature `ros2`).
+pub const FULL_MCAP_ROS2: &str = "full pipeline (MCAP + ROS 2 bridge)";
 /// [`FULL_CSV`] with writer threads that drop the rows unwritten (a dummy sink).
 pub const FULL_CSV_DISCARD: &str = "full pipeline (CSV, rows discarded)";
 /// [`FULL_CSV`] with the writers on the step-loop thread.
@@ -199,11 +211,17 @@ fn measure(config: &Config, mode: &str, steps: u64) -> Result<Measured, RunError
             config.recording.enabled = mode != FULL_NONE;
             config.recording.format = match mode {
                 FULL_PARQUET | FULL_PARQUET_INLINE => TableFormat::Parquet,
-                FULL_MCAP | FULL_MCAP_INLINE => TableFormat::Mcap,
+                FULL_MCAP | FULL_MCAP_INLINE | FULL_MCAP_ROS2 => TableFormat::Mcap,
                 _ => TableFormat::Csv,
             };
+            let ros2 = mode == FULL_MCAP_ROS2;
+            if ros2 {
+                config.ros2.clock = crate::config::Ros2Clock::Free;
+                config.ros2.real_time_factor = 0.0;
+                config.ros2.interfaces = vec!["127.0.0.1".to_string()];
+            }
             let inline_writers = matches!(mode, FULL_CSV_INLINE | FULL_PARQUET_INLINE | FULL_MCAP_INLINE);
-            let options = RunOptions { config_source: "bench".into(), inline_writers, ..RunOptions::default() };
+            let options = RunOptions { config_source: "bench".into(), inline_writers, ros2, ..RunOptions::default() };
             let account = Arc::new(WriterAccount::new(mode == FULL_CSV_DISCARD));
             let summary = {
                 let _accounting = account_writers(account.clone());

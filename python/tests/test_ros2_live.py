@@ -71,7 +71,7 @@ cyclonedds = require("cyclonedds", "pip install cyclonedds==11.0.1 (python/requi
 from cyclonedds.core import Qos, Policy  # noqa: E402
 from cyclonedds.domain import DomainParticipant  # noqa: E402
 from cyclonedds.idl import IdlStruct  # noqa: E402
-from cyclonedds.idl.types import float32, float64, int32, sequence, uint32  # noqa: E402
+from cyclonedds.idl.types import array, float32, float64, int32, sequence, uint8, uint32, uint64  # noqa: E402
 from cyclonedds.pub import DataWriter  # noqa: E402
 from cyclonedds.sub import DataReader  # noqa: E402
 from cyclonedds.topic import Topic  # noqa: E402
@@ -171,6 +171,94 @@ class JointTrajectory(IdlStruct, typename="trajectory_msgs::msg::dds_::JointTraj
     points: sequence[JointTrajectoryPoint]
 
 
+@dataclass
+class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@dataclass
+class Wrench(IdlStruct, typename="geometry_msgs::msg::dds_::Wrench_"):
+    force: Vector3
+    torque: Vector3
+
+
+@dataclass
+class WrenchStamped(IdlStruct, typename="geometry_msgs::msg::dds_::WrenchStamped_"):
+    header: Header
+    wrench: Wrench
+
+
+@dataclass
+class Imu(IdlStruct, typename="sensor_msgs::msg::dds_::Imu_"):
+    header: Header
+    orientation: Quaternion
+    orientation_covariance: array[float64, 9]
+    angular_velocity: Vector3
+    angular_velocity_covariance: array[float64, 9]
+    linear_acceleration: Vector3
+    linear_acceleration_covariance: array[float64, 9]
+
+
+@dataclass
+class String(IdlStruct, typename="std_msgs::msg::dds_::String_"):
+    data: str
+
+
+@dataclass
+class UInt32(IdlStruct, typename="std_msgs::msg::dds_::UInt32_"):
+    data: uint32
+
+
+# ros_gz_interfaces (the Gazebo bridge's messages), as in ros_gz's ros_gz_interfaces/msg.
+@dataclass
+class Entity(IdlStruct, typename="ros_gz_interfaces::msg::dds_::Entity_"):
+    id: uint64
+    name: str
+    type: uint8
+
+
+@dataclass
+class JointWrench(IdlStruct, typename="ros_gz_interfaces::msg::dds_::JointWrench_"):
+    header: Header
+    body_1_name: String
+    body_1_id: UInt32
+    body_2_name: String
+    body_2_id: UInt32
+    body_1_wrench: Wrench
+    body_2_wrench: Wrench
+
+
+@dataclass
+class Contact(IdlStruct, typename="ros_gz_interfaces::msg::dds_::Contact_"):
+    collision1: Entity
+    collision2: Entity
+    positions: sequence[Vector3]
+    normals: sequence[Vector3]
+    depths: sequence[float64]
+    wrenches: sequence[JointWrench]
+
+
+@dataclass
+class Contacts(IdlStruct, typename="ros_gz_interfaces::msg::dds_::Contacts_"):
+    header: Header
+    contacts: sequence[Contact]
+
+
+# SimSerpent's own message (ros2/simserpent_msgs/msg/ContactEstimates.msg).
+@dataclass
+class ContactEstimates(IdlStruct, typename="simserpent_msgs::msg::dds_::ContactEstimates_"):
+    header: Header
+    link_names: sequence[str]
+    external_force: sequence[Vector3]
+    floor_force: sequence[Vector3]
+    obstacle_force: sequence[Vector3]
+    contact: sequence[bool]
+    contact_point_along: sequence[float64]
+    contact_point: sequence[Point]
+
+
 _ = float32  # (ColorRGBA etc. are not needed by the peer)
 
 BRIDGE_BUILT = "live ROS 2 bridge (run --ros2): built in"
@@ -222,14 +310,32 @@ class Peer:
     tf: list = field(default_factory=list)  # (stamp_ns, [(child, translation, rotation)])
     commands: list = field(default_factory=list)  # (stamp_ns, data)
     round_trip_secs: list = field(default_factory=list)
+    # Further topics to take, (ROS 2 topic, message type): subscribed before /joint_states.
+    topics: tuple = ()
+    # topic -> (reader, message type, [(stamp_ns, message)]), see `subscribe`.
+    extra: dict = field(default_factory=dict)
 
     def __post_init__(self):
         self.participant = DomainParticipant(self.domain)
+        for topic, message_type in self.topics:
+            self.subscribe(topic, message_type)
         q = qos()
         self.joint_states = DataReader(self.participant, Topic(self.participant, "rt/joint_states", JointState, qos=q), qos=q)
         self.tf_reader = DataReader(self.participant, Topic(self.participant, "rt/tf", TFMessage, qos=q), qos=q)
         topic = Topic(self.participant, "rt/snake/forward_position_controller/commands", Float64MultiArray, qos=q)
         self.writer = DataWriter(self.participant, topic, qos=q)
+
+    def subscribe(self, topic: str, message_type) -> None:
+        """Take every sample of `topic` (ROS 2 name) as `message_type` into `self.extra[topic]`."""
+        q = qos()
+        reader = DataReader(self.participant, Topic(self.participant, "rt" + topic, message_type, qos=q), qos=q)
+        self.extra[topic] = (reader, message_type, [])
+
+    def take_extra(self) -> None:
+        for reader, message_type, received in self.extra.values():
+            for m in reader.take(N=100):
+                if isinstance(m, message_type):  # not an InvalidSample (the writer went away)
+                    received.append((m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec, m))
 
     def command(self, t_secs: float, n: int) -> list[float]:
         w = 2 * np.pi * self.frequency_hz
@@ -257,6 +363,7 @@ class Peer:
                         [(t.child_frame_id, t.transform.translation, t.transform.rotation) for t in tf.transforms],
                     )
                 )
+            self.take_extra()
             samples = [s for s in self.joint_states.take(N=100) if isinstance(s, JointState)]
             if not samples:
                 continue
@@ -499,6 +606,162 @@ def test_a_cyclone_peer_drives_the_snake_in_lockstep(binary, domain, tmp_path):
     amp_ref = (ref[tail].max(axis=0) - ref[tail].min(axis=0)) / 2
     print(f"max |ROS run - gait run| = {deviation:.3e} rad; amplitudes {amp_ros / a} vs {amp_ref / a}")
     assert deviation < 0.01 * a, f"the ROS-driven joints deviate from the gait's by {deviation} rad"
+
+
+def stamps_ns(table) -> np.ndarray:
+    return np.rint(table["time_s"].to_numpy() * 1e9).astype(np.int64)
+
+
+def xyz(v) -> list[float]:
+    return [v.x, v.y, v.z]
+
+
+def check_received(what: str, received: list, instants: int) -> None:
+    """Each instant at most once, in order, and (each topic is discovered on its own, so the first
+    instants may be missed) at least 90 % of them."""
+    stamps = [s for s, _ in received]
+    assert stamps == sorted(set(stamps)), f"{what}: instants repeated or out of order"
+    assert len(stamps) >= 0.9 * instants, f"{what}: {len(stamps)} of {instants} instants"
+
+
+def test_the_peer_decodes_the_force_torque_imu_and_contact_topics(binary, domain, tmp_path):
+    # A lockstep run with the estimator on: the peer takes every joint's force/torque sensor
+    # (WrenchStamped), every link's IMU (Imu), the true contacts (ros_gz_interfaces/Contacts) and
+    # the contact estimates (simserpent_msgs/ContactEstimates) with its own type declarations, and
+    # every value equals the run's tables at the instant of its stamp; the bag's messages of these
+    # topics, decoded from the bag's embedded schemas, equal what the peer received.
+    n_links = 10
+    joints = [f"joint_{j:02}" for j in range(1, n_links)]
+    links = [f"link_{i:02}" for i in range(n_links)]
+    topics = (
+        [(f"/snake/{j}/wrench", WrenchStamped) for j in joints]
+        + [(f"/snake/{link}/imu", Imu) for link in links]
+        + [("/snake/ground_truth/contacts", Contacts), ("/snake/contact_estimates", ContactEstimates)]
+    )
+    process = start_run(
+        binary,
+        tmp_path,
+        domain,
+        "general.duration_secs=0.3",
+        "estimation.enabled=true",
+        "sensors.noise_enabled=true",
+        'recording.format=["csv", "mcap"]',
+    )
+    peer = Peer(domain, topics=tuple(topics))
+    peer.serve(process, deadline_secs=240)
+    out, err = finish(process)
+    peer.take_extra()  # what arrived after the last command
+    assert process.returncode == 0, f"stdout:\n{out}\nstderr:\n{err}"
+    folder = run_folder(tmp_path)
+    steps = json.loads((folder / "manifest.json").read_text())["steps"]
+    assert steps == 300
+    instants = steps + 1
+    received = {topic: r for topic, (_, _, r) in peer.extra.items()}
+
+    # Force/torque sensors and IMUs: the measured columns of sensors.csv.
+    sensors = pd.read_csv(folder / "sensors.csv")
+    row_of = {s: i for i, s in enumerate(stamps_ns(sensors))}
+    assert len(row_of) == instants
+    for j in joints:
+        topic = f"/snake/{j}/wrench"
+        check_received(topic, received[topic], instants)
+        for stamp, m in received[topic]:
+            row = sensors.iloc[row_of[stamp]]
+            child = "link_" + j.split("_")[1]
+            assert m.header.frame_id == child, "the child link's frame"
+            assert xyz(m.wrench.force) == [row[f"{j}_force_sensor_measured_{a}_n"] for a in "xyz"]
+            assert xyz(m.wrench.torque) == [row[f"{j}_torque_sensor_measured_{a}_nm"] for a in "xyz"]
+    for link in links:
+        topic = f"/snake/{link}/imu"
+        check_received(topic, received[topic], instants)
+        for stamp, m in received[topic]:
+            row = sensors.iloc[row_of[stamp]]
+            assert m.header.frame_id == link
+            assert xyz(m.angular_velocity) == [row[f"{link}_gyro_measured_{a}_rad_per_s"] for a in "xyz"]
+            assert xyz(m.linear_acceleration) == [row[f"{link}_accelerometer_measured_{a}_m_per_s2"] for a in "xyz"]
+            # No orientation estimate (sensor_msgs/Imu, REP 145): covariance element 0 is -1.
+            assert m.orientation_covariance[0] == -1.0
+            # Noise on: diagonal covariances, the configured variance.
+            for cov in (m.angular_velocity_covariance, m.linear_acceleration_covariance):
+                assert cov[0] == cov[4] == cov[8] > 0 and cov[1] == cov[2] == cov[3] == cov[5] == cov[6] == cov[7] == 0
+
+    # True contacts: contacts.csv, row for row at each instant.
+    contacts = pd.read_csv(folder / "contacts.csv")
+    by_instant = {s: g for s, g in contacts.groupby(stamps_ns(contacts))}
+    topic = "/snake/ground_truth/contacts"
+    check_received(topic, received[topic], instants)
+    total = 0
+    for stamp, m in received[topic]:
+        assert m.header.frame_id == "world"
+        rows = by_instant.get(stamp)
+        assert len(m.contacts) == (0 if rows is None else len(rows))
+        for c, (_, row) in zip(m.contacts, [] if rows is None else rows.iterrows()):
+            assert (c.collision1.name, c.collision2.name) == (row["geom1"], row["geom2"])
+            assert c.collision1.type == c.collision2.type == 5  # Entity.COLLISION
+            assert [xyz(p) for p in c.positions] == [[row[f"position_{a}_m"] for a in "xyz"]]
+            assert [xyz(n) for n in c.normals] == [[row[f"normal_{a}"] for a in "xyz"]]
+            assert list(c.depths) == [-row["distance_m"]]
+            (w,) = c.wrenches
+            assert (w.body_1_name.data, w.body_2_name.data) == (row["body1"], row["body2"])
+            f2 = [row[f"force_on_geom2_{a}_n"] for a in "xyz"]
+            assert xyz(w.body_2_wrench.force) == f2
+            assert xyz(w.body_1_wrench.force) == [-v for v in f2]
+            total += 1
+    assert total > len(received[topic]), "the snake lies on the floor: several contacts per instant"
+
+    # Contact estimates: estimates.csv.
+    estimates = pd.read_csv(folder / "estimates.csv")
+    row_of = {s: i for i, s in enumerate(stamps_ns(estimates))}
+    topic = "/snake/contact_estimates"
+    check_received(topic, received[topic], instants)
+    support = 0.0
+    for stamp, m in received[topic]:
+        row = estimates.iloc[row_of[stamp]]
+        assert m.header.frame_id == "world" and list(m.link_names) == links
+        for i, link in enumerate(links):
+            for name, values in (
+                ("external_force", m.external_force),
+                ("floor_force", m.floor_force),
+                ("obstacle_force", m.obstacle_force),
+            ):
+                assert xyz(values[i]) == [row[f"{link}_estimated_{name}_{a}_n"] for a in "xyz"], (stamp, link, name)
+            assert float(m.contact[i]) == row[f"{link}_estimated_contact"]
+            known = row[f"{link}_estimated_point_known"] == 1.0
+            assert (not np.isnan(m.contact_point_along[i])) == known
+            if known:
+                assert m.contact_point_along[i] == row[f"{link}_estimated_point_along_m"]
+            support += m.floor_force[i].z
+    assert support > 0, "the estimated floor support is not zero"
+
+    # The bag holds the same messages, decoded from its own schemas (mcap-ros2-support).
+    mcap_reader = require("mcap.reader", "pip install mcap (python/requirements-dev.txt)")
+    mcap_ros2_decoder = require("mcap_ros2.decoder", "pip install mcap-ros2-support (python/requirements-dev.txt)")
+    bag: dict = {}
+    with open(folder / "run.mcap", "rb") as f:
+        reader = mcap_reader.make_reader(f, decoder_factories=[mcap_ros2_decoder.DecoderFactory()])
+        for schema, channel, message, msg in reader.iter_decoded_messages(topics=[t for t, _ in topics]):
+            assert schema.encoding == "ros2msg" and channel.message_encoding == "cdr"
+            bag.setdefault(channel.topic, {})[message.log_time] = msg
+    assert sorted(bag) == sorted(t for t, _ in topics)
+    for topic, live in received.items():
+        assert len(bag[topic]) == instants, topic
+        for stamp, m in live:
+            b = bag[topic][stamp]
+            if topic.endswith("/wrench"):
+                assert xyz(b.wrench.force) == xyz(m.wrench.force) and xyz(b.wrench.torque) == xyz(m.wrench.torque)
+            elif topic.endswith("/imu"):
+                assert xyz(b.angular_velocity) == xyz(m.angular_velocity)
+                assert list(b.orientation_covariance) == list(m.orientation_covariance)
+            elif topic.endswith("/contacts"):
+                assert [(c.collision1.name, c.collision2.name, c.depths[0]) for c in b.contacts] == [
+                    (c.collision1.name, c.collision2.name, c.depths[0]) for c in m.contacts
+                ]
+                assert [xyz(c.wrenches[0].body_2_wrench.force) for c in b.contacts] == [
+                    xyz(c.wrenches[0].body_2_wrench.force) for c in m.contacts
+                ]
+            else:
+                assert [xyz(v) for v in b.external_force] == [xyz(v) for v in m.external_force]
+                assert list(b.contact) == list(m.contact)
 
 
 def test_a_silent_peer_stops_the_lockstep_run_cleanly(binary, domain, tmp_path):

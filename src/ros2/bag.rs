@@ -14,10 +14,12 @@
 //! | `/<ns>/link_NN/imu` | sensor_msgs/Imu | `link_NN` | measured gyro and accelerometer, covariances from `[sensors]` |
 //! | `/<ns>/link_NN/contact_wrench` | geometry_msgs/WrenchStamped | `world` | true contact force on the link, torque about its centre of mass |
 //! | `/<ns>/contacts` | visualization_msgs/MarkerArray | `world` | one arrow per contact (force on its second geom) |
+//! | `/<ns>/ground_truth/contacts` | ros_gz_interfaces/Contacts | `world` | every contact: geoms, bodies, point, normal, depth, force ([`msgs::Contacts`]) |
+//! | `/<ns>/contact_estimates` | simserpent_msgs/ContactEstimates | `world` | with `[estimation] enabled`: the estimator's per-link estimates ([`msgs::ContactEstimates`]) |
 //! | `/<ns>/forward_<kind>_controller/commands` | std_msgs/Float64MultiArray | — | the command of the step that starts at the instant |
 
 use super::msgs::{self, ContactMarkers, Float64MultiArray, Header, Imu, JointState, MultiArrayLayout, Quaternion};
-use super::msgs::{Clock, TfMessage, Time, Wrench, WrenchStamped};
+use super::msgs::{Clock, ContactEstimates, Contacts, TfMessage, Time, Wrench, WrenchStamped};
 use crate::config::{Config, ControlMethod};
 use crate::control::{Command, Observation};
 use crate::record::RecordError;
@@ -31,6 +33,12 @@ type BagFile = mcap::write::NoSeek<super::bag_file::RecordAlignedFile>;
 use std::path::{Path, PathBuf};
 
 pub use super::bag_file::FILE_NAME;
+
+/// The true contacts' topic (under `ros2.namespace`).
+pub const CONTACT_STATES_TOPIC: &str = "ground_truth/contacts";
+
+/// The contact estimates' topic (under `ros2.namespace`), with `[estimation] enabled`.
+pub const CONTACT_ESTIMATES_TOPIC: &str = "contact_estimates";
 
 /// The fixed frame of the world (REP 105's `world`: z up, x/y of the MuJoCo world).
 pub const WORLD_FRAME: &str = "world";
@@ -46,8 +54,9 @@ pub fn controller_name(method: ControlMethod) -> &'static str {
 }
 
 /// The frame of joint `j`'s force/torque sensor: the child link's frame (the sensor sits at the
-/// joint, which is the origin of the child link). For the generated snake `joint_NN` → `link_NN`;
-/// a joint whose name does not follow that scheme is its own frame.
+/// joint, which is the origin of the child link; the wrench is the one the parent link exerts
+/// on the child and everything behind it). For the generated snake `joint_NN` → `link_NN`; a
+/// joint whose name does not follow that scheme is its own frame.
 pub fn joint_frame(joint: &str, links: &[String]) -> String {
     let link = joint.replacen("joint_", "link_", 1);
     if links.contains(&link) { link } else { joint.to_string() }
@@ -63,6 +72,11 @@ pub struct RobotMessages {
     /// Joint names (`index.joints`): `/joint_states`' names, the joint wrench topics.
     pub joints: Vec<String>,
     joint_frames: Vec<String>,
+    /// Geom and body names by MuJoCo id (`index.geom_names`, `index.body_names`): the contacts'.
+    geom_names: Vec<String>,
+    body_names: Vec<String>,
+    /// Whether the estimator runs (`estimation.enabled`): then `contact_estimates` is published.
+    pub estimation: bool,
     gyro_covariance: [f64; 9],
     accel_covariance: [f64; 9],
     arrow_m_per_n: f64,
@@ -81,6 +95,9 @@ impl RobotMessages {
             links,
             joints,
             joint_frames,
+            geom_names: index.geom_names.clone(),
+            body_names: index.body_names.clone(),
+            estimation: config.estimation.enabled,
             gyro_covariance: msgs::diagonal_covariance(variance(s.gyro.std)),
             accel_covariance: msgs::diagonal_covariance(variance(s.accelerometer.std)),
             arrow_m_per_n: config.ros2.contact_arrow_m_per_n,
@@ -142,6 +159,23 @@ impl RobotMessages {
         }
     }
 
+    /// `ros_gz_interfaces/Contacts`: every true contact of the instant.
+    pub fn contact_states<'a>(&'a self, stamp: Time, s: &'a Snapshot) -> Contacts<'a> {
+        Contacts {
+            stamp,
+            frame_id: WORLD_FRAME,
+            contacts: &s.contacts,
+            geom_names: &self.geom_names,
+            body_names: &self.body_names,
+        }
+    }
+
+    /// `simserpent_msgs/ContactEstimates`: the estimator's per-link estimates in the observation
+    /// `m` (the measured one).
+    pub fn contact_estimates<'a>(&'a self, stamp: Time, m: &'a Observation) -> ContactEstimates<'a> {
+        ContactEstimates { stamp, frame_id: WORLD_FRAME, link_names: &self.links, estimates: &m.contacts }
+    }
+
     /// `visualization_msgs/MarkerArray`: the contacts of the instant as arrows.
     pub fn contacts<'a>(&self, stamp: Time, s: &'a Snapshot) -> ContactMarkers<'a> {
         ContactMarkers { stamp, frame_id: WORLD_FRAME, contacts: &s.contacts, arrow_m_per_n: self.arrow_m_per_n }
@@ -155,6 +189,8 @@ struct Channels {
     tf: u16,
     command: u16,
     contacts: u16,
+    contact_states: u16,
+    contact_estimates: Option<u16>,
     wrench: Vec<u16>,
     imu: Vec<u16>,
     contact_wrench: Vec<u16>,
@@ -311,6 +347,7 @@ impl BagWriter {
         let messages = RobotMessages::new(config, index);
         let (links, joints) = (&messages.links, &messages.joints);
         let method = config.control.method;
+        let estimation = messages.estimation;
         let channels = (|| -> Result<Channels, mcap::McapError> {
             let w = &mut writer;
             Ok(Channels {
@@ -324,6 +361,12 @@ impl BagWriter {
                     "std_msgs/Float64MultiArray",
                 )?,
                 contacts: channel(w, &ros.topic("contacts"), "visualization_msgs/MarkerArray")?,
+                contact_states: channel(w, &ros.topic(CONTACT_STATES_TOPIC), "ros_gz_interfaces/Contacts")?,
+                contact_estimates: if estimation {
+                    Some(channel(w, &ros.topic(CONTACT_ESTIMATES_TOPIC), "simserpent_msgs/ContactEstimates")?)
+                } else {
+                    None
+                },
                 wrench: joints
                     .iter()
                     .map(|j| channel(w, &ros.topic(&format!("{j}/wrench")), "geometry_msgs/WrenchStamped"))
@@ -371,6 +414,10 @@ impl BagWriter {
         let command = Float64MultiArray { layout: MultiArrayLayout { dim: &[], data_offset: 0 }, data: command };
         out.put(ch.command, nanos, &command)?;
         out.put(ch.contacts, nanos, &msg.contacts(stamp, s))?;
+        out.put(ch.contact_states, nanos, &msg.contact_states(stamp, s))?;
+        if let Some(channel) = ch.contact_estimates {
+            out.put(channel, nanos, &msg.contact_estimates(stamp, m))?;
+        }
         self.instants += 1;
         Ok(())
     }

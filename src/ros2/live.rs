@@ -9,10 +9,11 @@
 //! The bridge is an [`Observer`] of the step loop:
 //! - at recorded instants (`recording.every_n_steps`; a forward pass has run, so poses and
 //!   contact forces describe the instant): `/tf`, `/<ns>/link_NN/contact_wrench`,
-//!   `/<ns>/contacts`;
+//!   `/<ns>/contacts`, `/<ns>/ground_truth/contacts`;
 //! - at publish instants (`ros2.publish_rate_hz` with the free clock, every
 //!   `ros2.steps_per_command` steps in lockstep): `/clock`, `/joint_states` (measured),
-//!   `/<ns>/ground_truth/joint_states`, `/<ns>/link_NN/imu`, `/<ns>/joint_NN/wrench`;
+//!   `/<ns>/ground_truth/joint_states`, `/<ns>/link_NN/imu`, `/<ns>/joint_NN/wrench`,
+//!   `/<ns>/contact_estimates` (with `[estimation] enabled`);
 //! - at every step it takes the commands that arrived ([`super::commands::CommandGate`]);
 //!   in lockstep it first publishes, then waits for a command; with the free clock it sleeps
 //!   to keep `ros2.real_time_factor`.
@@ -21,7 +22,7 @@
 //! already commanded when the state of k was published): one step of transport delay, as a
 //! real robot's sensor-to-actuator loop has.
 
-use super::bag::RobotMessages;
+use super::bag::{CONTACT_ESTIMATES_TOPIC, CONTACT_STATES_TOPIC, RobotMessages};
 use super::commands::{CommandGate, CommandSource, Float64MultiArrayMsg, Interface, JointTrajectoryMsg, Ros2Report};
 use super::msgs::{self, Clock, Time};
 use super::{LiveBridge, Ros2Error};
@@ -75,6 +76,8 @@ struct Writers {
     joint_states_true: Writer,
     tf: Writer,
     contacts: Writer,
+    contact_states: Writer,
+    contact_estimates: Option<Writer>,
     imu: Vec<Writer>,
     wrench: Vec<Writer>,
     contact_wrench: Vec<Writer>,
@@ -135,6 +138,12 @@ impl Bridge {
             joint_states_true: writer(&ros.topic("ground_truth/joint_states"), "sensor_msgs/JointState")?,
             tf: writer("/tf", "tf2_msgs/TFMessage")?,
             contacts: writer(&ros.topic("contacts"), "visualization_msgs/MarkerArray")?,
+            contact_states: writer(&ros.topic(CONTACT_STATES_TOPIC), "ros_gz_interfaces/Contacts")?,
+            contact_estimates: if messages.estimation {
+                Some(writer(&ros.topic(CONTACT_ESTIMATES_TOPIC), "simserpent_msgs/ContactEstimates")?)
+            } else {
+                None
+            },
             imu: links
                 .iter()
                 .map(|l| writer(&ros.topic(&format!("{l}/imu")), "sensor_msgs/Imu"))
@@ -224,6 +233,9 @@ impl Bridge {
         }
         for (j, writer) in w.wrench.iter().enumerate() {
             Self::put(buf, writer, &msg.joint_wrench(stamp, m, j))?;
+        }
+        if let Some(writer) = &w.contact_estimates {
+            Self::put(buf, writer, &msg.contact_estimates(stamp, m))?;
         }
         Ok(())
     }
@@ -412,6 +424,7 @@ impl Observer<Ros2Error> for Bridge {
             Self::put(buf, writer, &msg.contact_wrench(stamp, s, i))?;
         }
         Self::put(buf, &w.contacts, &msg.contacts(stamp, s))?;
+        Self::put(buf, &w.contact_states, &msg.contact_states(stamp, s))?;
         Ok(())
     }
 

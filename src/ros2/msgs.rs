@@ -330,6 +330,177 @@ impl Serialize for ContactMarkers<'_> {
     }
 }
 
+/// `ros_gz_interfaces/Entity` type constants used here.
+pub mod entity {
+    /// A collision shape (a MuJoCo geom).
+    pub const COLLISION: u8 = 5;
+}
+
+#[derive(Serialize)]
+struct Entity<'a> {
+    id: u64,
+    name: &'a str,
+    #[serde(rename = "type")]
+    kind: u8,
+}
+
+/// A one-element sequence (the per-point arrays of `ros_gz_interfaces/Contact`: SimSerpent's
+/// contacts have one point each).
+struct One<T>(T);
+
+impl<T: Serialize> Serialize for One<T> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_seq(std::iter::once(&self.0))
+    }
+}
+
+#[derive(Serialize)]
+struct JointWrench<'a> {
+    header: Header<'a>,
+    // std_msgs/String and std_msgs/UInt32: a struct of one field is that field on the wire.
+    body_1_name: &'a str,
+    body_1_id: u32,
+    body_2_name: &'a str,
+    body_2_id: u32,
+    body_1_wrench: Wrench,
+    body_2_wrench: Wrench,
+}
+
+#[derive(Serialize)]
+struct Contact<'a> {
+    collision1: Entity<'a>,
+    collision2: Entity<'a>,
+    positions: One<Vector3>,
+    normals: One<Vector3>,
+    depths: One<f64>,
+    wrenches: One<JointWrench<'a>>,
+}
+
+/// The true contacts of one instant as `ros_gz_interfaces/Contacts` (the type Gazebo's contact
+/// sensors reach ROS 2 with, through `ros_gz_bridge`), one `Contact` per row of the instant in
+/// `contacts.csv`, in its order: `collision1`/`collision2` the two geoms (MuJoCo geom id and
+/// name, type `COLLISION`), one point each: `positions` the contact point (m), `normals` the
+/// contact normal (from geom 1 to geom 2, unit), `depths` the penetration (m, = −`distance_m`:
+/// negative for a contact inside the margin that does not touch yet), and one `JointWrench`
+/// naming the two bodies (MuJoCo body id and name) with the force on each (N, world axes)
+/// applied at the contact point (torque zero about it): body 2 feels `force_on_geom2`, body 1
+/// the opposite. Every vector is in `frame_id`'s axes (`world`).
+#[derive(Debug)]
+pub struct Contacts<'a> {
+    pub stamp: Time,
+    pub frame_id: &'a str,
+    pub contacts: &'a [crate::state::ContactRow],
+    pub geom_names: &'a [String],
+    pub body_names: &'a [String],
+}
+
+impl Serialize for Contacts<'_> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        struct List<'b, 'a>(&'b Contacts<'a>);
+        impl Serialize for List<'_, '_> {
+            fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+                let m = self.0;
+                let header = Header { stamp: m.stamp, frame_id: m.frame_id };
+                fn name(names: &[String], i: usize) -> &str {
+                    names.get(i).map_or("", String::as_str)
+                }
+                serializer.collect_seq(m.contacts.iter().map(|c| {
+                    let f = c.force_on_geom2_n;
+                    let zero = Vector3::default();
+                    Contact {
+                        collision1: Entity {
+                            id: c.geom[0] as u64,
+                            name: name(m.geom_names, c.geom[0]),
+                            kind: entity::COLLISION,
+                        },
+                        collision2: Entity {
+                            id: c.geom[1] as u64,
+                            name: name(m.geom_names, c.geom[1]),
+                            kind: entity::COLLISION,
+                        },
+                        positions: One(c.position_m.into()),
+                        normals: One(c.normal.into()),
+                        depths: One(-c.distance_m),
+                        wrenches: One(JointWrench {
+                            header,
+                            body_1_name: name(m.body_names, c.body[0]),
+                            body_1_id: c.body[0] as u32,
+                            body_2_name: name(m.body_names, c.body[1]),
+                            body_2_id: c.body[1] as u32,
+                            body_1_wrench: Wrench { force: [-f[0], -f[1], -f[2]].into(), torque: zero },
+                            body_2_wrench: Wrench { force: f.into(), torque: zero },
+                        }),
+                    }
+                }))
+            }
+        }
+        let mut s = serializer.serialize_struct("Contacts", 2)?;
+        s.serialize_field("header", &Header { stamp: self.stamp, frame_id: self.frame_id })?;
+        s.serialize_field("contacts", &List(self))?;
+        s.end()
+    }
+}
+
+/// The per-link contact estimates of one instant as `simserpent_msgs/ContactEstimates` (its
+/// definition: [`CONTACT_ESTIMATES_MSG`]): the estimator's output the controller saw
+/// ([`crate::state::ContactEstimates`]), world axes, index i of every array = `link_names[i]`.
+#[derive(Debug)]
+pub struct ContactEstimates<'a> {
+    pub stamp: Time,
+    pub frame_id: &'a str,
+    pub link_names: &'a [String],
+    pub estimates: &'a crate::state::ContactEstimates,
+}
+
+/// A per-link sequence of 3-vectors as `geometry_msgs/Vector3[]`.
+struct Vectors<'a>(&'a [[f64; 3]]);
+
+impl Serialize for Vectors<'_> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_seq(self.0.iter().map(|v| Vector3::from(*v)))
+    }
+}
+
+/// `float64[]` of optional values, NaN for `None`.
+struct OrNan<'a>(&'a [Option<f64>]);
+
+impl Serialize for OrNan<'_> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_seq(self.0.iter().map(|v| v.unwrap_or(f64::NAN)))
+    }
+}
+
+/// `geometry_msgs/Point[]` of optional points, NaN coordinates for `None`.
+struct PointsOrNan<'a>(&'a [Option<[f64; 3]>]);
+
+impl Serialize for PointsOrNan<'_> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.collect_seq(self.0.iter().map(|v| Vector3::from(v.unwrap_or([f64::NAN; 3]))))
+    }
+}
+
+impl Serialize for ContactEstimates<'_> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let e = self.estimates;
+        let mut s = serializer.serialize_struct("ContactEstimates", 8)?;
+        s.serialize_field("header", &Header { stamp: self.stamp, frame_id: self.frame_id })?;
+        s.serialize_field("link_names", self.link_names)?;
+        s.serialize_field("external_force", &Vectors(&e.external_force_n))?;
+        s.serialize_field("floor_force", &Vectors(&e.floor_force_n))?;
+        s.serialize_field("obstacle_force", &Vectors(&e.obstacle_force_n))?;
+        s.serialize_field("contact", &e.contact)?;
+        s.serialize_field("contact_point_along", &OrNan(&e.contact_point_along_m))?;
+        s.serialize_field("contact_point", &PointsOrNan(&e.contact_point_m))?;
+        s.end()
+    }
+}
+
+/// `simserpent_msgs/msg/ContactEstimates.msg`, SimSerpent's own message (no standard ROS 2
+/// message holds per-link force estimates with a contact flag and point; user guide, "ROS 2").
+/// The file of the ROS 2 package `simserpent_msgs` (`ros2/simserpent_msgs`), embedded in bags
+/// as written.
+pub const CONTACT_ESTIMATES_MSG: &str = include_str!("../../ros2/simserpent_msgs/msg/ContactEstimates.msg");
+
 /// The definitions of every message type used, `package/Type` → fields. Nested types are
 /// written with their package, as ROS 2 bags embed them.
 const DEFINITIONS: &[(&str, &str)] = &[
@@ -378,6 +549,27 @@ const DEFINITIONS: &[(&str, &str)] = &[
          string mesh_resource\nvisualization_msgs/MeshFile mesh_file\nbool mesh_use_embedded_materials\n",
     ),
     ("visualization_msgs/MarkerArray", "visualization_msgs/Marker[] markers\n"),
+    ("std_msgs/String", "string data\n"),
+    ("std_msgs/UInt32", "uint32 data\n"),
+    (
+        "ros_gz_interfaces/Entity",
+        "uint8 NONE=0\nuint8 LIGHT=1\nuint8 MODEL=2\nuint8 LINK=3\nuint8 VISUAL=4\nuint8 COLLISION=5\nuint8 SENSOR=6\n\
+         uint8 JOINT=7\nuint64 id\nstring name\nuint8 type\n",
+    ),
+    (
+        "ros_gz_interfaces/JointWrench",
+        "std_msgs/Header header\nstd_msgs/String body_1_name\nstd_msgs/UInt32 body_1_id\n\
+         std_msgs/String body_2_name\nstd_msgs/UInt32 body_2_id\ngeometry_msgs/Wrench body_1_wrench\n\
+         geometry_msgs/Wrench body_2_wrench\n",
+    ),
+    (
+        "ros_gz_interfaces/Contact",
+        "ros_gz_interfaces/Entity collision1\nros_gz_interfaces/Entity collision2\n\
+         geometry_msgs/Vector3[] positions\ngeometry_msgs/Vector3[] normals\nfloat64[] depths\n\
+         ros_gz_interfaces/JointWrench[] wrenches\n",
+    ),
+    ("ros_gz_interfaces/Contacts", "std_msgs/Header header\nros_gz_interfaces/Contact[] contacts\n"),
+    ("simserpent_msgs/ContactEstimates", CONTACT_ESTIMATES_MSG),
     (
         "trajectory_msgs/JointTrajectoryPoint",
         "float64[] positions\nfloat64[] velocities\nfloat64[] accelerations\nfloat64[] effort\n\
@@ -396,7 +588,7 @@ fn definition(type_name: &str) -> Option<&'static str> {
 /// The message types a field list refers to (`pkg/Type name`, `pkg/Type[] name`, …), in order.
 fn nested_types(text: &str) -> impl Iterator<Item = &str> {
     text.lines().filter_map(|line| {
-        let ty = line.split_whitespace().next()?;
+        let ty = line.split_whitespace().next().filter(|t| !t.starts_with('#'))?;
         let ty = ty.split('[').next()?;
         ty.contains('/').then_some(ty)
     })
