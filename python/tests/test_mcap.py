@@ -85,6 +85,10 @@ def check_against_csv(folder: Path, topics, noise_std):
     stamps = np.rint(links["time_s"].to_numpy() * 1e9).astype(np.int64)
 
     expected = {"/clock", "/joint_states", "/tf", "/snake/ground_truth/joint_states", "/snake/contacts"}
+    expected |= {"/snake/ground_truth/contacts"}
+    estimates = folder / "estimates.csv"
+    if estimates.exists():
+        expected |= {"/snake/contact_estimates"}
     expected |= {"/snake/forward_position_controller/commands"}
     expected |= {f"/snake/{j}/wrench" for j in joint_names}
     expected |= {f"/snake/{name}/{kind}" for name in link_names for kind in ("imu", "contact_wrench")}
@@ -172,12 +176,46 @@ def check_against_csv(folder: Path, topics, noise_std):
             assert np.allclose(np.array(xyz(tip)) - p, 0.01 * f, rtol=0, atol=1e-12)
             seen_contacts += 1
     assert seen_contacts > 0, "the snake touches the floor"
+
+    # ros_gz_interfaces/Contacts: one Contact per row of contacts.csv, in order.
+    seen = 0
+    for k, (_, msg) in enumerate(topics["/snake/ground_truth/contacts"]):
+        assert msg.header.frame_id == "world" and stamp_ns(msg.header) == stamps[k]
+        t = links["time_s"].iloc[k]
+        rows = by_step.get_group(t) if t in by_step.groups else contacts.iloc[0:0]
+        assert len(msg.contacts) == len(rows)
+        for c, (_, row) in zip(msg.contacts, rows.iterrows()):
+            assert (c.collision1.name, c.collision2.name) == (row["geom1"], row["geom2"])
+            assert c.collision1.type == c.collision2.type == 5  # COLLISION
+            assert [xyz(p) for p in c.positions] == [[row[f"position_{a}_m"] for a in "xyz"]]
+            assert [xyz(v) for v in c.normals] == [[row[f"normal_{a}"] for a in "xyz"]]
+            assert list(c.depths) == [-row["distance_m"]]
+            (w,) = c.wrenches
+            assert (w.body_1_name.data, w.body_2_name.data) == (row["body1"], row["body2"])
+            f = [row[f"force_on_geom2_{a}_n"] for a in "xyz"]
+            assert xyz(w.body_2_wrench.force) == f and xyz(w.body_1_wrench.force) == [-v for v in f]
+            seen += 1
+    assert seen == len(contacts)
+
+    # simserpent_msgs/ContactEstimates: estimates.csv.
+    if estimates.exists():
+        table = pd.read_csv(estimates)
+        for k, (_, msg) in enumerate(topics["/snake/contact_estimates"]):
+            row = table.iloc[k]
+            assert stamp_ns(msg.header) == stamps[k] and list(msg.link_names) == link_names
+            for i, name in enumerate(link_names):
+                for field in ("external_force", "floor_force", "obstacle_force"):
+                    got = xyz(getattr(msg, field)[i])
+                    assert got == [row[f"{name}_estimated_{field}_{a}_n"] for a in "xyz"]
+                assert float(msg.contact[i]) == row[f"{name}_estimated_contact"]
+                known = row[f"{name}_estimated_point_known"] == 1.0
+                assert (not np.isnan(msg.contact_point_along[i])) == known
     return n
 
 
-@pytest.mark.parametrize("noise", [False, True], ids=["default", "noise"])
+@pytest.mark.parametrize("noise", [False, True], ids=["default", "noise and estimation"])
 def test_bag_decodes_and_equals_csv(tmp_path, noise):
-    sets = ["sensors.noise_enabled=true"] if noise else []
+    sets = ["sensors.noise_enabled=true", "estimation.enabled=true"] if noise else []
     folder = run(tmp_path, *sets)
     bag = folder / "run.mcap"
     topics, summary = read_mcap(bag)
