@@ -657,6 +657,8 @@ def test_the_peer_decodes_the_force_torque_imu_and_contact_topics(binary, domain
     assert steps == 300
     instants = steps + 1
     received = {topic: r for topic, (_, _, r) in peer.extra.items()}
+    counts = sorted({len(r) for r in received.values()})
+    print(f"instants received per topic: {counts[0]}..{counts[-1]} of {instants}")
 
     # Force/torque sensors and IMUs: the measured columns of sensors.csv.
     sensors = pd.read_csv(folder / "sensors.csv")
