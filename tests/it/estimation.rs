@@ -261,10 +261,9 @@ fn identified_friction_converges_to_the_configured_mu_on_a_bare_floor() {
 }
 
 #[test]
-#[ignore = "known miss: with the compliant floor-contact law the axial coefficient is identified \
-            10-16 % high (seed 0: 0.110 after 10 s, 0.116 after 15 s; lateral within 0.4 %)"]
 fn identified_friction_converges_to_the_configured_mu_in_the_peg_field() {
-    // Anisotropic (axial 0.1, lateral 1.0) among 14 pegs, 10 s: within 10 %.
+    // Anisotropic (axial 0.1, lateral 1.0) among 14 pegs, 10 s: within 10 % (measured: axial
+    // −4.3 %, lateral −1.9 %).
     let (mu, truth) = identified_friction(GroundModel::Anisotropic, 14, 10.0);
     for k in [0, 2] {
         assert!((mu[k] - truth[k]).abs() <= 0.10 * truth[k], "{mu:?} vs {truth:?}");

@@ -10,12 +10,17 @@
 //!    `estimation.tilt_gain_per_s`; R. Mahony, T. Hamel, J.-M. Pflimlin, *Nonlinear
 //!    complementary filters on the special orthogonal group*, IEEE TAC 53(5), 2008), started at
 //!    the head's pose of the first instant (the robot's IMU is initialised at a known pose).
-//!    The accelerometer measures the specific force `Rᵀ·(a + g·ẑ)`, so the reference for "up" is
-//!    `(a + g·ẑ)/|a + g·ẑ|` with `a` the head's acceleration from its known velocity (the change
-//!    of `head_velocity_m_per_s` between updates over their interval): without it the head's
-//!    accelerations tilt the estimate by 1–3° (rms, measured in the estimation experiment's gait), which leaks
-//!    `m·g·ε` of gravity (0.05 N per degree for a 0.3-kg link) into each link's horizontal force,
-//!    as much as the axial floor friction's variation.
+//!    The accelerometers measure the specific force `Rᵀ·(a + g·ẑ)`, so the reference for "up"
+//!    is `(a + g·ẑ)/|a + g·ẑ|` with `a` a known acceleration. The filter uses the whole snake's:
+//!    its accelerometers summed by mass in the head frame (rotated by the encoders' relative
+//!    rotations) against the acceleration of its centre of mass, the change between updates of
+//!    its velocity (the head's known velocity plus the chain's relative velocities from the gyros).
+//!    Without an acceleration reference the gait's accelerations tilt the estimate by 1–3° (rms,
+//!    measured in the estimation experiment's gait), which leaks `m·g·ε` of gravity (0.05 N per
+//!    degree for a 0.3-kg link) into each link's horizontal force, as much as the axial floor
+//!    friction's variation; with the head's own accelerometer and velocity the sampled
+//!    acceleration and the velocity change disagree within each step (`MotionEstimator`'s
+//!    `body_reference` says why), the centre of mass's agree.
 //!    The other links follow from the encoders along the chain, `Rᵢ = Rᵢ₋₁·Rot(axisᵢ, qᵢ)`,
 //!    `oᵢ = oᵢ₋₁ + Rᵢ₋₁·(−L, 0, 0)`, centre of mass `cᵢ = oᵢ + Rᵢ·(−L/2, 0, 0)`; angular
 //!    velocities are the measured gyros, `ωᵢ = Rᵢ·gyroᵢ`, and centre-of-mass velocities follow
@@ -232,9 +237,14 @@ impl HeadAttitude {
             let up_est =
                 [0, 1, 2].map(|j| (r[0][j] * specific[0] + r[1][j] * specific[1] + r[2][j] * specific[2]) / s_norm);
             let up_meas = accel.map(|a| a / a_norm);
+            // Tilt only: the correction's part about the vertical (world ẑ in the head frame,
+            // the third row of R) is dropped. The specific force leans from the vertical by
+            // a_h/g, and so does the axis the correction turns about, so a correction of the
+            // tilt would also turn the heading, which the gyro keeps better.
             let e = cross(up_meas, up_est);
+            let about_vertical = e[0] * r[2][0] + e[1] * r[2][1] + e[2] * r[2][2];
             for k in 0..3 {
-                w[k] += self.tilt_gain_per_s * e[k];
+                w[k] += self.tilt_gain_per_s * (e[k] - about_vertical * r[2][k]);
             }
         }
         let half = [0.5 * w[0] * dt, 0.5 * w[1] * dt, 0.5 * w[2] * dt];
@@ -1063,17 +1073,69 @@ impl MotionEstimator {
         }
     }
 
+    /// The tilt reference of the head's attitude filter: the whole snake's specific force in the
+    /// head frame, `Σ mᵢ·Qᵢ·accᵢ / M` (`Qᵢ` link `i`'s rotation relative to the head, from the
+    /// encoders), and the velocity of its centre of mass (world), `v₀ + R₀·Σ mᵢ·(vᵢ − v₀)/M`
+    /// (`v₀` the head's known centre-of-mass velocity, the relative velocities from the gyros
+    /// along the chain, `R₀` the attitude estimate before this update; at the first update
+    /// the head's pose).
+    ///
+    /// Why the whole snake and not the head alone: the sensors sample one model evaluation
+    /// (the start of a step), and with the default servos (kp 100) and integrator (RK4) a link's
+    /// acceleration changes within each step, so the head's accelerometer differs from its
+    /// velocity change over the step by 0.3 m/s² rms (measured on the estimation experiment's
+    /// gait), which tilts the estimate by about 2° and leaks `m·g·ε` of gravity into each
+    /// link's force (the axial floor friction was identified 10–16 % high). The joints' forces
+    /// cancel in the sum, so the centre of mass accelerates by the external forces alone, held
+    /// over the step: its sampled acceleration and its velocity change agree to 1e-6 m/s².
+    fn body_reference(&self, obs: &Observation, n: usize) -> ([f64; 3], [f64; 3]) {
+        let l = self.geometry.link_length_m;
+        let mut q = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let mut origin = [0.0; 3];
+        let mut omega = [0.0; 3];
+        // Velocities relative to the head's centre of mass, head coordinates.
+        let head_com = [-0.5 * l, 0.0, 0.0];
+        let mut v_origin = [0.0; 3];
+        let (mut mass, mut force, mut momentum) = (0.0, [0.0; 3], [0.0; 3]);
+        for i in 0..n {
+            if i > 0 {
+                let angle = obs.joint_angle_rad.get(i - 1).copied().unwrap_or(0.0);
+                let axis = self.geometry.joint_axis.get(i - 1).copied().unwrap_or([0.0, 0.0, 1.0]);
+                let step = super::rotate(&q, [-l, 0.0, 0.0]);
+                v_origin = add(v_origin, cross(omega, step));
+                origin = add(origin, step);
+                q = mat_mul(&q, &axis_rotation(axis, angle));
+            }
+            omega = super::rotate(&q, obs.imu_gyro_rad_per_s[i]);
+            if i == 0 {
+                v_origin = cross(omega, scale(head_com, -1.0));
+            }
+            let to_com = super::rotate(&q, [-0.5 * l, 0.0, 0.0]);
+            let m = self.geometry.link_mass_kg.get(i).copied().unwrap_or(0.0);
+            mass += m;
+            force = add(force, scale(super::rotate(&q, obs.imu_accel_m_per_s2[i]), m));
+            momentum = add(momentum, scale(add(v_origin, cross(omega, to_com)), m));
+        }
+        if mass <= 0.0 {
+            return (obs.imu_accel_m_per_s2[0], obs.head_velocity_m_per_s);
+        }
+        let r0 = quat_to_matrix(if self.attitude.time_secs.is_some() { self.attitude.quat } else { obs.head_quat });
+        let relative = super::rotate(&r0, scale(momentum, 1.0 / mass));
+        (scale(force, 1.0 / mass), add(obs.head_velocity_m_per_s, relative))
+    }
+
     /// Stage 1 with `orientation = "imu"`: head attitude filter, then the chain.
     fn chain_poses(&mut self, obs: &Observation, n: usize) {
         if n == 0 {
             return;
         }
+        let (specific_force, com_velocity) = self.body_reference(obs, n);
         self.attitude.update_with_velocity(
             obs.sensor_time_secs,
             obs.imu_gyro_rad_per_s[0],
-            obs.imu_accel_m_per_s2[0],
+            specific_force,
             obs.head_quat,
-            Some(obs.head_velocity_m_per_s),
+            Some(com_velocity),
         );
         let l = self.geometry.link_length_m;
         let p = &mut self.poses;
