@@ -20,7 +20,9 @@
 //!    degree for a 0.3-kg link) into each link's horizontal force, as much as the axial floor
 //!    friction's variation; with the head's own accelerometer and velocity the sampled
 //!    acceleration and the velocity change disagree within each step (`MotionEstimator`'s
-//!    `body_reference` says why), the centre of mass's agree.
+//!    `body_reference` says why), the centre of mass's agree. The correction turns the tilt only:
+//!    its part about the vertical is dropped (the specific force leans from the vertical by
+//!    `a_h/g`, so turning toward it would turn the heading too, which the gyro keeps better).
 //!    The other links follow from the encoders along the chain, `Rᵢ = Rᵢ₋₁·Rot(axisᵢ, qᵢ)`,
 //!    `oᵢ = oᵢ₋₁ + Rᵢ₋₁·(−L, 0, 0)`, centre of mass `cᵢ = oᵢ + Rᵢ·(−L/2, 0, 0)`; angular
 //!    velocities are the measured gyros, `ωᵢ = Rᵢ·gyroᵢ`, and centre-of-mass velocities follow
