@@ -50,6 +50,7 @@ fn follow(config: &Config, secs: f64) -> CrossTrack {
 /// straight path, the snake converges, and in steady state (the last 20 s of 60 s) the centre
 /// of mass stays within one link radius (4 cm) of the path.
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn path_following_converges_to_a_straight_path_within_one_link_radius() {
     let mut c = open_floor();
     c.ground.model = GroundModel::Anisotropic;
@@ -69,6 +70,7 @@ fn path_following_converges_to_a_straight_path_within_one_link_radius() {
 
 /// Waypoints: a path with a 90° corner; the snake reaches the second segment and ends near it.
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn path_following_turns_at_a_waypoint() {
     let mut c = open_floor();
     c.ground.model = GroundModel::Anisotropic;
@@ -91,6 +93,7 @@ fn path_following_turns_at_a_waypoint() {
 /// With `[estimation] enabled` the controller's observation carries the estimates, and a run
 /// writes the `estimates` table next to the truth.
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn estimates_reach_the_observation_and_the_estimates_table() {
     let dir = tempfile::tempdir().unwrap();
     let mut c = open_floor();
@@ -204,6 +207,7 @@ fn obstacle_aided_controller_moves_through_a_peg_field_on_isotropic_friction() {
 /// reversed wave, and the yield-only default jams about as often as its wave alone (9 against 8
 /// of 270 fields; BENCHMARKS.md, "Obstacle-aided locomotion").
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn obstacle_aided_controller_advances_on_unseen_peg_fields() {
     for seed in 40..=42 {
         let mut c = field_config(&Config::default(), DENSITIES[1].1, seed);
@@ -227,6 +231,7 @@ fn obstacle_aided_controller_advances_on_unseen_peg_fields() {
 /// Measured with `cargo test`: rail 27, 27, 27 / 27, 27, 25 / 27, 27, 25 mm/s; open loop 65°/−60°
 /// 39, 39, 36 / 9, 38, 11 / 9, 40, 7 mm/s (jammed where below 12 mm/s).
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn rail_controller_advances_through_unseen_peg_fields() {
     use simserpent::config::{ContactSource, GaitKind};
     let mut rail = Vec::new();

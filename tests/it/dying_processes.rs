@@ -104,6 +104,7 @@ const QUICK_RUN: [&str; 6] =
 /// Every command that prints exits with its own exit code, without a panic, when its reader
 /// has gone (`simserpent check | head -1`); a run still closes its tables and manifest.
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn a_closed_pipe_ends_printing_quietly_with_the_commands_own_exit_code() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
@@ -310,6 +311,7 @@ fn mount_tmpfs(at: &Path, size: &str) -> Option<Unmount> {
 /// JSON, says `failed` and why, and lists every table file with exactly the whole rows it
 /// holds (no partial last row); or the run fits and is `complete`.
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn a_full_disk_at_any_stage_leaves_a_valid_manifest_listing_whole_rows() {
     let dir = tempfile::tempdir().unwrap();
     if mount_tmpfs(&dir.path().join("probe"), "4k").is_none() {
@@ -582,6 +584,7 @@ fn a_signal_during_the_run_leaves_whole_listed_rows() {
 /// SIGINT or SIGTERM while `general.plot = true` draws the plots: exit 130; the manifest says
 /// the run is `complete` and its `plots` says `interrupted`.
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn a_signal_during_plotting_exits_130_and_the_manifest_says_plots_interrupted() {
     for signal in ["INT", "TERM"] {
         let dir = tempfile::tempdir().unwrap();

@@ -207,6 +207,7 @@ fn with_noise_the_estimation_error_has_the_predicted_spread() {
 }
 
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn the_estimation_experiment_writes_data_and_plots_and_counts_every_case() {
     let dir = tempfile::tempdir().unwrap();
     let outcome = simserpent::experiments::run_experiment("estimation", &Config::default(), dir.path(), true).unwrap();

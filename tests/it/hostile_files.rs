@@ -189,6 +189,7 @@ fn big_obj(path: &Path, n: usize) {
 }
 
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn scratch_folders_are_removed_after_success_failure_and_sigterm() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
@@ -327,6 +328,7 @@ fn terrain_assets_named_like_run_folder_files_are_rejected() {
 }
 
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn every_file_a_run_writes_has_a_reserved_run_folder_name() {
     let dir = tempfile::tempdir().unwrap();
     let mut c = config_with_terrain(&data("third_party_terrain/terrain.xml"));

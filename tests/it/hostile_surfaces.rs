@@ -341,6 +341,7 @@ fn set_cell(path: &Path, row: usize, column: &str, value: &str) {
 /// (renamed time, dropped column, reversed rows, more links than the config), and write only
 /// inside the run folder, never through a link.
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn estimate_and_plot_read_and_write_only_inside_the_run_folder() {
     let dir = tempfile::tempdir().unwrap();
     let run = recorded_run(dir.path());
@@ -486,6 +487,7 @@ fn estimate_and_plot_read_and_write_only_inside_the_run_folder() {
 /// Lists of a million elements are refused naming the cap (10,000); lists at the cap validate.
 /// (Validation was quadratic in these lengths: a million elements never finished.)
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn long_config_lists_are_refused_naming_the_cap() {
     let dir = tempfile::tempdir().unwrap();
     let big = |n: usize| format!("[{}]", vec!["0.5"; n].join(","));
@@ -681,6 +683,7 @@ fn apply_edit(text: &str, edit: &Edit) -> String {
 /// merged into exactly the planned runs or refused; never a panic. `SIMSERPENT_FUZZ_CASES` cases
 /// (256 by default).
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn fuzz_estimate_and_sweep_merge_inputs() {
     use proptest::prelude::*;
     use proptest::test_runner::{Config, TestCaseError, TestRunner};

@@ -333,6 +333,7 @@ fn faithful_body_extends_along_plus_x_from_the_head_for_any_rotation() {
 // --- experiments force their recording -----------------------------------------------------------
 
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn experiments_record_what_their_analysis_reads_whatever_the_base_config_says() {
     let mut off = load_config(&thesis_json(), &[]).unwrap();
     assert!(!off.recording.enabled && !off.recording.link_position);

@@ -494,6 +494,7 @@ static FUZZ_SKIPPED: AtomicUsize = AtomicUsize::new(0);
 /// MJCF → MuJoCo compile. Every input is rejected with a config error naming a key or file,
 /// or compiles; never a panic, never MuJoCo rejecting a validated config.
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn fuzz_config_text_to_mujoco_compile() {
     in_child_process("limits::fuzz_config_text_to_mujoco_compile", || {
         let seeds = seeds();
