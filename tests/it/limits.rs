@@ -107,6 +107,7 @@ fn outcome(text: &str, source: ConfigSource) -> Outcome {
 /// its extremes is rejected naming its key, or compiles; nothing panics and MuJoCo never
 /// rejects a validated config.
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn every_numeric_key_at_its_extremes_is_rejected_naming_it_or_compiles() {
     in_child_process("limits::every_numeric_key_at_its_extremes_is_rejected_naming_it_or_compiles", || {
         let base: toml::Table = config::DEFAULT_CONFIG_TOML.parse().unwrap();

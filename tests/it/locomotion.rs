@@ -110,6 +110,7 @@ fn assert_all_pass(checks: &[Check]) {
 }
 
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn collision_experiment_checks_pass() {
     let checks = quick_experiment("collision");
     assert_eq!(checks.len(), 20);
@@ -117,11 +118,13 @@ fn collision_experiment_checks_pass() {
 }
 
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn form_closure_moves_forward_and_first_order_slips_less() {
     assert_all_pass(&quick_experiment("form-closure"));
 }
 
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn configure_experiment_places_every_link() {
     assert_all_pass(&quick_experiment("configure"));
 }
@@ -189,6 +192,7 @@ fn anisotropic_friction_propels_where_isotropic_does_not() {
 }
 
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn viscous_undulation_matches_the_averaged_model() {
     // Liljebäck et al.'s standard set, two cycles after one cycle of ramp-in.
     let mut c = Config::default();
@@ -231,6 +235,7 @@ fn viscous_undulation_matches_the_averaged_model() {
 }
 
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn pegs_propel_a_snake_that_the_isotropic_floor_holds_back() {
     // Quick oal: 2 cycles on each terrain; bare-floor drift within 2 % of the body per cycle,
     // at least 5 % per cycle among the pegs.

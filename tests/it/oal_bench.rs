@@ -65,6 +65,7 @@ fn each_law_without_feedback_is_the_open_loop_run_bit_for_bit() {
 /// changes the run (the pegs are felt), and the run is repeatable. (The jam resolution acts
 /// only on a jam: a jam rule asking for 1 m of progress every 2 s makes it act here.)
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn each_law_feels_the_pegs_with_estimated_and_true_contacts() {
     let secs = 8.0;
     let open = run(&field(), secs);
@@ -83,6 +84,7 @@ fn each_law_feels_the_pegs_with_estimated_and_true_contacts() {
 /// A small benchmark: every condition runs, the tables are written, and two runs of the same
 /// benchmark give the same tables.
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn a_small_benchmark_writes_its_tables_and_repeats() {
     let bench = Bench {
         tuning_fields: 1,

@@ -142,6 +142,7 @@ mod with_parquet {
     }
 
     #[test]
+    #[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
     fn parts_close_every_rows_per_file_rows_with_any_compression() {
         let dir = tempfile::tempdir().unwrap();
         for compression in ["lz4", "zstd", "snappy", "none"] {

@@ -54,6 +54,7 @@ fn check_panels(folder: &Path) {
 }
 
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn plot_command_writes_every_panel_as_png_and_svg() {
     let dir = tempfile::tempdir().unwrap();
     let folder = run_folder(dir.path(), &[]);
