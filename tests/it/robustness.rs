@@ -192,6 +192,7 @@ proptest! {
     /// Random keys and values of every type through loading, validation and model generation:
     /// no panic, and every rejection is a config error with a key, a file position or a message.
     #[test]
+    #[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
     fn random_configs_never_panic(entries in prop::collection::vec((any_key(leaf_keys()), any_value()), 0..8)) {
         let mut table = toml::Table::new();
         for (key, value) in entries {

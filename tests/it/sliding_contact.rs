@@ -298,6 +298,7 @@ fn drift_percent(mut c: Config) -> f64 {
 }
 
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn isotropic_drift_is_small_and_does_not_depend_on_contact_softness() {
     let mujoco = isotropic_drift_percent(FloorFriction::Mujoco, 0.02);
     let d: Vec<f64> =

@@ -83,6 +83,7 @@ fn default_job_among_pegs(integrator: &str, floor: &str) -> Config {
 /// every step and every 10th: the loop's trajectory and snapshots equal plain `mj_step`
 /// stepping bit for bit.
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn fused_step_is_bit_identical_to_mj_step_for_every_integrator() {
     let mut cases = 0;
     for integrator in ["RK4", "Euler", "implicit", "implicitfast"] {

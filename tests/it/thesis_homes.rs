@@ -33,6 +33,7 @@ fn pixels_of_colour(path: &std::path::Path, rgb: [f64; 3]) -> usize {
 
 #[cfg(feature = "render")]
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn configure_experiment_draws_each_set_in_its_colour_next_to_the_report() {
     let dir = tempfile::tempdir().unwrap();
     let outcome = run_experiment("configure", &Config::default(), dir.path(), true).unwrap();
@@ -66,6 +67,7 @@ fn contact_law_prediction_is_elastic_without_damping_and_matches_a_damped_spring
 }
 
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn bounce_experiment_rebounds_to_the_drop_height_and_measures_the_soft_contact() {
     let dir = tempfile::tempdir().unwrap();
     let outcome = run_experiment("bounce", &Config::default(), dir.path(), true).unwrap();
