@@ -335,6 +335,7 @@ mod tests {
     /// The controller × actuator kind × gait kind × gait key matrix: a key is reported as unused
     /// exactly when changing it leaves every command of the controller unchanged.
     #[test]
+    #[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
     fn unused_gait_keys_are_exactly_the_ones_that_change_no_command() {
         let mut checked = 0;
         let mut mismatches = Vec::new();
