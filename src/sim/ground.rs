@@ -76,7 +76,9 @@
 //!   bounded by MuJoCo's normal force **of the same state**: on a step where a link touches an
 //!   obstacle at x_k, a forward pass at x_k (ground geoms detached, the step's ground forces in
 //!   `xfrc_applied`) gives every link–obstacle contact its normal force N_k, and the slot's
-//!   friction is bounded by μ·N_k; a slot without contact at x_k has none. See "Obstacles" below.
+//!   friction is bounded by μ·N_k; a second forward pass with that friction applied gives the
+//!   normal force the step itself will have, and a slot above μ times it is scaled back onto it.
+//!   A slot without contact at x_k has no friction. See "Obstacles" below.
 //! - Normal and friction forces of a link and their moments about its centre of mass go into
 //!   `xfrc_applied`, held over the step. [`Ground::own_contacts`] gives a snapshot its
 //!   link–ground contact rows; [`Ground::fill_snapshot`] adds the friction.
@@ -97,10 +99,13 @@
 //! law removes from the floor. The normal force stays MuJoCo's (an explicit compliant obstacle
 //! law is unstable at 5 m/s impacts), and the friction is bounded by the N of a forward pass at
 //! the step's own state, not of the previous step: a contact that opens or closes between steps
-//! gets no friction from a stale N (no period-2 cycle of N and friction). The step's own solve
-//! then finds the N of x_k with the friction applied, which differs from N_k by the friction's
-//! coupling through the link's inertia. Cost: one more forward pass on steps with an obstacle
-//! contact only (none in the default job's first 10 s).
+//! gets no friction from a stale N (no period-2 cycle of N and friction). Friction moves the
+//! normal forces through the links' inertia, so the N of x_k with the friction applied is found
+//! by a second forward pass and the friction scaled back where it exceeds μ times that; scaling
+//! friction down only gives back normal force that friction took, so the step's recorded rows
+//! keep |f_t| ≤ μ·N (measured on every row of the sideways hit at μ 0.5 and 1: ≤ 1 + 1e-12).
+//! Cost: two more forward passes on steps with an obstacle contact, none on the others (the
+//! default job's first 10 s have none).
 //!
 //! Velocities are those of the state at the start of the step: kinematics and centre-of-mass
 //! velocities are recomputed first, because after `mj_step` MuJoCo's derived quantities belong
@@ -110,7 +115,7 @@ use super::World;
 use crate::config::{Config, FloorFriction, GroundModel};
 use crate::model::{SurfaceMap, names};
 use crate::state::{ContactRow, GeomClass, Snapshot, x_axis};
-use mujoco_rs::prelude::MjtObjBase;
+use mujoco_rs::prelude::{MjData, MjModel, MjtObjBase};
 use mujoco_rs::wrappers::mj_model::MjtGeomBase;
 
 /// Below this axial speed (m/s) a link counts as not sliding (directional model).
@@ -397,8 +402,11 @@ struct ObstacleSlot {
     point_weighted: [f64; 3],
     normal_weighted: [f64; 3],
     deflection_m: [f64; 3],
-    /// The friction force applied in the latest prepared step (N, world frame).
+    /// The friction force applied in the latest prepared step (N, world frame), its arm from
+    /// the link's centre of mass (m) and the stick spring's stiffness (N/m).
     force_n: [f64; 3],
+    arm_m: [f64; 3],
+    stiffness_n_per_m: f64,
 }
 
 impl ObstacleSlot {
@@ -410,6 +418,8 @@ impl ObstacleSlot {
         normal_weighted: [0.0; 3],
         deflection_m: [0.0; 3],
         force_n: [0.0; 3],
+        arm_m: [0.0; 3],
+        stiffness_n_per_m: 0.0,
     };
 }
 
@@ -486,6 +496,57 @@ impl StickSlip {
             force_n: vec![[0.0; 3]; n],
             slot_force_n: vec![[[0.0; 3]; SLOTS]; n],
             torque_nm: vec![[0.0; 3]; n],
+        }
+    }
+}
+
+impl StickSlip {
+    /// Σ N, Σ N·point and Σ N·normal of each link's obstacle slots from MuJoCo's contacts of the
+    /// latest forward pass (a slot keeps its geom while the link touches it; a new geom takes a
+    /// free slot, or one not seen in this pass).
+    fn collect_obstacle_normals(&mut self, d: &MjData<Box<MjModel>>) {
+        let st = self;
+        for slot in st.obstacle_slots.iter_mut().flatten() {
+            slot.seen = false;
+            slot.normal_n = 0.0;
+            slot.point_weighted = [0.0; 3];
+            slot.normal_weighted = [0.0; 3];
+        }
+        for (c, contact) in d.contact().iter().enumerate() {
+            let (g1, g2) = (contact.geom[0], contact.geom[1]);
+            if g1 < 0 || g2 < 0 || contact.exclude != 0 {
+                continue;
+            }
+            let (g1, g2) = (g1 as usize, g2 as usize);
+            let (link, geom, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
+                (Some(l), None) => (l, g2, -1.0),
+                (None, Some(l)) => (l, g1, 1.0),
+                _ => continue,
+            };
+            if !st.obstacle_geom[geom] {
+                continue;
+            }
+            let n = d.contact_force(c)[0];
+            if n <= 0.0 {
+                continue;
+            }
+            let slots = &mut st.obstacle_slots[link];
+            let k = slots
+                .iter()
+                .position(|s| s.geom == geom)
+                .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
+                .or_else(|| slots.iter().position(|s| !s.seen));
+            let Some(k) = k else { continue };
+            let slot = &mut slots[k];
+            if slot.geom != geom {
+                *slot = ObstacleSlot { geom, ..ObstacleSlot::FREE };
+            }
+            slot.seen = true;
+            slot.normal_n += n;
+            for j in 0..3 {
+                slot.point_weighted[j] += n * contact.pos[j];
+                slot.normal_weighted[j] += n * sign * contact.frame[j];
+            }
         }
     }
 }
@@ -914,52 +975,8 @@ impl Ground {
     /// its friction to `xfrc_applied`. Runs only on steps where a link touches an obstacle.
     fn obstacle_friction(&mut self, world: &mut World) {
         let Some(st) = self.stick_slip.as_mut() else { return };
-        for slot in st.obstacle_slots.iter_mut().flatten() {
-            slot.seen = false;
-            slot.normal_n = 0.0;
-            slot.point_weighted = [0.0; 3];
-            slot.normal_weighted = [0.0; 3];
-        }
         world.data.forward();
-        {
-            let d = &world.data;
-            for (c, contact) in d.contact().iter().enumerate() {
-                let (g1, g2) = (contact.geom[0], contact.geom[1]);
-                if g1 < 0 || g2 < 0 || contact.exclude != 0 {
-                    continue;
-                }
-                let (g1, g2) = (g1 as usize, g2 as usize);
-                let (link, geom, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
-                    (Some(l), None) => (l, g2, -1.0),
-                    (None, Some(l)) => (l, g1, 1.0),
-                    _ => continue,
-                };
-                if !st.obstacle_geom[geom] {
-                    continue;
-                }
-                let n = d.contact_force(c)[0];
-                if n <= 0.0 {
-                    continue;
-                }
-                let slots = &mut st.obstacle_slots[link];
-                let k = slots
-                    .iter()
-                    .position(|s| s.geom == geom)
-                    .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
-                    .or_else(|| slots.iter().position(|s| !s.seen));
-                let Some(k) = k else { continue };
-                let slot = &mut slots[k];
-                if slot.geom != geom {
-                    *slot = ObstacleSlot { geom, ..ObstacleSlot::FREE };
-                }
-                slot.seen = true;
-                slot.normal_n += n;
-                for j in 0..3 {
-                    slot.point_weighted[j] += n * contact.pos[j];
-                    slot.normal_weighted[j] += n * sign * contact.frame[j];
-                }
-            }
-        }
+        st.collect_obstacle_normals(&world.data);
         let dt = st.timestep_secs;
         for (i, &body) in self.bodies.iter().enumerate() {
             let com = world.data.xipos()[body];
@@ -996,6 +1013,8 @@ impl Ground {
                     f
                 };
                 slot.force_n = f_world;
+                slot.arm_m = r;
+                slot.stiffness_n_per_m = k;
                 o_force = add(o_force, f_world);
                 o_torque = add(o_torque, cross(r, f_world));
             }
@@ -1007,6 +1026,40 @@ impl Ground {
             for k in 0..3 {
                 slot[k] += o_force[k];
                 slot[3 + k] += o_torque[k];
+            }
+        }
+        // The friction moves the normal forces through the links' inertia: with it applied, a
+        // second forward pass at x_k gives each contact the normal force the step will have, and
+        // a slot whose friction exceeds μ times that is scaled back onto it (less friction can
+        // only give back normal force that friction took).
+        world.data.forward();
+        st.collect_obstacle_normals(&world.data);
+        let mu = st.obstacle_mu;
+        for (i, &body) in self.bodies.iter().enumerate() {
+            let (mut d_force, mut d_torque) = ([0.0; 3], [0.0; 3]);
+            for slot in st.obstacle_slots[i].iter_mut() {
+                let size = dot(slot.force_n, slot.force_n).sqrt();
+                let limit = if slot.seen { mu * slot.normal_n } else { 0.0 };
+                if size <= limit {
+                    continue;
+                }
+                let f = slot.force_n.map(|x| x * limit / size);
+                let change = sub(f, slot.force_n);
+                d_force = add(d_force, change);
+                d_torque = add(d_torque, cross(slot.arm_m, change));
+                slot.force_n = f;
+                if slot.stiffness_n_per_m > 0.0 {
+                    slot.deflection_m = f.map(|x| -x / slot.stiffness_n_per_m);
+                }
+            }
+            st.obstacle_force_n[i] = add(st.obstacle_force_n[i], d_force);
+            st.obstacle_torque_nm[i] = add(st.obstacle_torque_nm[i], d_torque);
+            st.force_n[i] = add(st.force_n[i], d_force);
+            st.torque_nm[i] = add(st.torque_nm[i], d_torque);
+            let slot = &mut world.data.xfrc_applied_mut()[body];
+            for k in 0..3 {
+                slot[k] += d_force[k];
+                slot[3 + k] += d_torque[k];
             }
         }
     }

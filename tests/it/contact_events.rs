@@ -192,12 +192,12 @@ fn a_sideways_hit_on_the_cylinders_stays_within_the_reference_lift() {
     let e = measure(&c, &mut simulation(&c), 1.0, 0.5);
     eprintln!("{e:?}");
     assert!(e.max_lift_m <= 1.5 * 0.182, "a link lifts {} mm (reference 182 mm)", e.max_lift_m * 1e3);
-    assert!(e.friction_without_contact_n == 0.0, "{e:?}");
+    // Friction of the same instant's contacts, floor and cylinders: within μN, none on an open row.
+    assert!(e.friction_over_mu_n <= 1.0 + 1e-9 && e.friction_without_contact_n == 0.0, "{e:?}");
 }
 
-/// At μ 1 the reference lifts the snake 8.3 mm; here the link–obstacle friction is bounded by
-/// MuJoCo's obstacle normal force of the latest evaluation (the previous step's), not of the same
-/// step, and the snake lifts farther: this prints both μ.
+/// At μ 1 the reference lifts the snake 8.3 mm; here the snake lifts about 0.2 m (0.29 m with
+/// frictionless cylinders: the lift is not the obstacle friction's): this prints both μ.
 #[test]
 #[ignore = "probe: the sideways hit at μ 0.5 and 1 (run with --ignored --nocapture)"]
 fn measure_sideways_hit() {
