@@ -7,6 +7,7 @@
 //! every step, every recorded step and the end (see ARCHITECTURE.md, "Order of work in a step").
 
 mod compile;
+mod external;
 mod ground;
 mod index;
 mod noise;
@@ -597,7 +598,7 @@ impl World {
     }
 
     /// Applied generalized forces (MuJoCo's `qfrc_applied`), writable: an external load held
-    /// until changed (nothing in the step loop writes it). For the head's free joint, entries
+    /// until changed (the step loop writes it only with `[[physics.external_forces]]`). For the head's free joint, entries
     /// 0–2 are a force (N, world frame) at the head link's centre of mass.
     pub fn qfrc_applied_mut(&mut self) -> &mut [f64] {
         self.data.qfrc_applied_mut()

@@ -23,6 +23,7 @@
 //! trajectory. Nothing in the loop allocates (observers are a slice the caller owns; the
 //! snapshot is sized once).
 
+use super::external::ExternalForces;
 use super::{EnergyGuard, Ground, SensorNoise, SimError, World, WorldState};
 use crate::config::{Config, Sensors};
 use crate::control::{Command, Controller, Observation};
@@ -185,6 +186,8 @@ pub struct Simulation<C: Controller = Box<dyn Controller>> {
     /// Per-step work of the ground friction model, and its state at the start.
     ground: Ground,
     initial_ground: Ground,
+    /// `[[physics.external_forces]]`, into `qfrc_applied` before every step.
+    external: ExternalForces,
     /// Runaway-energy check (`[safety]`).
     energy_guard: EnergyGuard,
     /// Contact estimation on the measured sensors (`[estimation]`), part of sensing.
@@ -246,6 +249,7 @@ impl<C: Controller> Simulation<C> {
             world.forward();
         }
         Self {
+            external: ExternalForces::new(config, &world),
             initial_ground: ground.clone(),
             ground,
             energy_guard: EnergyGuard::new(config, &world),
@@ -439,6 +443,7 @@ impl<C: Controller> Simulation<C> {
             // The ground model's forces of the coming step (they depend on the state only), then
             // fresh sensors for this instant and its whole state.
             self.ground.before_step(&mut self.world);
+            self.external.before_step(&mut self.world);
             self.world.forward();
         }
         if self.controller.reads_sensors() || self.controller_state.is_some() {
@@ -456,6 +461,7 @@ impl<C: Controller> Simulation<C> {
         self.world.apply_command(&self.cmd);
         if self.controller_state.is_none() {
             self.ground.before_step(&mut self.world);
+            self.external.before_step(&mut self.world);
         }
     }
 

@@ -9,7 +9,7 @@
 //! gait's ramp links lift 0.65–1.2 mm and land at 7–16 × a link's weight. Run with
 //! `--nocapture` to see ours.
 
-use simserpent::config::Config;
+use simserpent::config::{Config, ExternalForce};
 use simserpent::sim::{Simulation, Snapshot, World};
 use simserpent::state::x_axis;
 
@@ -258,24 +258,30 @@ fn the_gait_ramp_and_steady_undulation_stay_within_the_reference_envelope() {
     }
 }
 
-/// One link on the floor pushed along its axis by a force ramped slowly through μ·m·g: it stays
-/// put until the push reaches μ·N and slides from there.
+/// One link on the floor pushed along its axis by a force ramped slowly through μ·m·g
+/// (`[[physics.external_forces]]`): it stays put until the push reaches μ·N and slides from there.
 #[test]
 fn a_slowly_ramped_push_breaks_a_link_away_at_mu_n() {
     for mu in [0.5, 1.0] {
-        let c = straight(mu, &["snake.n_links=1"]);
+        let mut c = straight(mu, &["snake.n_links=1"]);
         let mu_n = mu * c.snake.link_mass_kg * G;
+        // From 0 at 0.2 s, at a quarter of μN per second, along the link's axis (+x).
+        let (start, rate) = (0.2, 0.25 * mu_n);
+        c.physics.external_forces = vec![ExternalForce {
+            link: 0,
+            direction: [1.0, 0.0, 0.0],
+            start_secs: start,
+            ramp_n_per_s: rate,
+            force_n: 2.0 * mu_n,
+            duration_secs: 0.0,
+        }];
+        c.validate().unwrap();
         let mut sim = simulation(&c);
-        run_for(&mut sim, &c, 0.2);
-        let dt = c.general.timestep_secs;
-        // From 0 at a quarter of μN per second.
-        let rate = 0.25 * mu_n;
+        run_for(&mut sim, &c, start);
         let mut s = Snapshot::new(1, 0);
         let mut broke_at = None;
-        for k in 0..(4.4 / dt) as usize {
-            let push = rate * k as f64 * dt;
-            // The head's free joint: a force along x at the link's body origin, on its axis.
-            sim.world_mut().qfrc_applied_mut()[0] = push;
+        for _ in 0..(4.4 / c.general.timestep_secs) as usize {
+            let push = rate * (sim.world_mut().time_secs() - start);
             sim.control();
             sim.snapshot(&mut s);
             // Break-away: the first step faster than 1 mm/s. Sliding from t_b on, m·dv/dt =
@@ -334,5 +340,56 @@ fn measure_coasting_energy() {
         eprintln!(
             "μ {mu}: largest rise in a step: kinetic + potential {rise:e} J, with the floor's elastic energy {rise_el:e} J"
         );
+    }
+}
+
+/// `[[physics.external_forces]]`: a 1-N push for 0.1 s on a link on a frictionless floor gives it
+/// F·t/m and then nothing more; bad entries are refused naming the key.
+#[test]
+fn an_external_force_pushes_for_its_duration_and_bad_entries_are_refused() {
+    let c = straight(
+        0.0,
+        &[
+            "snake.n_links=1",
+            "physics.external_forces=[{ link = 0, direction = [0.0, 2.0, 0.0], start_secs = 0.05, ramp_n_per_s = 0.0, \
+             force_n = 1.0, duration_secs = 0.1 }]",
+        ],
+    );
+    let mut sim = simulation(&c);
+    run_for(&mut sim, &c, 0.3);
+    let mut s = Snapshot::new(1, 0);
+    sim.control();
+    sim.snapshot(&mut s);
+    let expected = 1.0 * 0.1 / c.snake.link_mass_kg;
+    let v = s.link_velocity_m_per_s[0];
+    eprintln!("velocity {v:?}, expected {expected} along y");
+    assert!((v[1] - expected).abs() <= 1e-3 * expected && v[0].abs() < 1e-6, "{v:?}");
+    let entry = |field: &str| {
+        let mut e = vec![
+            "link = 0",
+            "direction = [1.0, 0.0, 0.0]",
+            "start_secs = 0.0",
+            "ramp_n_per_s = 0.0",
+            "force_n = 1.0",
+            "duration_secs = 0.0",
+        ];
+        let name = field.split(' ').next().unwrap();
+        for x in e.iter_mut() {
+            if x.starts_with(name) {
+                *x = field;
+            }
+        }
+        format!("physics.external_forces=[{{ {} }}]", e.join(", "))
+    };
+    for (field, key) in [
+        ("link = 3", "physics.external_forces[0].link"),
+        ("direction = [0.0, 0.0, 0.0]", "physics.external_forces[0].direction"),
+        ("start_secs = -1.0", "physics.external_forces[0].start_secs"),
+        ("ramp_n_per_s = -2.0", "physics.external_forces[0].ramp_n_per_s"),
+        ("force_n = nan", "physics.external_forces[0].force_n"),
+        ("duration_secs = inf", "physics.external_forces[0].duration_secs"),
+    ] {
+        let e = default_config_with(&["snake.n_links=3".to_string(), entry(field)]).unwrap_err().to_string();
+        assert!(e.contains(key), "{field}: {e}");
     }
 }

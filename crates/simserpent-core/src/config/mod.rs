@@ -280,6 +280,37 @@ pub struct Physics {
     pub environment_contact_time_constant_secs: AutoSecs,
     /// Their damping ratio (MuJoCo solref; 1 = critically damped).
     pub environment_contact_damping_ratio: f64,
+    /// External forces on links, ramped from zero (`[[physics.external_forces]]`).
+    pub external_forces: Vec<ExternalForce>,
+}
+
+/// A force on one link's centre of mass, ramped from zero (`[[physics.external_forces]]`): from
+/// `start_secs` on it grows at `ramp_n_per_s` up to `force_n` (at once with a ramp of 0), along
+/// `direction` (world frame, any length), and stops after `duration_secs` (0: never).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExternalForce {
+    /// Link index, 0 = head.
+    pub link: usize,
+    pub direction: [f64; 3],
+    pub start_secs: f64,
+    pub ramp_n_per_s: f64,
+    pub force_n: f64,
+    pub duration_secs: f64,
+}
+
+impl ExternalForce {
+    /// The force's magnitude (N) at time `t_secs`.
+    pub fn magnitude_n(&self, t_secs: f64) -> f64 {
+        let since = t_secs - self.start_secs;
+        if since < 0.0 || (self.duration_secs > 0.0 && since >= self.duration_secs) {
+            0.0
+        } else if self.ramp_n_per_s > 0.0 {
+            (self.ramp_n_per_s * since).min(self.force_n)
+        } else {
+            self.force_n
+        }
+    }
 }
 
 /// The friction law between links and ground (`physics.floor_friction`).

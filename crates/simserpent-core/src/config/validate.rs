@@ -760,7 +760,31 @@ impl Config {
             "physics.solver_iterations",
             p.solver_iterations,
             format!("must be at most {MAX_SOLVER_ITERATIONS} (MuJoCo's default is 100)"),
-        )
+        )?;
+        self.validate_external_forces()
+    }
+
+    /// `[[physics.external_forces]]`: a link of the snake, a direction of non-zero length, finite
+    /// non-negative times, ramp and force.
+    fn validate_external_forces(&self) -> Check {
+        let n = self.snake.n_links;
+        for (i, f) in self.physics.external_forces.iter().enumerate() {
+            let key = |k: &str| format!("physics.external_forces[{i}].{k}");
+            ensure(f.link < n, &key("link"), f.link, format!("must be a link index from 0 (head) to {}", n - 1))?;
+            all_finite(&key("direction"), &f.direction)?;
+            let d = &f.direction;
+            ensure(
+                (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() > 1e-9,
+                &key("direction"),
+                fmt_a(d),
+                "must not be zero (the force's direction in world coordinates, any length)",
+            )?;
+            non_negative(&key("start_secs"), f.start_secs)?;
+            non_negative(&key("ramp_n_per_s"), f.ramp_n_per_s)?;
+            non_negative(&key("force_n"), f.force_n)?;
+            non_negative(&key("duration_secs"), f.duration_secs)?;
+        }
+        Ok(())
     }
 
     fn validate_snake(&self) -> Check {

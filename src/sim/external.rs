@@ -1,0 +1,62 @@
+//! External forces on links (`[[physics.external_forces]]`): before every step, each force's
+//! magnitude at the step's start time along its unit direction, at its link's centre of mass,
+//! into MuJoCo's `qfrc_applied` (through `mj_applyFT`, at the state's kinematics), held over the
+//! step. Body ids and unit directions are resolved once; no allocation per step.
+
+use super::World;
+use crate::config::{Config, ExternalForce};
+
+/// The configured external forces of a run, resolved for its world.
+#[derive(Debug, Clone)]
+pub struct ExternalForces {
+    /// Each force with its link's body id and its unit direction.
+    forces: Vec<(ExternalForce, usize, [f64; 3])>,
+    /// Generalized forces of the current step (scratch, one entry per degree of freedom).
+    qfrc: Vec<f64>,
+}
+
+impl ExternalForces {
+    /// The forces of `config` for `world` (links resolved to bodies).
+    pub fn new(config: &Config, world: &World) -> Self {
+        let forces = config
+            .physics
+            .external_forces
+            .iter()
+            .filter_map(|f| {
+                let body = world.index.links.get(f.link)?.body;
+                let d = f.direction;
+                let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                Some((f.clone(), body, d.map(|x| x / len)))
+            })
+            .collect();
+        Self { forces, qfrc: vec![0.0; world.data.qfrc_applied().len()] }
+    }
+
+    /// The forces at the world's current time into `qfrc_applied` (written every step, zero
+    /// while none acts, so a reset or a restored state never keeps a stale force). Does nothing
+    /// without configured forces.
+    pub fn before_step(&mut self, world: &mut World) {
+        if self.forces.is_empty() {
+            return;
+        }
+        let t = world.time_secs();
+        let any = self.forces.iter().any(|(f, _, _)| f.magnitude_n(t) > 0.0);
+        self.qfrc.fill(0.0);
+        if any {
+            // The kinematics and centre-of-mass positions of the state itself (mj_applyFT's
+            // Jacobian needs them).
+            world.data.kinematics();
+            world.data.com_pos();
+            for (f, body, dir) in &self.forces {
+                let size = f.magnitude_n(t);
+                if size > 0.0 {
+                    let point = world.data.xipos()[*body];
+                    let force = dir.map(|x| x * size);
+                    // The body id comes from the world's own index: always in range.
+                    let _ = world.data.apply_ft(&force, &[0.0; 3], &point, *body, &mut self.qfrc);
+                }
+            }
+        }
+        world.data.qfrc_applied_mut().copy_from_slice(&self.qfrc);
+    }
+}
