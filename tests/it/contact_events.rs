@@ -365,7 +365,7 @@ fn an_external_force_pushes_for_its_duration_and_bad_entries_are_refused() {
     eprintln!("velocity {v:?}, expected {expected} along y");
     assert!((v[1] - expected).abs() <= 1e-3 * expected && v[0].abs() < 1e-6, "{v:?}");
     let entry = |field: &str| {
-        let mut e = vec![
+        let mut e = [
             "link = 0",
             "direction = [1.0, 0.0, 0.0]",
             "start_secs = 0.0",
