@@ -79,6 +79,12 @@
 //!   friction is bounded by μ·N_k; a second forward pass with that friction applied gives the
 //!   normal force the step itself will have, and a slot above μ times it is scaled back onto it.
 //!   A slot without contact at x_k has no friction. See "Obstacles" below.
+//! - **Heightfield and mesh ground** contacts keep MuJoCo's normal force (condim 1), and their
+//!   ground slots' friction is bounded by MuJoCo's N of the latest evaluation (the previous
+//!   step's last stage, or a recording's forward pass), not of the same state: their per-prism
+//!   and per-face contacts appear and vanish between steps. On a bumpy heightfield (10 mm
+//!   relief, the default job, 10 s) 39 % of the heightfield rows with N > 0 carry more friction
+//!   than μ·N of the same instant (up to 14 ×); rows without N carry none.
 //! - Normal and friction forces of a link and their moments about its centre of mass go into
 //!   `xfrc_applied`, held over the step. [`Ground::own_contacts`] gives a snapshot its
 //!   link–ground contact rows; [`Ground::fill_snapshot`] adds the friction.
