@@ -5,7 +5,7 @@
 //! ```text
 //! cargo run --release --example oal_bench -- [--tune N] [--held N] [--duration S] [--threads N]
 //!     [--out DIR] [--floors isotropic,anisotropic] [--families lattice,random] [--passive 10,5,2.5]
-//!     [--no-laws] [--mine]
+//!     [--no-laws] [--estimated-only] [--mine] [--set KEY=VALUE]...
 //! cargo run --release --example oal_bench -- cost     # per-step cost of each controller (µs)
 //! ```
 //!
@@ -138,6 +138,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let mut bench = Bench { tuning_fields: 5, held_out_fields: 30, duration_secs: 15.0, ..Bench::full() };
     let (mut threads, mut out) = (0usize, "runs".to_string());
+    let mut overrides: Vec<String> = Vec::new();
     let mut i = 0;
     while i < args.len() {
         let value = args.get(i + 1).cloned().unwrap_or_default();
@@ -163,6 +164,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 })?
             }
             "--passive" => bench.passive_kp_nm_per_rad = list(&value, |s| s.parse().ok())?,
+            "--set" => overrides.push(value),
+            "--estimated-only" => {
+                bench.true_contacts = false;
+                i += 1;
+                continue;
+            }
             "--no-laws" => {
                 bench.laws = false;
                 i += 1;
@@ -177,6 +184,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         i += 2;
     }
+    let base = simserpent::config::load_config_str("", simserpent::config::ConfigSource::Toml, &overrides)?;
     simserpent::interrupt::install_handler()?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
     let unix_secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH)?.as_secs();
@@ -186,7 +194,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         &simserpent::record::utc_stamp(unix_secs),
     )?;
     let start = std::time::Instant::now();
-    let outcome = oal_bench::run_bench(&bench, &Config::default(), &pool, &folder, true)?;
+    let outcome = oal_bench::run_bench(&bench, &base, &pool, &folder, true)?;
     let report = simserpent::experiments::Report {
         title: "SimSerpent obstacle-aided locomotion benchmark".into(),
         intro: format!(

@@ -216,8 +216,10 @@ pub struct Bench {
     pub families: Vec<Family>,
     /// The passive-compliance sweep (kp, N·m/rad).
     pub passive_kp_nm_per_rad: Vec<f64>,
-    /// Whether the built-in contact laws run (estimated and true contacts).
+    /// Whether the built-in contact laws run (on estimated contacts).
     pub laws: bool,
+    /// Whether they run on the true contacts too (for the estimated-against-true comparison).
+    pub true_contacts: bool,
     /// Controllers plugged in.
     pub plugged: Vec<Plugged>,
     /// Fields whose paths are plotted (held-out indices, per floor and family).
@@ -235,6 +237,7 @@ impl Bench {
             families: vec![Family::Lattice, Family::Random],
             passive_kp_nm_per_rad: PASSIVE_KP_NM_PER_RAD.to_vec(),
             laws: true,
+            true_contacts: true,
             plugged: Vec::new(),
             path_fields: 2,
         }
@@ -261,7 +264,9 @@ impl Bench {
         if self.laws {
             for (name, kind) in LAWS {
                 c.push(Condition { name: format!("{name}_est"), kind: Kind::Law(kind, ContactSource::Estimated) });
-                c.push(Condition { name: format!("{name}_true"), kind: Kind::Law(kind, ContactSource::True) });
+                if self.true_contacts {
+                    c.push(Condition { name: format!("{name}_true"), kind: Kind::Law(kind, ContactSource::True) });
+                }
             }
         }
         for p in &self.plugged {
@@ -333,6 +338,17 @@ pub fn field_config(base: &Config, floor: Floor, layout: Layout, seed: u64) -> C
         Layout::Bare => c.terrain.pegboard.layout = PegLayout::None,
     }
     c
+}
+
+/// The body length of the benchmark's snake (m).
+fn body_length_m(base: &Config) -> f64 {
+    let c = field_config(base, Floor::Isotropic, Layout::Bare, 0);
+    c.snake.n_links as f64 * c.snake.link_length_m
+}
+
+/// The gait's ramp-in (s).
+fn base_ramp_secs(base: &Config) -> f64 {
+    field_config(base, Floor::Isotropic, Layout::Bare, 0).gait.ramp_secs
 }
 
 /// The config of one condition on a field, and the controller to plug in (if any).
@@ -597,19 +613,67 @@ pub fn run_bench(
 ) -> Result<BenchOutcome, ExperimentError> {
     use rayon::prelude::*;
     let conditions = bench.conditions();
+    let fields_of = |held_out: bool| -> Vec<(u64, bool)> {
+        if held_out {
+            (0..bench.held_out_fields).map(|s| (HELD_OUT_FIRST_SEED + s, true)).collect()
+        } else {
+            (0..bench.tuning_fields).map(|s| (s, false)).collect()
+        }
+    };
+    // Phase 1: every condition (the whole passive sweep) on the tuning fields.
     let mut cases = Vec::new();
     for floor in 0..bench.floors.len() {
         for family in 0..bench.families.len() {
-            let seeds = (0..bench.tuning_fields)
-                .map(|s| (s, false))
-                .chain((0..bench.held_out_fields).map(|s| (HELD_OUT_FIRST_SEED + s, true)));
-            for (seed, held_out) in seeds {
+            for (seed, held_out) in fields_of(false) {
                 for condition in 0..conditions.len() {
                     cases.push(Case { floor, family, seed, held_out, condition });
                 }
             }
         }
     }
+    let passive: Vec<usize> =
+        (0..conditions.len()).filter(|&k| matches!(conditions[k].kind, Kind::Passive(_))).collect();
+    // Phase 2 depends on the passive gain the tuning fields choose; its size is known up front.
+    let held_out_conditions = conditions.len() - passive.len().saturating_sub(1);
+    let total =
+        cases.len() + bench.floors.len() * bench.families.len() * bench.held_out_fields as usize * held_out_conditions;
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let cost = std::sync::Mutex::new(vec![(0usize, 0.0f64, 0.0f64); conditions.len()]);
+    let run_cases = |cases: &[Case]| -> Vec<Result<Option<Trace>, ExperimentError>> {
+        pool.install(|| {
+            cases
+                .par_iter()
+                .map(|case| {
+                    if crate::interrupt::requested() {
+                        return Ok(None);
+                    }
+                    let family = bench.families[case.family];
+                    let index = if case.held_out { case.seed - HELD_OUT_FIRST_SEED } else { case.seed };
+                    let field = field_config(base, bench.floors[case.floor], Layout::of(family, index), case.seed);
+                    let condition = &conditions[case.condition];
+                    let config = condition_config(&field, condition, bench.duration_secs);
+                    let controller = match &condition.kind {
+                        Kind::Plugged(p) => Some((p.make)(&config, config.snake.n_links.saturating_sub(1))),
+                        _ => None,
+                    };
+                    let cpu_started = crate::cpu_time::thread_cpu_ns();
+                    let result = run_one(&config, controller);
+                    let cpu_secs = crate::cpu_time::thread_cpu_ns().saturating_sub(cpu_started) as f64 * 1e-9;
+                    if let Ok(Some(t)) = &result
+                        && let Ok(mut c) = cost.lock()
+                    {
+                        let e = &mut c[case.condition];
+                        *e = (e.0 + 1, e.1 + t.time_secs.last().copied().unwrap_or(0.0), e.2 + cpu_secs);
+                    }
+                    let n = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
+                    if progress && (n.is_multiple_of(50) || n == total) {
+                        eprintln!("experiment oal-bench: {n} of {total} runs done");
+                    }
+                    result
+                })
+                .collect()
+        })
+    };
     // The bare floor, base gait, once per floor: what the pegs add.
     let bare: Vec<Result<Option<Trace>, ExperimentError>> = pool.install(|| {
         bench
@@ -621,33 +685,67 @@ pub fn run_bench(
             })
             .collect()
     });
-    let total = cases.len();
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<Result<Option<Trace>, ExperimentError>> = pool.install(|| {
-        cases
-            .par_iter()
-            .map(|case| {
-                if crate::interrupt::requested() {
-                    return Ok(None);
-                }
-                let family = bench.families[case.family];
-                let index = if case.held_out { case.seed - HELD_OUT_FIRST_SEED } else { case.seed };
-                let field = field_config(base, bench.floors[case.floor], Layout::of(family, index), case.seed);
-                let condition = &conditions[case.condition];
-                let config = condition_config(&field, condition, bench.duration_secs);
-                let controller = match &condition.kind {
-                    Kind::Plugged(p) => Some((p.make)(&config, config.snake.n_links.saturating_sub(1))),
-                    _ => None,
+    let mut results = run_cases(&cases);
+    let tuning_done = results.iter().filter(|r| matches!(r, Ok(Some(_)))).count();
+    if tuning_done < cases.len() && crate::interrupt::requested() {
+        return Err(ExperimentError::Interrupted { done: tuning_done, planned: total });
+    }
+    let tuning_scores: Vec<Score> = results
+        .iter()
+        .map(|r| match r {
+            Ok(Some(t)) => score(t, base_ramp_secs(base), FREQUENCY_HZ, body_length_m(base)),
+            _ => Score::default(),
+        })
+        .collect();
+    // The passive baseline per floor: the best tuning success rate over both families, then
+    // median speed.
+    let chosen_passive: Vec<Option<usize>> = (0..bench.floors.len())
+        .map(|floor| {
+            passive.iter().copied().max_by(|&a, &b| {
+                let key = |k: usize| {
+                    let (mut s, mut v) = (Vec::new(), Vec::new());
+                    for (c, sc) in cases.iter().zip(&tuning_scores) {
+                        if c.floor == floor && c.condition == k {
+                            s.push(if sc.success { 1.0 } else { 0.0 });
+                            v.push(sc.speed_bl_per_cycle);
+                        }
+                    }
+                    (mean(&s), median(&v))
                 };
-                let result = run_one(&config, controller);
-                let n = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
-                if progress && (n.is_multiple_of(50) || n == total) {
-                    eprintln!("experiment oal-bench: {n} of {total} runs done");
-                }
-                result
+                let (ka, kb) = (key(a), key(b));
+                ka.0.total_cmp(&kb.0).then(ka.1.total_cmp(&kb.1)).then(b.cmp(&a))
             })
-            .collect()
-    });
+        })
+        .collect();
+    // Phase 2: the held-out fields, every condition but the passive gains not chosen.
+    let tuning_cases = cases.len();
+    for floor in 0..bench.floors.len() {
+        for family in 0..bench.families.len() {
+            for (seed, held_out) in fields_of(true) {
+                for condition in 0..conditions.len() {
+                    if passive.contains(&condition) && chosen_passive[floor] != Some(condition) {
+                        continue;
+                    }
+                    cases.push(Case { floor, family, seed, held_out, condition });
+                }
+            }
+        }
+    }
+    results.extend(run_cases(&cases[tuning_cases..]));
+    if progress && let Ok(c) = cost.lock() {
+        for (k, (runs, sim_secs, cpu_secs)) in c.iter().enumerate() {
+            if *runs > 0 {
+                eprintln!(
+                    "experiment oal-bench: {}: {runs} runs, {:.1} simulated s per run, {:.2} CPU s per run ({:.0} µs per step)",
+                    conditions[k].name,
+                    sim_secs / *runs as f64,
+                    cpu_secs / *runs as f64,
+                    1e6 * cpu_secs / (sim_secs / base.general.timestep_secs).max(1.0),
+                );
+            }
+        }
+    }
+    let total = cases.len();
     let mut traces = Vec::with_capacity(total);
     for r in results {
         traces.push(r?);
@@ -660,8 +758,8 @@ pub fn run_bench(
     let traces: Vec<Trace> = traces.into_iter().map(Option::unwrap_or_default).collect();
     let bare: Vec<Trace> = bare.into_iter().map(Option::unwrap_or_default).collect();
     let reference = field_config(base, Floor::Isotropic, Layout::Bare, 0);
-    let body_m = reference.snake.n_links as f64 * reference.snake.link_length_m;
-    let ramp_secs = reference.gait.ramp_secs;
+    let body_m = body_length_m(base);
+    let ramp_secs = base_ramp_secs(base);
     let scores: Vec<Score> = traces.iter().map(|t| score(t, ramp_secs, FREQUENCY_HZ, body_m)).collect();
 
     // Per-run table.
@@ -704,25 +802,9 @@ pub fn run_bench(
     let success = |s: &Score| if s.success { 1.0 } else { 0.0 };
     let speed = |s: &Score| s.speed_bl_per_cycle;
 
-    // The passive baseline per floor: the best tuning success rate over both families, then speed.
-    let passive: Vec<usize> =
-        (0..conditions.len()).filter(|&k| matches!(conditions[k].kind, Kind::Passive(_))).collect();
-    let chosen_passive: Vec<Option<usize>> = (0..bench.floors.len())
-        .map(|floor| {
-            passive.iter().copied().max_by(|&a, &b| {
-                let key = |k: usize| {
-                    let (mut s, mut v) = (Vec::new(), Vec::new());
-                    for family in 0..bench.families.len() {
-                        s.extend(values(floor, family, false, k, success));
-                        v.extend(values(floor, family, false, k, speed));
-                    }
-                    (mean(&s), median(&v))
-                };
-                let (ka, kb) = (key(a), key(b));
-                ka.0.total_cmp(&kb.0).then(ka.1.total_cmp(&kb.1)).then(b.cmp(&a))
-            })
-        })
-        .collect();
+    // The conditions of the held-out fields of a floor: every one but the passive gains not chosen.
+    let shown =
+        |floor: usize, k: usize| !matches!(conditions[k].kind, Kind::Passive(_)) || chosen_passive[floor] == Some(k);
 
     // Summary per floor × family × condition (held-out fields).
     let mut summary_rows = Vec::new();
@@ -732,6 +814,9 @@ pub fn run_bench(
     for (fl, floor) in bench.floors.iter().enumerate() {
         for (fa, family) in bench.families.iter().enumerate() {
             for (k, condition) in conditions.iter().enumerate() {
+                if !shown(fl, k) {
+                    continue;
+                }
                 let s = values(fl, fa, true, k, success);
                 let v = values(fl, fa, true, k, speed);
                 let jams = values(fl, fa, true, k, |s| s.jams_per_min);
@@ -881,7 +966,8 @@ pub fn run_bench(
     for (fl, floor) in bench.floors.iter().enumerate() {
         for (fa, family) in bench.families.iter().enumerate() {
             let (mut s, mut slo, mut shi, mut v, mut vlo, mut vhi) = (vec![], vec![], vec![], vec![], vec![], vec![]);
-            for k in 0..conditions.len() {
+            let ks: Vec<usize> = (0..conditions.len()).filter(|&k| shown(fl, k)).collect();
+            for &k in &ks {
                 let ss = values(fl, fa, true, k, success);
                 let (lo, hi) = bootstrap_interval(&ss, mean);
                 s.push(100.0 * mean(&ss));
@@ -893,7 +979,7 @@ pub fn run_bench(
                 vlo.push(lo);
                 vhi.push(hi);
             }
-            let names: Vec<String> = conditions.iter().map(|c| c.name.clone()).collect();
+            let names: Vec<String> = ks.iter().map(|&k| conditions[k].name.clone()).collect();
             crate::plot::plot_intervals(
                 &plots,
                 &format!("oal_success_{}_{}", floor.name(), family.name()),
