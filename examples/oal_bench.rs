@@ -149,20 +149,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--duration" => bench.duration_secs = number(&value)?,
             "--threads" => threads = number(&value)? as usize,
             "--out" => out = value,
-            "--floors" => {
-                bench.floors = list(&value, |s| match s {
-                    "isotropic" => Some(Floor::Isotropic),
-                    "anisotropic" => Some(Floor::Anisotropic),
-                    _ => None,
-                })?
-            }
-            "--families" => {
-                bench.families = list(&value, |s| match s {
-                    "lattice" => Some(Family::Lattice),
-                    "random" => Some(Family::Random),
-                    _ => None,
-                })?
-            }
+            "--floors" => bench.floors = list(&value, Floor::from_name)?,
+            "--families" => bench.families = list(&value, Family::from_name)?,
             "--passive" => bench.passive_kp_nm_per_rad = list(&value, |s| s.parse().ok())?,
             "--set" => overrides.push(value),
             "--estimated-only" => {
@@ -187,31 +175,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let base = simserpent::config::load_config_str("", simserpent::config::ConfigSource::Toml, &overrides)?;
     simserpent::interrupt::install_handler()?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
-    let unix_secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH)?.as_secs();
-    let folder = simserpent::record::create_run_folder(
-        std::path::Path::new(&out),
-        "oal-bench",
-        &simserpent::record::utc_stamp(unix_secs),
-    )?;
     let start = std::time::Instant::now();
-    let outcome = oal_bench::run_bench(&bench, &base, &pool, &folder, true)?;
-    let report = simserpent::experiments::Report {
-        title: "SimSerpent obstacle-aided locomotion benchmark".into(),
-        intro: format!(
-            "`cargo run --release --example oal_bench -- {}`: {} runs.",
-            args.join(" "),
-            outcome.runs_planned
-        ),
-        sections: vec![outcome.section],
-    };
-    std::fs::write(folder.join("report.md"), report.to_markdown())?;
+    let intro = format!("`cargo run --release --example oal_bench -- {}`", args.join(" "));
+    let (folder, report) = oal_bench::run_into(&bench, &base, &pool, std::path::Path::new(&out), &intro, true)?;
     println!("{}", report.to_markdown());
-    eprintln!(
-        "{}: {} runs in {:.1} s on {} threads",
-        folder.display(),
-        outcome.runs_planned,
-        start.elapsed().as_secs_f64(),
-        pool.current_num_threads()
-    );
+    eprintln!("{}: {:.1} s on {} threads", folder.display(), start.elapsed().as_secs_f64(), pool.current_num_threads());
     Ok(())
 }

@@ -153,8 +153,7 @@ enum Command {
         overrides: Vec<String>,
     },
     /// Run one of the thesis' experiments with its physics checks: configure, collision,
-    /// undulation, form-closure, oal, estimation, bounce (the project assignment's ball drop), hoal (obstacle-aided
-    /// locomotion with force feedback against open-loop waves), oal-bench (the obstacle-aided locomotion benchmark:
+    /// undulation, form-closure, oal, estimation, bounce (the project assignment's ball drop), oal-bench (the obstacle-aided locomotion benchmark:
     /// contact laws against open loop and passive compliance on paired peg fields). Writes runs/experiment-<name>-<UTC time>/report.md; exits 1
     /// if a check fails.
     Experiment {

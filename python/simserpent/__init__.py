@@ -111,6 +111,7 @@ __all__ = [
     "load_config",
     "make_world",
     "mujoco_version",
+    "oal_bench",
     "open_run",
     "plot",
     "render",
@@ -254,6 +255,67 @@ def estimate(run_folder: Union[str, "os.PathLike[str]"], overrides: Overrides = 
     that writes it), or :class:`ConfigError` for a bad override.
     """
     return _core.estimate(_fspath("estimate", "run_folder", run_folder), _override_list(overrides))
+
+
+def oal_bench(
+    controller: Any = None,
+    name: str = "mine",
+    out: Union[str, "os.PathLike[str]"] = "runs",
+    quick: bool = True,
+    estimation: bool = True,
+    tuning_fields: Union[int, None] = None,
+    held_out_fields: Union[int, None] = None,
+    duration_secs: Union[float, None] = None,
+    floors: Union[Iterable[str], None] = None,
+    families: Union[Iterable[str], None] = None,
+    laws: bool = True,
+    true_contacts: bool = True,
+    passive_kp_nm_per_rad: Union[Iterable[float], None] = None,
+    threads: int = 0,
+    overrides: Overrides = None,
+) -> dict[str, Any]:
+    """The obstacle-aided locomotion benchmark (``simserpent experiment oal-bench``) with your
+    controller plugged in as condition ``name`` beside feedback off (``open_loop``), passive
+    compliance (the open-loop gait on soft servos, the gain chosen on the tuning fields) and the
+    built-in contact laws (``laws``; with ``true_contacts`` also fed the true contacts), on the
+    same paired fields.
+
+    ``controller(config)`` is called once per run with the run's :class:`Config` (the benchmark's
+    base gait in ``gait.sine_wave``, its servos in ``control``, ``estimation.enabled =
+    estimation``) and returns the step callable, as for :func:`run` (observation dict -> one
+    command per joint; ``obs["contacts"]`` holds the contact estimates when ``estimation``).
+
+    ``quick`` starts from the CI size (1 tuning and 2 held-out fields per family, 6-s runs),
+    otherwise from the full one (20 and 100, 60 s); ``tuning_fields``, ``held_out_fields``,
+    ``duration_secs``, ``floors`` (``"isotropic"``, ``"anisotropic"``), ``families``
+    (``"lattice"``, ``"random"``) and ``passive_kp_nm_per_rad`` change it. ``overrides``
+    (``--set`` syntax) go onto the default config first (e.g. a contact law's gains).
+    ``threads``: 0 = all cores.
+
+    Writes ``<out>/oal-bench-<UTC time>/`` (``report.md``, ``oal_runs.csv``, ``oal_summary.csv``,
+    ``oal_paired.csv``, ``plots/``); returns ``{"folder": ..., "report": <the report as
+    Markdown>}``. An exception in your controller stops the benchmark and is raised as the cause
+    of a :class:`SimSerpentError`.
+    """
+    if controller is not None and not callable(controller):
+        raise TypeError(f"controller must be callable (config -> step callable), got {type(controller).__name__}")
+    return _core.oal_bench(
+        controller,
+        name,
+        os.fspath(out),
+        quick,
+        estimation,
+        tuning_fields,
+        held_out_fields,
+        duration_secs,
+        None if floors is None else list(floors),
+        None if families is None else list(families),
+        laws,
+        true_contacts,
+        None if passive_kp_nm_per_rad is None else [float(k) for k in passive_kp_nm_per_rad],
+        threads,
+        _override_list(overrides),
+    )
 
 
 class Gait:

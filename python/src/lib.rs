@@ -469,6 +469,121 @@ fn run<'py>(
     }
 }
 
+/// `simserpent experiment oal-bench` with a Python controller plugged in (the GIL released
+/// between its calls): `controller(config)` builds one per run from the run's config (the
+/// benchmark's base gait in `gait.sine_wave`, its servos, `estimation.enabled` = `estimation`)
+/// and returns the step callable of `PyController`. Writes `<out>/oal-bench-<UTC time>/`
+/// (report.md, the tables, plots/); returns `folder` and `report` (Markdown).
+#[pyfunction]
+#[pyo3(signature = (controller, name, out, quick, estimation, tuning_fields, held_out_fields, duration_secs, floors, families, laws, true_contacts, passive_kp_nm_per_rad, threads, overrides))]
+#[allow(clippy::too_many_arguments)]
+fn oal_bench<'py>(
+    py: Python<'py>,
+    controller: Option<Py<PyAny>>,
+    name: String,
+    out: PathBuf,
+    quick: bool,
+    estimation: bool,
+    tuning_fields: Option<u64>,
+    held_out_fields: Option<u64>,
+    duration_secs: Option<f64>,
+    floors: Option<Vec<String>>,
+    families: Option<Vec<String>>,
+    laws: bool,
+    true_contacts: bool,
+    passive_kp_nm_per_rad: Option<Vec<f64>>,
+    threads: usize,
+    overrides: Vec<String>,
+) -> PyResult<Bound<'py, PyDict>> {
+    use simserpent::experiments::oal_bench::{Bench, Family, Floor, Plugged};
+    let value_err = pyo3::exceptions::PyValueError::new_err;
+    let base = config::load_config_str("", ConfigSource::Toml, &overrides).map_err(|e| config_err("--set", &e))?;
+    let mut bench = if quick { Bench::quick() } else { Bench::full() };
+    bench.tuning_fields = tuning_fields.unwrap_or(bench.tuning_fields);
+    bench.held_out_fields = held_out_fields.unwrap_or(bench.held_out_fields);
+    if let Some(d) = duration_secs {
+        if !(d.is_finite() && d > 0.0) {
+            return Err(value_err(format!("duration_secs = {d}: must be a positive number of seconds")));
+        }
+        bench.duration_secs = d;
+    }
+    if let Some(f) = floors {
+        bench.floors = f
+            .iter()
+            .map(|s| {
+                Floor::from_name(s)
+                    .ok_or_else(|| value_err(format!("floors: unknown floor {s:?}; allowed: \"isotropic\", \"anisotropic\"")))
+            })
+            .collect::<PyResult<_>>()?;
+    }
+    if let Some(f) = families {
+        bench.families = f
+            .iter()
+            .map(|s| {
+                Family::from_name(s)
+                    .ok_or_else(|| value_err(format!("families: unknown family {s:?}; allowed: \"lattice\", \"random\"")))
+            })
+            .collect::<PyResult<_>>()?;
+    }
+    if let Some(kp) = passive_kp_nm_per_rad {
+        if kp.iter().any(|k| !(k.is_finite() && *k > 0.0)) {
+            return Err(value_err(format!("passive_kp_nm_per_rad = {kp:?}: every gain must be positive")));
+        }
+        bench.passive_kp_nm_per_rad = kp;
+    }
+    bench.laws = laws;
+    bench.true_contacts = true_contacts;
+    let error: Arc<Mutex<Option<PyErr>>> = Arc::new(Mutex::new(None));
+    if let Some(factory) = controller {
+        let factory = Arc::new(factory);
+        let slot = Arc::clone(&error);
+        let make = move |config: &Config, _n_joints: usize| -> Box<dyn Controller> {
+            let made = Python::attach(|py| {
+                let c = PyConfig { inner: config.clone(), source: "oal-bench field".into() };
+                factory.bind(py).call1((c,)).map(Bound::unbind)
+            });
+            let callable = match made {
+                Ok(callable) => callable,
+                Err(e) => {
+                    // Kept, and the run stops at its first command (NaN).
+                    if let Ok(mut s) = slot.lock()
+                        && s.is_none()
+                    {
+                        *s = Some(e);
+                    }
+                    Python::attach(|py| py.None())
+                }
+            };
+            Box::new(PyController { callable, method: config.control.method, error: Arc::clone(&slot) })
+        };
+        bench.plugged.push(Plugged { name, make: Arc::new(make), estimation });
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| SimSerpentError::new_err(format!("thread pool: {e}")))?;
+    let result = py.detach(|| {
+        simserpent::experiments::oal_bench::run_into(
+            &bench,
+            &base,
+            &pool,
+            &out,
+            "Python: `simserpent.oal_bench(...)`",
+            false,
+        )
+    });
+    if let Some(e) = error.lock().ok().and_then(|mut e| e.take()) {
+        let wrapped = SimSerpentError::new_err("the Python controller raised an exception");
+        wrapped.set_cause(py, Some(e));
+        return Err(wrapped);
+    }
+    let (folder, report) = result.map_err(|e| SimSerpentError::new_err(error_text(&e)))?;
+    let d = PyDict::new(py);
+    d.set_item("folder", folder.display().to_string())?;
+    d.set_item("report", report.to_markdown())?;
+    Ok(d)
+}
+
 /// The config's gait (`[gait]`) as a function of time: `targets(t_secs)` gives the joint
 /// target angles (rad) and velocities (rad/s) the built-in controller follows.
 #[pyclass(module = "simserpent._core", frozen)]
@@ -1429,6 +1544,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(mujoco_version, m)?)?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(estimate, m)?)?;
+    m.add_function(wrap_pyfunction!(oal_bench, m)?)?;
     m.add("SWEEP_METRICS", sweep::METRICS.iter().map(|m| m.name).collect::<Vec<_>>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

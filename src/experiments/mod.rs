@@ -10,7 +10,6 @@ pub mod bounce;
 mod collision;
 mod data;
 pub mod estimation;
-pub mod hoal;
 mod locomotion;
 pub mod oal_bench;
 mod pictures;
@@ -88,8 +87,8 @@ impl ExperimentError {
 }
 
 /// The experiments, by command name.
-pub const NAMES: [&str; 9] =
-    ["configure", "collision", "undulation", "form-closure", "oal", "estimation", "bounce", "hoal", "oal-bench"];
+pub const NAMES: [&str; 8] =
+    ["configure", "collision", "undulation", "form-closure", "oal", "estimation", "bounce", "oal-bench"];
 
 /// How an experiment runs: length of its runs, threads, progress.
 #[derive(Debug, Clone, Default)]
@@ -333,7 +332,6 @@ pub fn run_experiment_with(
     let mut report = Report { title: format!("SimSerpent experiment `{name}`"), ..Report::default() };
     let cases = match name {
         "estimation" => "Each case below wrote estimation_<case>.csv and plots/ next to this report.",
-        "hoal" => "The runs are in memory: hoal_runs.csv and plots/ next to this report.",
         "oal-bench" => {
             "The runs are in memory: oal_runs.csv, oal_summary.csv, oal_paired.csv and plots/ next to this report."
         }
@@ -354,7 +352,6 @@ pub fn run_experiment_with(
         "form-closure" => locomotion::form_closure(&ctx, base),
         "estimation" => estimation::run(&ctx, base),
         "bounce" => bounce::run(&ctx, base),
-        "hoal" => hoal::run(&ctx, base),
         "oal-bench" => oal_bench::run(&ctx, base),
         _ => locomotion::configure(&ctx, base),
     };

@@ -90,6 +90,11 @@ pub enum Floor {
 }
 
 impl Floor {
+    /// The floor named `name` ("isotropic", "anisotropic").
+    pub fn from_name(name: &str) -> Option<Floor> {
+        [Floor::Isotropic, Floor::Anisotropic].into_iter().find(|f| f.name() == name)
+    }
+
     /// Its name in tables.
     pub fn name(self) -> &'static str {
         match self {
@@ -109,6 +114,11 @@ pub enum Family {
 }
 
 impl Family {
+    /// The family named `name` ("lattice", "random").
+    pub fn from_name(name: &str) -> Option<Family> {
+        [Family::Lattice, Family::Random].into_iter().find(|f| f.name() == name)
+    }
+
     /// Its name in tables.
     pub fn name(self) -> &'static str {
         match self {
@@ -599,6 +609,8 @@ pub struct BenchOutcome {
     /// Runs done and planned.
     pub runs_done: usize,
     pub runs_planned: usize,
+    /// Held-out fields per family in the figures (fewer than planned after an interrupt).
+    pub held_out_done: u64,
 }
 
 /// Runs the benchmark `bench` on top of `base` on `pool`, writing its tables and plots into
@@ -639,40 +651,55 @@ pub fn run_bench(
         cases.len() + bench.floors.len() * bench.families.len() * bench.held_out_fields as usize * held_out_conditions;
     let done = std::sync::atomic::AtomicUsize::new(0);
     let cost = std::sync::Mutex::new(vec![(0usize, 0.0f64, 0.0f64); conditions.len()]);
+    let run_case = |case: &Case| -> Result<Option<Trace>, ExperimentError> {
+        if crate::interrupt::requested() {
+            return Ok(None);
+        }
+        let family = bench.families[case.family];
+        let index = if case.held_out { case.seed - HELD_OUT_FIRST_SEED } else { case.seed };
+        let field = field_config(base, bench.floors[case.floor], Layout::of(family, index), case.seed);
+        let condition = &conditions[case.condition];
+        let config = condition_config(&field, condition, bench.duration_secs);
+        let controller = match &condition.kind {
+            Kind::Plugged(p) => Some((p.make)(&config, config.snake.n_links.saturating_sub(1))),
+            _ => None,
+        };
+        let cpu_started = crate::cpu_time::thread_cpu_ns();
+        let result = run_one(&config, controller);
+        let cpu_secs = crate::cpu_time::thread_cpu_ns().saturating_sub(cpu_started) as f64 * 1e-9;
+        if let Ok(Some(t)) = &result
+            && let Ok(mut c) = cost.lock()
+        {
+            let e = &mut c[case.condition];
+            *e = (e.0 + 1, e.1 + t.time_secs.last().copied().unwrap_or(0.0), e.2 + cpu_secs);
+        }
+        let n = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
+        if progress && (n.is_multiple_of(50) || n == total) {
+            eprintln!("experiment oal-bench: {n} of {total} runs done");
+        }
+        result
+    };
+    // The cases in their order, each worker taking the next one: an interrupt leaves a finished
+    // prefix (whole fields, in seed order), not scattered runs.
     let run_cases = |cases: &[Case]| -> Vec<Result<Option<Trace>, ExperimentError>> {
-        pool.install(|| {
-            cases
-                .par_iter()
-                .map(|case| {
-                    if crate::interrupt::requested() {
-                        return Ok(None);
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        let slots: Vec<std::sync::Mutex<Option<Result<Option<Trace>, ExperimentError>>>> =
+            cases.iter().map(|_| std::sync::Mutex::new(None)).collect();
+        pool.scope(|scope| {
+            for _ in 0..pool.current_num_threads() {
+                scope.spawn(|_| {
+                    loop {
+                        let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                        let Some(case) = cases.get(i) else { break };
+                        let result = run_case(case);
+                        if let Ok(mut slot) = slots[i].lock() {
+                            *slot = Some(result);
+                        }
                     }
-                    let family = bench.families[case.family];
-                    let index = if case.held_out { case.seed - HELD_OUT_FIRST_SEED } else { case.seed };
-                    let field = field_config(base, bench.floors[case.floor], Layout::of(family, index), case.seed);
-                    let condition = &conditions[case.condition];
-                    let config = condition_config(&field, condition, bench.duration_secs);
-                    let controller = match &condition.kind {
-                        Kind::Plugged(p) => Some((p.make)(&config, config.snake.n_links.saturating_sub(1))),
-                        _ => None,
-                    };
-                    let cpu_started = crate::cpu_time::thread_cpu_ns();
-                    let result = run_one(&config, controller);
-                    let cpu_secs = crate::cpu_time::thread_cpu_ns().saturating_sub(cpu_started) as f64 * 1e-9;
-                    if let Ok(Some(t)) = &result
-                        && let Ok(mut c) = cost.lock()
-                    {
-                        let e = &mut c[case.condition];
-                        *e = (e.0 + 1, e.1 + t.time_secs.last().copied().unwrap_or(0.0), e.2 + cpu_secs);
-                    }
-                    let n = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
-                    if progress && (n.is_multiple_of(50) || n == total) {
-                        eprintln!("experiment oal-bench: {n} of {total} runs done");
-                    }
-                    result
-                })
-                .collect()
-        })
+                });
+            }
+        });
+        slots.into_iter().map(|s| s.into_inner().ok().flatten().unwrap_or(Ok(None))).collect()
     };
     // The bare floor, base gait, once per floor: what the pegs add.
     let bare: Vec<Result<Option<Trace>, ExperimentError>> = pool.install(|| {
@@ -719,9 +746,11 @@ pub fn run_bench(
         .collect();
     // Phase 2: the held-out fields, every condition but the passive gains not chosen.
     let tuning_cases = cases.len();
-    for floor in 0..bench.floors.len() {
-        for family in 0..bench.families.len() {
-            for (seed, held_out) in fields_of(true) {
+    // Field by field (every floor and family of a seed together), so an interrupt keeps whole
+    // paired fields.
+    for (seed, held_out) in fields_of(true) {
+        for floor in 0..bench.floors.len() {
+            for family in 0..bench.families.len() {
                 for condition in 0..conditions.len() {
                     if passive.contains(&condition) && chosen_passive[floor] != Some(condition) {
                         continue;
@@ -752,8 +781,22 @@ pub fn run_bench(
     }
     let bare: Vec<Option<Trace>> = bare.into_iter().collect::<Result<_, _>>()?;
     let runs_done = traces.iter().filter(|t| t.is_some()).count();
-    if runs_done < total || bare.iter().any(Option::is_none) {
-        return Err(ExperimentError::Interrupted { done: runs_done, planned: total });
+    // Interrupted during the held-out fields: the report covers the held-out seeds whose every
+    // run finished (a prefix of the seeds), and says so.
+    let mut held_out_done = bench.held_out_fields;
+    if runs_done < total {
+        let tuning_complete = traces[..tuning_cases].iter().all(Option::is_some);
+        let complete = |seed: u64| cases.iter().zip(&traces).filter(|(c, _)| c.seed == seed).all(|(_, t)| t.is_some());
+        held_out_done = (0..bench.held_out_fields).take_while(|&i| complete(HELD_OUT_FIRST_SEED + i)).count() as u64;
+        if !tuning_complete || held_out_done == 0 || bare.iter().any(Option::is_none) {
+            return Err(ExperimentError::Interrupted { done: runs_done, planned: total });
+        }
+        let keep: Vec<bool> =
+            cases.iter().map(|c| !c.held_out || c.seed < HELD_OUT_FIRST_SEED + held_out_done).collect();
+        let mut k = keep.iter();
+        cases.retain(|_| *k.next().unwrap_or(&false));
+        let mut k = keep.iter();
+        traces.retain(|_| *k.next().unwrap_or(&false));
     }
     let traces: Vec<Trace> = traces.into_iter().map(Option::unwrap_or_default).collect();
     let bare: Vec<Trace> = bare.into_iter().map(Option::unwrap_or_default).collect();
@@ -1011,7 +1054,7 @@ pub fn run_bench(
             )
             .map_err(plot_error)?;
             // Paths over the first held-out fields.
-            for index in 0..bench.path_fields.min(bench.held_out_fields) {
+            for index in 0..bench.path_fields.min(held_out_done) {
                 let seed = HELD_OUT_FIRST_SEED + index;
                 let layout = Layout::of(*family, index);
                 let field = field_config(base, *floor, layout, seed);
@@ -1120,7 +1163,7 @@ pub fn run_bench(
             y1 = REGION_MAX_M[1],
             nt = bench.tuning_fields,
             h0 = HELD_OUT_FIRST_SEED,
-            h1 = HELD_OUT_FIRST_SEED + bench.held_out_fields,
+            h1 = HELD_OUT_FIRST_SEED + held_out_done,
             passive = if passive_text.is_empty() { "none swept".to_string() } else { passive_text.join("; ") },
             dur = bench.duration_secs,
             goal = GOAL_BODY_LENGTHS * body_m,
@@ -1152,7 +1195,39 @@ pub fn run_bench(
         ],
         checks,
     };
-    Ok(BenchOutcome { section, runs_done, runs_planned: total })
+    let mut section = section;
+    if held_out_done < bench.held_out_fields {
+        section.text.push_str(&format!(
+            " **Stopped by an interrupt** after {held_out_done} of {} held-out fields per family: the figures \
+             cover the held-out fields whose every run finished.",
+            bench.held_out_fields
+        ));
+    }
+    Ok(BenchOutcome { section, runs_done, runs_planned: total, held_out_done })
+}
+
+/// Runs `bench` into a new folder `<out>/oal-bench-<UTC time>/` and writes its `report.md`
+/// there (`intro`: how it was started); returns the folder and the report.
+pub fn run_into(
+    bench: &Bench,
+    base: &Config,
+    pool: &rayon::ThreadPool,
+    out: &Path,
+    intro: &str,
+    progress: bool,
+) -> Result<(std::path::PathBuf, super::Report), ExperimentError> {
+    let unix_secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
+    let folder = crate::record::create_run_folder(out, "oal-bench", &crate::record::utc_stamp(unix_secs))
+        .map_err(|e| ExperimentError::Run(RunError::Record(e)))?;
+    let outcome = run_bench(bench, base, pool, &folder, progress)?;
+    let report = super::Report {
+        title: "SimSerpent obstacle-aided locomotion benchmark".into(),
+        intro: format!("{intro}: {} runs.", outcome.runs_planned),
+        sections: vec![outcome.section],
+    };
+    let path = folder.join("report.md");
+    std::fs::write(&path, report.to_markdown()).map_err(io(&path))?;
+    Ok((folder, report))
 }
 
 /// The experiment: [`Bench::quick`] or [`Bench::full`].

@@ -2,7 +2,7 @@
 
 use simserpent::config::{Config, ControllerKind, FloorFriction, GroundModel, PegLayout, TerrainKind};
 use simserpent::control::PathFollowing;
-use simserpent::experiments::hoal::{DENSITIES, field_config, score_run};
+use simserpent::experiments::oal_bench::{self, Floor, Layout, RANDOM_PEGS_PER_M2};
 use simserpent::sim::{LoopPlan, Observer, SimError, Simulation, StepView, World};
 
 /// The default snake on SimSerpent's stick–slip floor, no obstacles.
@@ -170,6 +170,37 @@ fn com_x_path(config: &Config, secs: f64) -> Vec<f64> {
     trace.com_x_m
 }
 
+/// A random field of `simserpent experiment oal-bench` on its isotropic floor (10 links, servos
+/// of 20 N·m/rad and ±10 N·m, default sensor noise, estimation on), `density` pegs per m² in the
+/// narrower strip the obstacle-aided controllers were tuned beside (x from −2.2 to 4 m, |y| ≤ 1 m),
+/// run for `secs` with the configured controller.
+fn oal_field(density: f64, seed: u64, secs: f64) -> Config {
+    let mut c = oal_bench::field_config(&Config::default(), Floor::Isotropic, Layout::Random(density), seed);
+    let p = &mut c.terrain.pegboard;
+    p.region_min_m = [-2.2, -1.0];
+    p.region_max_m = [4.0, 1.0];
+    p.count = (density * 6.2 * 2.0).round() as usize;
+    c.general.duration_secs = secs;
+    c
+}
+
+/// The run's forward speed (m/s: the centre of mass along +x from the end of the ramp-in to the
+/// end) and whether it jammed by the benchmark's rule ([`oal_bench::count_jams`]).
+fn score_run(config: &Config) -> (f64, bool) {
+    config.validate().unwrap();
+    let world = World::from_config(config).unwrap();
+    let mut sim = Simulation::new(config, world);
+    let mut trace = CrossTrack { time_s: Vec::new(), error_m: Vec::new(), com_x_m: Vec::new() };
+    let steps = (config.general.duration_secs / config.general.timestep_secs).round() as u64;
+    sim.run(LoopPlan { steps, record_every_n_steps: 0 }, &mut [&mut trace]).unwrap();
+    let ramp = config.gait.ramp_secs;
+    let path: Vec<(f64, f64)> = trace.time_s.iter().copied().zip(trace.com_x_m.iter().copied()).collect();
+    let start = path.iter().position(|p| p.0 >= ramp - 1e-9).unwrap();
+    let (t0, x0) = path[start];
+    let (t1, x1) = path[path.len() - 1];
+    ((x1 - x0) / (t1 - t0), oal_bench::count_jams(&path, ramp) > 0)
+}
+
 /// With its contact estimates (measured sensors, default noise) the obstacle-aided controller
 /// moves the snake forward through the peg field on isotropic friction, where the same wave on
 /// the bare floor does not advance.
@@ -210,11 +241,10 @@ fn obstacle_aided_controller_moves_through_a_peg_field_on_isotropic_friction() {
 #[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn obstacle_aided_controller_advances_on_unseen_peg_fields() {
     for seed in 40..=42 {
-        let mut c = field_config(&Config::default(), DENSITIES[1].1, seed);
-        c.general.duration_secs = 10.0;
+        let mut c = oal_field(RANDOM_PEGS_PER_M2[1], seed, 10.0);
         c.control.controller = ControllerKind::ObstacleAided;
         c.estimation.enabled = true;
-        let (speed_m_per_s, jammed) = score_run(&c).unwrap();
+        let (speed_m_per_s, jammed) = score_run(&c);
         eprintln!("seed {seed}: {:.1} mm/s, jammed {jammed}", 1e3 * speed_m_per_s);
         assert!(speed_m_per_s > 0.020, "seed {seed}: {:.1} mm/s", 1e3 * speed_m_per_s);
         assert!(!jammed, "seed {seed} jammed");
@@ -236,15 +266,14 @@ fn rail_controller_advances_through_unseen_peg_fields() {
     use simserpent::config::{ContactSource, GaitKind};
     let mut rail = Vec::new();
     let mut open = Vec::new();
-    for (_, density) in &DENSITIES {
+    for density in RANDOM_PEGS_PER_M2 {
         for seed in 40..=42 {
-            let mut c = field_config(&Config::default(), *density, seed);
-            c.general.duration_secs = 10.0;
+            let mut c = oal_field(density, seed, 10.0);
             let mut o = c.clone();
             c.control.controller = ControllerKind::Rail;
             c.rail.contacts = ContactSource::Estimated;
             c.estimation.enabled = true;
-            let (speed, jammed) = score_run(&c).unwrap();
+            let (speed, jammed) = score_run(&c);
             assert!(!jammed, "rail jammed on seed {seed}, {density} pegs/m²");
             rail.push(speed);
             o.control.controller = ControllerKind::Gait;
@@ -252,7 +281,7 @@ fn rail_controller_advances_through_unseen_peg_fields() {
             o.gait.sine_wave.amplitude_deg = 65.0;
             o.gait.sine_wave.phase_lag_deg = -60.0;
             o.estimation.enabled = false;
-            open.push(score_run(&o).unwrap().0);
+            open.push(score_run(&o).0);
         }
     }
     eprintln!("seeds 40-42 (sparse, medium, dense; m/s): rail {rail:.3?}, open loop 65/-60 {open:.3?}");

@@ -413,6 +413,15 @@ impl Config {
                 "control.controller = \"obstacle_aided\" shapes the sine wave: it needs gait.kind = \"sine_wave\"",
             )?;
             ensure(
+                self.ground.model == GroundModel::Isotropic || o.phase_lag_deg > 0.0,
+                "ground.model",
+                format!("{:?}", self.ground.model).to_lowercase(),
+                "control.controller = \"obstacle_aided\" with its wave toward the head (obstacle_aided.phase_lag_deg < 0) \
+                 is tuned for isotropic friction and goes backward on an anisotropic floor: set ground.model = \"isotropic\", \
+                 or use control.controller = \"follow_the_leader_reflex\", \"directional_admittance\" or \"jam_resolution\" \
+                 (they run [gait.sine_wave] and go forward on the default floor)",
+            )?;
+            ensure(
                 o.contacts == ContactSource::True || self.estimation.enabled,
                 "obstacle_aided.contacts",
                 "\"estimated\"",
@@ -494,6 +503,16 @@ impl Config {
             "must be within -180..180",
         )?;
         if self.control.controller == ControllerKind::Rail {
+            ensure(
+                self.ground.model == GroundModel::Isotropic,
+                "ground.model",
+                format!("{:?}", self.ground.model).to_lowercase(),
+                "control.controller = \"rail\" drives its waves toward the head (rail.drift_phase_lag_deg < 0) and \
+                 along the path it sets; it is tuned for isotropic friction and goes backward on an anisotropic floor: \
+                 set ground.model = \"isotropic\", or use control.controller = \"follow_the_leader_reflex\", \
+                 \"directional_admittance\" or \"jam_resolution\" (they run [gait.sine_wave] and go forward on the \
+                 default floor)",
+            )?;
             ensure(
                 r.contacts == ContactSource::True || self.estimation.enabled,
                 "rail.contacts",
