@@ -383,7 +383,7 @@ fn top_view<DB: DrawingBackend>(
             chart.draw_series([Circle::new((xe, ye), 3, c.filled())]).map_err(|e| e.to_string())?;
         }
     }
-    // A legend for a few named paths (e.g. the controllers of `experiment hoal`); a run's
+    // A legend for a few named paths (e.g. the conditions of `experiment oal-bench`); a run's
     // per-link paths (usually more) go without, where it would cover them.
     if paths.len() > 1 && paths.len() <= TOP_VIEW_LEGEND_MAX {
         legend(&mut chart)?;

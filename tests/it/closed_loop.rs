@@ -135,7 +135,7 @@ fn estimates_reach_the_observation_and_the_estimates_table() {
     }
 }
 
-/// The obstacle-aided controller's scene (as in `simserpent experiment hoal`): the default
+/// The obstacle-aided controller's scene: the default
 /// 10-link snake on a stick–slip floor with isotropic Coulomb friction among a random peg field
 /// (3 pegs per m², seed 1), position servos of 20 N·m/rad and ±10 N·m, a sine wave of 50° and
 /// 30° phase lag, default sensor noise, contact estimation in the loop.
@@ -207,9 +207,9 @@ fn score_run(config: &Config) -> (f64, bool) {
 ///
 /// **Ignored: it does not measure what it claims.** Its bare-floor run uses the scene's ordinary
 /// 50°/30° wave, while the controller runs its own wave toward the head, which advances faster on
-/// the bare floor than among pegs (on hoal's fields the pegs only hinder it), so "the pegs help"
+/// the bare floor than among pegs (on isotropic random peg fields the pegs only hinder it), so "the pegs help"
 /// is not what the comparison shows; and between peg fields the spread is larger than any
-/// controller effect (`simserpent experiment hoal`). Run it with
+/// controller effect. Run it with
 /// `cargo test --test it closed_loop -- --ignored`;
 /// `obstacle_aided_controller_advances_on_unseen_peg_fields` tests what the controller achieves.
 #[test]
@@ -230,13 +230,13 @@ fn obstacle_aided_controller_moves_through_a_peg_field_on_isotropic_friction() {
 /// The obstacle-aided controller with its default config (its own 65° / −75° wave at a fixed
 /// 0.5 Hz, running toward the head, the forward gait on isotropic friction; yielding at
 /// resisting pegs from the estimated contacts, pressing off; no heading control, no jam
-/// recovery) moves the snake forward on the `hoal` experiment's floor among random pegs,
-/// on fields nobody tuned on (seeds 40–42, the medium density, 10 s; hoal's speed: the centre
-/// of mass along +x from the end of the ramp), at least 20 mm/s and without a jam by hoal's
+/// recovery) moves the snake forward on `oal-bench`'s isotropic floor among random pegs,
+/// on fields nobody tuned on (seeds 40–42, the medium density, 10 s; speed: the centre
+/// of mass along +x from the end of the ramp), at least 20 mm/s and without a jam by the benchmark's
 /// rule (5 s without 2 cm). Measured with `cargo test`: 32.1, 31.9 and 30.0 mm/s.
 /// What this does not show: that the contacts help. On this floor the pegs only hinder the
 /// reversed wave, and the yield-only default jams about as often as its wave alone (9 against 8
-/// of 270 fields; BENCHMARKS.md, "Obstacle-aided locomotion").
+/// jams on 270 such fields).
 #[test]
 #[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn obstacle_aided_controller_advances_on_unseen_peg_fields() {
@@ -253,9 +253,9 @@ fn obstacle_aided_controller_advances_on_unseen_peg_fields() {
 
 /// The rail controller with its default `[rail]` values (it starts in the floor-drift gait,
 /// 65°/−75°, and switches to follow-the-leader on what the estimated contacts say; no jam
-/// switch) and estimated contacts, on fields of `simserpent experiment hoal` that nobody tuned
+/// switch) and estimated contacts, on `oal-bench` random fields that nobody tuned
 /// on (seeds 40–42, every density, 10 s; forward speed and jams as the experiment scores them),
-/// against the open-loop wave 65°/−60° (hoal's best on the sparse and medium fields) on the same
+/// against the open-loop wave 65°/−60° (the best open-loop wave toward the head on sparse and medium fields) on the same
 /// fields: rail advances steadily on every field,
 /// at least 20 mm/s and without a jam, and its slowest field is faster than the open loop's.
 /// Measured with `cargo test`: rail 27, 27, 27 / 27, 27, 25 / 27, 27, 25 mm/s; open loop 65°/−60°
