@@ -233,7 +233,7 @@ fn obstacle_aided_controller_moves_through_a_peg_field_on_isotropic_friction() {
 /// recovery) moves the snake forward on `oal-bench`'s isotropic floor among random pegs,
 /// on fields nobody tuned on (seeds 40–42, the medium density, 10 s; speed: the centre
 /// of mass along +x from the end of the ramp), at least 20 mm/s and without a jam by the benchmark's
-/// rule (5 s without 2 cm). Measured with `cargo test`: 32.1, 31.9 and 30.0 mm/s.
+/// rule (5 s without 2 cm). Measured with `cargo test`: 26.9, 27.2 and 25.2 mm/s.
 /// What this does not show: that the contacts help. On this floor the pegs only hinder the
 /// reversed wave, and the yield-only default jams about as often as its wave alone (9 against 8
 /// jams on 270 such fields).
@@ -258,8 +258,8 @@ fn obstacle_aided_controller_advances_on_unseen_peg_fields() {
 /// against the open-loop wave 65°/−60° (the best open-loop wave toward the head on sparse and medium fields) on the same
 /// fields: rail advances steadily on every field,
 /// at least 20 mm/s and without a jam, and its slowest field is faster than the open loop's.
-/// Measured with `cargo test`: rail 27, 27, 27 / 27, 27, 25 / 27, 27, 25 mm/s; open loop 65°/−60°
-/// 39, 39, 36 / 9, 38, 11 / 9, 40, 7 mm/s (jammed where below 12 mm/s).
+/// Measured with `cargo test`: rail 27, 27, 27 / 27, 27, 25 / 27, 28, 25 mm/s; open loop 65°/−60°
+/// 39, 39, 37 / 10, 38, 11 / 10, 40, 7 mm/s (jammed where below 12 mm/s).
 #[test]
 #[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn rail_controller_advances_through_unseen_peg_fields() {
