@@ -386,6 +386,9 @@ fn condition_config(field: &Config, condition: &Condition, duration_secs: f64) -
     c
 }
 
+/// A run's outcome: its trace, or `None` when an interrupt stopped it.
+type RunResult = Result<Option<Trace>, ExperimentError>;
+
 /// Why a run's loop stopped early.
 #[derive(Debug)]
 enum Stop {
@@ -688,7 +691,7 @@ pub fn run_bench(
     // prefix (whole fields, in seed order), not scattered runs.
     let run_cases = |cases: &[Case]| -> Vec<Result<Option<Trace>, ExperimentError>> {
         let next = std::sync::atomic::AtomicUsize::new(0);
-        let slots: Vec<std::sync::Mutex<Option<Result<Option<Trace>, ExperimentError>>>> =
+        let slots: Vec<std::sync::Mutex<Option<RunResult>>> =
             cases.iter().map(|_| std::sync::Mutex::new(None)).collect();
         pool.scope(|scope| {
             for _ in 0..pool.current_num_threads() {
@@ -754,10 +757,10 @@ pub fn run_bench(
     // Field by field (every floor and family of a seed together), so an interrupt keeps whole
     // paired fields.
     for (seed, held_out) in fields_of(true) {
-        for floor in 0..bench.floors.len() {
+        for (floor, chosen) in chosen_passive.iter().enumerate() {
             for family in 0..bench.families.len() {
                 for condition in 0..conditions.len() {
-                    if passive.contains(&condition) && chosen_passive[floor] != Some(condition) {
+                    if passive.contains(&condition) && *chosen != Some(condition) {
                         continue;
                     }
                     cases.push(Case { floor, family, seed, held_out, condition });
@@ -802,6 +805,9 @@ pub fn run_bench(
         cases.retain(|_| *k.next().unwrap_or(&false));
         let mut k = keep.iter();
         traces.retain(|_| *k.next().unwrap_or(&false));
+        // The signal stopped the runs; the tables and plots of the finished fields follow (a
+        // second signal stops those too).
+        crate::interrupt::clear();
     }
     let traces: Vec<Trace> = traces.into_iter().map(Option::unwrap_or_default).collect();
     let bare: Vec<Trace> = bare.into_iter().map(Option::unwrap_or_default).collect();
@@ -1185,7 +1191,7 @@ pub fn run_bench(
                     "median speed (BL/cycle; 90 % interval)",
                     "jams per min (mean)",
                     "exit heading (°; q25 / median / q75)",
-                    "estimate error (median Σ|est − true| / Σ true)",
+                    "estimate error (median Σ‖est − true‖ / Σ true)",
                 ]
                 .map(String::from)
                 .to_vec(),
