@@ -12,6 +12,7 @@ returns the report.
 from __future__ import annotations
 
 import math
+from typing import Any, Callable
 
 import numpy as np
 
@@ -20,11 +21,11 @@ import simserpent
 GAIN_RAD_PER_N = 0.01
 
 
-def push_away(config):
+def push_away(config: simserpent.Config) -> Callable[[dict[str, Any]], Any]:
     """Builds the controller of one run from the run's config (its base gait and servos)."""
     gait = simserpent.Gait(config)
 
-    def step(obs):
+    def step(obs: dict[str, Any]) -> Any:
         target, _ = gait.targets(obs["time_secs"])
         target = np.array(target)
         contacts = obs.get("contacts")
@@ -42,7 +43,7 @@ def push_away(config):
     return step
 
 
-def main(out="runs", **size):
+def main(out: str = "runs", **size: Any) -> dict[str, Any]:
     size = {"floors": ["isotropic"], "families": ["random"], "laws": False, "held_out_fields": 2, **size}
     result = simserpent.oal_bench(push_away, name="push_away", out=out, quick=True, **size)
     print(result["report"])

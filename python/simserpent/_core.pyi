@@ -83,6 +83,23 @@ def run(
     run_folder: str | None = None,
     controller: Callable[[dict[str, Any]], Any] | None = None,
 ) -> dict[str, Any]: ...
+def oal_bench(
+    controller: Callable[[Config], Callable[[dict[str, Any]], Any]] | None,
+    name: str,
+    out: str,
+    quick: bool,
+    estimation: bool,
+    tuning_fields: int | None,
+    held_out_fields: int | None,
+    duration_secs: float | None,
+    floors: Sequence[str] | None,
+    families: Sequence[str] | None,
+    laws: bool,
+    true_contacts: bool,
+    passive_kp_nm_per_rad: Sequence[float] | None,
+    threads: int,
+    overrides: Sequence[str],
+) -> dict[str, Any]: ...
 def plot_run_folder(run_folder: str) -> tuple[list[str], list[tuple[str, str]]]: ...
 def render_run_folder(run_folder: str, video: bool, images: bool, overrides: Sequence[str] = ...) -> list[str]: ...
 
