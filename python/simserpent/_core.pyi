@@ -37,6 +37,7 @@ __all__ = [
     "mujoco_version",
     "run",
     "estimate",
+    "oal_bench",
     "SWEEP_METRICS",
     "__version__",
 ]
