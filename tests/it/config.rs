@@ -1168,6 +1168,8 @@ const RULES: &[(&[&str], &str)] = &[
     (&["obstacle_aided.yield_gain_rad_per_n_s=-0.1"], "obstacle_aided.yield_gain_rad_per_n_s"),
     (&["obstacle_aided.recovery_amplitude_deg=90"], "obstacle_aided.recovery_amplitude_deg"),
     (&["obstacle_aided.heading_filter_secs=-1"], "obstacle_aided.heading_filter_secs"),
+    (&["control.controller=\"obstacle_aided\"", "estimation.enabled=true"], "ground.model"),
+    (&["control.controller=\"rail\"", "estimation.enabled=true"], "ground.model"),
     (&["rail.wavelength_m=0"], "rail.wavelength_m"),
     (&["rail.amplitude_deg=90"], "rail.amplitude_deg"),
     (&["rail.backoff_speed_m_per_s=0"], "rail.backoff_speed_m_per_s"),

@@ -413,6 +413,12 @@ impl Config {
                 "control.controller = \"obstacle_aided\" shapes the sine wave: it needs gait.kind = \"sine_wave\"",
             )?;
             ensure(
+                o.contacts == ContactSource::True || self.estimation.enabled,
+                "obstacle_aided.contacts",
+                "\"estimated\"",
+                "reads the step loop's contact estimates: set estimation.enabled = true (or contacts = \"true\")",
+            )?;
+            ensure(
                 self.ground.model == GroundModel::Isotropic || o.phase_lag_deg > 0.0,
                 "ground.model",
                 format!("{:?}", self.ground.model).to_lowercase(),
@@ -420,12 +426,6 @@ impl Config {
                  is tuned for isotropic friction and goes backward on an anisotropic floor: set ground.model = \"isotropic\", \
                  or use control.controller = \"follow_the_leader_reflex\", \"directional_admittance\" or \"jam_resolution\" \
                  (they run [gait.sine_wave] and go forward on the default floor)",
-            )?;
-            ensure(
-                o.contacts == ContactSource::True || self.estimation.enabled,
-                "obstacle_aided.contacts",
-                "\"estimated\"",
-                "reads the step loop's contact estimates: set estimation.enabled = true (or contacts = \"true\")",
             )?;
         }
         Ok(())
@@ -504,6 +504,12 @@ impl Config {
         )?;
         if self.control.controller == ControllerKind::Rail {
             ensure(
+                r.contacts == ContactSource::True || self.estimation.enabled,
+                "rail.contacts",
+                "\"estimated\"",
+                "reads the step loop's contact estimates: set estimation.enabled = true (or contacts = \"true\")",
+            )?;
+            ensure(
                 self.ground.model == GroundModel::Isotropic,
                 "ground.model",
                 format!("{:?}", self.ground.model).to_lowercase(),
@@ -512,12 +518,6 @@ impl Config {
                  set ground.model = \"isotropic\", or use control.controller = \"follow_the_leader_reflex\", \
                  \"directional_admittance\" or \"jam_resolution\" (they run [gait.sine_wave] and go forward on the \
                  default floor)",
-            )?;
-            ensure(
-                r.contacts == ContactSource::True || self.estimation.enabled,
-                "rail.contacts",
-                "\"estimated\"",
-                "reads the step loop's contact estimates: set estimation.enabled = true (or contacts = \"true\")",
             )?;
         }
         Ok(())
