@@ -22,13 +22,13 @@
 //! ```
 //!
 //! with α = `amplitude_deg`, δ = `phase_lag_deg` (the controller's own), ω = 2πf from
-//! `gait.sine_wave.frequency_hz` (0.5 Hz in `hoal`, the frequency of its open-loop sweep, so
+//! `gait.sine_wave.frequency_hz` (0.5 Hz by default, the base gait's frequency, so
 //! the comparison is fair), r(t) the ramp-in of `gait.ramp_secs`, ψ the wave's phase and o_j
 //! the contact offset of joint j plus the heading offset r(t)·φ_h. **The sign of δ is the
 //! wave's direction**: δ > 0 makes the wave run from the head toward the tail (ordinary
 //! lateral undulation), δ < 0 from the tail toward the head. On an isotropic Coulomb floor a
 //! snake drifts the way its wave runs, so there δ < 0 is the forward gait. The default,
-//! 65°/−75°, is the wave that jams least for its speed among `hoal`'s pegs (see below);
+//! 65°/−75°, is the wave that jams least for its speed among the isotropic peg fields' pegs (see below);
 //! among pegs on a wave toward the head the bends push the pegs forward and the pegs push the
 //! body back (they resist), the reverse of obstacle-aided undulation on an ordinary wave.
 //! With `wave_speed = "fixed"` ψ̇ = +ω; with `"progress"` (only for δ > 0)
@@ -48,7 +48,7 @@
 //! mean heading θ̄ through a first-order low-pass filter of time constant
 //! `heading_filter_secs` (θ̄ swings with the wave). A positive joint offset turns a snake on an
 //! ordinary wave clockwise, one on a wave running toward the head counterclockwise (measured on
-//! `hoal`'s fields: with path following's sign the reversed wave turned away from the goal,
+//! the isotropic peg fields: with path following's sign the reversed wave turned away from the goal,
 //! 5 mm/s against 42 mm/s without heading control), hence sign(δ). The forward speed counts
 //! along θ_g.
 //!
@@ -97,7 +97,7 @@
 //! (`"reverse"`, ψ̇ = −ω: on an ordinary wave the snake backs off the pegs; on a wave toward
 //! the head this is the ordinary wave), stops (`"pause"`, ψ̇ = 0) or goes on at
 //! `recovery_amplitude_deg` (`"amplitude"`); the next window starts when it ends.
-//! On `hoal`'s fields with the wave toward the head none of the three freed the body more
+//! On the isotropic peg fields with the wave toward the head none of the three freed the body more
 //! often than no recovery at all, so the default is
 //! `recovery_secs = 0`.
 //!
@@ -126,7 +126,7 @@
 //! flat for as long as the contact lasts, and the flattening travels with the wave.
 //! `contact_feedback = false` switches both off (they read the contacts).
 //!
-//! **What is measured.** On `hoal`'s fields, with 65°/−60°, pressing and yielding, the
+//! **What is measured.** On the isotropic peg fields, with 65°/−60°, pressing and yielding, the
 //! controller is as fast as the open-loop 65°/−60° wave and jams as often; with
 //! `contact_feedback = false` it is as fast (the yield and press terms sit within the
 //! field-to-field noise), and on the bare floor it is faster than among any pegs. The pegs only
@@ -134,7 +134,7 @@
 //!
 //! **The defaults: 65°/−75°, yield only.** A jam (no progress for 5 s) on a
 //! wave toward the head is the body wedged between pegs, and how often it happens depends on
-//! the wave's lag far more than on any contact term: on 120 `hoal` fields outside its seeds
+//! the wave's lag far more than on any contact term: on 120 isotropic peg fields outside its seeds
 //! (100–139) the open-loop 65°/−60° wave jams in 33 runs (42 mm/s median), 65°/−70° in 11,
 //! 65°/−75° in 2 (31 mm/s), 65°/−80° in 1 (30 mm/s), 65°/−90° in none (21 mm/s). Pressing on
 //! propelling pegs deepens the bends and wedges the body: on 270 fields (seeds 0–9, 100–139,

@@ -56,7 +56,7 @@
 //! ```
 //!
 //! (r(t) the ramp-in of `gait.ramp_secs`; the default 65°/−75° is the wave that jams least for
-//! its speed among hoal's pegs; 65°/−60° is faster on sparse
+//! its speed among the pegs of isotropic peg fields; 65°/−60° is faster on sparse
 //! fields but wedges far more often), and switches between the two on what the contact estimates say the pegs
 //! do along +x (world):
 //!
@@ -73,19 +73,19 @@
 //! target at S − j·L) and the head's sine continues from the head joint's angle, so the body
 //! keeps its shape in the world and slides along it. Both gaits run at 0.5 Hz: the drift wave's
 //! `drift_frequency_hz` and the rail wave's `drive_speed_m_per_s / wavelength_m` (1.2 m / 2.4 m
-//! without progress), the frequency of hoal's open-loop sweep, so the comparison is fair.
+//! without progress), the base gait's frequency, so the comparison is fair.
 //! `use_contacts = false` turns off every contact term (head wrap and the contact-driven
 //! switches; the jam switch below stays): the comparison without contacts.
 //!
 //! **Jam recovery** (`jam_switch = true`; off by default: with the drift wave 65°/−75° the
-//! switch and its back-off make jams by hoal's rule, 22 of 120 runs on hoal's seeds 100–139
+//! switch and its back-off make jams by the jam rule, 22 of 120 runs on seeds 100–139
 //! with it against 10 without). Every
 //! `jam_window_secs` T the controller compares the centre of mass (head
 //! position and encoders) with the previous checkpoint; if it advanced less than
 //! `jam_min_progress_m` along +x, the snake is jammed. In the rail gait S first runs backward at
 //! `backoff_speed_m_per_s` until it is `backoff_m` back (every joint retraces the path it came
 //! along), the phase φ turns by a quarter wave (π/2) and the old samples ahead are forgotten;
-//! then, in either gait, the controller switches to the other gait. Why (hoal's fields, the
+//! then, in either gait, the controller switches to the other gait. Why (the isotropic peg fields, the
 //! estimated forces and the centre of mass logged every 0.5 s in single runs): a rail jam is one of two things. Where pegs are few the
 //! body is not pinned at all — it stalls with no peg in a bend (P̄ ≈ R̄ ≈ 0–3 N) and backing off
 //! and redrawing the same kind of path stalls again. Where pegs are many the body is wedged:
@@ -93,7 +93,7 @@
 //! shape, because the shape is what wedges it. The drift wave has a different shape (1.2 m
 //! wavelength, 65°) and moves the body the other way along the pegs, which frees it.
 //!
-//! **Further options (all off by default; on hoal's seeds 20–39 none of them both jams less and
+//! **Further options (all off by default; on seeds 20–39 none of them both jams less and
 //! keeps every density's median speed).**
 //!
 //! ```text
