@@ -430,6 +430,18 @@ impl ObstacleSlot {
 }
 
 impl StickSlip {
+    /// For a contact between a link's geom and a geom of no link: the link, the other geom, and
+    /// the sign that turns MuJoCo's normal (geom 1 → geom 2) into the normal pointing from the
+    /// other geom into the link. `None` for any other pair.
+    fn link_side(&self, g1: usize, g2: usize) -> Option<(usize, usize, f64)> {
+        let of = |g: usize| self.link_of_geom.get(g).copied().flatten();
+        match (of(g1), of(g2)) {
+            (Some(l), None) => Some((l, g2, -1.0)),
+            (None, Some(l)) => Some((l, g1, 1.0)),
+            _ => None,
+        }
+    }
+
     fn new(config: &Config, world: &World) -> Self {
         let n = world.n_links();
         let body_mass = world.model().body_mass();
@@ -524,11 +536,7 @@ impl StickSlip {
                 continue;
             }
             let (g1, g2) = (g1 as usize, g2 as usize);
-            let (link, geom, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
-                (Some(l), None) => (l, g2, -1.0),
-                (None, Some(l)) => (l, g1, 1.0),
-                _ => continue,
-            };
+            let Some((link, geom, sign)) = st.link_side(g1, g2) else { continue };
             if !st.obstacle_geom[geom] {
                 continue;
             }
@@ -612,14 +620,9 @@ impl Ground {
         // the force on geom 2.
         let row_slot = |c: &ContactRow| -> Option<(usize, usize, f64)> {
             let (g1, g2) = (c.geom[0], c.geom[1]);
-            let of = |g: usize| st.link_of_geom.get(g).copied().flatten();
             let ground = |g: usize| st.ground_geom.get(g).copied().unwrap_or(false);
             let obstacle = |g: usize| st.obstacle_geom.get(g).copied().unwrap_or(false);
-            let (link, other, sign) = match (of(g1), of(g2)) {
-                (Some(l), None) => (l, g2, -1.0),
-                (None, Some(l)) => (l, g1, 1.0),
-                _ => return None,
-            };
+            let (link, other, sign) = st.link_side(g1, g2)?;
             if obstacle(other) {
                 return Some((link, SLOTS + other, sign));
             }
@@ -732,11 +735,7 @@ impl Ground {
                     continue;
                 }
                 let (g1, g2) = (g1 as usize, g2 as usize);
-                let (link, geom, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
-                    (Some(l), None) => (l, g2, -1.0),
-                    (None, Some(l)) => (l, g1, 1.0),
-                    _ => continue,
-                };
+                let Some((link, geom, sign)) = st.link_side(g1, g2) else { continue };
                 let n = d.contact_force(c)[0];
                 if n <= 0.0 {
                     continue;
@@ -805,11 +804,7 @@ impl Ground {
                 // The link side, the other geom, whether it is an obstacle, and the sign that
                 // turns MuJoCo's normal (geom1 → geom2) into the normal pointing from the
                 // obstacle or ground into the link.
-                let (link, other, sign) = match (st.link_of_geom[g1], st.link_of_geom[g2]) {
-                    (Some(l), None) => (l, g2, -1.0),
-                    (None, Some(l)) => (l, g1, 1.0),
-                    _ => continue,
-                };
+                let Some((link, other, sign)) = st.link_side(g1, g2) else { continue };
                 if st.obstacle_geom[other] {
                     obstacle_contact |= contact.dist < 0.0;
                     continue;
