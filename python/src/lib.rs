@@ -511,8 +511,9 @@ fn oal_bench<'py>(
         bench.floors = f
             .iter()
             .map(|s| {
-                Floor::from_name(s)
-                    .ok_or_else(|| value_err(format!("floors: unknown floor {s:?}; allowed: \"isotropic\", \"anisotropic\"")))
+                Floor::from_name(s).ok_or_else(|| {
+                    value_err(format!("floors: unknown floor {s:?}; allowed: \"isotropic\", \"anisotropic\""))
+                })
             })
             .collect::<PyResult<_>>()?;
     }
@@ -520,8 +521,9 @@ fn oal_bench<'py>(
         bench.families = f
             .iter()
             .map(|s| {
-                Family::from_name(s)
-                    .ok_or_else(|| value_err(format!("families: unknown family {s:?}; allowed: \"lattice\", \"random\"")))
+                Family::from_name(s).ok_or_else(|| {
+                    value_err(format!("families: unknown family {s:?}; allowed: \"lattice\", \"random\""))
+                })
             })
             .collect::<PyResult<_>>()?;
     }
