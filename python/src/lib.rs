@@ -469,6 +469,25 @@ fn run<'py>(
     }
 }
 
+/// Each of `names` parsed by `parse`, or an error naming the argument, the unknown `kind` and
+/// what is allowed.
+fn parse_names<T>(
+    argument: &str,
+    kind: &str,
+    names: &[String],
+    parse: fn(&str) -> Option<T>,
+    allowed: &str,
+) -> PyResult<Vec<T>> {
+    names
+        .iter()
+        .map(|s| {
+            parse(s).ok_or_else(|| {
+                pyo3::exceptions::PyValueError::new_err(format!("{argument}: unknown {kind} {s:?}; allowed: {allowed}"))
+            })
+        })
+        .collect()
+}
+
 /// `simserpent experiment oal-bench` with a Python controller plugged in (the GIL released
 /// between its calls): `controller(config)` builds one per run from the run's config (the
 /// benchmark's base gait in `gait.sine_wave`, its servos, `estimation.enabled` = `estimation`)
@@ -508,24 +527,10 @@ fn oal_bench<'py>(
         bench.duration_secs = d;
     }
     if let Some(f) = floors {
-        bench.floors = f
-            .iter()
-            .map(|s| {
-                Floor::from_name(s).ok_or_else(|| {
-                    value_err(format!("floors: unknown floor {s:?}; allowed: \"isotropic\", \"anisotropic\""))
-                })
-            })
-            .collect::<PyResult<_>>()?;
+        bench.floors = parse_names("floors", "floor", &f, Floor::from_name, "\"isotropic\", \"anisotropic\"")?;
     }
     if let Some(f) = families {
-        bench.families = f
-            .iter()
-            .map(|s| {
-                Family::from_name(s).ok_or_else(|| {
-                    value_err(format!("families: unknown family {s:?}; allowed: \"lattice\", \"random\""))
-                })
-            })
-            .collect::<PyResult<_>>()?;
+        bench.families = parse_names("families", "family", &f, Family::from_name, "\"lattice\", \"random\"")?;
     }
     if let Some(kp) = passive_kp_nm_per_rad {
         if kp.iter().any(|k| !(k.is_finite() && *k > 0.0)) {
