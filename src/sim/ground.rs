@@ -70,15 +70,22 @@
 //!     `backward_friction` (directional) toward the head; the coefficients come from the region
 //!     under the link.
 //! - **Obstacle contacts** (`obstacle_*` geoms: cylinders, pegs, walls, mesh obstacles) keep
-//!   MuJoCo's normal force (frictionless, condim 1: a stiff impact needs its implicit solver)
-//!   and get the same friction law, one slot per link and touching obstacle geom (at most 4 per
-//!   link), isotropic with `terrain.obstacle_friction[0]`, the link's axis as the first tangent,
-//!   bounded by MuJoCo's normal force **of the same state**: on a step where a link touches an
-//!   obstacle at x_k, a forward pass at x_k (ground geoms detached, the step's ground forces in
-//!   `xfrc_applied`) gives every link–obstacle contact its normal force N_k, and the slot's
-//!   friction is bounded by μ·N_k; a second forward pass with that friction applied gives the
-//!   normal force the step itself will have, and a slot above μ times it is scaled back onto it.
-//!   A slot without contact at x_k has no friction. See "Obstacles" below.
+//!   MuJoCo's normal force (frictionless, condim 1: a stiff impact needs its implicit solver),
+//!   one friction slot per link and touching obstacle geom (at most 4 per link), isotropic with
+//!   `terrain.obstacle_friction[0]`, the link's axis as the first tangent, bounded by MuJoCo's
+//!   normal force **of the same state**. On a step where a link touches an obstacle at x_k, a
+//!   forward pass at x_k (ground geoms detached, the step's ground forces in `xfrc_applied`)
+//!   gives every link–obstacle contact its normal force N_k, the contact points' accelerations
+//!   a without obstacle friction, and the factorised mass matrix M. With J the contact points'
+//!   tangential Jacobians and W = J·M⁻¹·Jᵀ (how a force at one contact point moves every
+//!   contact point, through the whole articulated body), the friction F solves
+//!   W·F = −(s/dt + a), each slot's force inside its disk |F| ≤ μ·N_k (projected Gauss–Seidel
+//!   over the slots): it stops every contact point's slip s within the step where μ·N allows,
+//!   and slides at μ·N otherwise. s is the point's tangential velocity plus its drift since it
+//!   stuck over `floor_stick_time_constant_secs`, so a stuck contact does not creep. A second
+//!   forward pass with that friction applied gives the normal force the step itself will have,
+//!   and a slot above μ times it is scaled back onto it. A slot without contact at x_k has no
+//!   friction. See "Obstacles" below.
 //! - **Heightfield and mesh ground** contacts keep MuJoCo's normal force (condim 1), and their
 //!   ground slots' friction is bounded by MuJoCo's N of the latest evaluation (the previous
 //!   step's last stage, or a recording's forward pass), not of the same state: their per-prism
@@ -105,13 +112,20 @@
 //! law removes from the floor. The normal force stays MuJoCo's (an explicit compliant obstacle
 //! law is unstable at 5 m/s impacts), and the friction is bounded by the N of a forward pass at
 //! the step's own state, not of the previous step: a contact that opens or closes between steps
-//! gets no friction from a stale N (no period-2 cycle of N and friction). Friction moves the
-//! normal forces through the links' inertia, so the N of x_k with the friction applied is found
-//! by a second forward pass and the friction scaled back where it exceeds μ times that; scaling
-//! friction down only gives back normal force that friction took, so the step's recorded rows
-//! keep |f_t| ≤ μ·N (measured on every row of the sideways hit at μ 0.5 and 1: ≤ 1 + 1e-12).
-//! Cost: two more forward passes on steps with an obstacle contact, none on the others (the
-//! default job's first 10 s have none).
+//! gets no friction from a stale N (no period-2 cycle of N and friction). The friction is the
+//! one that stops the slip within the step, from the mobility W of the whole body, not a spring
+//! scaled by a guessed mass: in an impact N reaches thousands of newtons within a step, and only
+//! a force computed from the body's real mobility reaches μ·N when the contact slides and no
+//! more than what stops it when it sticks (a spring–damper scaled by half the link's mass gave
+//! 45 N of friction where μ·N was 4,300 N in a 5 m/s hit on a cylinder). Solving with W is
+//! stable: the force held over the step removes the predicted slip and no more. Friction moves
+//! the normal forces through the links' inertia, so the N of x_k with the friction applied is
+//! found by a second forward pass and the friction scaled back where it exceeds μ times that;
+//! scaling friction down only gives back normal force that friction took, so the step's recorded
+//! rows keep |f_t| ≤ μ·N. Cost on steps with an obstacle contact: two more forward passes, one
+//! `mj_jac` per contact point and tangent, one `mj_solveM` for all of them and a handful of
+//! Gauss–Seidel sweeps over 2 × 2 blocks; nothing on the other steps (the default job's first
+//! 10 s have none).
 //!
 //! Velocities are those of the state at the start of the step: kinematics and centre-of-mass
 //! velocities are recomputed first, because after `mj_step` MuJoCo's derived quantities belong
@@ -331,8 +345,8 @@ struct StickSlip {
     obstacle_geom: Vec<bool>,
     /// Link–obstacle friction coefficient (`terrain.obstacle_friction[0]`, isotropic).
     obstacle_mu: f64,
-    /// Half of each link's mass (kg): the largest mass a slot's stick spring–damper is scaled
-    /// for (see [`ObstacleSlot`]).
+    /// Half of each link's mass (kg): the largest mass a ground slot's stick spring–damper is
+    /// scaled for.
     half_link_mass_kg: Vec<f64>,
     /// Obstacle contacts per link, one slot per touching obstacle geom.
     obstacle_slots: Vec<[ObstacleSlot; OBSTACLE_SLOTS]>,
@@ -340,6 +354,14 @@ struct StickSlip {
     /// of `force_n`/`torque_nm`).
     obstacle_force_n: Vec<[f64; 3]>,
     obstacle_torque_nm: Vec<[f64; 3]>,
+    /// The obstacle friction solve's touching slots, mobility rows (two per slot), buffers and
+    /// forces (N, along each slot's tangents); capacity kept between steps.
+    active: Vec<ActiveSlot>,
+    rows: Vec<(usize, [f64; 3], [f64; 3])>,
+    mobility: super::MobilityBuffers,
+    solved_n: Vec<[f64; 2]>,
+    /// `floor_stick_time_constant_secs`: how fast a stuck obstacle contact takes back its drift.
+    stick_time_constant_secs: f64,
     /// Stick spring–damper per unit of supported mass: ω² (1/s²) and 2ω (1/s), ω = 1/τ.
     omega_sq_per_s2: f64,
     two_omega_per_s: f64,
@@ -355,6 +377,10 @@ struct StickSlip {
     /// c = m_eff · this) per kilogram of the point's effective mass.
     normal_stiffness_per_s2: f64,
     normal_damping_per_s: f64,
+    /// The part of each ground slot's Σ N from MuJoCo's heightfield and mesh contacts at x_k, and
+    /// the same after the step's friction is applied (the check of the second forward pass).
+    mujoco_ground_n: Vec<[f64; SLOTS]>,
+    mujoco_ground_check_n: Vec<[f64; SLOTS]>,
     /// Penetrating ground contact points of each link at x_k.
     ground_points: Vec<usize>,
     /// Velocity of each link's centre of mass at x_k: [angular; linear] (world frame).
@@ -393,11 +419,9 @@ struct StickSlip {
 /// friction from the extra ones (their normal force still acts).
 const OBSTACLE_SLOTS: usize = 4;
 
-/// One link's contact with one obstacle geom: the same elasto-plastic law as a ground slot, with
-/// the isotropic coefficient `terrain.obstacle_friction[0]`. The stick spring–damper is scaled by
-/// the mass m = min(N/g, half the link's mass), as a ground slot's (a link pressed hard against a
-/// peg would otherwise get a damper too stiff for a force held over the step), so its presliding
-/// displacement is μ·g·τ² at small loads and grows at large ones.
+/// One link's contact with one obstacle geom, with the isotropic coefficient
+/// `terrain.obstacle_friction[0]`: its friction is solved with every other obstacle contact's in
+/// [`Ground::obstacle_friction`]; its deflection is the contact point's drift since it stuck.
 #[derive(Debug, Clone, Copy)]
 struct ObstacleSlot {
     /// The obstacle geom, or `usize::MAX` when the slot is free.
@@ -409,11 +433,33 @@ struct ObstacleSlot {
     normal_weighted: [f64; 3],
     deflection_m: [f64; 3],
     /// The friction force applied in the latest prepared step (N, world frame), its arm from
-    /// the link's centre of mass (m) and the stick spring's stiffness (N/m).
+    /// the link's centre of mass (m).
     force_n: [f64; 3],
     arm_m: [f64; 3],
-    stiffness_n_per_m: f64,
 }
+
+/// A touching obstacle slot of the step being prepared: one 2 × 2 block of the friction solve
+/// of [`Ground::obstacle_friction`].
+#[derive(Debug, Clone, Copy)]
+struct ActiveSlot {
+    link: usize,
+    /// The index of the link's obstacle slot.
+    slot: usize,
+    /// The link's axis in the contact plane, and across it (unit, world frame).
+    tangents: [[f64; 3]; 2],
+    arm_m: [f64; 3],
+    /// The contact point's slip to remove in the step (m/s, along the tangents): its tangential
+    /// velocity plus the stuck contact's drift over the stick time constant.
+    slip_m_per_s: [f64; 2],
+    /// The deflection from the anchor if the slot sticks through the step (m, world frame).
+    stuck_deflection_m: [f64; 3],
+    /// μ·N (N).
+    limit_n: f64,
+}
+
+/// Projected Gauss–Seidel sweeps of the friction solve at most (it stops when no force changes
+/// by more than 1e-9 of the largest limit).
+const FRICTION_SOLVER_SWEEPS: usize = 100;
 
 impl ObstacleSlot {
     const FREE: Self = Self {
@@ -425,7 +471,6 @@ impl ObstacleSlot {
         deflection_m: [0.0; 3],
         force_n: [0.0; 3],
         arm_m: [0.0; 3],
-        stiffness_n_per_m: 0.0,
     };
 }
 
@@ -484,6 +529,11 @@ impl StickSlip {
             obstacle_slots: vec![[ObstacleSlot::FREE; OBSTACLE_SLOTS]; n],
             obstacle_force_n: vec![[0.0; 3]; n],
             obstacle_torque_nm: vec![[0.0; 3]; n],
+            active: Vec::with_capacity(OBSTACLE_SLOTS * n),
+            rows: Vec::with_capacity(2 * OBSTACLE_SLOTS * n),
+            mobility: super::MobilityBuffers::default(),
+            solved_n: Vec::with_capacity(OBSTACLE_SLOTS * n),
+            stick_time_constant_secs: 1.0 / omega,
             omega_sq_per_s2: omega * omega,
             two_omega_per_s: 2.0 * omega,
             gravity_m_per_s2: if g_abs > 0.1 { g_abs } else { 9.81 },
@@ -495,6 +545,8 @@ impl StickSlip {
             normal_damping_per_s,
             link_velocity: vec![[0.0; 6]; n],
             ground_points: vec![0; n],
+            mujoco_ground_n: vec![[0.0; SLOTS]; n],
+            mujoco_ground_check_n: vec![[0.0; SLOTS]; n],
             env_geoms: (0..world.index.geom_class.len())
                 .filter(|&g| own_ground[g])
                 .map(|g| {
@@ -562,6 +614,110 @@ impl StickSlip {
                 slot.normal_weighted[j] += n * sign * contact.frame[j];
             }
         }
+    }
+}
+
+impl StickSlip {
+    /// Adds MuJoCo's normal forces of the latest forward pass's link–heightfield and link–mesh
+    /// ground contacts to each link's ground slots (Σ N, Σ N·point, Σ N·normal), and keeps that
+    /// part of Σ N per slot in `mujoco_ground_n`.
+    fn collect_mujoco_ground_normals(&mut self, d: &MjData<Box<MjModel>>, bodies: &[usize]) {
+        for v in &mut self.mujoco_ground_n {
+            *v = [0.0; SLOTS];
+        }
+        let (xipos, xmat) = (d.xipos(), d.xmat());
+        for (c, contact) in d.contact().iter().enumerate() {
+            let Some((link, slot, n, sign)) = self.mujoco_ground_row(d, c, bodies, xipos, xmat) else { continue };
+            self.mujoco_ground_n[link][slot] += n;
+            self.normal_n[link][slot] += n;
+            for k in 0..3 {
+                self.point_weighted[link][slot][k] += n * contact.pos[k];
+                self.normal_weighted[link][slot][k] += n * sign * contact.frame[k];
+            }
+        }
+    }
+
+    /// For contact `c` of the latest forward pass between a link and heightfield or mesh ground
+    /// with a positive normal force: the link, its ground slot, N and the normal's sign.
+    fn mujoco_ground_row(
+        &self,
+        d: &MjData<Box<MjModel>>,
+        c: usize,
+        bodies: &[usize],
+        xipos: &[[f64; 3]],
+        xmat: &[[f64; 9]],
+    ) -> Option<(usize, usize, f64, f64)> {
+        let contact = &d.contact()[c];
+        let (g1, g2) = (contact.geom[0], contact.geom[1]);
+        if g1 < 0 || g2 < 0 || contact.exclude != 0 {
+            return None;
+        }
+        let (link, geom, sign) = self.link_side(g1 as usize, g2 as usize)?;
+        if !self.ground_geom[geom] || self.own_ground_geom[geom] {
+            return None;
+        }
+        let n = d.contact_force(c)[0];
+        if n <= 0.0 {
+            return None;
+        }
+        let body = bodies[link];
+        let (m, r) = (xmat[body], sub(contact.pos, xipos[body]));
+        Some((link, usize::from(r[0] * m[0] + r[1] * m[3] + r[2] * m[6] < 0.0), n, sign))
+    }
+
+    /// After a forward pass with the step's friction applied: every ground slot whose heightfield
+    /// or mesh contacts now carry less normal force than its friction was bounded by gets its
+    /// friction scaled back onto μ times the new N (force, moment, `xfrc_applied` and anchor).
+    fn rescale_mujoco_ground_slots(&mut self, world: &mut World, bodies: &[usize]) -> bool {
+        if self.mujoco_ground_n.iter().all(|s| s.iter().all(|&n| n <= 0.0)) {
+            return false;
+        }
+        let mut changed = false;
+        for v in &mut self.mujoco_ground_check_n {
+            *v = [0.0; SLOTS];
+        }
+        {
+            let d = &world.data;
+            let (xipos, xmat) = (d.xipos(), d.xmat());
+            for c in 0..d.contact().len() {
+                if let Some((link, slot, n, _)) = self.mujoco_ground_row(d, c, bodies, xipos, xmat) {
+                    self.mujoco_ground_check_n[link][slot] += n;
+                }
+            }
+        }
+        for (i, &body) in bodies.iter().enumerate() {
+            for slot in 0..SLOTS {
+                let used = self.normal_n[i][slot];
+                let now = used - self.mujoco_ground_n[i][slot] + self.mujoco_ground_check_n[i][slot];
+                if self.mujoco_ground_n[i][slot] <= 0.0 || now >= used {
+                    continue;
+                }
+                changed = true;
+                // Onto the new bound, 0.1 % inside it: MuJoCo's normal forces shift a little with
+                // every scale-back, and the next pass then finds the slot within its bound.
+                let scale = (1.0 - BOUND_MARGIN) * now.max(0.0) / used;
+                let f = self.slot_force_n[i][slot];
+                let change = f.map(|x| x * (scale - 1.0));
+                let p = self.point_weighted[i][slot].map(|x| x / used);
+                // The slot's N is the new one from here on (its point and normal unchanged).
+                self.normal_n[i][slot] = scale * used;
+                self.mujoco_ground_n[i][slot] = self.mujoco_ground_check_n[i][slot];
+                self.point_weighted[i][slot] = self.point_weighted[i][slot].map(|x| x * scale);
+                self.normal_weighted[i][slot] = self.normal_weighted[i][slot].map(|x| x * scale);
+                let torque = cross(sub(p, world.data.xipos()[body]), change);
+                self.slot_force_n[i][slot] = f.map(|x| x * scale);
+                self.force_n[i] = add(self.force_n[i], change);
+                self.torque_nm[i] = add(self.torque_nm[i], torque);
+                let x = &mut world.data.xfrc_applied_mut()[body];
+                for k in 0..3 {
+                    x[k] += change[k];
+                    x[3 + k] += torque[k];
+                }
+                let z = &mut self.deflection_m[i][slot];
+                *z = z.map(|x| x * scale);
+            }
+        }
+        changed
     }
 }
 
@@ -722,37 +878,6 @@ impl Ground {
         for v in st.point_weighted.iter_mut().chain(st.normal_weighted.iter_mut()) {
             *v = [[0.0; 3]; SLOTS];
         }
-        // Heightfield and mesh ground contacts: MuJoCo's normal forces of the latest evaluation
-        // (the previous step's last stage, or a recording's forward pass), per link and ground
-        // slot; read before the collision detection below replaces the contact list.
-        {
-            let d = &world.data;
-            let xipos = d.xipos();
-            let xmat = d.xmat();
-            for (c, contact) in d.contact().iter().enumerate() {
-                let (g1, g2) = (contact.geom[0], contact.geom[1]);
-                if g1 < 0 || g2 < 0 || contact.exclude != 0 {
-                    continue;
-                }
-                let (g1, g2) = (g1 as usize, g2 as usize);
-                let Some((link, geom, sign)) = st.link_side(g1, g2) else { continue };
-                let n = d.contact_force(c)[0];
-                if n <= 0.0 {
-                    continue;
-                }
-                if st.ground_geom[geom] && !st.own_ground_geom[geom] {
-                    let body = self.bodies[link];
-                    let (m, com) = (xmat[body], xipos[body]);
-                    let r = sub(contact.pos, com);
-                    let slot = usize::from(r[0] * m[0] + r[1] * m[3] + r[2] * m[6] < 0.0);
-                    st.normal_n[link][slot] += n;
-                    for k in 0..3 {
-                        st.point_weighted[link][slot][k] += n * contact.pos[k];
-                        st.normal_weighted[link][slot][k] += n * sign * contact.frame[k];
-                    }
-                }
-            }
-        }
         // Kinematics, centre-of-mass velocities and contacts of the state x_k; the ground geoms
         // collide only here, not in MuJoCo's step.
         for &(g, contype, conaffinity, margin) in &st.env_geoms {
@@ -768,8 +893,9 @@ impl Ground {
         for v in st.normal_force_n.iter_mut().chain(st.normal_torque_nm.iter_mut()) {
             *v = [0.0; 3];
         }
-        // Whether a link touches an obstacle at x_k.
+        // Whether a link touches an obstacle, and heightfield or mesh ground, at x_k.
         let mut obstacle_contact = false;
+        let mut mujoco_ground_contact = false;
         {
             let d = &world.data;
             let xipos = d.xipos();
@@ -810,6 +936,7 @@ impl Ground {
                     continue;
                 }
                 if !st.own_ground_geom[other] {
+                    mujoco_ground_contact |= st.ground_geom[other];
                     continue;
                 }
                 let body = self.bodies[link];
@@ -894,6 +1021,20 @@ impl Ground {
         for &(g, _, _, margin) in &st.env_geoms {
             world.set_geom_collision(g, 0, 0, margin);
         }
+        // Heightfield and mesh ground: MuJoCo's normal forces at x_k, from a forward pass with the
+        // step's own normal forces applied (the ground geoms detached, as in MuJoCo's step).
+        if mujoco_ground_contact {
+            for (i, &body) in self.bodies.iter().enumerate() {
+                let (f, t) = (st.normal_force_n[i], st.normal_torque_nm[i]);
+                world.data.xfrc_applied_mut()[body] = [f[0], f[1], f[2], t[0], t[1], t[2]];
+            }
+            world.data.forward();
+            st.collect_mujoco_ground_normals(&world.data, &self.bodies);
+        } else {
+            for v in &mut st.mujoco_ground_n {
+                *v = [0.0; SLOTS];
+            }
+        }
         let surfaces = !self.map.is_empty();
         let dt = st.timestep_secs;
         for (i, &body) in self.bodies.iter().enumerate() {
@@ -962,31 +1103,42 @@ impl Ground {
         }
         if obstacle_contact {
             self.obstacle_friction(world);
-        } else {
-            for slot in st.obstacle_slots.iter_mut().flatten() {
-                *slot = ObstacleSlot::FREE;
-            }
+            return;
+        }
+        for slot in st.obstacle_slots.iter_mut().flatten() {
+            *slot = ObstacleSlot::FREE;
+        }
+        if mujoco_ground_contact {
+            // The friction moves MuJoCo's normal forces: a second forward pass with it applied
+            // gives the heightfield and mesh contacts the N the step will have.
+            st.settle_friction_bounds(world, &self.bodies, false);
         }
     }
 
-    /// The friction of the links' obstacle contacts at x_k, bounded by MuJoCo's normal forces of
-    /// the same state: a forward pass at x_k with the ground forces of the step in
-    /// `xfrc_applied` (and the ground geoms detached, as in MuJoCo's step) gives each link–obstacle
-    /// contact its normal force; the elasto-plastic law of each link's obstacle slots then adds
-    /// its friction to `xfrc_applied`. Runs only on steps where a link touches an obstacle.
+    /// The friction of the links' obstacle contacts at x_k, on a step where a link touches an
+    /// obstacle: a forward pass at x_k with the step's ground forces in `xfrc_applied` (and the
+    /// ground geoms detached, as in MuJoCo's step) gives each link–obstacle contact its normal
+    /// force N_k, the contact points' accelerations without obstacle friction and the factorised
+    /// mass matrix; the friction that stops every obstacle contact point's slip within the step,
+    /// each slot's force inside its disk μ·N_k, is solved over all slots at once and added to
+    /// `xfrc_applied`. See "Obstacles" in the module docs.
     fn obstacle_friction(&mut self, world: &mut World) {
         let Some(st) = self.stick_slip.as_mut() else { return };
         world.data.forward();
         st.collect_obstacle_normals(&world.data);
         let dt = st.timestep_secs;
+        let mu = st.obstacle_mu;
+        // Every touching obstacle slot: its contact point, normal and tangent frame (the link's
+        // axis in the contact plane, and across it), and two rows of the mobility problem.
+        st.active.clear();
+        st.rows.clear();
         for (i, &body) in self.bodies.iter().enumerate() {
             let com = world.data.xipos()[body];
+            let xmat = world.data.xmat()[body];
+            let axis = [xmat[0], xmat[3], xmat[6]];
             let vel = st.link_velocity[i];
             let (w, v_com) = ([vel[0], vel[1], vel[2]], [vel[3], vel[4], vel[5]]);
-            // Obstacle contacts: the same law, isotropic, with the link's axis as the first tangent.
-            let (mut o_force, mut o_torque) = ([0.0; 3], [0.0; 3]);
-            let mu = st.obstacle_mu;
-            for slot in st.obstacle_slots[i].iter_mut() {
+            for (k, slot) in st.obstacle_slots[i].iter_mut().enumerate() {
                 if !slot.seen {
                     *slot = ObstacleSlot::FREE;
                     continue;
@@ -996,73 +1148,152 @@ impl Ground {
                 let nrm = normalized(slot.normal_weighted).unwrap_or([0.0, 0.0, 1.0]);
                 let r = sub(p, com);
                 let v_t = tangential(add(v_com, cross(w, r)), nrm);
-                let z_now = tangential(slot.deflection_m, nrm);
-                let z_pred = add(z_now, v_t.map(|x| x * dt));
-                let mass = (n_force / st.gravity_m_per_s2).min(st.half_link_mass_kg[i]);
-                let (k, c) = (mass * st.omega_sq_per_s2, mass * st.two_omega_per_s);
-                let trial = [0, 1, 2].map(|j| -k * z_pred[j] - c * v_t[j]);
-                let limit = mu * n_force;
-                let size = dot(trial, trial).sqrt();
-                let f_world = if size <= limit {
-                    slot.deflection_m = z_pred; // sticks
-                    trial
-                } else {
-                    let f = trial.map(|x| x * limit / size);
-                    if k > 0.0 {
-                        slot.deflection_m = f.map(|x| -x / k); // slides
-                    }
-                    f
-                };
-                slot.force_n = f_world;
-                slot.arm_m = r;
-                slot.stiffness_n_per_m = k;
-                o_force = add(o_force, f_world);
-                o_torque = add(o_torque, cross(r, f_world));
+                let a = normalized(tangential(axis, nrm)).unwrap_or_else(|| any_perpendicular(nrm));
+                let l = cross(nrm, a);
+                // The slip the step should end with: none, less the drift since the contact
+                // stuck, taken back over the stick time constant.
+                let z = tangential(slot.deflection_m, nrm);
+                let slip = add(v_t, z.map(|x| x / st.stick_time_constant_secs));
+                st.active.push(ActiveSlot {
+                    link: i,
+                    slot: k,
+                    tangents: [a, l],
+                    arm_m: r,
+                    slip_m_per_s: [dot(slip, a), dot(slip, l)],
+                    stuck_deflection_m: add(z, v_t.map(|x| x * dt)),
+                    limit_n: mu * n_force,
+                });
+                st.rows.push((body, p, a));
+                st.rows.push((body, p, l));
             }
-            st.obstacle_force_n[i] = o_force;
-            st.obstacle_torque_nm[i] = o_torque;
-            st.force_n[i] = add(st.force_n[i], o_force);
-            st.torque_nm[i] = add(st.torque_nm[i], o_torque);
-            let slot = &mut world.data.xfrc_applied_mut()[body];
+        }
+        // W·F = −b with b = slip/dt + the points' accelerations without obstacle friction, each
+        // slot's force inside its disk: projected Gauss–Seidel over the slots (2 × 2 blocks).
+        world.point_mobility(&st.rows, &mut st.mobility);
+        let m = st.active.len();
+        let nr = 2 * m;
+        let (wm, acc) = (&st.mobility.w, &st.mobility.acc);
+        st.solved_n.clear();
+        st.solved_n.resize(m, [0.0; 2]);
+        let largest_limit = st.active.iter().map(|a| a.limit_n).fold(0.0, f64::max);
+        for _ in 0..FRICTION_SOLVER_SWEEPS {
+            let mut change = 0.0_f64;
+            for (s, slot) in st.active.iter().enumerate() {
+                let (r0, r1) = (2 * s, 2 * s + 1);
+                let mut g = [slot.slip_m_per_s[0] / dt + acc[r0], slot.slip_m_per_s[1] / dt + acc[r1]];
+                for (t, f) in st.solved_n.iter().enumerate() {
+                    g[0] += wm[r0 * nr + 2 * t] * f[0] + wm[r0 * nr + 2 * t + 1] * f[1];
+                    g[1] += wm[r1 * nr + 2 * t] * f[0] + wm[r1 * nr + 2 * t + 1] * f[1];
+                }
+                let (w00, w01, w10, w11) = (wm[r0 * nr + r0], wm[r0 * nr + r1], wm[r1 * nr + r0], wm[r1 * nr + r1]);
+                let det = w00 * w11 - w01 * w10;
+                if det <= 0.0 {
+                    continue;
+                }
+                let f = st.solved_n[s];
+                let trial = [f[0] - (w11 * g[0] - w01 * g[1]) / det, f[1] - (w00 * g[1] - w10 * g[0]) / det];
+                let size = (trial[0] * trial[0] + trial[1] * trial[1]).sqrt();
+                let scale = if size > slot.limit_n { slot.limit_n / size } else { 1.0 };
+                let (fa, fl) = (trial[0] * scale, trial[1] * scale);
+                change = change.max((fa - f[0]).abs()).max((fl - f[1]).abs());
+                st.solved_n[s] = [fa, fl];
+            }
+            if change <= 1e-9 * (1.0 + largest_limit) {
+                break;
+            }
+        }
+        for o in &mut st.obstacle_force_n {
+            *o = [0.0; 3];
+        }
+        for o in &mut st.obstacle_torque_nm {
+            *o = [0.0; 3];
+        }
+        for (a, f) in st.active.iter().zip(st.solved_n.iter()) {
+            let [t1, t2] = a.tangents;
+            let f_world = [0, 1, 2].map(|j| f[0] * t1[j] + f[1] * t2[j]);
+            let sliding = (f[0] * f[0] + f[1] * f[1]).sqrt() >= a.limit_n * (1.0 - 1e-9);
+            let torque = cross(a.arm_m, f_world);
+            let slot = &mut st.obstacle_slots[a.link][a.slot];
+            // Sliding, the anchor moves with the contact point.
+            slot.deflection_m = if sliding { [0.0; 3] } else { a.stuck_deflection_m };
+            slot.force_n = f_world;
+            slot.arm_m = a.arm_m;
+            st.obstacle_force_n[a.link] = add(st.obstacle_force_n[a.link], f_world);
+            st.obstacle_torque_nm[a.link] = add(st.obstacle_torque_nm[a.link], torque);
+            st.force_n[a.link] = add(st.force_n[a.link], f_world);
+            st.torque_nm[a.link] = add(st.torque_nm[a.link], torque);
+            let x = &mut world.data.xfrc_applied_mut()[self.bodies[a.link]];
             for k in 0..3 {
-                slot[k] += o_force[k];
-                slot[3 + k] += o_torque[k];
+                x[k] += f_world[k];
+                x[3 + k] += torque[k];
             }
         }
         // The friction moves the normal forces through the links' inertia: with it applied, a
         // second forward pass at x_k gives each contact the normal force the step will have, and
-        // a slot whose friction exceeds μ times that is scaled back onto it (less friction can
-        // only give back normal force that friction took).
-        world.data.forward();
-        st.collect_obstacle_normals(&world.data);
-        let mu = st.obstacle_mu;
-        for (i, &body) in self.bodies.iter().enumerate() {
+        // a slot whose friction exceeds μ times that is scaled back onto it.
+        st.settle_friction_bounds(world, &self.bodies, true);
+    }
+}
+
+/// Forward passes at most after the step's friction is applied, each followed by a scale-back of
+/// the slots above μ times the normal force it found, until none is above.
+const BOUND_PASSES: usize = 4;
+
+/// How far inside μ·N a heightfield or mesh ground slot is scaled back to (a share of μ·N).
+const BOUND_MARGIN: f64 = 1e-3;
+
+impl StickSlip {
+    /// Forward passes at x_k with the step's friction applied, each scaling back every
+    /// heightfield or mesh ground slot (and, with `obstacles`, every obstacle slot) whose
+    /// friction exceeds μ times the normal force that pass found, until a pass scales none back
+    /// (at most [`BOUND_PASSES`]). Scaling friction back changes MuJoCo's normal forces again,
+    /// usually giving back normal force that friction took.
+    fn settle_friction_bounds(&mut self, world: &mut World, bodies: &[usize], obstacles: bool) {
+        for _ in 0..BOUND_PASSES {
+            world.data.forward();
+            let mut changed = self.rescale_mujoco_ground_slots(world, bodies);
+            if obstacles {
+                self.collect_obstacle_normals(&world.data);
+                changed |= self.rescale_obstacle_slots(world, bodies);
+            }
+            if !changed {
+                break;
+            }
+        }
+    }
+
+    /// Scales every obstacle slot whose friction exceeds μ times its normal force of the latest
+    /// forward pass back onto it; whether any was.
+    fn rescale_obstacle_slots(&mut self, world: &mut World, bodies: &[usize]) -> bool {
+        let mu = self.obstacle_mu;
+        let mut changed = false;
+        for (i, &body) in bodies.iter().enumerate() {
             let (mut d_force, mut d_torque) = ([0.0; 3], [0.0; 3]);
-            for slot in st.obstacle_slots[i].iter_mut() {
+            for slot in self.obstacle_slots[i].iter_mut() {
                 let size = dot(slot.force_n, slot.force_n).sqrt();
                 let limit = if slot.seen { mu * slot.normal_n } else { 0.0 };
                 if size <= limit {
                     continue;
                 }
+                changed = true;
                 let f = slot.force_n.map(|x| x * limit / size);
                 let change = sub(f, slot.force_n);
                 d_force = add(d_force, change);
                 d_torque = add(d_torque, cross(slot.arm_m, change));
                 slot.force_n = f;
-                if slot.stiffness_n_per_m > 0.0 {
-                    slot.deflection_m = f.map(|x| -x / slot.stiffness_n_per_m);
-                }
+                slot.deflection_m = [0.0; 3];
             }
-            st.obstacle_force_n[i] = add(st.obstacle_force_n[i], d_force);
-            st.obstacle_torque_nm[i] = add(st.obstacle_torque_nm[i], d_torque);
-            st.force_n[i] = add(st.force_n[i], d_force);
-            st.torque_nm[i] = add(st.torque_nm[i], d_torque);
+            self.obstacle_force_n[i] = add(self.obstacle_force_n[i], d_force);
+            self.obstacle_torque_nm[i] = add(self.obstacle_torque_nm[i], d_torque);
+            self.force_n[i] = add(self.force_n[i], d_force);
+            self.torque_nm[i] = add(self.torque_nm[i], d_torque);
             let slot = &mut world.data.xfrc_applied_mut()[body];
             for k in 0..3 {
                 slot[k] += d_force[k];
                 slot[3 + k] += d_torque[k];
             }
         }
+        changed
     }
 }
 

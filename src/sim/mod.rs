@@ -236,6 +236,18 @@ impl From<model::ModelError> for SimError {
 /// contact at the start is fine, a placement error is not (see [`World::check_start_clear`]).
 pub const START_PENETRATION_TOLERANCE_M: f64 = 0.5e-3;
 
+/// Reusable buffers of [`World::point_mobility`].
+#[derive(Debug, Clone, Default)]
+pub(crate) struct MobilityBuffers {
+    jac: Vec<f64>,
+    jt: Vec<f64>,
+    minv_jt: Vec<f64>,
+    /// The rows' mobility matrix (n × n, row-major).
+    pub w: Vec<f64>,
+    /// The rows' accelerations in the forward pass.
+    pub acc: Vec<f64>,
+}
+
 /// A saved engine state of a [`World`] ([`World::save_state`]).
 #[derive(Clone)]
 pub struct WorldState {
@@ -515,6 +527,65 @@ impl World {
     pub fn forward(&mut self) {
         self.data.forward();
         self.sensor_time_secs = self.data.time();
+    }
+
+    /// How forces at points of the bodies move those points, at the latest forward pass: for
+    /// rows r = (body, point, unit direction d), `w` gets the n × n matrix (row-major)
+    /// W[r][s] = d_rᵀ·J_r·M⁻¹·J_sᵀ·d_s — the acceleration along d_r that a unit force along d_s
+    /// at point s causes, through the whole articulated body — and `acc` the acceleration of
+    /// each point along its direction in that forward pass, d_rᵀ·J_r·q̈ (the velocity-product
+    /// term J̇·q̇ left out). Uses the mass matrix factorised by the forward pass; the buffers
+    /// keep their capacity, so a warmed-up caller does not allocate.
+    pub(crate) fn point_mobility(&mut self, rows: &[(usize, [f64; 3], [f64; 3])], buf: &mut MobilityBuffers) {
+        let nv = self.data.model().ffi().nv as usize;
+        let n = rows.len();
+        buf.jac.resize(3 * nv, 0.0);
+        buf.jt.clear();
+        buf.jt.resize(n * nv, 0.0);
+        buf.minv_jt.clear();
+        buf.minv_jt.resize(n * nv, 0.0);
+        buf.w.clear();
+        buf.w.resize(n * n, 0.0);
+        buf.acc.clear();
+        buf.acc.resize(n, 0.0);
+        if n == 0 || nv == 0 {
+            return;
+        }
+        for (r, (body, point, dir)) in rows.iter().enumerate() {
+            // SAFETY: `jac` holds 3·nv numbers, as mj_jac writes for one point; model and data
+            // belong together and the body id is one of the model's (a link's body).
+            #[allow(unsafe_code)]
+            unsafe {
+                mujoco_rs::mujoco_c::mj_jac(
+                    self.data.model().ffi(),
+                    self.data.ffi(),
+                    buf.jac.as_mut_ptr(),
+                    std::ptr::null_mut(),
+                    point,
+                    *body as i32,
+                );
+            }
+            let row = &mut buf.jt[r * nv..(r + 1) * nv];
+            for (k, x) in row.iter_mut().enumerate() {
+                *x = dir[0] * buf.jac[k] + dir[1] * buf.jac[nv + k] + dir[2] * buf.jac[2 * nv + k];
+            }
+        }
+        // SAFETY: `minv_jt` and `jt` hold n vectors of nv numbers each, as mj_solveM reads and
+        // writes; it only reads the factorisation (qLD) the latest forward pass left in `data`.
+        #[allow(unsafe_code)]
+        unsafe {
+            let m: *const mujoco_rs::mujoco_c::mjModel = self.data.model().ffi();
+            mujoco_rs::mujoco_c::mj_solveM(m, self.data.ffi_mut(), buf.minv_jt.as_mut_ptr(), buf.jt.as_ptr(), n as i32);
+        }
+        let qacc = self.data.qacc();
+        for r in 0..n {
+            let jr = &buf.jt[r * nv..(r + 1) * nv];
+            buf.acc[r] = jr.iter().zip(qacc).map(|(a, b)| a * b).sum();
+            for s in 0..n {
+                let ys = &buf.minv_jt[s * nv..(s + 1) * nv];
+                buf.w[r * n + s] = jr.iter().zip(ys).map(|(a, b)| a * b).sum();
+            }
+        }
     }
 
     /// One `mj_step`. Afterwards `sensordata` describes the state at the start of the step

@@ -196,6 +196,49 @@ fn a_sideways_hit_on_the_cylinders_stays_within_the_reference_lift() {
     assert!(e.friction_over_mu_n <= 1.0 + 1e-9 && e.friction_without_contact_n == 0.0, "{e:?}");
 }
 
+/// A 64 × 64 gray PNG of bumps (a product of sines, four bumps across), for a heightfield.
+fn write_bumps_png(path: &std::path::Path) {
+    let (w, h) = (64u32, 64u32);
+    let pixels: Vec<u8> = (0..h)
+        .flat_map(|r| {
+            (0..w).map(move |c| {
+                let (x, y) = (c as f64 / w as f64, r as f64 / h as f64);
+                (127.5 + 127.5 * (8.0 * std::f64::consts::PI * x).sin() * (8.0 * std::f64::consts::PI * y).cos()) as u8
+            })
+        })
+        .collect();
+    let file = std::fs::File::create(path).unwrap();
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+    enc.set_color(png::ColorType::Grayscale);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.write_header().unwrap().write_image_data(&pixels).unwrap();
+}
+
+/// On heightfield ground (MuJoCo's normal force, per-prism contacts that appear and vanish
+/// between steps) friction is bounded by the normal force of the same instant too: the gait on
+/// 10 mm bumps, every step for 3 s from t = 0, μ 0.5 and 1.
+#[test]
+fn friction_on_a_bumpy_heightfield_stays_within_mu_n_of_the_same_instant() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("bumps.png");
+    write_bumps_png(&png);
+    for mu in [0.5, 1.0] {
+        let c = scene(
+            mu,
+            &[
+                &format!("terrain.heightfield.file={:?}", png.display().to_string()),
+                "terrain.heightfield.size_x_m=4.0",
+                "terrain.heightfield.size_y_m=4.0",
+                "terrain.heightfield.height_m=0.01",
+                "snake.head_position_m=[0.0, 0.0, 0.011]",
+            ],
+        );
+        let e = measure(&c, &mut simulation(&c), 3.0, mu);
+        eprintln!("μ {mu}: {e:?}");
+        assert!(e.friction_over_mu_n <= 1.0 + 1e-9 && e.friction_without_contact_n == 0.0, "μ {mu}: {e:?}");
+    }
+}
+
 /// At μ 1 the reference lifts the snake 8.3 mm; here the snake lifts about 0.2 m (0.29 m with
 /// frictionless cylinders: the lift is not the obstacle friction's): this prints both μ.
 #[test]
