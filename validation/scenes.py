@@ -29,8 +29,6 @@ RAMP_SECS = 1.0
 
 # Break-away: the force on link 0 rises as μN · t / BREAKAWAY_RAMP_SECS.
 BREAKAWAY_RAMP_SECS = 1.0
-# The config key of a ramped external force on a link, if the binary has one (else our side is n/a).
-PUSH_KEYS: dict | None = None
 
 
 def common(mu: float, duration_secs: float) -> dict:

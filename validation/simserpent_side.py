@@ -16,7 +16,13 @@ def _set_args(overrides: dict) -> list[str]:
     return args
 
 
+class Raw(str):
+    """A value written into `--set KEY=VALUE` as it is (TOML the caller wrote)."""
+
+
 def _toml(value) -> str:
+    if isinstance(value, Raw):
+        return str(value)
     if isinstance(value, bool):
         return "true" if value else "false"
     if isinstance(value, str):

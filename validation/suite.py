@@ -28,7 +28,6 @@ import scenes as sc  # noqa: E402
 import simserpent_side as ss  # noqa: E402
 import targets  # noqa: E402
 
-NA_PUSH = "n/a: no config key applies a ramped external force to a link"
 
 
 def fmt(value, figure: str = "") -> str:
@@ -71,8 +70,6 @@ def main() -> int:
                     help="Drake's continuous plant with an error-controlled integrator (runge_kutta3) instead of TAMSI")
     ap.add_argument("--accuracy", type=float, default=drake_side.DrakeSettings.accuracy,
                     help="target accuracy of the continuous integrator")
-    ap.add_argument("--push-key", metavar="KEY_PREFIX",
-                    help="our config section for a ramped force on a link (break-away); see README")
     ap.add_argument("--out", default=str(HERE / "results"), help="folder of the tables")
     ap.add_argument("--work", default=str(HERE / "work"), help="folder of the run folders and models")
     args = ap.parse_args()
@@ -127,14 +124,9 @@ def main() -> int:
             print(f"{tag}: drake done ({time.time() - t0:.1f} s)", flush=True)
             for engine in engines:
                 t0 = time.time()
-                if scene.push and not args.push_key:
-                    for label, _ in scene.figures(run, model):
-                        rows.append({"scene": scene.key, "mu": mu, "engine": engine, "figure": label, "value": NA_PUSH,
-                                     "raw": None})
-                    continue
                 run_sets = dict(sets)
                 if scene.push:
-                    run_sets.update(push_sets(args.push_key, mu_n))
+                    run_sets.update(push_sets(mu_n))
                 folder = ss.run(binaries[engine], run_sets, work / engine, tag)
                 ours = ss.read_run(folder, len(model.links))
                 ours_model = mjcf_model.read(folder / "model.xml")
@@ -149,11 +141,15 @@ def main() -> int:
     return 0
 
 
-def push_sets(prefix: str, mu_n: float) -> dict:
-    """The ramped force in our config: prefix.link = 0, force rising by μN per ramp time along +x."""
+def push_sets(mu_n: float) -> dict:
+    """The ramped force in our config (`[[physics.external_forces]]`): on link 0 along +x from t = 0,
+    rising by μN per ramp time, up to 2 μN."""
+    rate = mu_n / sc.BREAKAWAY_RAMP_SECS
     return {
-        f"{prefix}.link": 0,
-        f"{prefix}.force_rate_n_per_s": [mu_n / sc.BREAKAWAY_RAMP_SECS, 0.0, 0.0],
+        "physics.external_forces": ss.Raw(
+            f"[{{link = 0, direction = [1.0, 0.0, 0.0], start_secs = 0.0, ramp_n_per_s = {rate!r}, "
+            f"force_n = {2 * mu_n!r}, duration_secs = 0.0}}]"
+        )
     }
 
 

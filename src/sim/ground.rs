@@ -68,7 +68,10 @@
 //!     (maximum dissipation on the ellipse), while sticking it is whatever holds the link, with
 //!     no creep. μ_axial is `axial_friction` for a force toward the tail and
 //!     `backward_friction` (directional) toward the head; the coefficients come from the region
-//!     under the link.
+//!     under the link. A stick spring springing back along the point's motion gives back the
+//!     energy it stored: at most [`STICK_RELEASE_J`] per step and slot (the rest of the force
+//!     along v is dropped and the anchor follows, z = −F/k_t), so a coasting snake does not
+//!     gain energy from the springs that held it.
 //! - **Obstacle contacts** (`obstacle_*` geoms: cylinders, pegs, walls, mesh obstacles) keep
 //!   MuJoCo's normal force (frictionless, condim 1: a stiff impact needs its implicit solver),
 //!   one friction slot per link and touching obstacle geom (at most 4 per link), isotropic with
@@ -327,6 +330,11 @@ pub struct OwnContact {
 /// with 1 ms steps).
 const DETECTION_MARGIN_M: f64 = 0.01;
 
+/// The most energy (J) a ground slot's stick spring gives back in one step by springing back
+/// along its contact point's motion: enough for a stuck link's own small oscillation about its
+/// anchor (holding on a slope), too little to drive a coasting body.
+const STICK_RELEASE_J: f64 = 1e-7;
+
 /// Slots per link: the front and the back half of its contact (a capsule lying on a plane
 /// touches it at both end caps).
 const SLOTS: usize = 2;
@@ -381,6 +389,11 @@ struct StickSlip {
     /// the same after the step's friction is applied (the check of the second forward pass).
     mujoco_ground_n: Vec<[f64; SLOTS]>,
     mujoco_ground_check_n: Vec<[f64; SLOTS]>,
+    /// Per ground slot with heightfield or mesh contacts: the normal force its friction needs
+    /// (N: the N at which the force lies on its friction ellipse), and the (load, N) of the
+    /// evaluation before (the first: no friction, the N it was bounded by).
+    bound_load_n: Vec<[f64; SLOTS]>,
+    bound_previous: Vec<[(f64, f64); SLOTS]>,
     /// Penetrating ground contact points of each link at x_k.
     ground_points: Vec<usize>,
     /// Velocity of each link's centre of mass at x_k: [angular; linear] (world frame).
@@ -547,6 +560,8 @@ impl StickSlip {
             ground_points: vec![0; n],
             mujoco_ground_n: vec![[0.0; SLOTS]; n],
             mujoco_ground_check_n: vec![[0.0; SLOTS]; n],
+            bound_load_n: vec![[0.0; SLOTS]; n],
+            bound_previous: vec![[(0.0, 0.0); SLOTS]; n],
             env_geoms: (0..world.index.geom_class.len())
                 .filter(|&g| own_ground[g])
                 .map(|g| {
@@ -687,23 +702,29 @@ impl StickSlip {
         }
         for (i, &body) in bodies.iter().enumerate() {
             for slot in 0..SLOTS {
-                let used = self.normal_n[i][slot];
-                let now = used - self.mujoco_ground_n[i][slot] + self.mujoco_ground_check_n[i][slot];
-                if self.mujoco_ground_n[i][slot] <= 0.0 || now >= used {
+                if self.mujoco_ground_n[i][slot] <= 0.0 {
+                    continue;
+                }
+                let n_now =
+                    self.normal_n[i][slot] - self.mujoco_ground_n[i][slot] + self.mujoco_ground_check_n[i][slot];
+                let load = self.bound_load_n[i][slot];
+                let (load_before, n_before) = self.bound_previous[i][slot];
+                self.bound_previous[i][slot] = (load, n_now);
+                if load <= n_now {
                     continue;
                 }
                 changed = true;
-                // Onto the new bound, 0.1 % inside it: MuJoCo's normal forces shift a little with
-                // every scale-back, and the next pass then finds the slot within its bound.
-                let scale = (1.0 - BOUND_MARGIN) * now.max(0.0) / used;
+                // N moves with the friction: taken as linear in the load through this pass and
+                // the one before, the load it can carry is where the line meets N = load (at
+                // worst this pass's N), 0.1 % inside it.
+                let slope = if load != load_before { (n_now - n_before) / (load - load_before) } else { 0.0 };
+                let carried = if slope < 1.0 { (n_now - slope * load) / (1.0 - slope) } else { n_now };
+                let target = (1.0 - BOUND_MARGIN) * carried.clamp(0.0, load);
+                let scale = target / load;
+                self.bound_load_n[i][slot] = target;
                 let f = self.slot_force_n[i][slot];
                 let change = f.map(|x| x * (scale - 1.0));
-                let p = self.point_weighted[i][slot].map(|x| x / used);
-                // The slot's N is the new one from here on (its point and normal unchanged).
-                self.normal_n[i][slot] = scale * used;
-                self.mujoco_ground_n[i][slot] = self.mujoco_ground_check_n[i][slot];
-                self.point_weighted[i][slot] = self.point_weighted[i][slot].map(|x| x * scale);
-                self.normal_weighted[i][slot] = self.normal_weighted[i][slot].map(|x| x * scale);
+                let p = self.point_weighted[i][slot].map(|x| x / self.normal_n[i][slot]);
                 let torque = cross(sub(p, world.data.xipos()[body]), change);
                 self.slot_force_n[i][slot] = f.map(|x| x * scale);
                 self.force_n[i] = add(self.force_n[i], change);
@@ -1082,11 +1103,28 @@ impl Ground {
                 let (ta, tl) = (dot(trial, a), dot(trial, l));
                 let mu_a = if ta > 0.0 { mu_back } else { mu_fwd };
                 let (fa, fl) = crate::state::project_to_ellipse(ta, tl, mu_a * n_force, mu_lat * n_force);
-                let f_world = [0, 1, 2].map(|j| fa * a[j] + fl * l[j]);
-                if fa == ta && fl == tl {
+                let mut f_world = [0, 1, 2].map(|j| fa * a[j] + fl * l[j]);
+                // A stick spring springing back along the point's motion gives back the energy
+                // it stored: at most STICK_RELEASE_J per step (the rest of the force along the
+                // velocity is dropped and the anchor follows).
+                let (power, v_sq) = (dot(f_world, v_t), dot(v_t, v_t));
+                let pushes = power * dt > STICK_RELEASE_J && v_sq > 0.0;
+                if pushes {
+                    let excess = power - STICK_RELEASE_J / dt;
+                    f_world = sub(f_world, v_t.map(|x| x * excess / v_sq));
+                }
+                if fa == ta && fl == tl && !pushes {
                     *z = z_pred; // sticks
                 } else if k > 0.0 {
                     *z = f_world.map(|x| -x / k); // slides: the anchor is dragged along
+                }
+                if st.mujoco_ground_n[i][slot] > 0.0 {
+                    // The N this force needs: where it lies on its ellipse (see the scale-back).
+                    let (fa, fl) = (dot(f_world, a), dot(f_world, l));
+                    let along = if fa > 0.0 { mu_back } else { mu_fwd };
+                    let need = |f: f64, mu: f64| if mu > 0.0 { f / mu } else { 0.0 };
+                    st.bound_load_n[i][slot] = need(fa, along).hypot(need(fl, mu_lat));
+                    st.bound_previous[i][slot] = (0.0, n_force);
                 }
                 st.slot_force_n[i][slot] = f_world;
                 force = add(force, f_world);
