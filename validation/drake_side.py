@@ -322,6 +322,9 @@ def _record(sim, plant, pc, model, bodies, joints, floor_id, obstacle_ids, durat
     qang = np.zeros((rows, len(joints)))
     p_cm = [b.default_com() for b in bodies]
     port = plant.get_contact_results_output_port()
+    # Energy held in the floor's point contacts (J): ½·k·x² each, k the combined stiffness.
+    elastic = np.zeros(rows)
+    k_point = contact_stiffness(model)[0]
 
     for k in range(rows):
         if k > 0:
@@ -346,6 +349,7 @@ def _record(sim, plant, pc, model, bodies, joints, floor_id, obstacle_ids, durat
             a, b_ = info.bodyA_index(), info.bodyB_index()
             if floor_id in ids:
                 target = floor
+                elastic[k] += 0.5 * k_point * pair.depth * pair.depth
             elif obstacle_ids.intersection(ids):
                 target = obstacle
             else:
@@ -368,4 +372,5 @@ def _record(sim, plant, pc, model, bodies, joints, floor_id, obstacle_ids, durat
         "obstacle_force": obstacle,
         "joint_angle": qang,
         "joint_velocity": qdot,
+        "floor_elastic_j": elastic,
     }

@@ -155,7 +155,8 @@ def top_link_offset_mm(run: dict) -> tuple[float, float]:
 
 
 def energy(run: dict, model: Model) -> np.ndarray:
-    """Mechanical energy per row (J): kinetic (links and joint armature) + gravitational."""
+    """Mechanical energy per row (J): kinetic (links and joint armature) + gravitational + the energy
+    held in the floor's normal springs (`floor_elastic_j`, where the run has it)."""
     g = float(np.linalg.norm(model.gravity_m_per_s2))
     R = _rotations(run)
     e = np.zeros(len(run["time_s"]))
@@ -173,7 +174,7 @@ def energy(run: dict, model: Model) -> np.ndarray:
         e += link.mass_kg * g * run["position"][:, i, 2]
     for j, link in enumerate(model.links[1:]):
         e += 0.5 * link.joint_armature_kg_m2 * run["joint_velocity"][:, j] ** 2
-    return e
+    return e + run.get("floor_elastic_j", 0.0)
 
 
 def energy_figures(run: dict, model: Model) -> tuple[float, float, float]:

@@ -67,7 +67,7 @@ def _read_csv(path: Path) -> tuple[list[str], np.ndarray]:
     return header, data
 
 
-def read_run(folder: Path, n_links: int) -> dict:
+def read_run(folder: Path, n_links: int, model=None) -> dict:
     """The tables of a run folder in the form `figures` expects."""
     names, links = _read_csv(folder / "links.csv")
     col = {n: k for k, n in enumerate(names)}
@@ -104,4 +104,54 @@ def read_run(folder: Path, n_links: int) -> dict:
     else:
         run["joint_velocity"] = np.zeros((rows, 0))
         run["joint_angle"] = np.zeros((rows, 0))
+    if model is not None:
+        run["floor_elastic_j"] = floor_elastic_energy(folder, run, model)
     return run
+
+
+def floor_elastic_energy(folder: Path, run: dict, model) -> np.ndarray:
+    """Energy held in the floor's normal springs per row (J): Σ ½·k·δ² over the link–floor rows of
+    `contacts.csv`, with SimSerpent's stiffness of a contact point k = s·m_eff·ω² (m_eff the
+    point's effective mass along the normal for the link alone, s = 2 / max(2, the link's
+    penetrating points), ω² = min(1/(τζ)², 1/dt²); see `sim::ground`)."""
+    import csv
+
+    from figures import capsule_inertia
+
+    omega_sq = min(1.0 / (model.env_time_constant_secs * model.env_damping_ratio) ** 2, 1.0 / model.timestep_secs**2)
+    row_of_time = {round(float(t), 9): k for k, t in enumerate(run["time_s"])}
+    rot = figures_rotations(run)
+    points: dict[tuple[int, int], list[float]] = {}
+    with (folder / "contacts.csv").open() as f:
+        for r in csv.DictReader(f):
+            pair = (r["geom1"], r["geom2"])
+            if "floor" not in pair:
+                continue
+            link_geom = pair[0] if pair[1] == "floor" else pair[1]
+            if not link_geom.startswith("link_"):
+                continue
+            depth = float(r["penetration_m"])
+            k = row_of_time.get(round(float(r["time_s"]), 9))
+            if depth <= 0.0 or k is None:
+                continue
+            i = int(link_geom[5:7])
+            link = model.links[i]
+            p = np.array([float(r[f"position_{a}_m"]) for a in "xyz"])
+            n = np.array([float(r[f"normal_{a}"]) for a in "xyz"])
+            arm = rot[k, i].T @ (p - run["position"][k, i])
+            normal = rot[k, i].T @ n
+            inertia = capsule_inertia(link.mass_kg, link.radius_m, link.core_length_m)
+            rxn = np.cross(arm, normal)
+            m_eff = 1.0 / (1.0 / link.mass_kg + rxn @ np.linalg.solve(inertia, rxn))
+            points.setdefault((k, i), []).append(0.5 * m_eff * omega_sq * depth * depth)
+    energy = np.zeros(len(run["time_s"]))
+    for (k, _), halves in points.items():
+        s = 2.0 / max(2, len(halves))
+        energy[k] += s * sum(halves)
+    return energy
+
+
+def figures_rotations(run: dict) -> np.ndarray:
+    from figures import _rotations
+
+    return _rotations(run)

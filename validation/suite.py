@@ -128,8 +128,8 @@ def main() -> int:
                 if scene.push:
                     run_sets.update(push_sets(mu_n))
                 folder = ss.run(binaries[engine], run_sets, work / engine, tag)
-                ours = ss.read_run(folder, len(model.links))
                 ours_model = mjcf_model.read(folder / "model.xml")
+                ours = ss.read_run(folder, len(model.links), ours_model)
                 for label, value in scene.figures(ours, ours_model):
                     rows.append({"scene": scene.key, "mu": mu, "engine": engine, "figure": label,
                                  "value": fmt(value, label), "raw": value})
