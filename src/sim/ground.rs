@@ -635,6 +635,30 @@ impl StickSlip {
 }
 
 impl StickSlip {
+    /// Adds a friction force (N) and its moment (N·m) to link `i`'s applied friction and to its
+    /// body's `xfrc_applied`; with `obstacle`, to its obstacle friction too.
+    fn add_friction(
+        &mut self,
+        world: &mut World,
+        body: usize,
+        i: usize,
+        force: [f64; 3],
+        torque: [f64; 3],
+        obstacle: bool,
+    ) {
+        if obstacle {
+            self.obstacle_force_n[i] = add(self.obstacle_force_n[i], force);
+            self.obstacle_torque_nm[i] = add(self.obstacle_torque_nm[i], torque);
+        }
+        self.force_n[i] = add(self.force_n[i], force);
+        self.torque_nm[i] = add(self.torque_nm[i], torque);
+        let x = &mut world.data.xfrc_applied_mut()[body];
+        for k in 0..3 {
+            x[k] += force[k];
+            x[3 + k] += torque[k];
+        }
+    }
+
     /// Adds MuJoCo's normal forces of the latest forward pass's link–heightfield and link–mesh
     /// ground contacts to each link's ground slots (Σ N, Σ N·point, Σ N·normal), and keeps that
     /// part of Σ N per slot in `mujoco_ground_n`.
@@ -729,13 +753,7 @@ impl StickSlip {
                 let p = self.point_weighted[i][slot].map(|x| x / self.normal_n[i][slot]);
                 let torque = cross(sub(p, world.data.xipos()[body]), change);
                 self.slot_force_n[i][slot] = f.map(|x| x * scale);
-                self.force_n[i] = add(self.force_n[i], change);
-                self.torque_nm[i] = add(self.torque_nm[i], torque);
-                let x = &mut world.data.xfrc_applied_mut()[body];
-                for k in 0..3 {
-                    x[k] += change[k];
-                    x[3 + k] += torque[k];
-                }
+                self.add_friction(world, body, i, change, torque, false);
                 let z = &mut self.deflection_m[i][slot];
                 *z = z.map(|x| x * scale);
             }
@@ -1248,7 +1266,8 @@ impl Ground {
         for o in &mut st.obstacle_torque_nm {
             *o = [0.0; 3];
         }
-        for (a, f) in st.active.iter().zip(st.solved_n.iter()) {
+        for s in 0..st.active.len() {
+            let (a, f) = (st.active[s], st.solved_n[s]);
             let [t1, t2] = a.tangents;
             let f_world = [0, 1, 2].map(|j| f[0] * t1[j] + f[1] * t2[j]);
             let sliding = (f[0] * f[0] + f[1] * f[1]).sqrt() >= a.limit_n * (1.0 - 1e-9);
@@ -1258,15 +1277,7 @@ impl Ground {
             slot.deflection_m = if sliding { [0.0; 3] } else { a.stuck_deflection_m };
             slot.force_n = f_world;
             slot.arm_m = a.arm_m;
-            st.obstacle_force_n[a.link] = add(st.obstacle_force_n[a.link], f_world);
-            st.obstacle_torque_nm[a.link] = add(st.obstacle_torque_nm[a.link], torque);
-            st.force_n[a.link] = add(st.force_n[a.link], f_world);
-            st.torque_nm[a.link] = add(st.torque_nm[a.link], torque);
-            let x = &mut world.data.xfrc_applied_mut()[self.bodies[a.link]];
-            for k in 0..3 {
-                x[k] += f_world[k];
-                x[3 + k] += torque[k];
-            }
+            st.add_friction(world, self.bodies[a.link], a.link, f_world, torque, true);
         }
         // The friction moves the normal forces through the links' inertia: with it applied, a
         // second forward pass at x_k gives each contact the normal force the step will have, and
@@ -1323,15 +1334,7 @@ impl StickSlip {
                 slot.force_n = f;
                 slot.deflection_m = [0.0; 3];
             }
-            self.obstacle_force_n[i] = add(self.obstacle_force_n[i], d_force);
-            self.obstacle_torque_nm[i] = add(self.obstacle_torque_nm[i], d_torque);
-            self.force_n[i] = add(self.force_n[i], d_force);
-            self.torque_nm[i] = add(self.torque_nm[i], d_torque);
-            let slot = &mut world.data.xfrc_applied_mut()[body];
-            for k in 0..3 {
-                slot[k] += d_force[k];
-                slot[3 + k] += d_torque[k];
-            }
+            self.add_friction(world, body, i, d_force, d_torque, true);
         }
         changed
     }

@@ -14,6 +14,16 @@ pub const G: f64 = 9.81;
 // --- files of the repository -------------------------------------------------------------------
 
 /// The repository's root folder.
+/// Writes a `w` × `h` 8-bit grayscale PNG (row by row from the image's top left), e.g. a
+/// heightfield.
+pub fn write_gray_png(path: &Path, w: u32, h: u32, pixels: &[u8]) {
+    let file = std::fs::File::create(path).unwrap();
+    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
+    enc.set_color(png::ColorType::Grayscale);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.write_header().unwrap().write_image_data(pixels).unwrap();
+}
+
 pub fn manifest_dir() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }

@@ -207,11 +207,7 @@ fn write_bumps_png(path: &std::path::Path) {
             })
         })
         .collect();
-    let file = std::fs::File::create(path).unwrap();
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
-    enc.set_color(png::ColorType::Grayscale);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.write_header().unwrap().write_image_data(&pixels).unwrap();
+    crate::common::write_gray_png(path, w, h, &pixels);
 }
 
 /// On heightfield ground (MuJoCo's normal force, per-prism contacts that appear and vanish

@@ -106,11 +106,7 @@ fn keys_the_controller_ignores_are_reported() {
 fn write_ramp_png(path: &Path) {
     let (w, h) = (16u32, 16u32);
     let pixels: Vec<u8> = (0..h).flat_map(|_| (0..w).map(move |c| (c * 255 / (w - 1)) as u8)).collect();
-    let file = std::fs::File::create(path).unwrap();
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
-    enc.set_color(png::ColorType::Grayscale);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.write_header().unwrap().write_image_data(&pixels).unwrap();
+    crate::common::write_gray_png(path, w, h, &pixels);
 }
 
 /// A snake started inside a heightfield is refused with the height to raise it by; raising it by

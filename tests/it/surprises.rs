@@ -206,13 +206,7 @@ fn a_snake_starting_inside_a_slope_heightfield_or_mesh_is_refused_naming_the_dep
     // A heightfield (uniformly 0.1 m high) and a mesh rock over the snake's start.
     let dir = tempfile::tempdir().unwrap();
     let png = dir.path().join("plateau.png");
-    {
-        let file = std::fs::File::create(&png).unwrap();
-        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), 8, 8);
-        enc.set_color(png::ColorType::Grayscale);
-        enc.set_depth(png::BitDepth::Eight);
-        enc.write_header().unwrap().write_image_data(&[255u8; 64]).unwrap();
-    }
+    crate::common::write_gray_png(&png, 8, 8, &[255u8; 64]);
     let hfield = config(&[
         "terrain.kind=\"none\"",
         &format!("terrain.heightfield.file={:?}", png.display().to_string()),

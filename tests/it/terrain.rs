@@ -115,11 +115,7 @@ fn write_png(path: &Path) {
             pixels[r * w as usize + c] = 255;
         }
     }
-    let file = std::fs::File::create(path).unwrap();
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
-    enc.set_color(png::ColorType::Grayscale);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.write_header().unwrap().write_image_data(&pixels).unwrap();
+    crate::common::write_gray_png(path, w, h, &pixels);
 }
 
 /// Drops one link (axis along x, 5 cm above the white plateau's height) at (x, y); returns the
