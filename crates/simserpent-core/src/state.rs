@@ -98,7 +98,8 @@ pub struct ContactEstimates {
     pub external_force_n: Vec<[f64; 3]>,
     /// The floor's share: normal support and friction.
     pub floor_force_n: Vec<[f64; 3]>,
-    /// The rest, horizontal: what obstacles push.
+    /// The rest: what obstacles push (horizontal), plus the vertical friction of a peg that holds
+    /// the link up (see `estimation::motion`).
     pub obstacle_force_n: Vec<[f64; 3]>,
     /// Whether the link touches an obstacle (|obstacle force| ≥ the detection threshold).
     pub contact: Vec<bool>,
