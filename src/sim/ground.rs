@@ -710,9 +710,10 @@ impl StickSlip {
         Some((link, usize::from(r[0] * m[0] + r[1] * m[3] + r[2] * m[6] < 0.0), n, sign))
     }
 
-    /// After a forward pass with the step's friction applied: every ground slot whose heightfield
-    /// or mesh contacts now carry less normal force than its friction was bounded by gets its
-    /// friction scaled back onto μ times the new N (force, moment, `xfrc_applied` and anchor).
+    /// After a forward pass with the step's friction applied: every ground slot whose friction
+    /// needs more normal force than its heightfield or mesh contacts (with its plane contacts)
+    /// now carry gets its friction scaled back to the load the normal force can carry (force,
+    /// moment, `xfrc_applied` and anchor); whether any was.
     fn rescale_mujoco_ground_slots(&mut self, world: &mut World, bodies: &[usize]) -> bool {
         if self.mujoco_ground_n.iter().all(|s| s.iter().all(|&n| n <= 0.0)) {
             return false;
