@@ -5,12 +5,14 @@
 //! ```text
 //! cargo run --release --example oal_bench -- [--tune N] [--held N] [--duration S] [--threads N]
 //!     [--out DIR] [--floors isotropic,anisotropic] [--families lattice,random] [--passive 10,5,2.5]
-//!     [--no-laws] [--estimated-only] [--mine] [--set KEY=VALUE]...
+//!     [--no-laws] [--estimated-only] [--mine] [--law-servo-kp K] [--set KEY=VALUE]...
 //! cargo run --release --example oal_bench -- cost     # per-step cost of each controller (µs)
 //! ```
 //!
 //! `--mine` adds [`PushAway`] (below): a force-feedback controller in ~30 lines, the template
-//! for one's own. The report goes to `<DIR>/oal-bench-<UTC time>/report.md`.
+//! for one's own. `--law-servo-kp K` runs the built-in contact laws on soft position servos of
+//! kp K N·m/rad (kv K/100) instead of the stiff ones: with K a passive gain, each law's
+//! feedback-off run is that passive baseline. The report goes to `<DIR>/oal-bench-<UTC time>/report.md`.
 
 use simserpent::config::Config;
 use simserpent::control::{Command, Controller, Observation, SineWave};
@@ -157,6 +159,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--floors" => bench.floors = list(&value, Floor::from_name)?,
             "--families" => bench.families = list(&value, Family::from_name)?,
             "--passive" => bench.passive_kp_nm_per_rad = list(&value, |s| s.parse().ok())?,
+            "--law-servo-kp" => match number(&value)? {
+                kp if kp > 0.0 && kp.is_finite() => bench.law_servo_kp_nm_per_rad = Some(kp),
+                kp => return Err(format!("--law-servo-kp {kp}: must be a positive gain (N·m/rad)").into()),
+            },
             "--set" => overrides.push(value),
             "--estimated-only" => {
                 bench.true_contacts = false;

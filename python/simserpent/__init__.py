@@ -273,6 +273,7 @@ def oal_bench(
     passive_kp_nm_per_rad: Union[Iterable[float], None] = None,
     threads: int = 0,
     overrides: Overrides = None,
+    law_servo_kp_nm_per_rad: Union[float, None] = None,
 ) -> dict[str, Any]:
     """The obstacle-aided locomotion benchmark (``simserpent experiment oal-bench``) with your
     controller plugged in as condition ``name`` beside feedback off (``open_loop``), passive
@@ -290,6 +291,8 @@ def oal_bench(
     ``duration_secs``, ``floors`` (``"isotropic"``, ``"anisotropic"``), ``families``
     (``"lattice"``, ``"random"``) and ``passive_kp_nm_per_rad`` change it. ``overrides``
     (``--set`` syntax) go onto the default config first (e.g. a contact law's gains).
+    ``law_servo_kp_nm_per_rad`` puts the built-in laws on soft servos of that kp (kv = kp/100)
+    instead of the stiff ones (with a passive gain, their feedback-off run is that baseline's).
     ``threads``: 0 = all cores.
 
     Writes ``<out>/oal-bench-<UTC time>/`` (``report.md``, ``oal_runs.csv``, ``oal_summary.csv``,
@@ -315,6 +318,7 @@ def oal_bench(
         None if passive_kp_nm_per_rad is None else [float(k) for k in passive_kp_nm_per_rad],
         threads,
         _override_list(overrides),
+        None if law_servo_kp_nm_per_rad is None else float(law_servo_kp_nm_per_rad),
     )
 
 

@@ -494,7 +494,7 @@ fn parse_names<T>(
 /// and returns the step callable of `PyController`. Writes `<out>/oal-bench-<UTC time>/`
 /// (report.md, the tables, plots/); returns `folder` and `report` (Markdown).
 #[pyfunction]
-#[pyo3(signature = (controller, name, out, quick, estimation, tuning_fields, held_out_fields, duration_secs, floors, families, laws, true_contacts, passive_kp_nm_per_rad, threads, overrides))]
+#[pyo3(signature = (controller, name, out, quick, estimation, tuning_fields, held_out_fields, duration_secs, floors, families, laws, true_contacts, passive_kp_nm_per_rad, threads, overrides, law_servo_kp_nm_per_rad))]
 #[allow(clippy::too_many_arguments)]
 fn oal_bench<'py>(
     py: Python<'py>,
@@ -513,6 +513,7 @@ fn oal_bench<'py>(
     passive_kp_nm_per_rad: Option<Vec<f64>>,
     threads: usize,
     overrides: Vec<String>,
+    law_servo_kp_nm_per_rad: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     use simserpent::experiments::oal_bench::{Bench, Family, Floor, Plugged};
     let value_err = pyo3::exceptions::PyValueError::new_err;
@@ -537,6 +538,12 @@ fn oal_bench<'py>(
             return Err(value_err(format!("passive_kp_nm_per_rad = {kp:?}: every gain must be positive")));
         }
         bench.passive_kp_nm_per_rad = kp;
+    }
+    if let Some(kp) = law_servo_kp_nm_per_rad {
+        if !(kp.is_finite() && kp > 0.0) {
+            return Err(value_err(format!("law_servo_kp_nm_per_rad = {kp}: must be a positive gain (N·m/rad)")));
+        }
+        bench.law_servo_kp_nm_per_rad = Some(kp);
     }
     bench.laws = laws;
     bench.true_contacts = true_contacts;

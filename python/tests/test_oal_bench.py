@@ -63,5 +63,7 @@ def test_bad_sizes_name_the_argument(tmp_path):
         simserpent.oal_bench(the_base_gait, out=tmp_path, **{**SMALL, "floors": ["wet"]})
     with pytest.raises(ValueError, match="duration_secs"):
         simserpent.oal_bench(the_base_gait, out=tmp_path, **{**SMALL, "duration_secs": 0.0})
+    with pytest.raises(ValueError, match="law_servo_kp_nm_per_rad = -1"):
+        simserpent.oal_bench(the_base_gait, out=tmp_path, law_servo_kp_nm_per_rad=-1.0, **SMALL)
     with pytest.raises(TypeError, match="controller must be callable"):
         simserpent.oal_bench(42, out=tmp_path, **SMALL)

@@ -234,6 +234,10 @@ pub struct Bench {
     pub plugged: Vec<Plugged>,
     /// Fields whose paths are plotted (held-out indices, per floor and family).
     pub path_fields: u64,
+    /// The position servos' kp (N·m/rad; kv = kp/100) of the contact laws' runs: `None` for the
+    /// stiff servos of every run but the passive ones; a passive gain puts the laws on the same
+    /// soft servos as that baseline (their feedback-off run is then the passive run).
+    pub law_servo_kp_nm_per_rad: Option<f64>,
 }
 
 impl Bench {
@@ -252,6 +256,7 @@ impl Bench {
             true_contacts: true,
             plugged: Vec::new(),
             path_fields: 2,
+            law_servo_kp_nm_per_rad: None,
         }
     }
 
@@ -364,9 +369,9 @@ fn base_ramp_secs(base: &Config) -> f64 {
 }
 
 /// The config of one condition on a field, and the controller to plug in (if any).
-fn condition_config(field: &Config, condition: &Condition, duration_secs: f64) -> Config {
+fn condition_config(field: &Config, condition: &Condition, bench: &Bench) -> Config {
     let mut c = field.clone();
-    c.general.duration_secs = duration_secs;
+    c.general.duration_secs = bench.duration_secs;
     c.estimation.enabled = false;
     match &condition.kind {
         Kind::OpenLoop => {}
@@ -380,6 +385,10 @@ fn condition_config(field: &Config, condition: &Condition, duration_secs: f64) -
             c.directional_admittance.contacts = *source;
             c.jam_resolution.contacts = *source;
             c.estimation.enabled = *source == ContactSource::Estimated;
+            if let Some(kp) = bench.law_servo_kp_nm_per_rad {
+                c.control.position_kp_nm_per_rad = kp;
+                c.control.position_kv_nm_s_per_rad = kp / 100.0;
+            }
         }
         Kind::Plugged(p) => c.estimation.enabled = p.estimation,
     }
@@ -667,7 +676,7 @@ pub fn run_bench(
         let index = if case.held_out { case.seed - HELD_OUT_FIRST_SEED } else { case.seed };
         let field = field_config(base, bench.floors[case.floor], Layout::of(family, index), case.seed);
         let condition = &conditions[case.condition];
-        let config = condition_config(&field, condition, bench.duration_secs);
+        let config = condition_config(&field, condition, bench);
         let controller = match &condition.kind {
             Kind::Plugged(p) => Some((p.make)(&config, config.snake.n_links.saturating_sub(1))),
             _ => None,
@@ -716,7 +725,9 @@ pub fn run_bench(
             .par_iter()
             .map(|&floor| {
                 let field = field_config(base, floor, Layout::Bare, HELD_OUT_FIRST_SEED);
-                run_one(&condition_config(&field, &conditions[0], bench.duration_secs.min(30.0)), None)
+                let mut config = condition_config(&field, &conditions[0], bench);
+                config.general.duration_secs = bench.duration_secs.min(30.0);
+                run_one(&config, None)
             })
             .collect()
     });
@@ -1150,7 +1161,7 @@ pub fn run_bench(
         text: format!(
             "10 links ({link} m), base gait A = {BASE_AMPLITUDE_DEG}°, δ = {BASE_PHASE_LAG_DEG}° (toward the tail), \
              {FREQUENCY_HZ} Hz, position servos kp {SERVO_KP_NM_PER_RAD} N·m/rad, kv {SERVO_KV_NM_S_PER_RAD} N·m·s/rad, \
-             ±{TORQUE_LIMIT_NM} N·m, default sensor noise. Floors: {floors}. Bare floor, base gait: {bare}. \
+             ±{TORQUE_LIMIT_NM} N·m{law_servos}, default sensor noise. Floors: {floors}. Bare floor, base gait: {bare}. \
              Layouts: lattice family (square and hexagonal, spacing λ/8, λ/6, λ/4 of λ = {lambda} m, shifted per seed), \
              random family ({densities} pegs/m², centres ≥ {RANDOM_SPACING_M} m apart), peg radius 0.05 m, centres in \
              x ∈ [{x0}, {x1}] m, y ∈ [{y0}, {y1}] m, none on the starting snake. Seeds: tuning 0..{nt}, held out \
@@ -1164,6 +1175,10 @@ pub fn run_bench(
              field. Files: oal_runs.csv, oal_summary.csv, oal_paired.csv, plots/ (oal_success_*, oal_speed_*, \
              oal_paths_*, oal_estimate_*).",
             link = reference.snake.link_length_m,
+            law_servos = match bench.law_servo_kp_nm_per_rad {
+                Some(kp) => format!(" (the contact laws on soft servos: kp {kp} N·m/rad, kv {} N·m·s/rad)", kp / 100.0),
+                None => String::new(),
+            },
             floors = bench.floors.iter().map(|f| f.name()).collect::<Vec<_>>().join(", "),
             bare = bare_text.join("; "),
             lambda = sig(lambda),

@@ -111,3 +111,41 @@ fn a_small_benchmark_writes_its_tables_and_repeats() {
     }
     assert_eq!(tables[0], tables[1]);
 }
+
+/// `law_servo_kp_nm_per_rad` puts the contact laws on the passive baseline's soft servos: with
+/// their feedback off each law's run is then the passive run, row for row.
+#[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
+fn laws_on_soft_servos_without_feedback_are_the_passive_runs() {
+    let kp = 5.0;
+    let bench = Bench {
+        tuning_fields: 0,
+        held_out_fields: 1,
+        duration_secs: 2.0,
+        floors: vec![Floor::Anisotropic],
+        families: vec![Family::Random],
+        passive_kp_nm_per_rad: vec![kp],
+        true_contacts: false,
+        path_fields: 0,
+        law_servo_kp_nm_per_rad: Some(kp),
+        ..Bench::full()
+    };
+    let mut base = Config::default();
+    base.follow_the_leader_reflex.feedback = false;
+    base.directional_admittance.feedback = false;
+    base.jam_resolution.feedback = false;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    oal_bench::run_bench(&bench, &base, &pool, dir.path(), false).unwrap();
+    let runs = std::fs::read_to_string(dir.path().join("oal_runs.csv")).unwrap();
+    // The scores (success, end, jams, speed, exit heading) of a condition's row.
+    let scores = |condition: &str| -> String {
+        let row = runs.lines().find(|l| l.split(',').nth(5) == Some(condition)).unwrap();
+        row.split(',').skip(6).take(5).collect::<Vec<_>>().join(",")
+    };
+    let passive = scores(&format!("passive_kp{kp}"));
+    assert_ne!(passive, scores("open_loop"), "the soft servos changed nothing");
+    for law in ["follow_the_leader_reflex_est", "directional_admittance_est", "jam_resolution_est"] {
+        assert_eq!(scores(law), passive, "{law}");
+    }
+}
