@@ -12,7 +12,9 @@
 //!   kp/100), for every k of the sweep; the gain with the best tuning-field success rate (then
 //!   speed) per floor is *the* passive-compliance baseline;
 //! - each contact law (`follow_the_leader_reflex`, `directional_admittance`, `jam_resolution`),
-//!   fed the step loop's contact estimates (`_est`) and the simulator's true contacts (`_true`);
+//!   fed the step loop's contact estimates (`_est`) and the simulator's true contacts (`_true`),
+//!   on the stiff servos or, with [`Bench::law_servo_kp_nm_per_rad`], on soft ones (with the
+//!   passive gain, a law's feedback-off run is the passive baseline);
 //! - any controller a caller plugs in ([`Plugged`]).
 //!
 //! **Floors**: `isotropic` (isotropic Coulomb friction: the base gait's bare-floor speed is ≤ 0,
