@@ -19,7 +19,9 @@
 //!
 //! **Floors**: `isotropic` (isotropic Coulomb friction: the base gait's bare-floor speed is ≤ 0,
 //! so every millimetre forward is peg-aided; the report measures it) and `anisotropic` (the
-//! default floor, the same gait). **Layouts** in two families: `lattice` (square and hexagonal
+//! default floor, the same gait); the report gives each floor's bare-floor speed of the base gait
+//! and of the same gait on each passive gain's servos (what softening alone does to the gait).
+//! **Layouts** in two families: `lattice` (square and hexagonal
 //! lattices, spacings λ/8, λ/6, λ/4 of the body's wavelength λ = 360°/δ link lengths, shifted
 //! by a seeded offset per field) and `random` (uniform fields at 1.5, 3 and 4.5 pegs/m², centres
 //! ≥ 0.3 m apart); field i of a family has layout i mod (layouts of the family). **Seeds**: the
@@ -720,14 +722,17 @@ pub fn run_bench(
         });
         slots.into_iter().map(|s| s.into_inner().ok().flatten().unwrap_or(Ok(None))).collect()
     };
-    // The bare floor, base gait, once per floor: what the pegs add.
+    // The bare floor once per floor: the base gait (what the pegs add) and the same gait on each
+    // passive gain's soft servos (what softening alone does to the gait).
+    let bare_conditions: Vec<usize> = std::iter::once(0).chain(passive.iter().copied()).collect();
+    let bare_jobs: Vec<(usize, usize)> =
+        (0..bench.floors.len()).flat_map(|fl| bare_conditions.iter().map(move |&k| (fl, k))).collect();
     let bare: Vec<Result<Option<Trace>, ExperimentError>> = pool.install(|| {
-        bench
-            .floors
+        bare_jobs
             .par_iter()
-            .map(|&floor| {
-                let field = field_config(base, floor, Layout::Bare, HELD_OUT_FIRST_SEED);
-                let mut config = condition_config(&field, &conditions[0], bench);
+            .map(|&(fl, k)| {
+                let field = field_config(base, bench.floors[fl], Layout::Bare, HELD_OUT_FIRST_SEED);
+                let mut config = condition_config(&field, &conditions[k], bench);
                 config.general.duration_secs = bench.duration_secs.min(30.0);
                 run_one(&config, None)
             })
@@ -823,7 +828,9 @@ pub fn run_bench(
         crate::interrupt::clear();
     }
     let traces: Vec<Trace> = traces.into_iter().map(Option::unwrap_or_default).collect();
-    let bare: Vec<Trace> = bare.into_iter().map(Option::unwrap_or_default).collect();
+    let bare_all: Vec<Trace> = bare.into_iter().map(Option::unwrap_or_default).collect();
+    // The base gait's bare run of each floor (the first of the floor's bare jobs).
+    let bare: Vec<Trace> = bare_all.iter().step_by(bare_conditions.len()).cloned().collect();
     let reference = field_config(base, Floor::Isotropic, Layout::Bare, 0);
     let body_m = body_length_m(base);
     let ramp_secs = base_ramp_secs(base);
@@ -1146,9 +1153,16 @@ pub fn run_bench(
         .floors
         .iter()
         .zip(&bare)
-        .map(|(f, t)| {
-            let s = score(t, ramp_secs, FREQUENCY_HZ, body_m);
-            format!("{}: {} BL/cycle", f.name(), sig(s.speed_bl_per_cycle))
+        .enumerate()
+        .map(|(fl, (f, t))| {
+            let speed = |t: &Trace| sig(score(t, ramp_secs, FREQUENCY_HZ, body_m).speed_bl_per_cycle);
+            let soft: Vec<String> = bare_conditions[1..]
+                .iter()
+                .zip(&bare_all[fl * bare_conditions.len() + 1..(fl + 1) * bare_conditions.len()])
+                .map(|(&k, t)| format!("{} {}", conditions[k].name, speed(t)))
+                .collect();
+            let soft = if soft.is_empty() { String::new() } else { format!(" ({})", soft.join(", ")) };
+            format!("{}: {} BL/cycle{soft}", f.name(), speed(t))
         })
         .collect();
     let passive_text: Vec<String> = bench
@@ -1163,7 +1177,7 @@ pub fn run_bench(
         text: format!(
             "10 links ({link} m), base gait A = {BASE_AMPLITUDE_DEG}°, δ = {BASE_PHASE_LAG_DEG}° (toward the tail), \
              {FREQUENCY_HZ} Hz, position servos kp {SERVO_KP_NM_PER_RAD} N·m/rad, kv {SERVO_KV_NM_S_PER_RAD} N·m·s/rad, \
-             ±{TORQUE_LIMIT_NM} N·m{law_servos}, default sensor noise. Floors: {floors}. Bare floor, base gait: {bare}. \
+             ±{TORQUE_LIMIT_NM} N·m{law_servos}, default sensor noise. Floors: {floors}. Bare floor, base gait (and on the passive gains' servos): {bare}. \
              Layouts: lattice family (square and hexagonal, spacing λ/8, λ/6, λ/4 of λ = {lambda} m, shifted per seed), \
              random family ({densities} pegs/m², centres ≥ {RANDOM_SPACING_M} m apart), peg radius 0.05 m, centres in \
              x ∈ [{x0}, {x1}] m, y ∈ [{y0}, {y1}] m, none on the starting snake. Seeds: tuning 0..{nt}, held out \
