@@ -829,8 +829,9 @@ pub fn run_bench(
     }
     let traces: Vec<Trace> = traces.into_iter().map(Option::unwrap_or_default).collect();
     let bare_all: Vec<Trace> = bare.into_iter().map(Option::unwrap_or_default).collect();
-    // The base gait's bare run of each floor (the first of the floor's bare jobs).
-    let bare: Vec<Trace> = bare_all.iter().step_by(bare_conditions.len()).cloned().collect();
+    // Per floor its bare runs in `bare_conditions` order: the base gait first.
+    let bare_of_floor: Vec<&[Trace]> = bare_all.chunks(bare_conditions.len()).collect();
+    let bare: Vec<&Trace> = bare_of_floor.iter().map(|runs| &runs[0]).collect();
     let reference = field_config(base, Floor::Isotropic, Layout::Bare, 0);
     let body_m = body_length_m(base);
     let ramp_secs = base_ramp_secs(base);
@@ -1152,17 +1153,16 @@ pub fn run_bench(
     let bare_text: Vec<String> = bench
         .floors
         .iter()
-        .zip(&bare)
-        .enumerate()
-        .map(|(fl, (f, t))| {
+        .zip(&bare_of_floor)
+        .map(|(f, runs)| {
             let speed = |t: &Trace| sig(score(t, ramp_secs, FREQUENCY_HZ, body_m).speed_bl_per_cycle);
             let soft: Vec<String> = bare_conditions[1..]
                 .iter()
-                .zip(&bare_all[fl * bare_conditions.len() + 1..(fl + 1) * bare_conditions.len()])
+                .zip(&runs[1..])
                 .map(|(&k, t)| format!("{} {}", conditions[k].name, speed(t)))
                 .collect();
             let soft = if soft.is_empty() { String::new() } else { format!(" ({})", soft.join(", ")) };
-            format!("{}: {} BL/cycle{soft}", f.name(), speed(t))
+            format!("{}: {} BL/cycle{soft}", f.name(), speed(&runs[0]))
         })
         .collect();
     let passive_text: Vec<String> = bench
