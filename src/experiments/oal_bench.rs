@@ -997,7 +997,7 @@ pub fn run_bench(
     // (a contact law beats both baselines on success on every family, estimated contacts, with
     // the paired interval above 0).
     for (fl, floor) in bench.floors.iter().enumerate() {
-        let s = score(&bare[fl], ramp_secs, FREQUENCY_HZ, body_m);
+        let s = score(bare[fl], ramp_secs, FREQUENCY_HZ, body_m);
         if *floor == Floor::Isotropic {
             checks.push(Check::at_most(
                 "isotropic floor without pegs: the base gait's speed (≤ 0: every advance among pegs is peg-aided)",
