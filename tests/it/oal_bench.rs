@@ -113,7 +113,8 @@ fn a_small_benchmark_writes_its_tables_and_repeats() {
 }
 
 /// `law_servo_kp_nm_per_rad` puts the contact laws on the passive baseline's soft servos: with
-/// their feedback off each law's run is then the passive run, row for row.
+/// their feedback off each law's run is then the passive run, row for row. The report gives the
+/// bare-floor speed of the gait on the passive servos beside the base gait's.
 #[test]
 #[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn laws_on_soft_servos_without_feedback_are_the_passive_runs() {
@@ -136,7 +137,9 @@ fn laws_on_soft_servos_without_feedback_are_the_passive_runs() {
     base.jam_resolution.feedback = false;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
     let dir = tempfile::tempdir().unwrap();
-    oal_bench::run_bench(&bench, &base, &pool, dir.path(), false).unwrap();
+    let outcome = oal_bench::run_bench(&bench, &base, &pool, dir.path(), false).unwrap();
+    let text = &outcome.section.text;
+    assert!(text.contains("anisotropic: ") && text.contains(&format!("BL/cycle (passive_kp{kp} ")), "{text}");
     let runs = std::fs::read_to_string(dir.path().join("oal_runs.csv")).unwrap();
     // The scores (success, end, jams, speed, exit heading) of a condition's row.
     let scores = |condition: &str| -> String {
