@@ -40,3 +40,13 @@ def test_runs_that_disagree_on_a_field_and_unknown_conditions_are_refused(tmp_pa
     assert done.returncode != 0 and "no such condition" in done.stderr and "open_loop" in done.stderr
     done = pair(tmp_path / "missing", "--against", "open_loop")
     assert done.returncode != 0 and "no such file" in done.stderr
+
+
+def test_tables_with_a_missing_column_or_a_bad_value_are_refused(tmp_path):
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a" / "oal_runs.csv").write_text("floor,family,seed,split,condition\nanisotropic,random,1000,held_out,law\n")
+    done = pair(tmp_path / "a", "--against", "law")
+    assert done.returncode != 0 and "no column success" in done.stderr, done.stderr
+    write_run(tmp_path / "b", [(1000, "held_out", "law", "yes")])
+    done = pair(tmp_path / "b", "--against", "law")
+    assert done.returncode != 0 and "line 2" in done.stderr and "'yes'" in done.stderr, done.stderr
