@@ -7,9 +7,11 @@
 //! (`Observation::contacts`: per link `contact`, `obstacle_force_n` in the world frame,
 //! `contact_point_along_m`). This controller runs lateral undulation and, at every link that
 //! touches a peg, bends the two joints around that link away from the peg in proportion to the
-//! push (a compliant snake that slips past what it touches). The built-in
-//! `control::ObstacleAided` (`control.controller = "obstacle_aided"`) is the full version: it
-//! presses on the pegs that propel and yields to those that block, and recovers from jams.
+//! push (a compliant snake that slips past what it touches). The built-in contact laws from the
+//! literature (`control.controller = "follow_the_leader_reflex"`, `"directional_admittance"`,
+//! `"jam_resolution"`) are full versions: they bend toward the pegs that propel and yield to
+//! those that resist; the `oal_bench` example shows how to score a law of one's own against them
+//! (`cargo run --release --example oal_bench -- --mine`).
 
 use simserpent::config::{self, ConfigSource};
 use simserpent::control::{Command, Controller, Observation};

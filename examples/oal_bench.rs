@@ -87,8 +87,6 @@ fn cost(n_links: usize) -> Vec<(String, f64)> {
         ("follow_the_leader_reflex", ControllerKind::FollowTheLeaderReflex),
         ("directional_admittance", ControllerKind::DirectionalAdmittance),
         ("jam_resolution", ControllerKind::JamResolution),
-        ("obstacle_aided", ControllerKind::ObstacleAided),
-        ("rail", ControllerKind::Rail),
         ("push_away (this example)", ControllerKind::Gait),
     ];
     for (name, kind) in kinds {

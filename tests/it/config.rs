@@ -432,80 +432,6 @@ heading_gain = 0.7
 max_offset_deg = 15.0
 acceptance_radius_m = 0.4
 
-[obstacle_aided]
-contacts = "true"
-contact_feedback = false
-amplitude_deg = 40.0
-phase_lag_deg = 45.0
-target_force_n = 4.5
-force_gain_rad_per_n_s = 0.2
-yield_gain_rad_per_n_s = 0.15
-max_offset_deg = 25.0
-release_per_s = 0.5
-propagation = "wave"
-jam_window_secs = 4.0
-jam_min_progress_m = 0.03
-recovery_secs = 1.5
-recovery = "amplitude"
-recovery_amplitude_deg = 55.0
-heading_gain = 0.4
-goal_heading_deg = 10.0
-max_heading_offset_deg = 12.0
-heading_filter_secs = 1.5
-wave_speed = "progress"
-drive_frequency_hz = 0.2
-speed_filter_secs = 0.8
-switch = "resist"
-switch_amplitude_deg = 45.0
-switch_phase_lag_deg = -50.0
-contact_filter_secs = 0.7
-switch_force_n = 6.5
-switch_max_speed_m_per_s = 0.04
-switch_secs = 2.5
-first_wave_secs = 3.5
-switch_exit = "stall"
-blend_secs = 0.3
-straighten = true
-straighten_force_n = 3.5
-straighten_secs = 0.15
-
-[rail]
-contacts = "true"
-amplitude_deg = 40.0
-wavelength_m = 1.8
-drive_speed_m_per_s = 0.5
-progress_gain = 0.8
-progress_filter_secs = 0.2
-heading_gain = 0.7
-lookahead_m = 1.5
-max_steer_deg = 25.0
-wrap_deg = 10.0
-jam_switch = true
-jam_window_secs = 4.0
-jam_min_progress_m = 0.03
-sliding_jam_window = true
-backoff_m = 0.4
-backoff_speed_m_per_s = 0.3
-use_contacts = false
-initial_gait = "rail"
-drift_amplitude_deg = 55.0
-drift_phase_lag_deg = -45.0
-drift_frequency_hz = 0.6
-drift_heading_gain = -0.4
-drift_heading_filter_secs = 1.5
-contact_filter_secs = 0.7
-propel_force_n = 4.0
-no_peg_secs = 3.0
-resist_force_n = 2.5
-drift_min_secs = 1.5
-blend_secs = 0.8
-force_clip_n = 80.0
-wedge_force_n = 30.0
-wedge_secs = 0.7
-relax_secs = 2.5
-relax_amplitude_deg = 45.0
-relax_phase_lag_deg = -50.0
-
 [follow_the_leader_reflex]
 contacts = "true"
 feedback = false
@@ -857,80 +783,6 @@ fn all_fields_expected() -> Config {
         max_offset_deg: 15.0,
         acceptance_radius_m: 0.4,
     };
-    c.obstacle_aided = ObstacleAided {
-        contacts: ContactSource::True,
-        contact_feedback: false,
-        amplitude_deg: 40.0,
-        phase_lag_deg: 45.0,
-        target_force_n: 4.5,
-        force_gain_rad_per_n_s: 0.2,
-        yield_gain_rad_per_n_s: 0.15,
-        max_offset_deg: 25.0,
-        release_per_s: 0.5,
-        propagation: Propagation::Wave,
-        jam_window_secs: 4.0,
-        jam_min_progress_m: 0.03,
-        recovery_secs: 1.5,
-        recovery: Recovery::Amplitude,
-        recovery_amplitude_deg: 55.0,
-        heading_gain: 0.4,
-        goal_heading_deg: 10.0,
-        max_heading_offset_deg: 12.0,
-        heading_filter_secs: 1.5,
-        wave_speed: WaveSpeed::Progress,
-        drive_frequency_hz: 0.2,
-        speed_filter_secs: 0.8,
-        switch: WaveSwitch::Resist,
-        switch_amplitude_deg: 45.0,
-        switch_phase_lag_deg: -50.0,
-        contact_filter_secs: 0.7,
-        switch_force_n: 6.5,
-        switch_max_speed_m_per_s: 0.04,
-        switch_secs: 2.5,
-        first_wave_secs: 3.5,
-        switch_exit: SwitchExit::Stall,
-        blend_secs: 0.3,
-        straighten: true,
-        straighten_force_n: 3.5,
-        straighten_secs: 0.15,
-    };
-    c.rail = Rail {
-        contacts: ContactSource::True,
-        amplitude_deg: 40.0,
-        wavelength_m: 1.8,
-        drive_speed_m_per_s: 0.5,
-        progress_gain: 0.8,
-        progress_filter_secs: 0.2,
-        heading_gain: 0.7,
-        lookahead_m: 1.5,
-        max_steer_deg: 25.0,
-        wrap_deg: 10.0,
-        jam_switch: true,
-        jam_window_secs: 4.0,
-        jam_min_progress_m: 0.03,
-        sliding_jam_window: true,
-        backoff_m: 0.4,
-        backoff_speed_m_per_s: 0.3,
-        use_contacts: false,
-        initial_gait: RailGait::Rail,
-        drift_amplitude_deg: 55.0,
-        drift_phase_lag_deg: -45.0,
-        drift_frequency_hz: 0.6,
-        drift_heading_gain: -0.4,
-        drift_heading_filter_secs: 1.5,
-        contact_filter_secs: 0.7,
-        propel_force_n: 4.0,
-        no_peg_secs: 3.0,
-        resist_force_n: 2.5,
-        drift_min_secs: 1.5,
-        blend_secs: 0.8,
-        force_clip_n: 80.0,
-        wedge_force_n: 30.0,
-        wedge_secs: 0.7,
-        relax_secs: 2.5,
-        relax_amplitude_deg: 45.0,
-        relax_phase_lag_deg: -50.0,
-    };
     c.follow_the_leader_reflex = FollowTheLeaderReflex {
         contacts: ContactSource::True,
         feedback: false,
@@ -1162,35 +1014,6 @@ const RULES: &[(&[&str], &str)] = &[
     (&["terrain.cylinder_path.n_pairs=0"], "terrain.cylinder_path.n_pairs"),
     (&["terrain.cylinder_path.spacing_m=0"], "terrain.cylinder_path.spacing_m"),
     (&["terrain.cylinder_path.radius_m=0"], "terrain.cylinder_path.radius_m"),
-    (&["obstacle_aided.phase_lag_deg=0"], "obstacle_aided.phase_lag_deg"),
-    (&["obstacle_aided.phase_lag_deg=-180"], "obstacle_aided.phase_lag_deg"),
-    (&["obstacle_aided.wave_speed=\"progress\"", "obstacle_aided.phase_lag_deg=-60"], "obstacle_aided.wave_speed"),
-    (&["obstacle_aided.yield_gain_rad_per_n_s=-0.1"], "obstacle_aided.yield_gain_rad_per_n_s"),
-    (&["obstacle_aided.recovery_amplitude_deg=90"], "obstacle_aided.recovery_amplitude_deg"),
-    (&["obstacle_aided.heading_filter_secs=-1"], "obstacle_aided.heading_filter_secs"),
-    (&["control.controller=\"obstacle_aided\"", "estimation.enabled=true"], "ground.model"),
-    (&["control.controller=\"rail\"", "estimation.enabled=true"], "ground.model"),
-    (&["rail.wavelength_m=0"], "rail.wavelength_m"),
-    (&["rail.amplitude_deg=90"], "rail.amplitude_deg"),
-    (&["rail.backoff_speed_m_per_s=0"], "rail.backoff_speed_m_per_s"),
-    (&["rail.drive_speed_m_per_s=-0.1"], "rail.drive_speed_m_per_s"),
-    (&["rail.drift_amplitude_deg=90"], "rail.drift_amplitude_deg"),
-    (&["rail.drift_phase_lag_deg=-200"], "rail.drift_phase_lag_deg"),
-    (&["rail.drift_frequency_hz=0"], "rail.drift_frequency_hz"),
-    (&["rail.contact_filter_secs=0"], "rail.contact_filter_secs"),
-    (&["rail.propel_force_n=-1"], "rail.propel_force_n"),
-    (&["rail.no_peg_secs=0"], "rail.no_peg_secs"),
-    (&["rail.resist_force_n=-1"], "rail.resist_force_n"),
-    (&["rail.drift_min_secs=-1"], "rail.drift_min_secs"),
-    (&["rail.blend_secs=0"], "rail.blend_secs"),
-    (&["rail.force_clip_n=0"], "rail.force_clip_n"),
-    (&["rail.wedge_secs=0"], "rail.wedge_secs"),
-    (&["rail.relax_secs=-1"], "rail.relax_secs"),
-    (&["rail.relax_amplitude_deg=95"], "rail.relax_amplitude_deg"),
-    (&["rail.relax_phase_lag_deg=200"], "rail.relax_phase_lag_deg"),
-    (&["rail.drift_heading_gain=9"], "rail.drift_heading_gain"),
-    (&["rail.drift_heading_filter_secs=0"], "rail.drift_heading_filter_secs"),
-    (&["control.controller=\"rail\"", "estimation.enabled=false"], "rail.contacts"),
     (
         &[
             "control.controller=\"follow_the_leader_reflex\"",
@@ -1376,6 +1199,19 @@ fn unknown_key_suggests_the_closest() {
     // Nothing close: no suggestion.
     let e = load_toml("[snake]\nzzzzzzzz = 3\n", &[]).unwrap_err();
     assert!(matches!(&e, ConfigError::UnknownKey { suggestion: None, .. }), "{e:?}");
+}
+
+/// A config written for a controller SimSerpent no longer has is refused, naming the key, the
+/// value and the controllers there are (no silent fallback to another controller).
+#[test]
+fn a_controller_or_section_that_does_not_exist_is_refused() {
+    for name in ["obstacle_aided", "rail"] {
+        let (key, value, allowed) = invalid(load_toml(&format!("[control]\ncontroller = \"{name}\"\n"), &[]));
+        assert_eq!((key.as_str(), value.as_str()), ("control.controller", format!("\"{name}\"").as_str()));
+        assert!(allowed.contains("`path_following`") && allowed.contains("`jam_resolution`"), "{allowed}");
+        let e = load_toml(&format!("[{name}]\ncontacts = \"true\"\n"), &[]).unwrap_err();
+        assert!(matches!(&e, ConfigError::UnknownKey { key, .. } if key == name), "{e:?}");
+    }
 }
 
 #[test]

@@ -18,7 +18,7 @@ fn the_generated_reference_pages_match_the_code() {
 fn the_reference_pages_cover_every_section_and_table() {
     let dir = manifest_dir().join("guide/src/reference");
     let config = std::fs::read_to_string(dir.join("config.md")).unwrap();
-    for section in ["[general]", "[physics]", "[snake]", "[terrain.pegboard]", "[estimation]", "[rail]"] {
+    for section in ["[general]", "[physics]", "[snake]", "[terrain.pegboard]", "[estimation]", "[jam_resolution]"] {
         assert!(config.contains(&format!("## `{section}`")), "config.md lacks {section}");
     }
     let outputs = std::fs::read_to_string(dir.join("outputs.md")).unwrap();

@@ -189,8 +189,6 @@ pub struct Config {
     pub ros2: Ros2,
     pub estimation: Estimation,
     pub path_following: PathFollowing,
-    pub obstacle_aided: ObstacleAided,
-    pub rail: Rail,
     pub follow_the_leader_reflex: FollowTheLeaderReflex,
     pub directional_admittance: DirectionalAdmittance,
     pub jam_resolution: JamResolution,
@@ -517,10 +515,6 @@ pub enum ControllerKind {
     Gait,
     /// Line-of-sight path following (`control::PathFollowing`, `[path_following]`).
     PathFollowing,
-    /// Obstacle-aided locomotion with force feedback (`control::ObstacleAided`, `[obstacle_aided]`).
-    ObstacleAided,
-    /// Follow-the-leader obstacle-aided locomotion (`control::Rail`, `[rail]`).
-    Rail,
     /// Kano & Ishiguro's decentralised follow-the-leader body with a lateral-pressure reflex
     /// (`control::FollowTheLeaderReflex`, `[follow_the_leader_reflex]`).
     FollowTheLeaderReflex,
@@ -1229,238 +1223,6 @@ pub struct PathFollowing {
     pub acceptance_radius_m: f64,
 }
 
-/// The obstacle-aided controller with force feedback (`[obstacle_aided]`; `control::ObstacleAided`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ObstacleAided {
-    /// Which contacts the law reads: the estimates of `[estimation]` or the simulator's truth.
-    pub contacts: ContactSource,
-    /// The controller's own wave: amplitude α (degrees) and phase lag δ between joints
-    /// (degrees; > 0: the wave runs from the head toward the tail, < 0: from the tail toward
-    /// the head, the forward gait on isotropic friction); the frequency is
-    /// `gait.sine_wave.frequency_hz`.
-    pub amplitude_deg: f64,
-    pub phase_lag_deg: f64,
-    /// Normal force (N) the body keeps on a peg that pushes it forward.
-    pub target_force_n: f64,
-    /// Integral gain of the force law on a propelling peg: joint offset (rad) per newton of
-    /// force error and second.
-    pub force_gain_rad_per_n_s: f64,
-    /// Integral gain of the force law on a resisting peg: joint offset (rad) per newton of
-    /// normal force and second, away from the peg.
-    pub yield_gain_rad_per_n_s: f64,
-    /// Whether the contacts feed the law (false: the same controller without its contact terms).
-    pub contact_feedback: bool,
-    /// Largest contact offset of one joint (degrees).
-    pub max_offset_deg: f64,
-    /// Rate (1/s) at which the offsets relax toward zero.
-    pub release_per_s: f64,
-    /// How the offsets move along the body.
-    pub propagation: Propagation,
-    /// A jam: less than `jam_min_progress_m` of forward progress within `jam_window_secs` (s).
-    pub jam_window_secs: f64,
-    /// Forward progress (m) that counts as moving.
-    pub jam_min_progress_m: f64,
-    /// How long (s) a jam recovery lasts.
-    pub recovery_secs: f64,
-    /// What the wave does during a jam recovery.
-    pub recovery: Recovery,
-    /// The wave's amplitude (degrees) during a jam recovery with `recovery = "amplitude"`.
-    pub recovery_amplitude_deg: f64,
-    /// Heading gain k_θ: joint offset (rad) per radian of heading error from `goal_heading_deg`.
-    pub heading_gain: f64,
-    /// The direction (degrees from +x) the snake holds.
-    pub goal_heading_deg: f64,
-    /// Largest heading offset (degrees).
-    pub max_heading_offset_deg: f64,
-    /// Time constant (s) of the low-pass filter on the mean heading the heading control reads
-    /// (0: unfiltered).
-    pub heading_filter_secs: f64,
-    /// How fast the wave's phase runs.
-    pub wave_speed: WaveSpeed,
-    /// With `wave_speed = "progress"`: the wave's frequency (Hz) when the snake does not advance.
-    pub drive_frequency_hz: f64,
-    /// Time constant (s) of the low-pass filter on the measured forward speed.
-    pub speed_filter_secs: f64,
-    /// What switches the controller to its second wave (`switch_amplitude_deg`,
-    /// `switch_phase_lag_deg`).
-    pub switch: WaveSwitch,
-    /// The second wave: amplitude (degrees) and phase lag between joints (degrees, not 0).
-    pub switch_amplitude_deg: f64,
-    pub switch_phase_lag_deg: f64,
-    /// Time constant (s) of the low-pass filter on the resisting obstacle force R.
-    pub contact_filter_secs: f64,
-    /// The second wave takes over when the filtered resisting force exceeds this (N) ...
-    pub switch_force_n: f64,
-    /// ... while the filtered forward speed is below this (m/s).
-    pub switch_max_speed_m_per_s: f64,
-    /// The second wave, once selected, runs at least this long (s); then the first returns by
-    /// `switch_exit`.
-    pub switch_secs: f64,
-    /// The first wave, once it has returned, runs at least this long (s) before the second can
-    /// come again.
-    pub first_wave_secs: f64,
-    /// When the first wave returns after `switch_secs`.
-    pub switch_exit: SwitchExit,
-    /// Time (s) over which the joints blend from one wave to the other.
-    pub blend_secs: f64,
-    /// Full yield: the wave's bends next to a link whose resisting force (against the goal
-    /// direction) exceeds `straighten_force_n` (N) flatten toward zero with time constant
-    /// `straighten_secs` (s), and the flattening travels with the wave.
-    pub straighten: bool,
-    pub straighten_force_n: f64,
-    pub straighten_secs: f64,
-}
-
-/// `obstacle_aided.switch`: what hands the joints to the second wave.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum WaveSwitch {
-    /// Never: the first wave only.
-    None,
-    /// The filtered resisting obstacle force (the estimates' components against the goal
-    /// direction, summed over the links) above `switch_force_n` while the filtered forward
-    /// speed is below `switch_max_speed_m_per_s`.
-    Resist,
-}
-
-/// `obstacle_aided.switch_exit`: when the first wave returns (after `switch_secs`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SwitchExit {
-    /// Once the filtered resisting force is at most `switch_force_n` (the second wave is an
-    /// escape from a peg).
-    Resist,
-    /// Once the filtered forward speed is below `switch_max_speed_m_per_s` (the second wave
-    /// stays while it makes progress).
-    Stall,
-}
-
-/// `obstacle_aided.recovery`: what the wave does for `recovery_secs` after a jam.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Recovery {
-    /// The phase runs backward (ψ̇ = −ω): the wave travels the other way along the body.
-    Reverse,
-    /// The phase stops (ψ̇ = 0): the body holds its shape.
-    Pause,
-    /// The wave goes on at `recovery_amplitude_deg`.
-    Amplitude,
-}
-
-/// `obstacle_aided.wave_speed`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum WaveSpeed {
-    /// ψ̇ = ω of `[gait.sine_wave]`.
-    Fixed,
-    /// ψ̇ = min(ω, ω_d + δ·v/L): the wave's bends stay in place in the world while the body
-    /// advances at v, and run backward past it at the drive ω_d/δ links per second.
-    Progress,
-}
-
-/// The follow-the-leader ("rail") obstacle-aided controller (`[rail]`; `control::Rail`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Rail {
-    /// Which contacts the reflexes read: the estimates of `[estimation]` or the simulator's truth.
-    pub contacts: ContactSource,
-    /// Amplitude of the head joint's spatial sine (degrees).
-    pub amplitude_deg: f64,
-    /// Wavelength of the head joint's spatial sine along the path (m).
-    pub wavelength_m: f64,
-    /// Slip speed (m/s) added to the measured progress when shifting the shape down the body.
-    pub drive_speed_m_per_s: f64,
-    /// Gain on the measured progress when shifting the shape (1 = exactly the measured speed).
-    pub progress_gain: f64,
-    /// Time constant (s) of the low-pass filter on the measured progress speed.
-    pub progress_filter_secs: f64,
-    /// Heading hold: joint offset of the head (rad) per rad of heading error.
-    pub heading_gain: f64,
-    /// Line-of-sight look-ahead (m) toward the line y = 0 along +x.
-    pub lookahead_m: f64,
-    /// Largest steering offset of the head joint (degrees).
-    pub max_steer_deg: f64,
-    /// Head wrap: offset (degrees) that turns the head toward a peg it touches.
-    pub wrap_deg: f64,
-    /// Whether the jam rule acts (a jam backs off in the rail gait and switches the gait);
-    /// `false`: no jam rule (the wedge rule, if on, still acts).
-    pub jam_switch: bool,
-    /// Jam: less than `jam_min_progress_m` (m) of progress along +x within `jam_window_secs` (s).
-    pub jam_window_secs: f64,
-    pub jam_min_progress_m: f64,
-    /// Whether the jam window slides (the progress over the last `jam_window_secs`, sampled
-    /// 30 times a window) rather than restarting every `jam_window_secs`.
-    pub sliding_jam_window: bool,
-    /// Jam recovery: back off this far along the path (m) at `backoff_speed_m_per_s` (m/s).
-    pub backoff_m: f64,
-    pub backoff_speed_m_per_s: f64,
-    /// Whether the contact terms act (head wrap and the gait switch); `false` for the
-    /// comparison without them.
-    pub use_contacts: bool,
-    /// The gait the controller starts with.
-    pub initial_gait: RailGait,
-    /// The floor-drift gait (a sine wave running toward the head): amplitude (degrees), phase
-    /// lag between joints (degrees; < 0 runs toward the head) and temporal frequency (Hz).
-    pub drift_amplitude_deg: f64,
-    pub drift_phase_lag_deg: f64,
-    pub drift_frequency_hz: f64,
-    /// Heading hold of the drift gait: every joint is offset by
-    /// clamp(`drift_heading_gain`·(θ̄_body − θ_ref), ±`max_steer_deg`) (rad per rad; 0 = off),
-    /// θ̄_body the body's mean heading low-pass filtered with `drift_heading_filter_secs` (s).
-    pub drift_heading_gain: f64,
-    pub drift_heading_filter_secs: f64,
-    /// Time constant (s) of the low-pass filters on the propelling and resisting obstacle forces.
-    pub contact_filter_secs: f64,
-    /// Rail → drift when the filtered propelling force stays below `propel_force_n` (N) for
-    /// `no_peg_secs` (s).
-    pub propel_force_n: f64,
-    pub no_peg_secs: f64,
-    /// Drift → rail when, after at least `drift_min_secs` (s) of drift, the filtered resisting
-    /// force exceeds `resist_force_n` (N).
-    pub resist_force_n: f64,
-    pub drift_min_secs: f64,
-    /// Time (s) over which the joints blend from one gait to the other.
-    pub blend_secs: f64,
-    /// Each link's obstacle-force component along x is clipped to ±`force_clip_n` (N) before
-    /// the propelling and resisting sums (the raw estimates spike).
-    pub force_clip_n: f64,
-    /// Wedged: both filtered forces (propelling and resisting) above `wedge_force_n` (N) for
-    /// `wedge_secs` (s); handled as a jam (without waiting for the jam window).
-    pub wedge_force_n: f64,
-    pub wedge_secs: f64,
-    /// Jam recovery by a change of shape: for `relax_secs` (s; 0 = off) after a jam the
-    /// drift gait runs the wave of `relax_amplitude_deg` (degrees) and `relax_phase_lag_deg`
-    /// (degrees) instead of switching to the rail gait.
-    pub relax_secs: f64,
-    pub relax_amplitude_deg: f64,
-    pub relax_phase_lag_deg: f64,
-}
-
-/// `rail.initial_gait`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum RailGait {
-    /// Follow-the-leader along the head's path.
-    Rail,
-    /// The floor-drift sine wave running toward the head.
-    Drift,
-}
-
-/// `obstacle_aided.propagation`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Propagation {
-    /// They stay at their joints.
-    None,
-    /// Toward the tail at the snake's forward speed (a peg the body slides past stays at its
-    /// bend).
-    Progress,
-    /// With the wave's bends, ψ̇/δ joints per second (toward the head when δ < 0): a bend
-    /// pressed on a peg travels with the wave's bend.
-    Wave,
-}
-
 /// The decentralised follow-the-leader body with a lateral-pressure reflex
 /// (`[follow_the_leader_reflex]`; `control::FollowTheLeaderReflex`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -1545,7 +1307,7 @@ pub struct JamResolution {
     pub max_offset_deg: f64,
 }
 
-/// Where a contact-feeling controller reads its contacts (`obstacle_aided.contacts`, …).
+/// Where a contact-feeling controller reads its contacts (`follow_the_leader_reflex.contacts`, …).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ContactSource {

@@ -24,7 +24,7 @@ use super::surfaces::{self, FrictionSource, SurfaceShape};
 use super::text::{fmt_a, fmt_f};
 use super::{
     Config, ConfigError, ContactSource, ControlMethod, ControllerKind, GaitKind, GroundModel, JointAxes,
-    LegacyGeometry, TerrainKind, WaveSpeed,
+    LegacyGeometry, TerrainKind,
 };
 
 /// The most surfaces a config may have (`ground.surfaces`).
@@ -224,8 +224,6 @@ impl Config {
         self.validate_env()?;
         self.validate_estimation()?;
         self.validate_path_following()?;
-        self.validate_obstacle_aided()?;
-        self.validate_rail()?;
         self.validate_contact_laws()
     }
 
@@ -356,171 +354,6 @@ impl Config {
             fmt_f(offset_deg),
             format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
         )
-    }
-
-    fn validate_obstacle_aided(&self) -> Check {
-        let o = &self.obstacle_aided;
-        self.below_joint_range("obstacle_aided.amplitude_deg", o.amplitude_deg)?;
-        finite("obstacle_aided.phase_lag_deg", o.phase_lag_deg)?;
-        ensure(
-            o.phase_lag_deg != 0.0 && o.phase_lag_deg.abs() < 180.0,
-            "obstacle_aided.phase_lag_deg",
-            fmt_f(o.phase_lag_deg),
-            "must be between -180 and 180 and not 0 (> 0: the wave runs toward the tail, < 0: toward the head)",
-        )?;
-        ensure(
-            o.wave_speed == WaveSpeed::Fixed || o.phase_lag_deg > 0.0,
-            "obstacle_aided.wave_speed",
-            "\"progress\"",
-            "paces a wave that runs toward the tail: it needs obstacle_aided.phase_lag_deg > 0 (or wave_speed = \"fixed\")",
-        )?;
-        positive("obstacle_aided.target_force_n", o.target_force_n)?;
-        non_negative("obstacle_aided.force_gain_rad_per_n_s", o.force_gain_rad_per_n_s)?;
-        non_negative("obstacle_aided.yield_gain_rad_per_n_s", o.yield_gain_rad_per_n_s)?;
-        self.below_joint_range("obstacle_aided.recovery_amplitude_deg", o.recovery_amplitude_deg)?;
-        non_negative("obstacle_aided.heading_filter_secs", o.heading_filter_secs)?;
-        self.below_joint_range("obstacle_aided.max_offset_deg", o.max_offset_deg)?;
-        non_negative("obstacle_aided.release_per_s", o.release_per_s)?;
-        positive("obstacle_aided.jam_window_secs", o.jam_window_secs)?;
-        non_negative("obstacle_aided.jam_min_progress_m", o.jam_min_progress_m)?;
-        non_negative("obstacle_aided.recovery_secs", o.recovery_secs)?;
-        non_negative("obstacle_aided.heading_gain", o.heading_gain)?;
-        finite("obstacle_aided.goal_heading_deg", o.goal_heading_deg)?;
-        self.below_joint_range("obstacle_aided.max_heading_offset_deg", o.max_heading_offset_deg)?;
-        positive("obstacle_aided.drive_frequency_hz", o.drive_frequency_hz)?;
-        positive("obstacle_aided.speed_filter_secs", o.speed_filter_secs)?;
-        self.below_joint_range("obstacle_aided.switch_amplitude_deg", o.switch_amplitude_deg)?;
-        finite("obstacle_aided.switch_phase_lag_deg", o.switch_phase_lag_deg)?;
-        ensure(
-            o.switch_phase_lag_deg != 0.0 && o.switch_phase_lag_deg.abs() < 180.0,
-            "obstacle_aided.switch_phase_lag_deg",
-            fmt_f(o.switch_phase_lag_deg),
-            "must be between -180 and 180 and not 0 (> 0: the wave runs toward the tail, < 0: toward the head)",
-        )?;
-        positive("obstacle_aided.contact_filter_secs", o.contact_filter_secs)?;
-        positive("obstacle_aided.switch_force_n", o.switch_force_n)?;
-        positive("obstacle_aided.switch_max_speed_m_per_s", o.switch_max_speed_m_per_s)?;
-        non_negative("obstacle_aided.switch_secs", o.switch_secs)?;
-        non_negative("obstacle_aided.first_wave_secs", o.first_wave_secs)?;
-        non_negative("obstacle_aided.blend_secs", o.blend_secs)?;
-        positive("obstacle_aided.straighten_force_n", o.straighten_force_n)?;
-        positive("obstacle_aided.straighten_secs", o.straighten_secs)?;
-        if self.control.controller == ControllerKind::ObstacleAided {
-            ensure(
-                self.gait.kind == GaitKind::SineWave,
-                "gait.kind",
-                format!("{:?}", self.gait.kind),
-                "control.controller = \"obstacle_aided\" shapes the sine wave: it needs gait.kind = \"sine_wave\"",
-            )?;
-            ensure(
-                o.contacts == ContactSource::True || self.estimation.enabled,
-                "obstacle_aided.contacts",
-                "\"estimated\"",
-                "reads the step loop's contact estimates: set estimation.enabled = true (or contacts = \"true\")",
-            )?;
-            ensure(
-                self.ground.model == GroundModel::Isotropic || o.phase_lag_deg > 0.0,
-                "ground.model",
-                format!("{:?}", self.ground.model).to_lowercase(),
-                "control.controller = \"obstacle_aided\" with its wave toward the head (obstacle_aided.phase_lag_deg < 0) \
-                 is tuned for isotropic friction and goes backward on an anisotropic floor: set ground.model = \"isotropic\", \
-                 or use control.controller = \"follow_the_leader_reflex\", \"directional_admittance\" or \"jam_resolution\" \
-                 (they run [gait.sine_wave] and go forward on the default floor)",
-            )?;
-        }
-        Ok(())
-    }
-
-    fn validate_rail(&self) -> Check {
-        let r = &self.rail;
-        non_negative("rail.amplitude_deg", r.amplitude_deg)?;
-        ensure(
-            r.amplitude_deg < self.snake.joint_range_deg,
-            "rail.amplitude_deg",
-            fmt_f(r.amplitude_deg),
-            format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
-        )?;
-        positive("rail.wavelength_m", r.wavelength_m)?;
-        non_negative("rail.drive_speed_m_per_s", r.drive_speed_m_per_s)?;
-        non_negative("rail.progress_gain", r.progress_gain)?;
-        positive("rail.progress_filter_secs", r.progress_filter_secs)?;
-        non_negative("rail.heading_gain", r.heading_gain)?;
-        positive("rail.lookahead_m", r.lookahead_m)?;
-        self.below_joint_range("rail.max_steer_deg", r.max_steer_deg)?;
-        non_negative("rail.wrap_deg", r.wrap_deg)?;
-        ensure(
-            r.wrap_deg < self.snake.joint_range_deg,
-            "rail.wrap_deg",
-            fmt_f(r.wrap_deg),
-            format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
-        )?;
-        positive("rail.jam_window_secs", r.jam_window_secs)?;
-        non_negative("rail.jam_min_progress_m", r.jam_min_progress_m)?;
-        non_negative("rail.backoff_m", r.backoff_m)?;
-        positive("rail.backoff_speed_m_per_s", r.backoff_speed_m_per_s)?;
-        non_negative("rail.drift_amplitude_deg", r.drift_amplitude_deg)?;
-        ensure(
-            r.drift_amplitude_deg < self.snake.joint_range_deg,
-            "rail.drift_amplitude_deg",
-            fmt_f(r.drift_amplitude_deg),
-            format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
-        )?;
-        ensure(
-            r.drift_phase_lag_deg.is_finite() && r.drift_phase_lag_deg.abs() <= 180.0,
-            "rail.drift_phase_lag_deg",
-            fmt_f(r.drift_phase_lag_deg),
-            "must be within -180..180",
-        )?;
-        positive("rail.drift_frequency_hz", r.drift_frequency_hz)?;
-        ensure(
-            r.drift_heading_gain.is_finite() && r.drift_heading_gain.abs() <= 5.0,
-            "rail.drift_heading_gain",
-            fmt_f(r.drift_heading_gain),
-            "must be within -5..5",
-        )?;
-        positive("rail.drift_heading_filter_secs", r.drift_heading_filter_secs)?;
-        positive("rail.contact_filter_secs", r.contact_filter_secs)?;
-        non_negative("rail.propel_force_n", r.propel_force_n)?;
-        positive("rail.no_peg_secs", r.no_peg_secs)?;
-        non_negative("rail.resist_force_n", r.resist_force_n)?;
-        non_negative("rail.drift_min_secs", r.drift_min_secs)?;
-        positive("rail.blend_secs", r.blend_secs)?;
-        positive("rail.force_clip_n", r.force_clip_n)?;
-        non_negative("rail.wedge_force_n", r.wedge_force_n)?;
-        positive("rail.wedge_secs", r.wedge_secs)?;
-        non_negative("rail.relax_secs", r.relax_secs)?;
-        non_negative("rail.relax_amplitude_deg", r.relax_amplitude_deg)?;
-        ensure(
-            r.relax_amplitude_deg < self.snake.joint_range_deg,
-            "rail.relax_amplitude_deg",
-            fmt_f(r.relax_amplitude_deg),
-            format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
-        )?;
-        ensure(
-            r.relax_phase_lag_deg.is_finite() && r.relax_phase_lag_deg.abs() <= 180.0,
-            "rail.relax_phase_lag_deg",
-            fmt_f(r.relax_phase_lag_deg),
-            "must be within -180..180",
-        )?;
-        if self.control.controller == ControllerKind::Rail {
-            ensure(
-                r.contacts == ContactSource::True || self.estimation.enabled,
-                "rail.contacts",
-                "\"estimated\"",
-                "reads the step loop's contact estimates: set estimation.enabled = true (or contacts = \"true\")",
-            )?;
-            ensure(
-                self.ground.model == GroundModel::Isotropic,
-                "ground.model",
-                format!("{:?}", self.ground.model).to_lowercase(),
-                "control.controller = \"rail\" drives its waves toward the head (rail.drift_phase_lag_deg < 0) and \
-                 along the path it sets; it is tuned for isotropic friction and goes backward on an anisotropic floor: \
-                 set ground.model = \"isotropic\", or use control.controller = \"follow_the_leader_reflex\", \
-                 \"directional_admittance\" or \"jam_resolution\" (they run [gait.sine_wave] and go forward on the \
-                 default floor)",
-            )?;
-        }
-        Ok(())
     }
 
     fn validate_estimation(&self) -> Check {

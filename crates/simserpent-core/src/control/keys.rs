@@ -7,14 +7,13 @@
 //! |---|---|---|
 //! | `gait` | `kind`, `ramp_secs`, the section of `kind` | the other kinds' sections; `ramp_secs` with `none` and `form_closure` |
 //! | `path_following` (`kind = "sine_wave"`) | `ramp_secs`, `sine_wave.amplitude_deg`, `frequency_hz`, `phase_lag_deg` | `sine_wave.offset_deg` (its heading control sets the offset), the other kinds' sections |
-//! | `obstacle_aided` (`kind = "sine_wave"`) | `ramp_secs`, `sine_wave.frequency_hz` | `sine_wave.amplitude_deg`, `phase_lag_deg`, `offset_deg` (its own wave, `[obstacle_aided]`), the other kinds' sections |
-//! | `rail` | `ramp_secs` | `kind` and every gait section (`[rail]` draws the shape) |
 //! | `follow_the_leader_reflex`, `directional_admittance`, `jam_resolution` (`kind = "sine_wave"`) | `ramp_secs`, every `sine_wave` key | the other kinds' sections |
 //!
-//! `path_following` and `obstacle_aided` with any other `gait.kind` run that gait open loop, as
-//! `gait` does; their own sections are then unused. The sections `[path_following]`,
-//! `[obstacle_aided]` and `[rail]` are used only by their controller. A key is reported only when
-//! its value differs from the default (a default value changes nothing either way).
+//! `path_following` and the contact laws with any other `gait.kind` run that gait open loop, as
+//! `gait` does; their own sections are then unused. Each controller's own section
+//! (`[path_following]`, `[follow_the_leader_reflex]`, …) is used only by that controller. A key
+//! is reported only when its value differs from the default (a default value changes nothing
+//! either way).
 //! `tests` in this module check the table against the controllers themselves: for every
 //! controller, actuator kind, gait kind and gait key, a key is reported exactly when changing it
 //! leaves every command unchanged.
@@ -62,27 +61,23 @@ fn controller_name(kind: ControllerKind) -> &'static str {
     match kind {
         ControllerKind::Gait => "gait",
         ControllerKind::PathFollowing => "path_following",
-        ControllerKind::ObstacleAided => "obstacle_aided",
-        ControllerKind::Rail => "rail",
         ControllerKind::FollowTheLeaderReflex => "follow_the_leader_reflex",
         ControllerKind::DirectionalAdmittance => "directional_admittance",
         ControllerKind::JamResolution => "jam_resolution",
     }
 }
 
-/// The controller that actually runs for `config` (`path_following` and `obstacle_aided` fall
+/// The controller that actually runs for `config` (`path_following` and the contact laws fall
 /// back to the open-loop gait without a sine wave; see [`super::controller_from_config`]).
 pub fn effective_controller(config: &Config) -> ControllerKind {
     match (config.control.controller, config.gait.kind) {
         (
             ControllerKind::PathFollowing
-            | ControllerKind::ObstacleAided
             | ControllerKind::FollowTheLeaderReflex
             | ControllerKind::DirectionalAdmittance
             | ControllerKind::JamResolution,
             GaitKind::SineWave,
         ) => config.control.controller,
-        (ControllerKind::Rail, _) => ControllerKind::Rail,
         _ => ControllerKind::Gait,
     }
 }
@@ -108,8 +103,6 @@ pub fn unused_key_rules(config: &Config) -> Vec<(String, String)> {
     // The controllers' own sections.
     for (section, owner) in [
         ("path_following", ControllerKind::PathFollowing),
-        ("obstacle_aided", ControllerKind::ObstacleAided),
-        ("rail", ControllerKind::Rail),
         ("follow_the_leader_reflex", ControllerKind::FollowTheLeaderReflex),
         ("directional_admittance", ControllerKind::DirectionalAdmittance),
         ("jam_resolution", ControllerKind::JamResolution),
@@ -163,25 +156,6 @@ pub fn unused_key_rules(config: &Config) -> Vec<(String, String)> {
                     config.path_following.max_offset_deg
                 ),
             ));
-        }
-        ControllerKind::ObstacleAided => {
-            other_kinds(&mut out, &kind_is);
-            for key in ["amplitude_deg", "phase_lag_deg"] {
-                out.push((
-                    format!("gait.sine_wave.{key}"),
-                    format!("{ctl} runs its own wave: set obstacle_aided.{key} instead"),
-                ));
-            }
-            out.push((
-                "gait.sine_wave.offset_deg".into(),
-                format!("{ctl} sets the joint offsets itself (its contact and heading terms)"),
-            ));
-        }
-        ControllerKind::Rail => {
-            out.push(("gait.kind".into(), format!("{ctl} draws its own shape ([rail]); the gait is not used")));
-            for (section, _) in GAIT_SECTIONS {
-                out.push((section.into(), format!("{ctl} draws its own shape ([rail]); the gait is not used")));
-            }
         }
     }
     out
@@ -343,8 +317,6 @@ mod tests {
         for controller in [
             ControllerKind::Gait,
             ControllerKind::PathFollowing,
-            ControllerKind::ObstacleAided,
-            ControllerKind::Rail,
             ControllerKind::FollowTheLeaderReflex,
             ControllerKind::DirectionalAdmittance,
             ControllerKind::JamResolution,
@@ -415,7 +387,7 @@ mod tests {
         let keys: Vec<&str> = unused.iter().map(|u| u.key.as_str()).collect();
         // The default controller falls back silently (as the default config says); its keys do not.
         assert_eq!(keys, ["path_following.heading_gain"], "{unused:?}");
-        c.control.controller = ControllerKind::ObstacleAided;
+        c.control.controller = ControllerKind::JamResolution;
         let unused = unused_keys(&c);
         assert_eq!(unused[0].key, "control.controller", "{unused:?}");
         assert!(unused[0].to_string().contains("needs gait.kind = \"sine_wave\""), "{}", unused[0]);

@@ -10,10 +10,8 @@ mod follow_the_leader_reflex;
 mod gait;
 mod jam_resolution;
 mod keys;
-mod obstacle_aided;
 mod path;
 mod pid;
-mod rail;
 
 pub use directional_admittance::DirectionalAdmittance;
 pub use follow_the_leader_reflex::FollowTheLeaderReflex;
@@ -22,10 +20,8 @@ pub use gait::{
 };
 pub use jam_resolution::{JamResolution, Resolution};
 pub use keys::{UnusedKey, effective_controller, nothing_moves, unused_key_rules, unused_keys};
-pub use obstacle_aided::{ObstacleAided, ObstacleAidedState};
 pub use path::{Guidance, PathFollowing};
 pub use pid::Pid;
-pub use rail::{Rail, RailState};
 
 use crate::config::{Config, ControlMethod, JointAxes};
 
@@ -148,16 +144,13 @@ impl Controller for HeldCommand {
 }
 
 /// The controller that `config.control.controller` selects, for `n_joints` joints: the gait
-/// ([`TrajectoryController`]), path following ([`PathFollowing`]) or obstacle-aided locomotion
-/// ([`ObstacleAided`]; validation requires the sine wave for it) or follow-the-leader
-/// obstacle-aided locomotion ([`Rail`], any gait), or one of the contact laws from the literature
-/// on the sine wave ([`FollowTheLeaderReflex`], [`DirectionalAdmittance`], [`JamResolution`];
-/// validation requires the sine wave for them). Path following steers the
-/// sine wave; with another `gait.kind` (none, serpenoid, form closure, …) the gait runs open
-/// loop.
+/// ([`TrajectoryController`]), path following ([`PathFollowing`]) or one of the contact laws
+/// from the literature ([`FollowTheLeaderReflex`], [`DirectionalAdmittance`],
+/// [`JamResolution`]; validation requires the sine wave for them). Path following and the laws
+/// shape the sine wave; with another `gait.kind` (none, serpenoid, form closure, …) the gait
+/// runs open loop.
 pub fn controller_from_config(config: &Config, n_joints: usize) -> Box<dyn Controller> {
     match (config.control.controller, config.gait.kind) {
-        (crate::config::ControllerKind::Rail, _) => Box::new(Rail::from_config(config, n_joints)),
         (crate::config::ControllerKind::FollowTheLeaderReflex, crate::config::GaitKind::SineWave) => {
             Box::new(FollowTheLeaderReflex::from_config(config, n_joints))
         }
@@ -169,9 +162,6 @@ pub fn controller_from_config(config: &Config, n_joints: usize) -> Box<dyn Contr
         }
         (crate::config::ControllerKind::PathFollowing, crate::config::GaitKind::SineWave) => {
             Box::new(PathFollowing::from_config(config, n_joints))
-        }
-        (crate::config::ControllerKind::ObstacleAided, crate::config::GaitKind::SineWave) => {
-            Box::new(ObstacleAided::from_config(config, n_joints))
         }
         _ => Box::new(TrajectoryController::from_config(config, n_joints)),
     }
@@ -346,7 +336,7 @@ impl Controller for TrajectoryController {
     }
 }
 
-/// Where a contact-feeling controller (`ObstacleAided`, `Rail`) gets its contacts: the step
+/// Where a contact-feeling controller (a contact law) gets its contacts: the step
 /// loop's estimates in the observation, or, with `ContactSource::True` (for comparison), the
 /// simulator's truth, which needs the full state (`Controller::update_with_state`).
 #[derive(Debug, Clone)]
