@@ -1201,8 +1201,9 @@ fn unknown_key_suggests_the_closest() {
     assert!(matches!(&e, ConfigError::UnknownKey { suggestion: None, .. }), "{e:?}");
 }
 
-/// A config written for a controller SimSerpent no longer has is refused, naming the key, the
-/// value and the controllers there are (no silent fallback to another controller).
+/// A controller or controller section that SimSerpent does not have (`obstacle_aided`, `rail`)
+/// is refused, naming the key, the value and the controllers there are (no silent fallback to
+/// another controller).
 #[test]
 fn a_controller_or_section_that_does_not_exist_is_refused() {
     for name in ["obstacle_aided", "rail"] {
