@@ -114,7 +114,7 @@ class MeshObstacle:
     def write_obj(self, path: Path) -> Path:
         with path.open("w") as f:
             for v in self.vertices_m:
-                f.write(f"v {v[0]!r} {v[1]!r} {v[2]!r}\n")
+                f.write(f"v {float(v[0])!r} {float(v[1])!r} {float(v[2])!r}\n")
             for a, b, c in self.faces:
                 f.write(f"f {a + 1} {b + 1} {c + 1}\n")
         return path

@@ -455,7 +455,7 @@ SCENES = [
         "snake launched at 1 m/s along +y spinning at 2 rad/s about the vertical through its head tip, 2 s.",
         2.0, lambda mu: {**_launch((0.0, 1.0, 0.0), (0.0, 0.0, 2.0)), "control.method": "torque",
                          "control.pid_kp_nm_per_rad": 0.0, "control.pid_ki_nm_per_rad_s": 0.0,
-                         "control.pid_kd_nm_s_per_rad": 0.0}, coasting_figures,
+                         "control.pid_kd_nm_s_per_rad": 0.0}, coasting_figures, tags=("energy",),
     ),
     Scene(
         "peg", "Peg impact, head first",
@@ -475,6 +475,12 @@ SCENES = [
         obstacle_test=PEG_TEST, fine_step_secs=1e-4,
     ),
     Scene(
+        "breakaway", "Break-away under a slowly ramped force",
+        "One link on the floor, pushed along +x at its centre of mass by F(t) = μ m g · t / 1 s; the "
+        "break-away force from the first step faster than 1 mm/s (see `figures.breakaway_ratio`), 1.5 s.",
+        1.5, lambda mu: {"gait.kind": "none", "snake.n_links": 1}, breakaway_figures, push=True, n_links=1,
+    ),
+    Scene(
         "hf_flat", "Gait on a flat heightfield",
         f"The ramp scene's gait on a flat heightfield {GROUND_Z_M * 1000:g} mm above the floor "
         f"({HF_SIZE_M[0]:g} m x {HF_SIZE_M[1]:g} m, {HF_PIXELS[0]} x {HF_PIXELS[1]} grid from a 16-bit PNG), 3 s. "
@@ -488,12 +494,6 @@ SCENES = [
         "The reference builds the same caps as spheres (radius 0.5 m) buried in its plane; the grid's vertices "
         "lie on that surface within 0.2 mm (checked), 3 s.",
         3.0, lambda mu: _gait(), gait_figures, gait=True, ground=BUMPY, prepare=heightfield_sets("bumps", BUMPY),
-    ),
-    Scene(
-        "breakaway", "Break-away under a slowly ramped force",
-        "One link on the floor, pushed along +x at its centre of mass by F(t) = μ m g · t / 1 s; the "
-        "break-away force from the first step faster than 1 mm/s (see `figures.breakaway_ratio`), 1.5 s.",
-        1.5, lambda mu: {"gait.kind": "none", "snake.n_links": 1}, breakaway_figures, push=True, n_links=1,
     ),
 ]
 

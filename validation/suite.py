@@ -139,6 +139,7 @@ def main() -> int:
     work.mkdir(parents=True)
 
     rows: list[dict] = []
+    errors: list[str] = []
     impacts: dict = {}
     damping: dict[str, tuple[float, float]] = {}
     wall: dict[str, float] = {"drake": 0.0, **{e: 0.0 for e in engines}}
@@ -146,59 +147,71 @@ def main() -> int:
     for scene in chosen:
         prepared = {**(scene.prepare(work) if scene.prepare else {}), **extra}
         for mu in mus:
-            sets = sc.overrides(scene, mu, prepared)
             tag = f"{scene.key}-mu{mu:g}"
-            model_path = ss.write_model(model_binary, sets, work / f"{tag}.xml")
-            model = mjcf_model.read(model_path)
-            command = sc.sine_command(model.n_joints) if scene.gait else sc.hold_command(model)
-            push = None
-            mu_n = model.floor_friction * model.link_weight_n(0)
-            if scene.push:
-                push = lambda t, mu_n=mu_n: mu_n * t / sc.BREAKAWAY_RAMP_SECS  # noqa: E731
-            t0 = time.time()
-            d_floor, d_obstacle = scene_damping(scene, mu, model, model_binary, extra, settings, configured_e,
-                                                args.no_fine, impacts, work)
-            damping[scene.key] = (d_floor, d_obstacle)
-            settings.floor_dissipation_s_per_m = d_floor
-            settings.obstacle_dissipation_s_per_m = d_obstacle
-            run = drake_side.simulate(model, command, scene.duration_secs, settings, push=push, ground=scene.ground,
-                                      mesh_dir=work)
-            wall["drake"] += time.time() - t0
-            add_figures(rows, scene, mu, "drake", fg.resample(run, model.timestep_secs), model)
-            print(f"{tag}: drake done ({time.time() - t0:.1f} s)", flush=True)
-            for engine in engines:
-                t0 = time.time()
-                run_sets = dict(sets)
-                if scene.push:
-                    run_sets.update(push_sets(mu_n))
-                energy = "energy" in scene.tags
-                folder = ss.run(binaries[engine], run_sets, work / engine, tag)
-                ours_model = mjcf_model.read(folder / "model.xml")
-                ours = ss.read_run(folder, len(model.links), ours_model if energy else None)
-                add_figures(rows, scene, mu, engine, ours, ours_model)
-                if not args.no_fine:
-                    fine_sets = {**run_sets, "general.timestep_secs": scene.fine_step_secs}
-                    folder = ss.run(binaries[engine], fine_sets, work / f"{engine}-fine", tag)
-                    fine_model = mjcf_model.read(folder / "model.xml")
-                    fine = ss.read_run(folder, len(model.links), fine_model if energy else None)
-                    add_figures(rows, scene, mu, f"{engine}@fine", fg.resample(fine, ours_model.timestep_secs),
-                                fine_model)
-                wall[engine] += time.time() - t0
-                print(f"{tag}: {engine} done ({time.time() - t0:.1f} s)", flush=True)
+            try:
+                run_scene(scene, mu, prepared, tag, model_binary, binaries, engines, extra, settings, configured_e,
+                          args, impacts, damping, wall, rows, work)
+            except Exception as e:  # noqa: BLE001 - one scene's failure must not lose the others
+                errors.append(f"ERROR scene {scene.key}, μ {mu:g}: {type(e).__name__}: {e}")
+                print(errors[-1], file=sys.stderr, flush=True)
             write_tables(out, rows, chosen, mus, engines, binaries, settings, damping, impacts, wall,
                          time.time() - started, args, configured_e)
     raw = {(r["scene"], r["mu"], r["engine"], r["figure"]): r["raw"] for r in rows}
     verdicts = targets.evaluate(raw, mus, engines)
-    missed = targets.failures(verdicts)
+    missed = errors + targets.failures(verdicts)
     print(f"total {time.time() - started:.0f} s; tables in {out}")
     if missed:
-        print(f"{len(missed)} of {len(verdicts)} checks missed:", file=sys.stderr)
+        print(f"{len(missed)} misses ({len(errors)} scene errors, {len(verdicts)} checks):", file=sys.stderr)
         for line in missed:
             print(line, file=sys.stderr)
         return 1
     if engines:
         print(f"all {len(verdicts)} checks pass")
     return 0
+
+
+def run_scene(scene, mu, prepared, tag, model_binary, binaries, engines, extra, settings, configured_e, args,
+              impacts, damping, wall, rows, work) -> None:
+    """One scene at one μ: Drake (with the damping of its impact tests), then every build and its
+    finer-step run; the figures go to `rows`."""
+    sets = sc.overrides(scene, mu, prepared)
+    model_path = ss.write_model(model_binary, sets, work / f"{tag}.xml")
+    model = mjcf_model.read(model_path)
+    command = sc.sine_command(model.n_joints) if scene.gait else sc.hold_command(model)
+    push = None
+    mu_n = model.floor_friction * model.link_weight_n(0)
+    if scene.push:
+        push = lambda t, mu_n=mu_n: mu_n * t / sc.BREAKAWAY_RAMP_SECS  # noqa: E731
+    t0 = time.time()
+    d_floor, d_obstacle = scene_damping(scene, mu, model, model_binary, extra, settings, configured_e,
+                                        args.no_fine, impacts, work)
+    damping[scene.key] = (d_floor, d_obstacle)
+    settings.floor_dissipation_s_per_m = d_floor
+    settings.obstacle_dissipation_s_per_m = d_obstacle
+    run = drake_side.simulate(model, command, scene.duration_secs, settings, push=push, ground=scene.ground,
+                              mesh_dir=work)
+    wall["drake"] += time.time() - t0
+    add_figures(rows, scene, mu, "drake", fg.resample(run, model.timestep_secs), model)
+    print(f"{tag}: drake done ({time.time() - t0:.1f} s)", flush=True)
+    for engine in engines:
+        t0 = time.time()
+        run_sets = dict(sets)
+        if scene.push:
+            run_sets.update(push_sets(mu_n))
+        energy = "energy" in scene.tags
+        folder = ss.run(binaries[engine], run_sets, work / engine, tag)
+        ours_model = mjcf_model.read(folder / "model.xml")
+        ours = ss.read_run(folder, len(model.links), ours_model if energy else None)
+        add_figures(rows, scene, mu, engine, ours, ours_model)
+        if not args.no_fine:
+            fine_sets = {**run_sets, "general.timestep_secs": scene.fine_step_secs}
+            folder = ss.run(binaries[engine], fine_sets, work / f"{engine}-fine", tag)
+            fine_model = mjcf_model.read(folder / "model.xml")
+            fine = ss.read_run(folder, len(model.links), fine_model if energy else None)
+            add_figures(rows, scene, mu, f"{engine}@fine", fg.resample(fine, ours_model.timestep_secs),
+                        fine_model)
+        wall[engine] += time.time() - t0
+        print(f"{tag}: {engine} done ({time.time() - t0:.1f} s)", flush=True)
 
 
 def add_figures(rows, scene, mu, engine, run, model) -> None:
