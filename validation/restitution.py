@@ -73,7 +73,8 @@ def simserpent_sets(test: ImpactTest, mu: float, timestep_secs: float, link_radi
             f'[{{file = "{test.mesh_file}", position_m = [{centre[0]!r}, {centre[1]!r}, 0.0]}}]')
     else:
         sets.update({"terrain.pegboard.layout": "square", "terrain.pegboard.region_min_m": centre,
-                     "terrain.pegboard.region_max_m": centre, "terrain.pegboard.peg_radius_m": test.radius_m})
+                     "terrain.pegboard.region_max_m": centre, "terrain.pegboard.peg_radius_m": test.radius_m,
+                     "terrain.pegboard.spacing_m": 2 * test.radius_m + 0.1})
     return sets
 
 

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import argparse
 import csv
+import hashlib
+import json
 import math
 import os
 import platform
@@ -44,7 +46,7 @@ def fmt(value, figure: str = "") -> str:
     if isinstance(value, str):
         return value
     if isinstance(value, tuple):
-        return " … ".join(f"{v:.4g}" for v in value)
+        return (", " if "x, y" in figure else " … ").join(f"{v:.4g}" for v in value)
     if isinstance(value, list):
         return " / ".join(f"{v:.3f}" for v in value)
     if value is None or (isinstance(value, float) and math.isnan(value)):
@@ -77,7 +79,7 @@ def main() -> int:
                     help="binary whose `simserpent model` gives the reference's MJCF and whose impact tests set "
                          "Drake's damping (default: the first --binary)")
     ap.add_argument("--scenes", default="all", help="comma-separated scene keys (" +
-                    ",".join(s.key for s in sc.SCENES) + ") or all")
+                    ",".join(s.key for s in sc.SCENES) + "), all, or none (with --update: only rewrite the tables)")
     ap.add_argument("--mu", default="0.5,1.0", help="friction coefficients (default 0.5,1.0)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", dest="sets",
                     help="a SimSerpent config key (TOML value) for every scene and impact test (repeatable)")
@@ -93,6 +95,9 @@ def main() -> int:
                     help="Drake's continuous plant with an error-controlled integrator (runge_kutta3) instead of TAMSI")
     ap.add_argument("--accuracy", type=float, default=drake_side.DrakeSettings.accuracy,
                     help="target accuracy of the continuous integrator")
+    ap.add_argument("--update", action="store_true",
+                    help="keep the figures of the scenes and μ not run now, and the impact tests, from the tables "
+                         "already in --out (rerun a subset of the same builds into a complete set)")
     ap.add_argument("--out", default=str(HERE / "results"), help="folder of the tables")
     ap.add_argument("--work", default=str(HERE / "work"), help="folder of the run folders and models")
     args = ap.parse_args()
@@ -107,13 +112,13 @@ def main() -> int:
     if not binaries:
         binaries["main"] = (REPO / "target" / "release" / "simserpent").resolve()
     for name, path in binaries.items():
-        if not path.is_file():
+        if not path.is_file() and args.scenes != "none":
             print(f"error: SimSerpent binary {name} = {path} does not exist (cargo build --release)", file=sys.stderr)
             return 2
     model_binary = Path(args.model_binary).resolve() if args.model_binary else next(iter(binaries.values()))
     engines = [] if args.reference_only else list(binaries)
     known = {s.key for s in sc.SCENES}
-    wanted = known if args.scenes == "all" else set(args.scenes.split(","))
+    wanted = known if args.scenes == "all" else set() if args.scenes == "none" else set(args.scenes.split(","))
     if wanted - known:
         print(f"error: --scenes: unknown scene(s) {', '.join(sorted(wanted - known))}; "
               f"the scenes are {', '.join(s.key for s in sc.SCENES)}", file=sys.stderr)
@@ -142,11 +147,25 @@ def main() -> int:
     errors: list[str] = []
     impacts: dict = {}
     damping: dict[str, tuple[float, float]] = {}
+    commands: list[str] = []
+    args.builds = {}
+    args.previous_wall = {}
+    if args.update:
+        rows, impacts, damping, commands, args.builds = load_previous(out, {(s.key, mu) for s in chosen for mu in mus})
+        args.previous_wall = json.loads((out / "restitution.json").read_text()).get("wall_secs", {})
+    shown = [s for s in sc.SCENES if s in chosen or any(r["scene"] == s.key for r in rows)]
+    mus = sorted(set(mus) | {r["mu"] for r in rows})
+    if not engines and args.update:
+        engines = sorted({r["engine"] for r in rows if r["engine"] != "drake" and "@" not in r["engine"]})
+    if chosen or not commands:
+        commands.append(public_command(args))
+    args.commands = commands
     wall: dict[str, float] = {"drake": 0.0, **{e: 0.0 for e in engines}}
     started = time.time()
+    run_mus = [float(m) for m in args.mu.split(",")]
     for scene in chosen:
         prepared = {**(scene.prepare(work) if scene.prepare else {}), **extra}
-        for mu in mus:
+        for mu in run_mus:
             tag = f"{scene.key}-mu{mu:g}"
             try:
                 run_scene(scene, mu, prepared, tag, model_binary, binaries, engines, extra, settings, configured_e,
@@ -154,8 +173,11 @@ def main() -> int:
             except Exception as e:  # noqa: BLE001 - one scene's failure must not lose the others
                 errors.append(f"ERROR scene {scene.key}, μ {mu:g}: {type(e).__name__}: {e}")
                 print(errors[-1], file=sys.stderr, flush=True)
-            write_tables(out, rows, chosen, mus, engines, binaries, settings, damping, impacts, wall,
+            write_tables(out, rows, shown, mus, engines, binaries, settings, damping, impacts, wall,
                          time.time() - started, args, configured_e)
+    if not chosen:
+        write_tables(out, rows, shown, mus, engines, binaries, settings, damping, impacts, wall,
+                     time.time() - started, args, configured_e)
     raw = {(r["scene"], r["mu"], r["engine"], r["figure"]): r["raw"] for r in rows}
     verdicts = targets.evaluate(raw, mus, engines)
     missed = errors + targets.failures(verdicts)
@@ -331,23 +353,30 @@ def machine() -> str:
 
 
 def binary_version(path: Path) -> str:
+    """The binary's version line and the start of its SHA-256 (which build it is)."""
     try:
-        return subprocess.run([str(path), "--version"], capture_output=True, text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "version unknown"
+        version = subprocess.run([str(path), "--version"], capture_output=True, text=True,
+                                 check=True).stdout.strip().splitlines()[0]
+    except (OSError, subprocess.CalledProcessError, IndexError):
+        version = "version unknown"
+    try:
+        digest = hashlib.sha256(path.read_bytes()).hexdigest()[:12]
+    except OSError:
+        digest = "?"
+    return f"{version}, binary sha256 {digest}…"
 
 
 def write_tables(out: Path, rows, chosen, mus, engines, binaries, settings, damping, impacts, wall, total, args,
                  configured_e) -> None:
     with (out / "figures.csv").open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=["scene", "mu", "engine", "figure", "value"], extrasaction="ignore")
+        w = csv.DictWriter(f, fieldnames=["scene", "mu", "engine", "figure", "value", "raw"], extrasaction="ignore")
         w.writeheader()
-        w.writerows(rows)
+        w.writerows({**r, "raw": raw_json(r["raw"])} for r in rows)
     value = {(r["scene"], r["mu"], r["engine"], r["figure"]): r["value"] for r in rows}
     raw = {(r["scene"], r["mu"], r["engine"], r["figure"]): r["raw"] for r in rows}
     header = [
-        f"Generated by `{public_command(args)}` on {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, "
-        f"on {machine()}.",
+        "Generated by " + "; then ".join(f"`{c}`" for c in args.commands)
+        + f" on {datetime.now(timezone.utc):%Y-%m-%d %H:%M} UTC, on {machine()}.",
         f"Drake {drake_version()}: "
         + (f"continuous plant, {settings.integrator} at accuracy {settings.accuracy:g}, sampled every "
            f"{settings.time_step_secs:g} s" if settings.continuous else
@@ -359,12 +388,24 @@ def write_tables(out: Path, rows, chosen, mus, engines, binaries, settings, damp
         "each of its steps), and so are SimSerpent's finer-step runs (the convergence column, \"finer step\").",
     ]
     for name in engines:
-        header.append(f"SimSerpent `{name}`: {binary_version(binaries[name])}.")
-    header.append("Wall time: " + ", ".join(f"{k} {v:.0f} s" for k, v in wall.items()) + f"; total {total:.0f} s.")
+        if name not in args.builds and name in binaries and binaries[name].is_file():
+            args.builds[name] = binary_version(binaries[name])
+        header.append(f"SimSerpent `{name}`: {args.builds.get(name, 'build unknown')}.")
+    spent = {k: v + args.previous_wall.get(k, 0.0) for k, v in wall.items()}
+    header.append("Wall time: " + ", ".join(f"{k} {v:.0f} s" for k, v in spent.items())
+                  + f"; total {total + args.previous_wall.get('total', 0.0):.0f} s.")
     if engines:
         verdicts = targets.evaluate(raw, mus, engines)
         (out / "targets.md").write_text(targets.report(verdicts, header))
     (out / "restitution.md").write_text(restitution_report(impacts, header[:2]))
+    (out / "restitution.json").write_text(json.dumps({
+        "commands": args.commands,
+        "builds": args.builds,
+        "wall_secs": {**{k: v + args.previous_wall.get(k, 0.0) for k, v in wall.items()},
+                      "total": total + args.previous_wall.get("total", 0.0)},
+        "damping": damping,
+        "impacts": [{**{k: v for k, v in r.items() if k != "test"}, "test": vars(r["test"])} for r in impacts.values()],
+    }, indent=1) + "\n")
     outputs = [(out / "reference.md", ["drake"])]
     if engines:
         cols = ["drake", *engines] + ([f"{engines[0]}@fine"] if not args.no_fine else [])
@@ -392,6 +433,47 @@ def write_tables(out: Path, rows, chosen, mus, engines, binaries, settings, damp
                 lines.append(f"| {lab} | " + " | ".join(cells) + " |")
             lines.append("")
         path.write_text("\n".join(lines))
+
+
+def load_previous(out: Path, rerun: set) -> tuple[list, dict, dict, list, dict]:
+    """The figures, impact tests, damping and commands of the tables in `out`, less the (scene, μ)
+    pairs in `rerun`."""
+    figures_csv, state_json = out / "figures.csv", out / "restitution.json"
+    if not figures_csv.exists() or not state_json.exists():
+        raise SystemExit(f"error: --update: no earlier tables in {out} (figures.csv and restitution.json)")
+    rows = []
+    with figures_csv.open() as f:
+        for r in csv.DictReader(f):
+            if "raw" not in r:
+                raise SystemExit(f"error: --update: {figures_csv} has no raw column (written by an older suite)")
+            mu = float(r["mu"])
+            if (r["scene"], mu) in rerun:
+                continue
+            raw = json.loads(r["raw"])
+            raw = tuple(raw["pair"]) if isinstance(raw, dict) else (math.nan if raw is None else raw)
+            rows.append({"scene": r["scene"], "mu": mu, "engine": r["engine"], "figure": r["figure"],
+                         "value": r["value"], "raw": raw})
+    state = json.loads(state_json.read_text())
+    impacts = {}
+    for r in state["impacts"]:
+        test = rs.ImpactTest(**r["test"])
+        impacts[(test, r["step"])] = {**r, "test": test}
+    damping = {k: tuple(v) for k, v in state["damping"].items()}
+    return rows, impacts, damping, list(state["commands"]), dict(state.get("builds", {}))
+
+
+def raw_json(value) -> str:
+    """A figure's exact value as JSON (a pair as {"pair": [a, b]}; nan as null)."""
+    def clean(v):
+        if isinstance(v, float) and math.isnan(v):
+            return None
+        return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v
+
+    if isinstance(value, tuple):
+        return json.dumps({"pair": [clean(v) for v in value]})
+    if isinstance(value, list):
+        return json.dumps([clean(v) for v in value])
+    return json.dumps(clean(value))
 
 
 def restitution_report(impacts: dict, header: list[str]) -> str:
