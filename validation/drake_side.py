@@ -204,13 +204,14 @@ class PushOnHead(LeafSystem):
 
 
 def simulate(model: Model, command, duration_secs: float, settings: DrakeSettings, push=None,
-             ground: Ground | None = None, mesh_dir=None) -> dict:
+             ground: Ground | None = None, mesh_dir=None, sample_secs: float | None = None) -> dict:
     """Runs the scene; returns the tables (numpy arrays keyed like the run folder's columns).
 
     `command(t)` gives the joint commands (rad); `push(t)` (optional) a force (N) along +x on
     link 0's centre of mass. A model with a heightfield needs `ground` (the surface it samples,
     checked against its vertices); one with mesh obstacles a folder `mesh_dir` for their OBJ files
-    (Drake's point contact collides a mesh as its convex hull, as MuJoCo does).
+    (Drake's point contact collides a mesh as its convex hull, as MuJoCo does). `sample_secs`:
+    one row every so many seconds (forces averaged over its steps); None: every step.
     """
     if model.heightfields:
         if ground is None:
@@ -358,15 +359,23 @@ def simulate(model: Model, command, duration_secs: float, settings: DrakeSetting
         integrator.set_target_accuracy(settings.accuracy)
     sim.Initialize()
 
-    return _record(sim, plant, pc, model, bodies, joints, set(ground_ids), set(obstacle_ids), duration_secs, settings)
+    return _record(sim, plant, pc, model, bodies, joints, set(ground_ids), set(obstacle_ids), duration_secs, settings,
+                   sample_secs)
 
 
-def _record(sim, plant, pc, model, bodies, joints, ground_ids, obstacle_ids, duration_secs, settings) -> dict:
+def _record(sim, plant, pc, model, bodies, joints, ground_ids, obstacle_ids, duration_secs, settings,
+            sample_secs) -> dict:
+    """Steps the simulator and records one row every `sample_secs` (a whole number of steps; None:
+    every step): the state at the row's time, the contact forces as their mean over the steps
+    since the previous row (what `figures.resample` makes of a full-rate record)."""
     n = len(bodies)
     dt = settings.time_step_secs
     steps = int(round(duration_secs / dt))
+    every = 1 if sample_secs is None else int(round(sample_secs / dt))
+    if every < 1 or abs(every * dt - (sample_secs or dt)) > 1e-3 * dt:
+        raise ValueError(f"cannot sample every {sample_secs:g} s with Drake's step {dt:g} s (not a whole multiple)")
     body_link = {b.index(): i for i, b in enumerate(bodies)}
-    rows = steps + 1
+    rows = steps // every + 1
     t = np.zeros(rows)
     rot = np.zeros((rows, n, 3, 3))
     origin = np.zeros((rows, n, 3))
@@ -381,10 +390,43 @@ def _record(sim, plant, pc, model, bodies, joints, ground_ids, obstacle_ids, dur
     # Energy held in the floor's point contacts (J): ½·k·x² each, k the combined stiffness.
     elastic = np.zeros(rows)
     k_point = contact_stiffness(model)[0]
+    acc = {"floor": np.zeros((n, 3)), "obstacle": np.zeros((n, 3))}
 
-    for k in range(rows):
-        if k > 0:
-            sim.AdvanceTo(k * dt)
+    def contacts() -> float:
+        """Adds this step's contact forces to `acc`; returns the floor springs' energy."""
+        energy = 0.0
+        results = port.Eval(pc)
+        for c in range(results.num_point_pair_contacts()):
+            info = results.point_pair_contact_info(c)
+            pair = info.point_pair()
+            if pair.id_A in ground_ids or pair.id_B in ground_ids:
+                target = acc["floor"]
+                energy += 0.5 * k_point * pair.depth * pair.depth
+            elif pair.id_A in obstacle_ids or pair.id_B in obstacle_ids:
+                target = acc["obstacle"]
+            else:
+                continue
+            f = info.contact_force()  # on body B, world frame
+            b_ = body_link.get(info.bodyB_index())
+            a = body_link.get(info.bodyA_index())
+            if b_ is not None:
+                target[b_] += f
+            if a is not None:
+                target[a] -= f
+        return energy
+
+    for step in range(steps + 1):
+        if step > 0:
+            sim.AdvanceTo(step * dt)
+        energy = contacts()
+        if step % every:
+            continue
+        k = step // every
+        floor[k] = acc["floor"] / (every if step else 1)
+        obstacle[k] = acc["obstacle"] / (every if step else 1)
+        acc["floor"][:] = 0.0
+        acc["obstacle"][:] = 0.0
+        elastic[k] = energy
         t[k] = sim.get_context().get_time()
         for i, b in enumerate(bodies):
             X = plant.EvalBodyPoseInWorld(pc, b)
@@ -396,24 +438,6 @@ def _record(sim, plant, pc, model, bodies, joints, ground_ids, obstacle_ids, dur
         for j, joint in enumerate(joints):
             qang[k, j] = joint.get_angle(pc)
             qdot[k, j] = joint.get_angular_rate(pc)
-        results = port.Eval(pc)
-        for c in range(results.num_point_pair_contacts()):
-            info = results.point_pair_contact_info(c)
-            pair = info.point_pair()
-            f = info.contact_force()  # on body B, world frame
-            ids = (pair.id_A, pair.id_B)
-            a, b_ = info.bodyA_index(), info.bodyB_index()
-            if ground_ids.intersection(ids):
-                target = floor
-                elastic[k] += 0.5 * k_point * pair.depth * pair.depth
-            elif obstacle_ids.intersection(ids):
-                target = obstacle
-            else:
-                continue
-            if b_ in body_link:
-                target[k, body_link[b_]] += f
-            if a in body_link:
-                target[k, body_link[a]] -= f
     p_cm = np.array([np.asarray(p) for p in p_cm])  # links x 3, body frame
     r_cm = np.einsum("knij,nj->kni", rot, p_cm)
     pos = origin + r_cm

@@ -210,10 +210,11 @@ def run_scene(scene, mu, prepared, tag, model_binary, binaries, engines, extra, 
     damping[scene.key] = (d_floor, d_obstacle)
     settings.floor_dissipation_s_per_m = d_floor
     settings.obstacle_dissipation_s_per_m = d_obstacle
+    # Recorded at SimSerpent's step: states at its rows, forces the mean over its steps.
     run = drake_side.simulate(model, command, scene.duration_secs, settings, push=push, ground=scene.ground,
-                              mesh_dir=work)
+                              mesh_dir=work, sample_secs=model.timestep_secs)
     wall["drake"] += time.time() - t0
-    add_figures(rows, scene, mu, "drake", fg.resample(run, model.timestep_secs), model)
+    add_figures(rows, scene, mu, "drake", run, model)
     print(f"{tag}: drake done ({time.time() - t0:.1f} s)", flush=True)
     for engine in engines:
         t0 = time.time()
