@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -30,7 +31,8 @@ OBSTACLE_GAP_M = 5e-4
 @dataclass(frozen=True)
 class ImpactTest:
     """One impact test: `kind` "floor" or "obstacle"; the obstacle a cylinder of `radius_m`, or
-    the mesh of `mesh_file` (a vertical prism of that circumradius, its axis at the origin)."""
+    the mesh of `mesh_file` (a file name in the suite's work folder: a vertical prism of that
+    circumradius, its axis at the origin)."""
 
     kind: str
     speed_m_per_s: float
@@ -44,9 +46,10 @@ class ImpactTest:
         return f"{what} (radius {self.radius_m:g} m) at {self.speed_m_per_s:.3g} m/s"
 
 
-def simserpent_sets(test: ImpactTest, mu: float, timestep_secs: float, link_radius_m: float = 0.04,
+def simserpent_sets(test: ImpactTest, mu: float, timestep_secs: float, files_dir=None, link_radius_m: float = 0.04,
                     link_length_m: float = 0.2) -> dict:
-    """The config keys of the test (one link; its head tip at the origin, body along -x)."""
+    """The config keys of the test (one link; its head tip at the origin, body along -x); a mesh
+    obstacle's file is in `files_dir`."""
     sets = {
         "general.duration_secs": 0.1 if test.kind == "floor" else 0.05,
         "general.timestep_secs": timestep_secs,
@@ -70,7 +73,7 @@ def simserpent_sets(test: ImpactTest, mu: float, timestep_secs: float, link_radi
         from simserpent_side import Raw
 
         sets["terrain.mesh_obstacles"] = Raw(
-            f'[{{file = "{test.mesh_file}", position_m = [{centre[0]!r}, {centre[1]!r}, 0.0]}}]')
+            f'[{{file = "{Path(files_dir) / test.mesh_file}", position_m = [{centre[0]!r}, {centre[1]!r}, 0.0]}}]')
     else:
         sets.update({"terrain.pegboard.layout": "square", "terrain.pegboard.region_min_m": centre,
                      "terrain.pegboard.region_max_m": centre, "terrain.pegboard.peg_radius_m": test.radius_m,

@@ -251,7 +251,7 @@ def scene_damping(scene, mu, model, model_binary, extra, settings, configured_e,
         test = scene.obstacle_test
         if scene.key == "mesh":
             test = rs.ImpactTest("obstacle", test.speed_m_per_s, sc.MESH_RADIUS_M,
-                                 str(sc.prism_obj(work / "impact-peg.obj")))
+                                 sc.prism_obj(work / "impact-peg.obj").name)
         tests.append(test)
     d_floor = None
     d = []
@@ -268,7 +268,7 @@ def scene_damping(scene, mu, model, model_binary, extra, settings, configured_e,
 
 def measure_impact(test, mu, model, binary, extra, settings, configured_e, no_fine, d_floor, fine_step, work) -> dict:
     name = f"impact-{test.kind}-{test.speed_m_per_s:g}-{test.radius_m:g}" + ("-mesh" if test.mesh_file else "")
-    sets = {**rs.simserpent_sets(test, mu, model.timestep_secs), **extra}
+    sets = {**rs.simserpent_sets(test, mu, model.timestep_secs, work), **extra}
     folder = ss.run(binary, sets, work / "impacts", name)
     test_model = mjcf_model.read(folder / "model.xml")
     e_ours = rs.measure(ss.read_run(folder, 1), test_model, test.kind)
