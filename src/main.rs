@@ -177,8 +177,9 @@ enum Command {
         floor: Option<String>,
     },
     /// Run the contact estimator on a recorded run (its config.toml, sensors.csv and links.csv,
-    /// CSV): writes RUN_FOLDER/estimation/ with estimates.csv (estimates next to the truth),
-    /// scores.md/.csv (detection, false alarms, force RMSE, contact points) and plots/.
+    /// CSV, every step recorded: recording.every_n_steps = 1): writes RUN_FOLDER/estimation/ with
+    /// estimates.csv (estimates next to the truth), scores.md/.csv (detection, false alarms, force
+    /// RMSE, contact points) and plots/.
     Estimate {
         /// The run folder.
         run_folder: PathBuf,
