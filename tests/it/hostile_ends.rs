@@ -207,6 +207,7 @@ fn messages(bag: &[u8]) -> Vec<(String, u32, u64, Vec<u8>)> {
 /// undamaged bag: the damaged chunk's are left out, not rewritten with fresh CRCs), and the
 /// manifest lists the instants kept.
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn bag_repair_leaves_out_a_damaged_chunk_and_keeps_every_other_byte_for_byte() {
     let dir = tempfile::tempdir().unwrap();
     let run = run_with_bag(dir.path());
@@ -244,6 +245,7 @@ fn bag_repair_leaves_out_a_damaged_chunk_and_keeps_every_other_byte_for_byte() {
 /// an MCAP file) or, after the MCAP magic, exit 1 ("nothing recoverable"), the file left as it
 /// is. On a file instead of a run folder: exit 2.
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn bag_repair_refuses_a_running_run_random_bytes_and_a_file() {
     let dir = tempfile::tempdir().unwrap();
     let runs = dir.path().join("runs");
@@ -333,6 +335,7 @@ impl Drop for Unmount {
 /// little larger than the run folder; skipped where this process may not mount one): exit 1
 /// naming "No space left", the bag and the folder as they were, no temporary file left.
 #[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn bag_repair_on_a_full_disk_fails_cleanly_and_leaves_the_bag_as_it_was() {
     let dir = tempfile::tempdir().unwrap();
     let run = run_with_bag(dir.path());
