@@ -524,6 +524,14 @@ impl From<std::io::Error> for ScanError {
     }
 }
 
+/// An MCAP error's text; for an I/O error the OS error ("No space left on device").
+fn mcap_text(e: &mcap::McapError) -> String {
+    match e {
+        mcap::McapError::Io(io) => io.to_string(),
+        other => other.to_string(),
+    }
+}
+
 /// Whether the file ends as a finished bag: a footer record and the closing magic.
 fn has_footer(file: &File, len: u64) -> std::io::Result<bool> {
     // Footer: opcode, length 20, summary start, summary offset start, summary CRC; then magic.
@@ -583,7 +591,7 @@ pub fn repair_bag(run_folder: &Path) -> Result<RepairReport, RepairError> {
         match scan.run(None) {
             Ok(()) => {}
             Err(ScanError::Read(e)) => return Err(read_err(e)),
-            Err(ScanError::Write(e)) => return Err(RepairError::Write { path, message: e.to_string() }),
+            Err(ScanError::Write(e)) => return Err(RepairError::Write { path, message: mcap_text(&e) }),
         }
         if scan.data_end && scan.report.damage.is_empty() && scan.report.stopped.is_none() {
             return Ok(scan.report);
@@ -607,12 +615,12 @@ pub fn repair_bag(run_folder: &Path) -> Result<RepairReport, RepairError> {
         .compression(Some(mcap::Compression::Zstd))
         .compression_threads(0)
         .create(std::io::BufWriter::new(out))
-        .map_err(|e| write_err(&e))?;
+        .map_err(|e| write_err(&mcap_text(&e)))?;
     let mut scan = Scan::new(&file, len, path.clone());
     match scan.run(Some(&mut writer)) {
         Ok(()) => {}
         Err(ScanError::Read(e)) => return Err(read_err(e)),
-        Err(ScanError::Write(e)) => return Err(write_err(&e)),
+        Err(ScanError::Write(e)) => return Err(write_err(&mcap_text(&e))),
     }
     let mut report = scan.report;
     if report.messages == 0 {
@@ -633,7 +641,7 @@ pub fn repair_bag(run_folder: &Path) -> Result<RepairReport, RepairError> {
         }
         return Err(RepairError::NothingRecoverable { path, message });
     }
-    writer.finish().map_err(|e| write_err(&e))?;
+    writer.finish().map_err(|e| write_err(&mcap_text(&e)))?;
     let file_out = writer.into_inner().into_inner().map_err(|e| write_err(&e.error().to_string()))?;
     file_out.sync_all().map_err(|e| write_err(&e))?;
     drop(file_out);

@@ -18,6 +18,7 @@ mod estimation;
 mod guide;
 // Planted symlinks, device files, FIFOs, permission bits and signals: Unix only.
 #[cfg(unix)]
+mod hostile_ends;
 mod hostile_files;
 #[cfg(unix)]
 mod hostile_surfaces;
