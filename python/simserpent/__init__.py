@@ -287,16 +287,18 @@ def oal_bench(
     command per joint; ``obs["contacts"]`` holds the contact estimates when ``estimation``).
 
     ``quick`` starts from the CI size (1 tuning and 2 held-out fields per family, 6-s runs),
-    otherwise from the full one (20 and 100, 60 s); ``tuning_fields``, ``held_out_fields``,
-    ``duration_secs``, ``floors`` (``"isotropic"``, ``"anisotropic"``), ``families``
-    (``"lattice"``, ``"random"``) and ``passive_kp_nm_per_rad`` change it. ``overrides``
+    otherwise from the full one (10 and 30, 60 s; every held-out run with its bare-floor twin,
+    the passive gains with their speed-matched open loops, each law's gains tuned on the tuning
+    fields); ``tuning_fields``, ``held_out_fields``, ``duration_secs``, ``floors``
+    (``"isotropic"``, ``"anisotropic"``), ``families`` (``"lattice"``, ``"random"``, ``"row"``)
+    and ``passive_kp_nm_per_rad`` change it. ``overrides``
     (``--set`` syntax) go onto the default config first (e.g. a contact law's gains).
     ``law_servo_kp_nm_per_rad`` puts the built-in laws on soft servos of that kp (kv = kp/100)
     instead of the stiff ones (with a passive gain, their feedback-off run is that baseline's).
     ``threads``: 0 = all cores.
 
     Writes ``<out>/oal-bench-<UTC time>/`` (``report.md``, ``oal_runs.csv``, ``oal_summary.csv``,
-    ``oal_paired.csv``, ``plots/``); returns ``{"folder": ..., "report": <the report as
+    ``oal_paired.csv``, ``oal_heading.csv``, ``oal_bare.csv``, ``plots/``); returns ``{"folder": ..., "report": <the report as
     Markdown>}``. An exception in your controller stops the benchmark and is raised as the cause
     of a :class:`SimSerpentError`.
     """

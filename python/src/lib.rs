@@ -531,7 +531,7 @@ fn oal_bench<'py>(
         bench.floors = parse_names("floors", "floor", &f, Floor::from_name, "\"isotropic\", \"anisotropic\"")?;
     }
     if let Some(f) = families {
-        bench.families = parse_names("families", "family", &f, Family::from_name, "\"lattice\", \"random\"")?;
+        bench.families = parse_names("families", "family", &f, Family::from_name, "\"lattice\", \"random\", \"row\"")?;
     }
     if let Some(kp) = passive_kp_nm_per_rad {
         if kp.iter().any(|k| !(k.is_finite() && *k > 0.0)) {
