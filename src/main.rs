@@ -180,8 +180,9 @@ enum Command {
         oal: OalArgs,
     },
     /// Run the contact estimator on a recorded run (its config.toml, sensors.csv and links.csv,
-    /// CSV): writes RUN_FOLDER/estimation/ with estimates.csv (estimates next to the truth),
-    /// scores.md/.csv (detection, false alarms, force RMSE, contact points) and plots/.
+    /// CSV, every step recorded: recording.every_n_steps = 1): writes RUN_FOLDER/estimation/ with
+    /// estimates.csv (estimates next to the truth), scores.md/.csv (detection, false alarms, force
+    /// RMSE, contact points) and plots/.
     Estimate {
         /// The run folder.
         run_folder: PathBuf,
@@ -334,9 +335,12 @@ enum Command {
         /// The sweep folder.
         sweep_dir: PathBuf,
     },
-    /// Repair the ROS 2 bag (run.mcap) of a run that was killed: keeps every whole chunk, writes
-    /// a complete bag (summary, indexes, footer) in its place and the original beside it as
-    /// run.damaged.mcap. A complete bag is left as it is.
+    /// Repair the ROS 2 bag (run.mcap) of a run that was killed or whose bag is damaged: checks
+    /// every chunk (decompression and CRC), keeps every whole and valid one and names those it
+    /// leaves out, writes a complete bag (summary, indexes, footer) in its place, keeps the
+    /// original beside it as run.damaged.mcap and updates manifest.json. A complete bag whose
+    /// chunks are all valid is left as it is; a run still going on is refused. Exit 1 when
+    /// nothing is recoverable.
     BagRepair {
         /// The run folder.
         run_folder: PathBuf,
@@ -1255,19 +1259,45 @@ fn sweep_merge(dir: &Path) -> Result<(), Failure> {
 fn bag_repair(run_folder: &Path) -> Result<(), Failure> {
     use simserpent::ros2::bag_file::RepairError;
     let report = simserpent::ros2::repair_bag(run_folder).map_err(|e| match e {
-        RepairError::Write { .. } => Failure { code: 1, error: e.into() },
+        RepairError::Write { .. } | RepairError::NothingRecoverable { .. } => Failure { code: 1, error: e.into() },
         RepairError::File(ref f) if !f.is_bad_input() => Failure { code: 1, error: e.into() },
         e => bad_input(e),
     })?;
-    match (&report.original, &report.stopped) {
-        (None, _) => outln!("{}: complete ({} messages); nothing to repair", report.path.display(), report.messages),
-        (Some(original), stopped) => outln!(
-            "{}: repaired, {} messages (reading stopped: {}); the original is {}",
-            report.path.display(),
+    let path = report.path.display();
+    match &report.original {
+        None => outln!(
+            "{path}: complete ({} messages in {} chunks, every chunk's CRC valid); nothing to repair",
             report.messages,
-            stopped.as_deref().unwrap_or("at the end"),
-            original.display()
+            report.chunks
         ),
+        Some(original) => {
+            outln!(
+                "{path}: repaired: {} messages ({} instants) from {} of {} chunks; the original is {}; manifest.json \
+                 lists {} instants",
+                report.messages,
+                report.instants,
+                report.chunks_kept,
+                report.chunks,
+                original.display(),
+                report.instants
+            );
+            if let Some(stopped) = &report.stopped {
+                outln!("reading stopped: {stopped}");
+            }
+            let lost = report.damage_lines();
+            if !lost.is_empty() || report.messages_without_channel > 0 {
+                errln!("warning: {path}: damaged data left out:");
+                for line in lost {
+                    errln!("  {line}");
+                }
+                if report.messages_without_channel > 0 {
+                    errln!(
+                        "  {} messages of whole chunks whose channel is defined only in damaged data",
+                        report.messages_without_channel
+                    );
+                }
+            }
+        }
     }
     Ok(())
 }
@@ -1326,11 +1356,12 @@ fn doc_gen(dir: &Path, check: bool) -> Result<(), Failure> {
 
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or(DEFAULT_LOG_FILTER)).init();
-    // MuJoCo's warnings go to the log instead of stdout.
+    // MuJoCo's warnings go to the log instead of stdout; its fatal errors end the run or the
+    // set-up the way SimSerpent's own errors do (`sim::fatal`).
     // SAFETY: called first thing in main, before any thread exists or MuJoCo is used.
     #[allow(unsafe_code)]
     unsafe {
-        mujoco_rs::prelude::install_logging_hook();
+        simserpent::sim::fatal::install();
     }
     let cli = Cli::parse();
     // One signal policy for every long-running command (`simserpent::interrupt`): the first

@@ -18,12 +18,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
+import logging
+
 from pydrake.geometry import (
     AddContactMaterial,
     Capsule,
     CollisionFilterDeclaration,
+    Convex,
     Cylinder as DrakeCylinder,
     GeometrySet,
     HalfSpace,
@@ -53,13 +57,19 @@ from pydrake.common.value import AbstractValue
 
 from mjcf_model import Model, quat_matrix
 
+# Drake warns, for every plant, that half spaces take no part in deformable contact (none here).
+logging.getLogger("drake").setLevel(logging.ERROR)
+
 
 @dataclass
 class DrakeSettings:
     # Discrete step of the TAMSI solver (s).
     time_step_secs: float = 1e-4
-    # Hunt-Crossley dissipation (s/m); the suite sets it per scene with `dissipation_for`.
-    dissipation_s_per_m: float = 50.0
+    # Hunt-Crossley dissipation (s/m) of the floor (and ground) contacts and of the obstacle
+    # (and link-link) contacts; the suite sets both per scene from SimSerpent's measured
+    # restitution (`restitution.py`).
+    floor_dissipation_s_per_m: float = 50.0
+    obstacle_dissipation_s_per_m: float = 50.0
     # Regularised friction: sliding speed below which a contact counts as sticking (m/s).
     stiction_tolerance_m_per_s: float = 1e-4
     # Continuous plant with an error-controlled integrator instead of the discrete TAMSI step
@@ -83,11 +93,6 @@ def contact_stiffness(model: Model) -> tuple[float, float]:
     return m * omega * omega / 2.0, m * omega * omega
 
 
-def restitution(zeta: float) -> float:
-    """Restitution of a linear spring-damper contact of damping ratio zeta (MuJoCo's solref)."""
-    return math.exp(-math.pi * zeta / math.sqrt(1.0 - zeta * zeta)) if zeta < 1 else 0.0
-
-
 def _hunt_crossley_restitution(c: float, dt: float = 1e-4) -> float:
     """Restitution of a Hunt-Crossley contact f = k x (1 + d xdot) hit at speed v0, as a function
     of c = d v0 (dimensionless: x in units of v0/omega, time in units of 1/omega)."""
@@ -101,10 +106,10 @@ def _hunt_crossley_restitution(c: float, dt: float = 1e-4) -> float:
             return -v
 
 
-def dissipation_for(zeta: float, impact_speed_m_per_s: float) -> float:
-    """Hunt-Crossley dissipation d (s/m) whose restitution at this impact speed equals that of
-    MuJoCo's linear contact damping ratio zeta (0.163 at zeta = 0.5: d v0 = 6.1)."""
-    target = restitution(zeta)
+def dissipation_for_restitution(target: float, impact_speed_m_per_s: float) -> float:
+    """Hunt-Crossley dissipation d (s/m) whose restitution at this impact speed is `target`, for a
+    mass on the contact spring alone (no gravity, no step): the first guess of the calibration in
+    `restitution.py`, which then measures it on the scene's own impact test."""
     lo, hi = 1e-3, 1e3
     for _ in range(40):
         mid = math.sqrt(lo * hi)
@@ -113,6 +118,32 @@ def dissipation_for(zeta: float, impact_speed_m_per_s: float) -> float:
         else:
             hi = mid
     return math.sqrt(lo * hi) / impact_speed_m_per_s
+
+
+@dataclass
+class Ground:
+    """What the links stand on in the reference where the model's ground is a heightfield: a
+    plane at `plane_z_m` and spheres (centre, radius) buried in it, whose caps are the bumps. The
+    scene that makes the heightfield says which surface it samples; `max_deviation_m` checks the
+    heightfield's vertices against it."""
+
+    plane_z_m: float = 0.0
+    spheres: tuple = ()
+
+    def height(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        z = np.full(np.shape(x), self.plane_z_m, dtype=float)
+        for (cx, cy, cz), r in self.spheres:
+            d2 = (x - cx) ** 2 + (y - cy) ** 2
+            cap = cz + np.sqrt(np.maximum(r * r - d2, 0.0))
+            z = np.where(d2 < r * r, np.maximum(z, cap), z)
+        return z
+
+    def max_deviation_m(self, model: Model) -> float:
+        worst = 0.0
+        for h in model.heightfields:
+            v = h.vertices()
+            worst = max(worst, float(np.abs(v[..., 2] - self.height(v[..., 0], v[..., 1])).max()))
+        return worst
 
 
 def _rotation_z_to(axis: np.ndarray) -> RotationMatrix:
@@ -172,12 +203,23 @@ class PushOnHead(LeafSystem):
         output.set_value([f])
 
 
-def simulate(model: Model, command, duration_secs: float, settings: DrakeSettings, push=None) -> dict:
+def simulate(model: Model, command, duration_secs: float, settings: DrakeSettings, push=None,
+             ground: Ground | None = None, mesh_dir=None, sample_secs: float | None = None) -> dict:
     """Runs the scene; returns the tables (numpy arrays keyed like the run folder's columns).
 
     `command(t)` gives the joint commands (rad); `push(t)` (optional) a force (N) along +x on
-    link 0's centre of mass.
+    link 0's centre of mass. A model with a heightfield needs `ground` (the surface it samples,
+    checked against its vertices); one with mesh obstacles a folder `mesh_dir` for their OBJ files
+    (Drake's point contact collides a mesh as its convex hull, as MuJoCo does). `sample_secs`:
+    one row every so many seconds (forces averaged over its steps); None: every step.
     """
+    if model.heightfields:
+        if ground is None:
+            raise ValueError("the model has a heightfield: the reference needs the surface it samples")
+        deviation = ground.max_deviation_m(model)
+        if deviation > 2e-4:
+            raise ValueError(f"the heightfield is {deviation * 1e3:.2f} mm off the reference's surface (> 0.2 mm)")
+    ground = ground or Ground()
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlantSceneGraph(builder, 0.0 if settings.continuous else settings.time_step_secs)
     if not settings.continuous:
@@ -187,17 +229,28 @@ def simulate(model: Model, command, duration_secs: float, settings: DrakeSetting
     plant.mutable_gravity_field().set_gravity_vector(model.gravity_m_per_s2)
 
     k_floor_point, k_obstacle = contact_stiffness(model)
-    d = settings.dissipation_s_per_m
+    d_floor, d_obstacle = settings.floor_dissipation_s_per_m, settings.obstacle_dissipation_s_per_m
 
-    def props(stiffness: float, mu: float) -> ProximityProperties:
+    def props(stiffness: float, mu: float, d: float) -> ProximityProperties:
         p = ProximityProperties()
         AddContactMaterial(d, stiffness, CoulombFriction(mu, mu), p)
         return p
 
+    def floor_props() -> ProximityProperties:
+        return props(2 * k_floor_point, model.floor_friction, d_floor)
+
+    def obstacle_props() -> ProximityProperties:
+        return props(2 * k_obstacle, model.obstacle_friction, d_obstacle)
+
     world = plant.world_body()
-    floor_id = plant.RegisterCollisionGeometry(
-        world, RigidTransform(), HalfSpace(), "floor", props(2 * k_floor_point, model.floor_friction)
-    )
+    floor_id = plant.RegisterCollisionGeometry(world, RigidTransform(), HalfSpace(), "floor", floor_props())
+    ground_ids = [floor_id]
+    if ground.plane_z_m != 0.0:
+        ground_ids.append(plant.RegisterCollisionGeometry(
+            world, RigidTransform([0.0, 0.0, ground.plane_z_m]), HalfSpace(), "ground_plane", floor_props()))
+    for k, (centre, radius) in enumerate(ground.spheres):
+        ground_ids.append(plant.RegisterCollisionGeometry(
+            world, RigidTransform(np.asarray(centre, dtype=float)), Sphere(radius), f"ground_bump_{k}", floor_props()))
     obstacle_ids = []
     for c in model.cylinders:
         obstacle_ids.append(
@@ -206,9 +259,15 @@ def simulate(model: Model, command, duration_secs: float, settings: DrakeSetting
                 RigidTransform(c.centre_m),
                 DrakeCylinder(c.radius_m, 2 * c.half_height_m),
                 c.name,
-                props(2 * k_obstacle, model.obstacle_friction),
+                obstacle_props(),
             )
         )
+    for m in model.meshes:
+        if mesh_dir is None:
+            raise ValueError("the model has mesh obstacles: the reference needs a folder for their OBJ files")
+        obj = m.write_obj(Path(mesh_dir) / f"{m.name}.obj")
+        obstacle_ids.append(plant.RegisterCollisionGeometry(world, RigidTransform(), Convex(str(obj)), m.name,
+                                                            obstacle_props()))
 
     bodies = []
     spheres, capsules = [], []
@@ -227,15 +286,13 @@ def simulate(model: Model, command, duration_secs: float, settings: DrakeSetting
         pose = RigidTransform(_rotation_z_to(unit_axis), c)
         capsules.append(
             plant.RegisterCollisionGeometry(
-                body, pose, Capsule(link.radius_m, length), f"{link.name}_capsule",
-                props(2 * k_obstacle, model.obstacle_friction),
+                body, pose, Capsule(link.radius_m, length), f"{link.name}_capsule", obstacle_props(),
             )
         )
         for k, end in enumerate((link.core_from_m, link.core_to_m)):
             spheres.append(
                 plant.RegisterCollisionGeometry(
-                    body, RigidTransform(end), Sphere(link.radius_m), f"{link.name}_end{k}",
-                    props(2 * k_floor_point, model.floor_friction),
+                    body, RigidTransform(end), Sphere(link.radius_m), f"{link.name}_end{k}", floor_props(),
                 )
             )
     joints, actuators = [], []
@@ -260,7 +317,7 @@ def simulate(model: Model, command, duration_secs: float, settings: DrakeSetting
     decl = CollisionFilterDeclaration()
     decl.ExcludeWithin(s_set)
     decl.ExcludeBetween(s_set, c_set)
-    decl.ExcludeBetween(c_set, GeometrySet([floor_id]))
+    decl.ExcludeBetween(c_set, GeometrySet(ground_ids))
     if obstacle_ids:
         decl.ExcludeBetween(s_set, GeometrySet(obstacle_ids))
     manager.Apply(decl)
@@ -291,7 +348,7 @@ def simulate(model: Model, command, duration_secs: float, settings: DrakeSetting
         for b, link in zip(bodies, model.links)
         for end in (link.core_from_m, link.core_to_m)
     )
-    if abs(lowest) < 1e-9:
+    if abs(lowest - ground.plane_z_m) < 1e-9:
         sink = float(np.linalg.norm(model.gravity_m_per_s2)) / (2 * k_floor_point / model.links[0].mass_kg)
         plant.SetFreeBodyPose(pc, bodies[0], RigidTransform(RotationMatrix(R_head), q[0:3] - [0.0, 0.0, sink]))
     v = model.qvel
@@ -302,15 +359,23 @@ def simulate(model: Model, command, duration_secs: float, settings: DrakeSetting
         integrator.set_target_accuracy(settings.accuracy)
     sim.Initialize()
 
-    return _record(sim, plant, pc, model, bodies, joints, floor_id, set(obstacle_ids), duration_secs, settings)
+    return _record(sim, plant, pc, model, bodies, joints, set(ground_ids), set(obstacle_ids), duration_secs, settings,
+                   sample_secs)
 
 
-def _record(sim, plant, pc, model, bodies, joints, floor_id, obstacle_ids, duration_secs, settings) -> dict:
+def _record(sim, plant, pc, model, bodies, joints, ground_ids, obstacle_ids, duration_secs, settings,
+            sample_secs) -> dict:
+    """Steps the simulator and records one row every `sample_secs` (a whole number of steps; None:
+    every step): the state at the row's time, the contact forces as their mean over the steps
+    since the previous row (what `figures.resample` makes of a full-rate record)."""
     n = len(bodies)
     dt = settings.time_step_secs
     steps = int(round(duration_secs / dt))
+    every = 1 if sample_secs is None else int(round(sample_secs / dt))
+    if every < 1 or abs(every * dt - (sample_secs or dt)) > 1e-3 * dt:
+        raise ValueError(f"cannot sample every {sample_secs:g} s with Drake's step {dt:g} s (not a whole multiple)")
     body_link = {b.index(): i for i, b in enumerate(bodies)}
-    rows = steps + 1
+    rows = steps // every + 1
     t = np.zeros(rows)
     rot = np.zeros((rows, n, 3, 3))
     origin = np.zeros((rows, n, 3))
@@ -325,10 +390,43 @@ def _record(sim, plant, pc, model, bodies, joints, floor_id, obstacle_ids, durat
     # Energy held in the floor's point contacts (J): ½·k·x² each, k the combined stiffness.
     elastic = np.zeros(rows)
     k_point = contact_stiffness(model)[0]
+    acc = {"floor": np.zeros((n, 3)), "obstacle": np.zeros((n, 3))}
 
-    for k in range(rows):
-        if k > 0:
-            sim.AdvanceTo(k * dt)
+    def contacts() -> float:
+        """Adds this step's contact forces to `acc`; returns the floor springs' energy."""
+        energy = 0.0
+        results = port.Eval(pc)
+        for c in range(results.num_point_pair_contacts()):
+            info = results.point_pair_contact_info(c)
+            pair = info.point_pair()
+            if pair.id_A in ground_ids or pair.id_B in ground_ids:
+                target = acc["floor"]
+                energy += 0.5 * k_point * pair.depth * pair.depth
+            elif pair.id_A in obstacle_ids or pair.id_B in obstacle_ids:
+                target = acc["obstacle"]
+            else:
+                continue
+            f = info.contact_force()  # on body B, world frame
+            b_ = body_link.get(info.bodyB_index())
+            a = body_link.get(info.bodyA_index())
+            if b_ is not None:
+                target[b_] += f
+            if a is not None:
+                target[a] -= f
+        return energy
+
+    for step in range(steps + 1):
+        if step > 0:
+            sim.AdvanceTo(step * dt)
+        energy = contacts()
+        if step % every:
+            continue
+        k = step // every
+        floor[k] = acc["floor"] / (every if step else 1)
+        obstacle[k] = acc["obstacle"] / (every if step else 1)
+        acc["floor"][:] = 0.0
+        acc["obstacle"][:] = 0.0
+        elastic[k] = energy
         t[k] = sim.get_context().get_time()
         for i, b in enumerate(bodies):
             X = plant.EvalBodyPoseInWorld(pc, b)
@@ -340,24 +438,6 @@ def _record(sim, plant, pc, model, bodies, joints, floor_id, obstacle_ids, durat
         for j, joint in enumerate(joints):
             qang[k, j] = joint.get_angle(pc)
             qdot[k, j] = joint.get_angular_rate(pc)
-        results = port.Eval(pc)
-        for c in range(results.num_point_pair_contacts()):
-            info = results.point_pair_contact_info(c)
-            pair = info.point_pair()
-            f = info.contact_force()  # on body B, world frame
-            ids = (pair.id_A, pair.id_B)
-            a, b_ = info.bodyA_index(), info.bodyB_index()
-            if floor_id in ids:
-                target = floor
-                elastic[k] += 0.5 * k_point * pair.depth * pair.depth
-            elif obstacle_ids.intersection(ids):
-                target = obstacle
-            else:
-                continue
-            if b_ in body_link:
-                target[k, body_link[b_]] += f
-            if a in body_link:
-                target[k, body_link[a]] -= f
     p_cm = np.array([np.asarray(p) for p in p_cm])  # links x 3, body frame
     r_cm = np.einsum("knij,nj->kni", rot, p_cm)
     pos = origin + r_cm

@@ -183,6 +183,116 @@ def energy_figures(run: dict, model: Model) -> tuple[float, float, float]:
     return float(e[0]), float(e[-1] - e[0]), float(max(0.0, np.diff(e).max()))
 
 
+def resample(run: dict, dt_secs: float) -> dict:
+    """The run at a coarser, equal sampling: one row every `dt_secs` (a whole multiple of the
+    run's own step). States are taken at the new rows' times; forces are the mean over the
+    rows of the interval that ends there (the impulse over the interval / its length), which is
+    what an engine stepping at `dt_secs` reports for its step. Row 0 (t = 0) is kept as it is."""
+    t = run["time_s"]
+    step = float(np.median(np.diff(t)))
+    k = int(round(dt_secs / step))
+    if k < 1 or abs(k * step - dt_secs) > 1e-3 * step:
+        raise ValueError(f"cannot resample a run of step {step:g} s to {dt_secs:g} s (not a whole multiple)")
+    if k == 1:
+        return run
+    n = (len(t) - 1) // k
+    rows = np.concatenate([[0], k * np.arange(1, n + 1)])
+    out = {}
+    for key, value in run.items():
+        if not isinstance(value, np.ndarray) or value.shape[:1] != t.shape:
+            out[key] = value
+        elif key in FORCE_KEYS:
+            blocks = value[1 : 1 + n * k].reshape((n, k) + value.shape[1:]).mean(axis=1)
+            out[key] = np.concatenate([value[:1], blocks])
+        else:
+            out[key] = value[rows]
+    return out
+
+
+# The per-row quantities that are forces (resampled as means over each interval).
+FORCE_KEYS = ("floor_force", "obstacle_force")
+
+
+def window_mean(series: np.ndarray, time_s: np.ndarray, window_secs: float) -> np.ndarray:
+    """Moving mean over `window_secs` along axis 0 (rows of equal spacing); rows x ... ."""
+    dt = float(np.median(np.diff(time_s)))
+    k = max(1, int(round(window_secs / dt)))
+    if series.shape[0] < k:
+        return series.mean(axis=0, keepdims=True)
+    c = np.cumsum(np.concatenate([np.zeros((1,) + series.shape[1:]), series]), axis=0)
+    return (c[k:] - c[:-k]) / k
+
+
+def largest_window_load(run: dict, model: Model, window_secs: float = 0.01, t0: float = 0.0,
+                        t1: float = math.inf) -> float:
+    """Largest floor normal force on one link, averaged over a window of `window_secs`, over the
+    link's weight, among the windows inside [t0, t1). A windowed figure hardly depends on the
+    sampling: the mean force over 10 ms is the floor's impulse over 10 ms."""
+    s = _skip_first(run)
+    t = run["time_s"][s]
+    sel = (t >= t0 - 1e-12) & (t < t1 - 1e-12)
+    n = normal_load(run)[s][sel] / weights(model)
+    if n.shape[0] == 0:
+        return math.nan
+    return float(window_mean(n, t[sel], window_secs).max())
+
+
+def largest_window_obstacle_force(run: dict, window_secs: float = 0.01) -> float:
+    """Largest magnitude of the obstacles' total force on the snake averaged over `window_secs` (N)."""
+    s = _skip_first(run)
+    total = run["obstacle_force"][s].sum(axis=1)
+    return float(np.linalg.norm(window_mean(total, run["time_s"][s], window_secs), axis=1).max())
+
+
+def all_links_off_steps(run: dict, model: Model, t0: float = 0.0, t1: float = math.inf) -> int:
+    """Number of rows in [t0, t1) on which no link touches the floor (each below the airborne
+    share of its weight)."""
+    s = _skip_first(run)
+    t = run["time_s"][s]
+    sel = (t >= t0 - 1e-12) & (t < t1 - 1e-12)
+    off = normal_load(run)[s][sel] < AIRBORNE_SHARE_OF_WEIGHT * weights(model)
+    return int(off.all(axis=1).sum())
+
+
+def centre_of_mass(run: dict, model: Model) -> np.ndarray:
+    """The snake's centre of mass per row (rows x 3, m)."""
+    m = np.array([link.mass_kg for link in model.links])
+    return np.einsum("kna,n->ka", run["position"], m) / m.sum()
+
+
+def com_speed_mm_per_s(run: dict, model: Model, t0: float, t1: float) -> float:
+    """Mean horizontal speed of the centre of mass over [t0, t1]: its horizontal path length over
+    the time (mm/s), from rows 10 ms apart (the same for every sampling)."""
+    t = run["time_s"]
+    c = centre_of_mass(run, model)[:, :2]
+    step = float(np.median(np.diff(t)))
+    k = max(1, int(round(0.01 / step)))
+    sel = np.nonzero((t >= t0 - 1e-12) & (t <= t1 + 1e-12))[0][::k]
+    path = np.linalg.norm(np.diff(c[sel], axis=0), axis=1).sum()
+    return 1000.0 * float(path / (t[sel[-1]] - t[sel[0]]))
+
+
+def com_displacement_mm(run: dict, model: Model) -> tuple[float, float]:
+    """Horizontal displacement of the centre of mass from the start to the end (x, y; mm)."""
+    c = centre_of_mass(run, model)
+    d = 1000.0 * (c[-1, :2] - c[0, :2])
+    return float(d[0]), float(d[1])
+
+
+def topple(run: dict, offset_m: float) -> tuple[float, float]:
+    """When and where the top (last) link topples: the first time its centre is `offset_m`
+    horizontally from where it started (s; nan if never), and the direction of that offset
+    (degrees from +x, counter-clockwise; nan if never)."""
+    p = run["position"][:, -1, :2]
+    d = p - p[0]
+    dist = np.linalg.norm(d, axis=1)
+    above = np.nonzero(dist >= offset_m)[0]
+    if len(above) == 0:
+        return math.nan, math.nan
+    k = int(above[0])
+    return float(run["time_s"][k]), math.degrees(math.atan2(d[k, 1], d[k, 0]))
+
+
 def breakaway_ratio(run: dict, model: Model, ramp_secs_per_mu_n: float, speed_m_per_s: float = 1e-3) -> float:
     """Break-away force over μN under a force F(t) = μN · t / T on link 0 (T = ramp_secs_per_mu_n).
 

@@ -83,12 +83,52 @@ class Cylinder:
 
 
 @dataclass
+class Heightfield:
+    """A MuJoCo heightfield geom: grid vertex (r, c) stands at
+    (x0 + (2c/(ncol-1) - 1)·rx, y0 + (2r/(nrow-1) - 1)·ry, z0 + ez·elevation[r, c])."""
+
+    name: str
+    pos_m: np.ndarray
+    radii_m: tuple[float, float]
+    elevation_scale_m: float
+    base_m: float
+    elevation: np.ndarray  # nrow x ncol, 0..1
+
+    def vertices(self) -> np.ndarray:
+        """Grid vertices (nrow x ncol x 3, world, m)."""
+        nrow, ncol = self.elevation.shape
+        x = self.pos_m[0] + (2 * np.arange(ncol) / (ncol - 1) - 1) * self.radii_m[0]
+        y = self.pos_m[1] + (2 * np.arange(nrow) / (nrow - 1) - 1) * self.radii_m[1]
+        xx, yy = np.meshgrid(x, y)
+        return np.stack([xx, yy, self.pos_m[2] + self.elevation_scale_m * self.elevation], axis=-1)
+
+
+@dataclass
+class MeshObstacle:
+    """A mesh obstacle (MuJoCo collides its convex hull), vertices in world coordinates."""
+
+    name: str
+    vertices_m: np.ndarray  # n x 3
+    faces: np.ndarray  # m x 3
+
+    def write_obj(self, path: Path) -> Path:
+        with path.open("w") as f:
+            for v in self.vertices_m:
+                f.write(f"v {float(v[0])!r} {float(v[1])!r} {float(v[2])!r}\n")
+            for a, b, c in self.faces:
+                f.write(f"f {a + 1} {b + 1} {c + 1}\n")
+        return path
+
+
+@dataclass
 class Model:
     timestep_secs: float
     gravity_m_per_s2: np.ndarray
     links: list[Link]
     servos: list[Servo]
     cylinders: list[Cylinder]
+    heightfields: list[Heightfield]
+    meshes: list[MeshObstacle]
     # Environment contact solref (time constant s, damping ratio) of floor and obstacles.
     env_time_constant_secs: float
     env_damping_ratio: float
@@ -133,8 +173,24 @@ def read(path: Path) -> Model:
 
     floor = None
     cylinders: list[Cylinder] = []
+    heightfields: list[Heightfield] = []
+    meshes: list[MeshObstacle] = []
+    assets = {(a.tag, a.get("name")): a for a in root.findall("asset/*")}
     for geom in (g for w in worlds for g in w.findall("geom")):
-        if geom.get("type") == "plane":
+        if geom.get("type") == "hfield":
+            asset = assets[("hfield", geom.get("hfield"))]
+            nrow, ncol = int(asset.get("nrow")), int(asset.get("ncol"))
+            rx, ry, ez, base = _floats(asset.get("size"))
+            elevation = np.array(_floats(asset.get("elevation"))).reshape(nrow, ncol)
+            heightfields.append(Heightfield(geom.get("name"), np.array(_floats(geom.get("pos")) or [0.0, 0.0, 0.0]),
+                                            (rx, ry), ez, base, elevation))
+        elif geom.get("type") == "mesh":
+            asset = assets[("mesh", geom.get("mesh"))]
+            if geom.get("pos") or geom.get("quat") or geom.get("euler"):
+                raise ValueError(f"{path}: mesh geom {geom.get('name')} is moved; only world-coordinate meshes are read")
+            meshes.append(MeshObstacle(geom.get("name"), np.array(_floats(asset.get("vertex"))).reshape(-1, 3),
+                                       np.array([int(v) for v in asset.get("face").split()]).reshape(-1, 3)))
+        elif geom.get("type") == "plane":
             floor = geom
         elif geom.get("type") == "cylinder":
             size = _floats(geom.get("size"))
@@ -193,7 +249,8 @@ def read(path: Path) -> Model:
     def first_friction(el: ET.Element | None, default: float) -> float:
         return _floats(el.get("friction"))[0] if el is not None and el.get("friction") else default
 
-    obstacle_friction = first_friction(next((g for w in worlds for g in w.findall("geom[@type='cylinder']")), None), 0.0)
+    obstacle = next((g for w in worlds for g in w.findall("geom") if g.get("type") in ("cylinder", "mesh")), None)
+    obstacle_friction = first_friction(obstacle, 0.0)
     link_geom = next((g for w in worlds for g in w.findall("body/geom")), None)
     return Model(
         timestep_secs=timestep,
@@ -201,6 +258,8 @@ def read(path: Path) -> Model:
         links=links,
         servos=servos,
         cylinders=cylinders,
+        heightfields=heightfields,
+        meshes=meshes,
         env_time_constant_secs=solref[0],
         env_damping_ratio=solref[1],
         floor_friction=first_friction(floor, 0.0),

@@ -382,6 +382,9 @@ impl BagWriter {
             })
         })()
         .map_err(bag_err(&path))?;
+        // The schemas and channels in a chunk of their own, on disk at once: damage to the
+        // first chunk of messages then leaves every later chunk readable (`bag-repair`).
+        writer.flush().map_err(bag_err(&path))?;
         Ok(Self {
             out: Out { path, writer: Some(writer), buf: Vec::with_capacity(64 * 1024), sequence: 0 },
             channels,

@@ -30,7 +30,7 @@ mod oal_bench;
 mod parquet;
 mod physics;
 mod plot;
-#[cfg(feature = "render")]
+#[cfg(offscreen_render)]
 mod render;
 mod rl_env;
 mod robustness;
