@@ -908,6 +908,9 @@ fn experiment(
     for c in report.checks() {
         outln!("{} {}", if c.passed { "pass" } else { "FAIL" }, c.name);
     }
+    for c in report.not_observable() {
+        outln!("not observable: {}: {}", c.name, c.not_observable.as_deref().unwrap_or_default());
+    }
     let passed = report.checks().filter(|c| c.passed).count();
     outln!(
         "{passed} of {} checks passed; report: {}",

@@ -68,7 +68,7 @@ __version__ = _core.__version__
 #: ``contact_estimates()`` -- with ``[estimation] enabled`` the per-link contact estimates of the
 #: latest step as numpy arrays (``obstacle_force_n`` (links x 3, N), ``contact`` (bool),
 #: ``contact_point_along_m`` (NaN when unknown), ``contact_point_m``, ``external_force_n``,
-#: ``floor_force_n``, ``active``).
+#: ``floor_force_n``, ``self_contact_force_n`` (the other links' push), ``self_contact``, ``active``).
 #: (The core of :class:`envs.SimSerpentEnv`.)
 World = _core.Env
 WorldState = _core.WorldState
