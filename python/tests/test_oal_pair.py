@@ -5,12 +5,18 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-HEADER = "floor,family,layout,seed,split,condition,success,end_s,jams_per_min,speed_bl_per_cycle,exit_heading_deg,estimate_error\n"
+HEADER = (
+    "floor,family,layout,seed,split,condition,success,jammed,end_s,time_to_goal_s,distance_bl,speed_bl_per_cycle,"
+    "heading_change_deg,exit_heading_deg,estimate_error\n"
+)
 
 
 def write_run(folder, rows):
     folder.mkdir()
-    lines = [f"anisotropic,random,random 3 /m²,{seed},{split},{c},{str(s).lower()},60,0,0,0,NaN\n" for seed, split, c, s in rows]
+    lines = [
+        f"anisotropic,random,random 3 /m²,{seed},{split},{c},{str(s).lower()},false,60,NaN,0,0,0,0,NaN\n"
+        for seed, split, c, s in rows
+    ]
     (folder / "oal_runs.csv").write_text(HEADER + "".join(lines))
 
 
@@ -27,8 +33,10 @@ def test_conditions_of_two_runs_pair_on_their_common_held_out_fields(tmp_path):
     done = pair(tmp_path / "a", tmp_path / "b", "--against", "base", "--conditions", "law")
     assert done.returncode == 0, done.stderr
     row = done.stdout.strip().splitlines()[-1]
-    # 4 common fields: the law succeeds on 3, the baseline on 1 (the same field): +50 points.
+    # 4 common fields: the law succeeds on 3, the baseline on 1 (the same field): +50 points;
+    # 2 discordant fields, both the law's: McNemar's exact p = 2 · (1/2)² = 0.5.
     assert row.startswith("| anisotropic | random | `law` | 4 | 75 | 25 | +50 ("), row
+    assert row.endswith("| 0.5 (2 / 0) |"), row
 
 
 def test_runs_that_disagree_on_a_field_and_unknown_conditions_are_refused(tmp_path):
