@@ -60,7 +60,7 @@ pub enum EstimateError {
     File(#[from] crate::files::FileError),
     /// The run recorded only every k-th step: the estimator's filters need consecutive steps.
     #[error(
-        "{}: recording.every_n_steps = {every_n_steps}: the tables hold every {every_n_steps}th step only, and the \
+        "{}: recording.every_n_steps = {every_n_steps}: the tables hold one row per {every_n_steps} steps, and the \
          estimator needs every step (its head-attitude filter integrates the gyro and differentiates the head's \
          velocity from one row to the next); on sparser rows its scores mean little (a peg field \
          recorded every 10th step: 58 % of the contacts detected and a force error of 111 % of the force's RMS, \
@@ -242,8 +242,12 @@ pub fn estimate_run_folder(run_folder: &Path, overrides: &[String]) -> Result<Es
     let config = crate::config::load_config(&config_path, overrides)
         .and_then(|c| c.validate().map(|()| c))
         .map_err(|source| EstimateError::Config { path: config_path.clone(), source })?;
-    if config.recording.every_n_steps != 1 {
-        return Err(EstimateError::SparseRows { path: config_path, every_n_steps: config.recording.every_n_steps });
+    // How the run recorded, as its config.toml says (an override cannot make sparse rows dense).
+    let recorded = crate::config::load_config(&config_path, &[])
+        .map_err(|source| EstimateError::Config { path: config_path.clone(), source })?;
+    let every_n_steps = recorded.recording.every_n_steps.max(config.recording.every_n_steps);
+    if every_n_steps != 1 {
+        return Err(EstimateError::SparseRows { path: config_path, every_n_steps });
     }
     let manifest = run_folder.join("manifest.json");
     if let Ok(text) = crate::files::read_text_in(run_folder, &manifest, crate::files::SMALL_FILE_CAP_BYTES)

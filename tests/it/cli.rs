@@ -141,6 +141,9 @@ fn estimate_refuses_a_run_recorded_below_every_step_with_the_fix() {
     for needle in ["recording.every_n_steps = 10", "--set recording.every_n_steps=1"] {
         assert!(text(&out).contains(needle), "{needle}: {}", text(&out));
     }
+    // An override of the estimate does not make the recorded rows dense.
+    let out = simserpent(dir.path(), &["estimate", sparse.to_str().unwrap(), "--set", "recording.every_n_steps=1"]);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
     assert!(!sparse.join("estimation").exists(), "nothing written when refused");
     std::fs::remove_dir_all(&sparse).unwrap();
     let out = simserpent(dir.path(), &[&base[..], &["--set", "recording.every_n_steps=1"]].concat());
