@@ -146,13 +146,20 @@ fn main() {
     println!("cargo::rerun-if-changed=build.rs");
     println!("cargo::rerun-if-env-changed=MUJOCO_DYNAMIC_LINK_DIR");
     println!("cargo::rerun-if-env-changed=SIMSERPENT_CACHE_DIR");
+    // Offscreen rendering (the `render` feature) exists on Linux only: mujoco-rs' renderer is
+    // an optional Linux-only dependency (Cargo.toml), so elsewhere the feature enables nothing
+    // and the code behind `cfg(offscreen_render)` is left out.
+    println!("cargo::rustc-check-cfg=cfg(offscreen_render)");
+    if env::var_os("CARGO_FEATURE_RENDER").is_some() && os == Platform::Linux {
+        println!("cargo::rustc-cfg=offscreen_render");
+    }
     if env::var_os("DOCS_RS").is_some() {
         return;
     }
-    if os == Platform::Windows && env::var_os("CARGO_FEATURE_RENDER").is_some() {
+    if os != Platform::Linux && env::var_os("CARGO_FEATURE_VIEWER").is_some() {
         fail(
-            "the `render` and `viewer` features are Linux-only (MuJoCo's offscreen renderer goes through EGL); \
-             build for Windows with `--no-default-features` (scripts/build-windows does)",
+            "the `viewer` feature is Linux-only (mujoco-rs' viewer elsewhere needs its winit renderer); \
+             build without it (the default features work on every platform)",
         );
     }
 

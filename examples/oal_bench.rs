@@ -3,10 +3,12 @@
 //! the fixed quick and full sizes).
 //!
 //! ```text
-//! cargo run --release --example oal_bench -- [--tune N] [--held N] [--duration S] [--threads N]
-//!     [--out DIR] [--floors isotropic,anisotropic] [--families lattice,random] [--passive 10,5,2.5]
-//!     [--no-laws] [--estimated-only] [--mine] [--law-servo-kp K] [--set KEY=VALUE]...
+//! cargo run --release --example oal_bench -- [--tune N] [--held N] [--first-seed S] [--duration S]
+//!     [--threads N] [--out DIR] [--floors isotropic,anisotropic] [--families lattice,random,row]
+//!     [--passive 10,5,2.5] [--law-gain-scales 0.5,1,2] [--no-matched] [--no-twins] [--no-laws]
+//!     [--estimated-only] [--mine] [--law-servo-kp K] [--set KEY=VALUE]...
 //! cargo run --release --example oal_bench -- cost     # per-step cost of each controller (µs)
+//! cargo run --release --example oal_bench -- gait     # link–link contact of candidate base gaits
 //! ```
 //!
 //! `--mine` adds [`PushAway`] (below): a force-feedback controller in ~30 lines, the template
@@ -94,8 +96,8 @@ fn cost(n_links: usize) -> Vec<(String, f64)> {
         c.snake.n_links = n_links;
         c.control.controller = kind;
         c.gait.kind = GaitKind::SineWave;
-        c.gait.sine_wave.amplitude_deg = 80.0;
-        c.gait.sine_wave.phase_lag_deg = 30.0;
+        c.gait.sine_wave.amplitude_deg = oal_bench::BASE_AMPLITUDE_DEG;
+        c.gait.sine_wave.phase_lag_deg = oal_bench::BASE_PHASE_LAG_DEG;
         c.estimation.enabled = true;
         let nj = n_links - 1;
         let mut ctl = if kind == ControllerKind::Gait && name == "push_away (this example)" {
@@ -131,6 +133,54 @@ fn cost(n_links: usize) -> Vec<(String, f64)> {
     out
 }
 
+/// Link–link contact, reached amplitude and speed of candidate base gaits on the bare floors
+/// (`gait [--kp K] [--duration S] [--amplitudes A,B,..] [--lags D,E,..]`): one row per floor,
+/// amplitude and phase lag, on position servos of kp K (default: the default config's).
+fn gait_table(args: &[String]) -> Result<(), Box<dyn std::error::Error>> {
+    let defaults = Config::default();
+    let (mut kp, mut duration) = (defaults.control.position_kp_nm_per_rad, 20.0);
+    let (mut amplitudes, mut lags) = (vec![30.0, 45.0, 60.0, 80.0], vec![30.0, 45.0, 60.0]);
+    let mut i = 0;
+    while i < args.len() {
+        let value = args.get(i + 1).cloned().unwrap_or_default();
+        let numbers = |v: &str| list(v, |s| s.parse::<f64>().ok().filter(|x| x.is_finite()));
+        match args[i].as_str() {
+            "--kp" => kp = numbers(&value)?[0],
+            "--duration" => duration = numbers(&value)?[0],
+            "--amplitudes" => amplitudes = numbers(&value)?,
+            "--lags" => lags = numbers(&value)?,
+            other => return Err(format!("gait: unknown argument `{other}`").into()),
+        }
+        i += 2;
+    }
+    println!(
+        "| floor | amplitude ° | phase lag ° | kp N·m/rad | steps with link–link contact % | largest link–link force N | amplitude reached ° | speed BL/cycle |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for floor in [Floor::Anisotropic, Floor::Isotropic] {
+        for &lag in &lags {
+            for &amplitude in &amplitudes {
+                let mut c = oal_bench::field_config(&defaults, floor, oal_bench::Layout::Bare, 0);
+                c.gait.sine_wave.amplitude_deg = amplitude;
+                c.gait.sine_wave.phase_lag_deg = lag;
+                c.control.position_kp_nm_per_rad = kp;
+                c.control.position_kv_nm_s_per_rad = kp / 100.0;
+                c.estimation.enabled = false;
+                let g = oal_bench::bare_gait(&c, duration)?;
+                println!(
+                    "| {} | {amplitude} | {lag} | {kp} | {:.1} | {:.1} | {:.0} | {:.3} |",
+                    floor.name(),
+                    100.0 * g.self_contact_share,
+                    g.max_self_contact_n,
+                    g.amplitude_reached_deg,
+                    g.speed_bl_per_cycle
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if args.first().map(String::as_str) == Some("cost") {
@@ -140,6 +190,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             println!("| {name} | {a:.3} | {b:.3} |");
         }
         return Ok(());
+    }
+    if args.first().map(String::as_str) == Some("gait") {
+        return gait_table(&args[1..]);
     }
     let mut bench = Bench { tuning_fields: 5, held_out_fields: 30, duration_secs: 15.0, ..Bench::full() };
     let (mut threads, mut out) = (0usize, "runs".to_string());
@@ -151,6 +204,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         match args[i].as_str() {
             "--tune" => bench.tuning_fields = number(&value)? as u64,
             "--held" => bench.held_out_fields = number(&value)? as u64,
+            "--first-seed" => bench.first_held_out_seed = number(&value)? as u64,
+            "--law-gain-scales" => bench.law_gain_scales = list(&value, |s| s.parse().ok())?,
             "--duration" => bench.duration_secs = number(&value)?,
             "--threads" => threads = number(&value)? as usize,
             "--out" => out = value,
@@ -164,6 +219,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "--set" => overrides.push(value),
             "--estimated-only" => {
                 bench.true_contacts = false;
+                i += 1;
+                continue;
+            }
+            "--no-twins" | "--no-matched" => {
+                if args[i] == "--no-twins" {
+                    bench.twins = false;
+                } else {
+                    bench.speed_matched = false;
+                }
                 i += 1;
                 continue;
             }
@@ -182,6 +246,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         i += 2;
     }
     let base = simserpent::config::load_config_str("", simserpent::config::ConfigSource::Toml, &overrides)?;
+    bench.validate()?;
     simserpent::interrupt::install_handler()?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
     let start = std::time::Instant::now();

@@ -69,6 +69,16 @@ pub enum FileError {
         /// The cap.
         cap: u64,
     },
+    /// Another process holds the run folder ([`RunLock`]): a run still going on, or a
+    /// `bag-repair` of it.
+    #[error(
+        "{} is in use by another process (a run still going on, or a bag-repair of it); wait until it ends",
+        folder.display()
+    )]
+    Busy {
+        /// The run folder.
+        folder: PathBuf,
+    },
     /// A symbolic link where SimSerpent writes.
     #[error(
         "{} is a symbolic link; SimSerpent does not write through links (remove it, or give another folder)",
@@ -107,7 +117,7 @@ impl FileError {
 
     /// Whether the error is the file's fault (bad input, exit code 2) rather than the system's.
     pub fn is_bad_input(&self) -> bool {
-        !matches!(self, FileError::Io { .. })
+        !matches!(self, FileError::Io { .. } | FileError::Busy { .. })
     }
 }
 
@@ -169,6 +179,22 @@ fn is_link_error(e: &std::io::Error) -> bool {
 /// # Errors
 /// [`FileError`]: missing, not a regular file, a link out of the folder, too large, or I/O.
 pub fn read_in(folder: &Path, path: &Path, cap_bytes: u64) -> Result<Vec<u8>, FileError> {
+    let (mut file, len, path) = open_in(folder, path, cap_bytes)?;
+    let mut bytes = Vec::with_capacity(len as usize);
+    (&mut file).take(cap_bytes + 1).read_to_end(&mut bytes).map_err(io("read", &path))?;
+    if bytes.len() as u64 > cap_bytes {
+        return Err(FileError::TooLarge { path, bytes: bytes.len() as u64, cap: cap_bytes });
+    }
+    Ok(bytes)
+}
+
+/// Opens `path` for reading by [`read_in`]'s rule without reading it (for readers that stream a
+/// large file): returns the file, its length when opened and its path. A caller that reads it
+/// must not read more than that length.
+///
+/// # Errors
+/// As [`read_in`].
+pub fn open_in(folder: &Path, path: &Path, cap_bytes: u64) -> Result<(File, u64, PathBuf), FileError> {
     let path = if path.is_absolute() || path.starts_with(folder) { path.to_path_buf() } else { folder.join(path) };
     match std::fs::symlink_metadata(&path) {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Err(FileError::Missing { path }),
@@ -186,7 +212,7 @@ pub fn read_in(folder: &Path, path: &Path, cap_bytes: u64) -> Result<Vec<u8>, Fi
         return Err(FileError::Outside { path, target: real, folder: folder.to_path_buf() });
     }
     // Without blocking (a FIFO opens at once) and without following a link swapped in since.
-    let mut file = guarded(std::fs::OpenOptions::new().read(true)).open(&real).map_err(io("read", &path))?;
+    let file = guarded(std::fs::OpenOptions::new().read(true)).open(&real).map_err(io("read", &path))?;
     let meta = file.metadata().map_err(io("read", &path))?;
     if let Some(what) = kind_of(meta.file_type()) {
         return Err(FileError::NotRegular { path, what });
@@ -194,12 +220,48 @@ pub fn read_in(folder: &Path, path: &Path, cap_bytes: u64) -> Result<Vec<u8>, Fi
     if meta.len() > cap_bytes {
         return Err(FileError::TooLarge { path, bytes: meta.len(), cap: cap_bytes });
     }
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
-    (&mut file).take(cap_bytes + 1).read_to_end(&mut bytes).map_err(io("read", &path))?;
-    if bytes.len() as u64 > cap_bytes {
-        return Err(FileError::TooLarge { path, bytes: bytes.len() as u64, cap: cap_bytes });
+    Ok((file, meta.len(), path))
+}
+
+/// The lock of a run folder: `.simserpent-lock`, held exclusively (an advisory file lock) by the
+/// process that writes the run, from before its first manifest until it ends, and by
+/// `bag-repair` while it rewrites the bag. The lock goes with the process (also when it is
+/// killed); the empty file stays.
+#[derive(Debug)]
+pub struct RunLock {
+    _file: File,
+}
+
+impl RunLock {
+    /// The lock file's name in the run folder.
+    pub const FILE: &'static str = ".simserpent-lock";
+
+    /// Takes the lock of `folder` without waiting.
+    ///
+    /// # Errors
+    /// [`FileError::Busy`] when another process holds it; [`FileError::Link`] for a link at the
+    /// lock's name; I/O.
+    pub fn try_acquire(folder: &Path) -> Result<Self, FileError> {
+        let path = folder.join(Self::FILE);
+        let file = {
+            if let Ok(m) = std::fs::symlink_metadata(&path)
+                && m.file_type().is_symlink()
+            {
+                return Err(FileError::Link { path });
+            }
+            let mut options = std::fs::OpenOptions::new();
+            // Not truncated: the file is only a lock.
+            guarded(options.write(true).create(true));
+            options.open(&path).map_err(|e| {
+                if is_link_error(&e) { FileError::Link { path: path.clone() } } else { io("write", &path)(e) }
+            })?
+        };
+        match file.try_lock() {
+            Ok(()) => Ok(Self { _file: file }),
+            Err(std::fs::TryLockError::WouldBlock) => Err(FileError::Busy { folder: folder.to_path_buf() }),
+            Err(std::fs::TryLockError::Error(source)) => Err(FileError::Io { what: "lock", path, source }),
+        }
     }
-    Ok(bytes)
 }
 
 /// [`read_in`], as UTF-8 text.

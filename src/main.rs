@@ -168,17 +168,21 @@ enum Command {
         /// most 256).
         #[arg(long, default_value_t = 0, value_parser = threads_arg)]
         threads: usize,
-        /// `estimation` only: the seeds of the peg-field runs, scored and checked per seed, e.g.
-        /// `300-309` or `3,7,11` (default 0-9; --quick: 0).
+        /// `estimation`: the seeds of the peg-field runs, scored and checked per seed, e.g.
+        /// `300-309` or `3,7,11` (default 0-9; --quick: 0). `oal-bench`: the held-out seeds, one
+        /// range A-B (A at least --tuning-fields; default 1000 on).
         #[arg(long, value_parser = parse_seeds)]
         seeds: Option<SeedList>,
         /// `estimation` only: the peg-field runs on this floor only (default both).
         #[arg(long, value_parser = ["isotropic", "anisotropic"])]
         floor: Option<String>,
+        #[command(flatten)]
+        oal: OalArgs,
     },
     /// Run the contact estimator on a recorded run (its config.toml, sensors.csv and links.csv,
-    /// CSV): writes RUN_FOLDER/estimation/ with estimates.csv (estimates next to the truth),
-    /// scores.md/.csv (detection, false alarms, force RMSE, contact points) and plots/.
+    /// CSV, every step recorded: recording.every_n_steps = 1): writes RUN_FOLDER/estimation/ with
+    /// estimates.csv (estimates next to the truth), scores.md/.csv (detection, false alarms, force
+    /// RMSE, contact points) and plots/.
     Estimate {
         /// The run folder.
         run_folder: PathBuf,
@@ -331,9 +335,12 @@ enum Command {
         /// The sweep folder.
         sweep_dir: PathBuf,
     },
-    /// Repair the ROS 2 bag (run.mcap) of a run that was killed: keeps every whole chunk, writes
-    /// a complete bag (summary, indexes, footer) in its place and the original beside it as
-    /// run.damaged.mcap. A complete bag is left as it is.
+    /// Repair the ROS 2 bag (run.mcap) of a run that was killed or whose bag is damaged: checks
+    /// every chunk (decompression and CRC), keeps every whole and valid one and names those it
+    /// leaves out, writes a complete bag (summary, indexes, footer) in its place, keeps the
+    /// original beside it as run.damaged.mcap and updates manifest.json. A complete bag whose
+    /// chunks are all valid is left as it is; a run still going on is refused. Exit 1 when
+    /// nothing is recoverable.
     BagRepair {
         /// The run folder.
         run_folder: PathBuf,
@@ -363,6 +370,172 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
 }
 
 /// `--threads`: 0 (one per core) up to [`simserpent::MAX_THREADS`].
+/// The options of `experiment oal-bench` (its size, conditions, shards); `--seeds A-B` gives its
+/// held-out seeds.
+#[derive(clap::Args, Debug, Clone, Default)]
+struct OalArgs {
+    /// `oal-bench` only: tuning fields per family, seeds 0..N (0–1000; default 10, --quick 1).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(0..=1000))]
+    tuning_fields: Option<u64>,
+    /// `oal-bench` only: held-out fields per family, seeds 1000.. (1–10000; default 30, --quick
+    /// 2); `--seeds A-B` instead gives the held-out seeds themselves.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=10000))]
+    fields: Option<u64>,
+    /// `oal-bench` only: the layout families, any of lattice, random, row (default lattice,random).
+    #[arg(long, value_delimiter = ',', value_parser = ["lattice", "random", "row"])]
+    families: Vec<String>,
+    /// `oal-bench` only: the floors, any of isotropic, anisotropic (default both).
+    #[arg(long, value_delimiter = ',', value_parser = ["isotropic", "anisotropic"])]
+    floors: Vec<String>,
+    /// `oal-bench` only: time limit of a run, seconds (2–3600; default 60, --quick 6).
+    #[arg(long, value_name = "SECS", value_parser = duration_arg)]
+    duration: Option<f64>,
+    /// `oal-bench` only: the conditions beside `open_loop`, any of passive, matched (the stiff
+    /// wave at each passive gain's bare-floor speed), laws (estimated contacts), laws_true
+    /// (default all).
+    #[arg(long, value_delimiter = ',', value_parser = ["passive", "matched", "laws", "laws_true"])]
+    conditions: Vec<String>,
+    /// `oal-bench` only: the passive gains swept on the tuning fields, N·m/rad (each 0.01–1000;
+    /// default 10,5,2.5, --quick 5).
+    #[arg(long, value_delimiter = ',', value_name = "KP", value_parser = gain_arg)]
+    passive_kp: Vec<f64>,
+    /// `oal-bench` only: each law's gains times each of these on the tuning fields, the best on
+    /// the held-out fields (each 0.01–100; default 0.5,1,2, --quick 1).
+    #[arg(long, value_delimiter = ',', value_name = "SCALE", value_parser = scale_arg)]
+    law_gain_scales: Vec<f64>,
+    /// `oal-bench` only: no bare-floor twins of the held-out runs.
+    #[arg(long)]
+    no_twins: bool,
+    /// `oal-bench` only: run shard i of n (every tuning run, the held-out runs with index mod n =
+    /// i) into --folder as oal_runs-shard-i-of-n.csv; a Slurm array passes
+    /// $SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_COUNT.
+    #[arg(long, value_name = "I/N")]
+    shard: Option<simserpent::sweep::Shard>,
+    /// `oal-bench` only: join the shards in --folder (run with the shards' other options) into
+    /// the tables and report.md of one unsharded run.
+    #[arg(long, requires = "folder")]
+    merge: bool,
+    /// Write into this folder (created if missing) instead of a new
+    /// runs/experiment-<name>-<UTC time>/: where the shards of one oal-bench meet.
+    #[arg(long, value_name = "DIR")]
+    folder: Option<PathBuf>,
+}
+
+impl OalArgs {
+    /// Whether any option of the benchmark was given.
+    fn any(&self) -> bool {
+        self.tuning_fields.is_some()
+            || self.fields.is_some()
+            || !self.families.is_empty()
+            || !self.floors.is_empty()
+            || self.duration.is_some()
+            || !self.conditions.is_empty()
+            || !self.passive_kp.is_empty()
+            || !self.law_gain_scales.is_empty()
+            || self.no_twins
+            || self.shard.is_some()
+            || self.merge
+    }
+
+    /// The bench these options give on top of the quick or full one (`seeds`: the held-out
+    /// seeds, a contiguous range).
+    fn bench(
+        &self,
+        quick: bool,
+        seeds: Option<&[u64]>,
+    ) -> Result<simserpent::experiments::oal_bench::OalOptions, anyhow::Error> {
+        use simserpent::experiments::oal_bench::{Bench, Family, Floor, OalOptions};
+        let mut b = if quick { Bench::quick() } else { Bench::full() };
+        if let Some(n) = self.tuning_fields {
+            b.tuning_fields = n;
+        }
+        if let Some(n) = self.fields {
+            b.held_out_fields = n;
+        }
+        if let Some(seeds) = seeds {
+            let contiguous = seeds.windows(2).all(|w| w[1] == w[0] + 1);
+            if seeds.is_empty() || !contiguous || self.fields.is_some() {
+                anyhow::bail!(
+                    "--seeds {seeds:?}: oal-bench takes one range A-B of held-out seeds (and then no --fields)"
+                );
+            }
+            b.first_held_out_seed = seeds[0];
+            b.held_out_fields = seeds.len() as u64;
+        }
+        if !self.families.is_empty() {
+            b.families = self.families.iter().filter_map(|f| Family::from_name(f)).collect();
+        }
+        if !self.floors.is_empty() {
+            b.floors = self.floors.iter().filter_map(|f| Floor::from_name(f)).collect();
+        }
+        if let Some(d) = self.duration {
+            b.duration_secs = d;
+        }
+        if !self.conditions.is_empty() {
+            let has = |c: &str| self.conditions.iter().any(|x| x == c);
+            if !has("passive") {
+                b.passive_kp_nm_per_rad.clear();
+            }
+            b.speed_matched = has("matched");
+            if has("matched") && !has("passive") {
+                anyhow::bail!(
+                    "--conditions matched: the matched open loop needs `passive` too (it matches a passive gain)"
+                );
+            }
+            b.laws = has("laws") || has("laws_true");
+            b.true_contacts = has("laws_true");
+            if has("laws_true") && !has("laws") {
+                anyhow::bail!(
+                    "--conditions laws_true: give `laws` too (the laws on true contacts pair with estimated ones)"
+                );
+            }
+        }
+        if !self.passive_kp.is_empty() {
+            b.passive_kp_nm_per_rad = self.passive_kp.clone();
+        }
+        if !self.law_gain_scales.is_empty() {
+            b.law_gain_scales = self.law_gain_scales.clone();
+        }
+        b.twins = !self.no_twins;
+        b.shard = self.shard.map(|s| (s.index, s.count));
+        if self.merge && self.shard.is_some() {
+            anyhow::bail!("--merge joins the shards: give it without --shard");
+        }
+        if self.shard.is_some() && self.folder.is_none() {
+            anyhow::bail!(
+                "--shard {}/{}: give --folder DIR, the folder every shard writes into",
+                b.shard.unwrap_or_default().0,
+                b.shard.unwrap_or_default().1
+            );
+        }
+        Ok(OalOptions { bench: b, merge: self.merge })
+    }
+}
+
+/// `--duration`: 2 to 3600 s.
+fn duration_arg(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(d) if (2.0..=3600.0).contains(&d) => Ok(d),
+        _ => Err(format!("`{text}`: a time limit of 2 to 3600 s")),
+    }
+}
+
+/// `--passive-kp`: 0.01 to 1000 N·m/rad.
+fn gain_arg(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(k) if (0.01..=1000.0).contains(&k) => Ok(k),
+        _ => Err(format!("`{text}`: a position gain of 0.01 to 1000 N·m/rad")),
+    }
+}
+
+/// `--law-gain-scales`: 0.01 to 100.
+fn scale_arg(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(k) if (0.01..=100.0).contains(&k) => Ok(k),
+        _ => Err(format!("`{text}`: a gain scale of 0.01 to 100")),
+    }
+}
+
 fn threads_arg(text: &str) -> Result<usize, String> {
     let n: usize =
         text.parse().map_err(|_| format!("`{text}` is not a whole number 0 to {}", simserpent::MAX_THREADS))?;
@@ -699,13 +872,32 @@ fn experiment(
     threads: usize,
     seeds: Option<Vec<u64>>,
     floor: Option<&str>,
+    oal_args: &OalArgs,
 ) -> Result<(), Failure> {
     let (config, _) = load(args)?;
+    let (mut seeds, mut oal) = (seeds, None);
+    if name == "oal-bench" {
+        oal = Some(oal_args.bench(quick, seeds.as_deref()).map_err(bad_input)?);
+        seeds = None;
+    } else if oal_args.any() {
+        return Err(bad_input(anyhow::anyhow!(
+            "--tuning-fields, --fields, --families, --floors, --duration, --conditions, --passive-kp, \
+             --law-gain-scales, --no-twins, --shard and --merge are options of `experiment oal-bench`, not of `{name}`"
+        )));
+    }
     let floor = floor.map(|f| match f {
         "isotropic" => simserpent::config::GroundModel::Isotropic,
         _ => simserpent::config::GroundModel::Anisotropic,
     });
-    let options = simserpent::experiments::ExperimentOptions { quick, threads, progress: true, seeds, floor };
+    let options = simserpent::experiments::ExperimentOptions {
+        quick,
+        threads,
+        progress: true,
+        seeds,
+        floor,
+        oal,
+        folder: oal_args.folder.clone(),
+    };
     let outcome =
         simserpent::experiments::run_experiment_with(name, &config, Path::new(&config.general.output_dir), &options)
             .map_err(failure)?;
@@ -715,6 +907,9 @@ fn experiment(
     let report = &outcome.report;
     for c in report.checks() {
         outln!("{} {}", if c.passed { "pass" } else { "FAIL" }, c.name);
+    }
+    for c in report.not_observable() {
+        outln!("not observable: {}: {}", c.name, c.not_observable.as_deref().unwrap_or_default());
     }
     let passed = report.checks().filter(|c| c.passed).count();
     outln!(
@@ -1067,19 +1262,45 @@ fn sweep_merge(dir: &Path) -> Result<(), Failure> {
 fn bag_repair(run_folder: &Path) -> Result<(), Failure> {
     use simserpent::ros2::bag_file::RepairError;
     let report = simserpent::ros2::repair_bag(run_folder).map_err(|e| match e {
-        RepairError::Write { .. } => Failure { code: 1, error: e.into() },
+        RepairError::Write { .. } | RepairError::NothingRecoverable { .. } => Failure { code: 1, error: e.into() },
         RepairError::File(ref f) if !f.is_bad_input() => Failure { code: 1, error: e.into() },
         e => bad_input(e),
     })?;
-    match (&report.original, &report.stopped) {
-        (None, _) => outln!("{}: complete ({} messages); nothing to repair", report.path.display(), report.messages),
-        (Some(original), stopped) => outln!(
-            "{}: repaired, {} messages (reading stopped: {}); the original is {}",
-            report.path.display(),
+    let path = report.path.display();
+    match &report.original {
+        None => outln!(
+            "{path}: complete ({} messages in {} chunks, every chunk's CRC valid); nothing to repair",
             report.messages,
-            stopped.as_deref().unwrap_or("at the end"),
-            original.display()
+            report.chunks
         ),
+        Some(original) => {
+            outln!(
+                "{path}: repaired: {} messages ({} instants) from {} of {} chunks; the original is {}; manifest.json \
+                 lists {} instants",
+                report.messages,
+                report.instants,
+                report.chunks_kept,
+                report.chunks,
+                original.display(),
+                report.instants
+            );
+            if let Some(stopped) = &report.stopped {
+                outln!("reading stopped: {stopped}");
+            }
+            let lost = report.damage_lines();
+            if !lost.is_empty() || report.messages_without_channel > 0 {
+                errln!("warning: {path}: damaged data left out:");
+                for line in lost {
+                    errln!("  {line}");
+                }
+                if report.messages_without_channel > 0 {
+                    errln!(
+                        "  {} messages of whole chunks whose channel is defined only in damaged data",
+                        report.messages_without_channel
+                    );
+                }
+            }
+        }
     }
     Ok(())
 }
@@ -1138,11 +1359,12 @@ fn doc_gen(dir: &Path, check: bool) -> Result<(), Failure> {
 
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or(DEFAULT_LOG_FILTER)).init();
-    // MuJoCo's warnings go to the log instead of stdout.
+    // MuJoCo's warnings go to the log instead of stdout; its fatal errors end the run or the
+    // set-up the way SimSerpent's own errors do (`sim::fatal`).
     // SAFETY: called first thing in main, before any thread exists or MuJoCo is used.
     #[allow(unsafe_code)]
     unsafe {
-        mujoco_rs::prelude::install_logging_hook();
+        simserpent::sim::fatal::install();
     }
     let cli = Cli::parse();
     // One signal policy for every long-running command (`simserpent::interrupt`): the first
@@ -1178,8 +1400,8 @@ fn main() -> ExitCode {
         }
         Some(Command::View { path, overrides }) => view_command(path.as_deref(), &overrides),
         Some(Command::Init { path, force, preset }) => init(&path, force, preset.as_deref()),
-        Some(Command::Experiment { name, config, quick, threads, seeds, floor }) => {
-            experiment(&name, &config, quick, threads, seeds.map(|s| s.0), floor.as_deref())
+        Some(Command::Experiment { name, config, quick, threads, seeds, floor, oal }) => {
+            experiment(&name, &config, quick, threads, seeds.map(|s| s.0), floor.as_deref(), &oal)
         }
         Some(Command::Estimate { run_folder, overrides }) => estimate_command(&run_folder, &overrides),
         Some(Command::Model { config, output, scene_dir }) => model(&config, output.as_deref(), scene_dir.as_deref()),

@@ -5,8 +5,10 @@ use crate::control::Controller;
 use crate::record::{self, Manifest, RecordError, Recorder, RunStatus, SpaceReserve};
 use crate::sim::{Every, LoopPlan, Observer, SimError, Simulation, StepView, World};
 use crate::state::{RunTotals, Snapshot};
+use std::cell::RefCell;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
+use std::rc::Rc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 /// What to run, beyond the config.
@@ -70,6 +72,10 @@ pub enum RunError {
         "interrupted by a signal (SIGINT or SIGTERM) during set-up, before the run started; no run folder was created"
     )]
     InterruptedSetUp,
+    /// The run folder is held by another process (a run into the same folder, or a
+    /// `bag-repair` of it), or its lock cannot be taken.
+    #[error(transparent)]
+    File(#[from] crate::files::FileError),
     /// The live ROS 2 bridge failed, or a lockstep peer went silent
     /// ([`crate::ros2::Ros2Error::PeerTimeout`]: manifest `incomplete`, the tables readable).
     #[error(transparent)]
@@ -82,6 +88,12 @@ pub use crate::record::RunSummary;
 /// written, so a bad config or robot never leaves a run folder behind.
 pub fn build_world(config: &Config, options: &RunOptions) -> Result<World, SimError> {
     let progress = crate::setup_progress::SetupProgress::start(options.progress, "generating the model");
+    // A fatal MuJoCo error from here to the end of set-up names the file (exit code 2).
+    let _fatal = crate::sim::fatal::set_up(match &options.robot {
+        Some(robot) => format!("robot file {}", robot.display()),
+        None if options.config_source.is_empty() => "the model generated from the config".to_string(),
+        None => format!("the model generated from config {}", options.config_source),
+    });
     match &options.robot {
         None => {
             let generated = crate::model::generate(config)?;
@@ -231,6 +243,14 @@ fn run_simulation_tracked<C: Controller>(
             (record::create_run_folder(output_dir, &config.general.run_name, &stamp)?, true)
         }
     };
+    // Held until the run ends: `bag-repair` refuses a folder whose run is still going on, and a
+    // second run into the same folder refuses at once.
+    let _lock = crate::files::RunLock::try_acquire(&folder).map_err(|e| {
+        if created {
+            let _ = std::fs::remove_dir_all(&folder);
+        }
+        RunError::File(e)
+    })?;
     let dt = config.general.timestep_secs;
     let total_steps = (config.general.duration_secs / dt).round().max(1.0) as u64;
     let mut manifest = Manifest {
@@ -281,7 +301,7 @@ fn run_simulation_tracked<C: Controller>(
         let visuals = crate::render::RunVisuals::create(config, &folder, sim.world().data(), options.viewer, threaded)?;
         Ok((recorder, bag, visuals))
     });
-    let (mut recorder, mut bag, mut visuals) = match set_up {
+    let (recorder, bag, visuals) = match set_up {
         Ok(parts) => parts,
         Err(e) => return Err(end_unfinished(&folder, &mut manifest, &mut reserve, e)),
     };
@@ -294,7 +314,16 @@ fn run_simulation_tracked<C: Controller>(
         }
     }
 
+    // Shared with the finisher of a fatal MuJoCo error (`sim::fatal`), which ends the run from
+    // inside MuJoCo's error handler: the step loop borrows each only while it calls it.
+    let (recorder, bag, visuals) = (Shared::new(recorder), Shared::new(bag), Shared::new(visuals));
     let started = Instant::now();
+    let fatal_guard = crate::sim::fatal::during_run(fatal_finisher(
+        &folder,
+        &manifest,
+        started,
+        [recorder.finisher(), bag.finisher(), visuals.finisher()],
+    ));
     let cpu_started = crate::cpu_time::thread_cpu_ns();
     let plan = LoopPlan { steps: total_steps, record_every_n_steps: config.recording.every_n_steps.max(1) };
     let mut totals = Totals::default();
@@ -305,6 +334,7 @@ fn run_simulation_tracked<C: Controller>(
         if let Some(t) = tracking.as_mut() {
             observers.push(t);
         }
+        let (mut recorder, mut bag, mut visuals) = (recorder.observer(), bag.observer(), visuals.observer());
         if let Some(r) = recorder.as_mut() {
             observers.push(r);
         }
@@ -322,6 +352,8 @@ fn run_simulation_tracked<C: Controller>(
         observers.push(&mut progress);
         sim.run(plan, &mut observers)
     };
+    drop(fatal_guard);
+    let (recorder, bag, visuals) = (recorder.take(), bag.take(), visuals.take());
     let visuals_done = visuals.map_or(Ok(()), |v| v.finish().map(|_| ()));
     let outcome = outcome.and_then(|()| visuals_done.map_err(RunError::from)).map(|()| {
         let simulated_secs = sim.world().time_secs();
@@ -483,6 +515,111 @@ fn run_folder_config(config: &Config, copies: &[crate::model::features::FileCopy
         }
     }
     c
+}
+
+/// A part of a run (tables, bag, visuals) that both the step loop and the finisher of a fatal
+/// MuJoCo error ([`fatal_finisher`]) reach: the step loop borrows it only while it calls it, so
+/// an error raised inside MuJoCo's step finds it free.
+struct Shared<T>(Rc<RefCell<Option<T>>>);
+
+/// Closes a part of a run after a fatal MuJoCo error; returns the tables it lists.
+type PartFinisher = Box<dyn FnOnce() -> Vec<(String, u64)>>;
+
+/// A part of a run that ends by closing its files.
+trait EndPart {
+    /// Closes the files; returns the tables for the manifest.
+    fn end(self) -> Vec<(String, u64)>;
+}
+
+impl EndPart for Recorder {
+    fn end(self) -> Vec<(String, u64)> {
+        self.finish().0
+    }
+}
+
+impl EndPart for crate::ros2::BagRecorder {
+    fn end(self) -> Vec<(String, u64)> {
+        self.finish().0
+    }
+}
+
+impl EndPart for crate::render::RunVisuals {
+    fn end(self) -> Vec<(String, u64)> {
+        let _ = self.finish();
+        Vec::new()
+    }
+}
+
+impl<T: EndPart + 'static> Shared<T> {
+    fn new(part: Option<T>) -> Self {
+        Self(Rc::new(RefCell::new(part)))
+    }
+
+    /// The step loop's observer of the part, if there is one.
+    fn observer(&self) -> Option<SharedObserver<T>> {
+        self.0.borrow().is_some().then(|| SharedObserver(Rc::clone(&self.0)))
+    }
+
+    /// The part, back for the normal end of the run.
+    fn take(&self) -> Option<T> {
+        self.0.borrow_mut().take()
+    }
+
+    /// Closes the part from the fatal error's finisher (nothing when the step loop holds it).
+    fn finisher(&self) -> PartFinisher {
+        let part = Rc::clone(&self.0);
+        Box::new(move || part.try_borrow_mut().ok().and_then(|mut p| p.take()).map_or_else(Vec::new, EndPart::end))
+    }
+}
+
+/// See [`Shared::observer`].
+struct SharedObserver<T>(Rc<RefCell<Option<T>>>);
+
+impl<T: Observer<RunError>> Observer<RunError> for SharedObserver<T> {
+    fn on_start(&mut self, view: &StepView<'_>) -> Result<(), RunError> {
+        self.0.borrow_mut().as_mut().map_or(Ok(()), |p| p.on_start(view))
+    }
+    fn on_step(&mut self, view: &StepView<'_>) -> Result<(), RunError> {
+        self.0.borrow_mut().as_mut().map_or(Ok(()), |p| p.on_step(view))
+    }
+    fn on_record(&mut self, view: &StepView<'_>, snapshot: &Snapshot) -> Result<(), RunError> {
+        self.0.borrow_mut().as_mut().map_or(Ok(()), |p| p.on_record(view, snapshot))
+    }
+    fn on_end(&mut self, view: &StepView<'_>, completed: bool) -> Result<(), RunError> {
+        self.0.borrow_mut().as_mut().map_or(Ok(()), |p| p.on_end(view, completed))
+    }
+}
+
+/// Ends a run that a fatal MuJoCo error stops (`sim::fatal`), as a divergence ends it: every
+/// part's files closed with the rows of the last recorded instant (the same instant in every
+/// table: the step loop hands each recorded instant to all of them before it steps), the
+/// manifest `failed` with the error, the step and its simulated time.
+fn fatal_finisher(
+    folder: &Path,
+    manifest: &Manifest,
+    started: Instant,
+    parts: [PartFinisher; 3],
+) -> crate::sim::fatal::RunFinisher {
+    let (folder, mut manifest) = (folder.to_path_buf(), manifest.clone());
+    Box::new(move |text| {
+        let (step, time_secs) = crate::sim::fatal::position();
+        let error = crate::sim::fatal::run_error(text, time_secs, step);
+        manifest.tables = parts.into_iter().flat_map(|finish| finish()).collect();
+        manifest.status = RunStatus::Failed;
+        manifest.error = Some(error.clone());
+        manifest.steps = step;
+        manifest.simulated_secs = time_secs;
+        manifest.wall_time_secs = started.elapsed().as_secs_f64();
+        // The space kept for this manifest (its guard's destructor does not run).
+        let _ = std::fs::remove_file(folder.join(SpaceReserve::FILE));
+        match manifest.write(&folder) {
+            Ok(()) => format!(
+                "{error}; the run folder {} holds every table up to the last recorded instant (manifest `failed`)",
+                folder.display()
+            ),
+            Err(e) => format!("{error}; {e}"),
+        }
+    })
 }
 
 /// The run summary's physics, added up over the recorded instants.

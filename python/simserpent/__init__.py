@@ -68,7 +68,7 @@ __version__ = _core.__version__
 #: ``contact_estimates()`` -- with ``[estimation] enabled`` the per-link contact estimates of the
 #: latest step as numpy arrays (``obstacle_force_n`` (links x 3, N), ``contact`` (bool),
 #: ``contact_point_along_m`` (NaN when unknown), ``contact_point_m``, ``external_force_n``,
-#: ``floor_force_n``, ``active``).
+#: ``floor_force_n``, ``self_contact_force_n`` (the other links' push), ``self_contact``, ``active``).
 #: (The core of :class:`envs.SimSerpentEnv`.)
 World = _core.Env
 WorldState = _core.WorldState
@@ -287,16 +287,18 @@ def oal_bench(
     command per joint; ``obs["contacts"]`` holds the contact estimates when ``estimation``).
 
     ``quick`` starts from the CI size (1 tuning and 2 held-out fields per family, 6-s runs),
-    otherwise from the full one (20 and 100, 60 s); ``tuning_fields``, ``held_out_fields``,
-    ``duration_secs``, ``floors`` (``"isotropic"``, ``"anisotropic"``), ``families``
-    (``"lattice"``, ``"random"``) and ``passive_kp_nm_per_rad`` change it. ``overrides``
+    otherwise from the full one (10 and 30, 60 s; every held-out run with its bare-floor twin,
+    the passive gains with their speed-matched open loops, each law's gains tuned on the tuning
+    fields); ``tuning_fields``, ``held_out_fields``, ``duration_secs``, ``floors``
+    (``"isotropic"``, ``"anisotropic"``), ``families`` (``"lattice"``, ``"random"``, ``"row"``)
+    and ``passive_kp_nm_per_rad`` change it. ``overrides``
     (``--set`` syntax) go onto the default config first (e.g. a contact law's gains).
     ``law_servo_kp_nm_per_rad`` puts the built-in laws on soft servos of that kp (kv = kp/100)
     instead of the stiff ones (with a passive gain, their feedback-off run is that baseline's).
     ``threads``: 0 = all cores.
 
     Writes ``<out>/oal-bench-<UTC time>/`` (``report.md``, ``oal_runs.csv``, ``oal_summary.csv``,
-    ``oal_paired.csv``, ``plots/``); returns ``{"folder": ..., "report": <the report as
+    ``oal_paired.csv``, ``oal_heading.csv``, ``oal_bare.csv``, ``plots/``); returns ``{"folder": ..., "report": <the report as
     Markdown>}``. An exception in your controller stops the benchmark and is raised as the cause
     of a :class:`SimSerpentError`.
     """

@@ -31,13 +31,19 @@ The observation, actions, reward and episode end are set by the config's ``[env]
 
 Rendering (``render_mode`` ``"rgb_array"``, ``"depth_array"``, ``"human"``) draws the env's own
 model at its true state with the official :class:`mujoco.Renderer` of the ``mujoco`` package
-(offscreen; without a display and without ``MUJOCO_GL`` set, ``MUJOCO_GL=egl`` is set if
-``mujoco`` was not imported yet) or :mod:`mujoco.viewer` (``"human"``, needs a display). The
+(offscreen) or :mod:`mujoco.viewer` (``"human"``, needs a display). The
 simulation itself does not need the ``mujoco`` package (the wheel carries its own MuJoCo 3.17);
 rendering does: ``mujoco`` 3.2 or later, 3.x or 4.x (tested with 3.17.0 and 4.0.0;
 ``pip install mujoco``). The camera follows the snake's centre of mass at the config's
 ``render.camera_distance_m``, ``render.camera_azimuth_deg`` and ``render.camera_elevation_deg``
 (the CLI's framing; keyword arguments override them).
+
+Headless by default: without a display (no ``DISPLAY`` or ``WAYLAND_DISPLAY``) and without
+``MUJOCO_GL`` in the environment, importing this module (``import simserpent``) sets
+``MUJOCO_GL=egl``, MuJoCo's offscreen back-end, unless ``mujoco`` was imported already (it reads
+``MUJOCO_GL`` once, when it is imported); a value you set is kept. Rendering with a ``mujoco``
+imported earlier with its window back-end (GLFW) and no display raises a ``RuntimeError`` that says
+what to set, instead of MuJoCo aborting the process.
 
 ``metadata["render_modes"]`` of an environment lists the modes that work where it runs:
 ``"human"`` only with a display, ``"rgb_array"`` and ``"depth_array"`` only with the ``mujoco``
@@ -131,8 +137,39 @@ def available_render_modes() -> list[str]:
     return [m for m in RENDER_MODES if m != "human" or has_display()]
 
 
+def default_gl_backend() -> str | None:
+    """Chooses MuJoCo's OpenGL back-end before the ``mujoco`` package is imported: without a
+    display (no ``DISPLAY`` or ``WAYLAND_DISPLAY``) and without ``MUJOCO_GL`` set, sets
+    ``MUJOCO_GL=egl`` (offscreen). A value the user set is kept, and nothing changes once
+    ``mujoco`` is imported (it reads ``MUJOCO_GL`` once, at import). Returns the value in force."""
+    import sys
+
+    if "mujoco" not in sys.modules and not has_display() and not os.environ.get("MUJOCO_GL"):
+        os.environ["MUJOCO_GL"] = "egl"
+    return os.environ.get("MUJOCO_GL")
+
+
+# Headless by default (see the module's docstring): before anyone imports `mujoco` through us.
+default_gl_backend()
+
+
+def _window_backend_without_display(mujoco: Any) -> bool:
+    """Whether ``mujoco`` was imported with a back-end that needs a window (GLFW: ``MUJOCO_GL``
+    unset or ``glfw``) while there is no display: its renderer would fail to get an OpenGL
+    context and then abort the process."""
+    if has_display():
+        return False
+    # `mujoco` exports the GLContext class of the back-end it chose at import (3.x and 4.x).
+    context = getattr(mujoco, "GLContext", None)
+    return context is not None and str(getattr(context, "__module__", "")).endswith("glfw")
+
+
 def _mujoco_for_rendering(render_mode: str) -> Any:
-    """Imports the ``mujoco`` package, with an error naming what to install if it is missing."""
+    """Imports the ``mujoco`` package for rendering (offscreen EGL by default without a
+    display: :func:`default_gl_backend`), with an error naming what to install if it is missing
+    and what to set if it was imported with a back-end that cannot work here."""
+    if render_mode != "human":
+        default_gl_backend()
     try:
         import mujoco
     except ImportError:
@@ -140,6 +177,13 @@ def _mujoco_for_rendering(render_mode: str) -> Any:
             f"render_mode={render_mode!r} draws with the `mujoco` package, which is not installed; "
             f"pip install mujoco (3.2 or later, 3.x or 4.x; tested: {', '.join(RENDER_MUJOCO_VERSIONS)})"
         ) from None
+    if render_mode != "human" and _window_backend_without_display(mujoco):
+        raise RuntimeError(
+            f"render_mode={render_mode!r}: the `mujoco` package was imported with MUJOCO_GL="
+            f"{os.environ.get('MUJOCO_GL', '')!r} (its window back-end, GLFW) and there is no display "
+            "(DISPLAY and WAYLAND_DISPLAY are unset); set MUJOCO_GL=egl in the environment, or import "
+            "simserpent before mujoco (without a display and MUJOCO_GL it sets MUJOCO_GL=egl)"
+        )
     return mujoco
 
 
@@ -178,11 +222,6 @@ class MujocoRendering:
         self._viewer: Any = None
 
     def _setup(self) -> None:
-        import sys
-
-        if "mujoco" not in sys.modules and not has_display() and self.render_mode != "human":
-            # Offscreen without a display: EGL (MuJoCo reads MUJOCO_GL when it is imported).
-            os.environ.setdefault("MUJOCO_GL", "egl")
         mujoco = _mujoco_for_rendering(self.render_mode)
 
         self._mujoco = mujoco

@@ -258,8 +258,9 @@ fn summary_dict<'py>(py: Python<'py>, s: &RunSummary) -> PyResult<Bound<'py, PyD
 /// Contact estimates as a dict of numpy arrays (n = links): `active` (bool: an estimator filled
 /// them), `external_force_n`, `floor_force_n`, `obstacle_force_n` (n × 3, N, world frame),
 /// `contact` (n, bool), `contact_point_along_m` (n, m from the link's centre along its axis,
-/// positive toward the head; NaN when unknown) and `contact_point_m` (n × 3, world; NaN rows
-/// when unknown).
+/// positive toward the head; NaN when unknown), `contact_point_m` (n × 3, world; NaN rows
+/// when unknown), `self_contact_force_n` (n × 3, N: the other links' push) and `self_contact`
+/// (n, bool: the link touches another link).
 fn estimates_dict<'py>(py: Python<'py>, c: &ContactEstimates) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     let rows = |v: &[[f64; 3]]| -> PyResult<Bound<'py, PyArray2<f64>>> {
@@ -275,6 +276,8 @@ fn estimates_dict<'py>(py: Python<'py>, c: &ContactEstimates) -> PyResult<Bound<
     d.set_item("contact_point_along_m", PyArray1::from_vec(py, along))?;
     let points: Vec<[f64; 3]> = c.contact_point_m.iter().map(|p| p.unwrap_or([f64::NAN; 3])).collect();
     d.set_item("contact_point_m", rows(&points)?)?;
+    d.set_item("self_contact_force_n", rows(&c.self_contact_force_n)?)?;
+    d.set_item("self_contact", PyArray1::from_slice(py, &c.self_contact))?;
     Ok(d)
 }
 
@@ -531,7 +534,7 @@ fn oal_bench<'py>(
         bench.floors = parse_names("floors", "floor", &f, Floor::from_name, "\"isotropic\", \"anisotropic\"")?;
     }
     if let Some(f) = families {
-        bench.families = parse_names("families", "family", &f, Family::from_name, "\"lattice\", \"random\"")?;
+        bench.families = parse_names("families", "family", &f, Family::from_name, "\"lattice\", \"random\", \"row\"")?;
     }
     if let Some(kp) = passive_kp_nm_per_rad {
         if kp.iter().any(|k| !(k.is_finite() && *k > 0.0)) {

@@ -204,10 +204,11 @@ def check_against_csv(folder: Path, topics, noise_std):
             row = table.iloc[k]
             assert stamp_ns(msg.header) == stamps[k] and list(msg.link_names) == link_names
             for i, name in enumerate(link_names):
-                for field in ("external_force", "floor_force", "obstacle_force"):
+                for field in ("external_force", "floor_force", "obstacle_force", "self_contact_force"):
                     got = xyz(getattr(msg, field)[i])
                     assert got == [row[f"{name}_estimated_{field}_{a}_n"] for a in "xyz"]
                 assert float(msg.contact[i]) == row[f"{name}_estimated_contact"]
+                assert float(msg.self_contact[i]) == row[f"{name}_estimated_self_contact"]
                 known = row[f"{name}_estimated_point_known"] == 1.0
                 assert (not np.isnan(msg.contact_point_along[i])) == known
     return n

@@ -36,14 +36,22 @@ def test_a_python_controller_runs_as_a_condition_on_the_same_fields(tmp_path):
     assert (folder / "report.md").read_text(encoding="utf-8") == result["report"]
     with open(folder / "oal_runs.csv", newline="", encoding="utf-8") as f:
         rows = list(csv.DictReader(f))
-    by = {(r["seed"], r["condition"]): r for r in rows}
-    assert {r["condition"] for r in rows} == {"open_loop", "passive_kp5", "mine"}
+    by = {(r["seed"], r["split"], r["condition"]): r for r in rows}
+    # The passive gain's speed-matched open loop runs when the bare floor lets it be matched.
+    assert {"open_loop", "passive_kp5", "mine"} <= {r["condition"] for r in rows} <= {
+        "open_loop",
+        "passive_kp5",
+        "matched_kp5",
+        "mine",
+    }
+    # Every held-out run has its bare-floor twin.
+    assert {r["split"] for r in rows} == {"held_out", "twin"}
     # The base gait sent from Python is the open loop's command, and sensing does not move the
-    # snake: the same run, bit for bit, on every field.
-    for seed in {r["seed"] for r in rows}:
-        mine, open_loop = by[(seed, "mine")], by[(seed, "open_loop")]
-        for column in ["end_s", "speed_bl_per_cycle", "exit_heading_deg", "jams_per_min"]:
-            assert mine[column] == open_loop[column], (seed, column)
+    # snake: the same run, bit for bit, on every field and its twin.
+    for seed, split in {(r["seed"], r["split"]) for r in rows}:
+        mine, open_loop = by[(seed, split, "mine")], by[(seed, split, "open_loop")]
+        for column in ["end_s", "distance_bl", "speed_bl_per_cycle", "exit_heading_deg", "jammed"]:
+            assert mine[column] == open_loop[column], (seed, split, column)
 
 
 def test_an_exception_in_the_controller_is_raised_as_the_cause(tmp_path):

@@ -50,6 +50,67 @@ def test_render_modes_draw_the_true_state(mode):
     env.close()
 
 
+#: What a user runs on a headless server in a fresh process: make, check_env, draw a frame.
+HEADLESS_SCRIPT = """
+import os, gymnasium as gym, simserpent
+from gymnasium.utils.env_checker import check_env
+check_env(gym.make("SimSerpent-v0", overrides={"env.preset": "fast"}).unwrapped)
+env = gym.make("SimSerpent-v0", overrides={"env.preset": "fast"}, render_mode="rgb_array", width=64, height=48)
+env.reset(seed=0)
+frame = env.render()
+assert frame.shape == (48, 64, 3) and frame.std() > 0, frame.shape
+print("MUJOCO_GL=" + os.environ.get("MUJOCO_GL", "<unset>"))
+"""
+
+
+def _headless_env(**extra):
+    """This process's environment without a display and without MUJOCO_GL (the test suite's
+    own conftest sets MUJOCO_GL; a user's shell on a server does not), plus ``extra``."""
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k not in ("MUJOCO_GL", "DISPLAY", "WAYLAND_DISPLAY", "PYOPENGL_PLATFORM")}
+    env.update(extra)
+    return env
+
+
+def _run_python(code, env):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=600)
+
+
+def test_headless_without_mujoco_gl_makes_checks_and_renders():
+    """gym.make, check_env and render_mode="rgb_array" in a fresh process with no display and
+    no MUJOCO_GL: the package chooses EGL before `mujoco` is imported."""
+    pytest.importorskip("mujoco")
+    done = _run_python(HEADLESS_SCRIPT, _headless_env())
+    assert done.returncode == 0, (done.returncode, done.stdout, done.stderr[-3000:])
+    assert "MUJOCO_GL=egl" in done.stdout, done.stdout
+
+
+def test_headless_keeps_the_users_mujoco_gl_and_says_what_to_set():
+    """A user's MUJOCO_GL is kept; a `mujoco` imported with its window back-end (GLFW) and no
+    display makes rendering raise an error saying what to set, instead of MuJoCo aborting."""
+    pytest.importorskip("mujoco")
+    code = """
+import os, simserpent
+assert os.environ["MUJOCO_GL"] == "glfw", os.environ["MUJOCO_GL"]
+import gymnasium as gym
+try:
+    gym.make("SimSerpent-v0", render_mode="rgb_array")
+except RuntimeError as e:
+    print("refused:", e)
+"""
+    done = _run_python(code, _headless_env(MUJOCO_GL="glfw"))
+    assert done.returncode == 0, (done.returncode, done.stdout, done.stderr[-3000:])
+    assert "refused:" in done.stdout and "MUJOCO_GL=egl" in done.stdout, done.stdout
+    # `mujoco` imported first, MUJOCO_GL unset: too late to choose EGL; the same error.
+    done = _run_python("import mujoco\n" + code.replace('assert os.environ["MUJOCO_GL"] == "glfw", os.environ["MUJOCO_GL"]', 'assert "MUJOCO_GL" not in os.environ'), _headless_env())
+    assert done.returncode == 0, (done.returncode, done.stdout, done.stderr[-3000:])
+    assert "refused:" in done.stdout, done.stdout
+
+
 def test_human_mode_needs_a_display(monkeypatch):
     monkeypatch.delenv("DISPLAY", raising=False)
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)

@@ -257,6 +257,8 @@ class ContactEstimates(IdlStruct, typename="simserpent_msgs::msg::dds_::ContactE
     contact: sequence[bool]
     contact_point_along: sequence[float64]
     contact_point: sequence[Point]
+    self_contact_force: sequence[Vector3]
+    self_contact: sequence[bool]
 
 
 _ = float32  # (ColorRGBA etc. are not needed by the peer)

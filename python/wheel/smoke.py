@@ -9,15 +9,18 @@ import os
 import sys
 import time
 
-# Headless: MuJoCo's offscreen renderer through EGL (read when `mujoco` is imported).
-os.environ.setdefault("MUJOCO_GL", "egl")
+# Run with no display and no MUJOCO_GL (scripts/check-wheel unsets them), as on a server:
+# importing simserpent chooses MuJoCo's offscreen back-end (EGL) before `mujoco` is imported.
+assert "MUJOCO_GL" not in os.environ, "scripts/check-wheel runs this without MUJOCO_GL"
 
 import gymnasium as gym
-import mujoco
 import numpy as np
 from gymnasium.utils.env_checker import check_env
 
 import simserpent
+
+assert os.environ.get("MUJOCO_GL") == "egl", os.environ.get("MUJOCO_GL")
+import mujoco  # noqa: E402  (after simserpent, as a user's script that never names it would)
 
 
 def loaded_libmujoco() -> list[str]:
@@ -70,7 +73,8 @@ def main() -> None:
     render_env.reset(seed=0)
     frame = render_env.render()
     assert frame is not None and frame.shape == (120, 160, 3) and frame.std() > 0, None if frame is None else frame.shape
-    print(f"check_env passed; rgb_array frame {frame.shape} drawn by mujoco {mujoco.__version__}")
+    print(f"check_env passed; rgb_array frame {frame.shape} drawn by mujoco {mujoco.__version__} "
+          f"(MUJOCO_GL unset at start, {os.environ['MUJOCO_GL']} chosen by simserpent)")
     print("OK")
 
 

@@ -191,6 +191,7 @@ pub fn undulation(ctx: &Context, base: &Config) -> Result<Section, ExperimentErr
         tolerance: "-".into(),
         unit: String::new(),
         passed: increasing,
+        not_observable: None,
     });
     section.tables.push((
         ["ground friction", "lateral/axial", "mean v_x (m/s)", "mean v_y (m/s)", "drift per cycle (% of body)"]

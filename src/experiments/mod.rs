@@ -104,6 +104,12 @@ pub struct ExperimentOptions {
     /// `estimation` only: run its peg-field runs on this floor only (isotropic or anisotropic;
     /// default both).
     pub floor: Option<crate::config::GroundModel>,
+    /// `oal-bench` only: the benchmark's size, conditions and shard (default: [`oal_bench::Bench::full`]
+    /// or, with `quick`, [`oal_bench::Bench::quick`]), or a merge of its shards.
+    pub oal: Option<oal_bench::OalOptions>,
+    /// Write into this folder (created if missing) instead of a new
+    /// `<output_dir>/experiment-<name>-<UTC time>/`: where the shards of one `oal-bench` meet.
+    pub folder: Option<PathBuf>,
 }
 
 /// Where an experiment writes, how long its runs are and where its cases run.
@@ -122,6 +128,8 @@ pub struct Context {
     pub seeds: Option<Vec<u64>>,
     /// [`ExperimentOptions::floor`].
     pub floor: Option<crate::config::GroundModel>,
+    /// [`ExperimentOptions::oal`].
+    pub oal: Option<oal_bench::OalOptions>,
 }
 
 impl Context {
@@ -284,6 +292,15 @@ pub fn run_experiment_with(
     if options.seeds.as_ref().is_some_and(Vec::is_empty) {
         return Err(ExperimentError::Option("--seeds: no seeds given".into()));
     }
+    if name != "oal-bench" && options.oal.is_some() {
+        return Err(ExperimentError::Option(format!(
+            "the benchmark options (fields, families, floors, duration, conditions, shard, merge) are `oal-bench`'s; \
+             `{name}` takes none of them"
+        )));
+    }
+    if let Some(o) = &options.oal {
+        o.bench.validate()?;
+    }
     let start = std::time::Instant::now();
     let quick = options.quick;
     let pool = rayon::ThreadPoolBuilder::new()
@@ -293,8 +310,15 @@ pub fn run_experiment_with(
     let threads = pool.current_num_threads();
     let unix_secs =
         std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
-    let folder = record::create_run_folder(output_dir, &format!("experiment-{name}"), &record::utc_stamp(unix_secs))
-        .map_err(RunError::from)?;
+    let folder = match &options.folder {
+        Some(f) => {
+            std::fs::create_dir_all(f)
+                .map_err(|e| RunError::from(record::RecordError::Io { path: f.clone(), source: e }))?;
+            f.clone()
+        }
+        None => record::create_run_folder(output_dir, &format!("experiment-{name}"), &record::utc_stamp(unix_secs))
+            .map_err(RunError::from)?,
+    };
     let ctx = Context {
         folder: folder.clone(),
         quick,
@@ -303,6 +327,7 @@ pub fn run_experiment_with(
         progress: options.progress,
         seeds: options.seeds.clone(),
         floor: options.floor,
+        oal: options.oal.clone(),
     };
     // Every case records what its analysis reads (Context::sub_run forces it); say what changed.
     let notes: Vec<String> = force_analysis_recording(&mut base.clone())
@@ -333,7 +358,8 @@ pub fn run_experiment_with(
     let cases = match name {
         "estimation" => "Each case below wrote estimation_<case>.csv and plots/ next to this report.",
         "oal-bench" => {
-            "The runs are in memory: oal_runs.csv, oal_summary.csv, oal_paired.csv and plots/ next to this report."
+            "The runs are in memory: oal_runs.csv, oal_summary.csv, oal_paired.csv, oal_heading.csv, oal_bare.csv \
+             and plots/ next to this report."
         }
         _ => "Each case below is a run folder next to this report (config.toml, model.xml, tables).",
     };
@@ -355,7 +381,11 @@ pub fn run_experiment_with(
         "oal-bench" => oal_bench::run(&ctx, base),
         _ => locomotion::configure(&ctx, base),
     };
-    let path = folder.join("report.md");
+    // The shards of one oal-bench share a folder: each its own report, the merge report.md.
+    let path = match options.oal.as_ref().and_then(|o| if o.merge { None } else { o.bench.shard }) {
+        Some((i, n)) => folder.join(format!("report-shard-{i}-of-{n}.md")),
+        None => folder.join("report.md"),
+    };
     let section = match section {
         Err(e) if e.interrupted() => {
             // What ran stays: the finished cases' folders, the stopped ones marked `incomplete`;

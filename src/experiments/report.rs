@@ -18,6 +18,9 @@ pub struct Check {
     pub unit: String,
     /// Outcome.
     pub passed: bool,
+    /// `Some(why)`: no estimator can score this figure from the case's data; it is reported
+    /// with the reason and is no check (neither passed nor failed).
+    pub not_observable: Option<String>,
 }
 
 impl Check {
@@ -31,6 +34,7 @@ impl Check {
             tolerance: format!("{} %", sig(rel_tol * 100.0)),
             unit: unit.into(),
             passed,
+            not_observable: None,
         }
     }
 
@@ -43,6 +47,7 @@ impl Check {
             tolerance: "bound".into(),
             unit: unit.into(),
             passed: measured <= bound,
+            not_observable: None,
         }
     }
 
@@ -55,7 +60,16 @@ impl Check {
             tolerance: "bound".into(),
             unit: unit.into(),
             passed: measured >= bound,
+            not_observable: None,
         }
+    }
+
+    /// This figure cannot be scored by any estimator from the case's data, for `reason`: it is
+    /// reported (with `measured`, the value anyway) and is no check.
+    pub fn not_observable(mut self, reason: &str) -> Self {
+        self.not_observable = Some(reason.into());
+        self.passed = false;
+        self
     }
 }
 
@@ -77,7 +91,7 @@ pub struct Section {
     pub text: String,
     /// Tables of numbers: header and rows each.
     pub tables: Vec<(Vec<String>, Vec<Vec<String>>)>,
-    /// Checks.
+    /// Checks (and figures that no estimator can score: [`Check::not_observable`]).
     pub checks: Vec<Check>,
 }
 
@@ -93,9 +107,14 @@ pub struct Report {
 }
 
 impl Report {
-    /// Every check of every section.
+    /// Every check of every section (not the figures that no estimator can score).
     pub fn checks(&self) -> impl Iterator<Item = &Check> {
-        self.sections.iter().flat_map(|s| s.checks.iter())
+        self.sections.iter().flat_map(|s| s.checks.iter()).filter(|c| c.not_observable.is_none())
+    }
+
+    /// Every figure of every section that no estimator can score ([`Check::not_observable`]).
+    pub fn not_observable(&self) -> impl Iterator<Item = &Check> {
+        self.sections.iter().flat_map(|s| s.checks.iter()).filter(|c| c.not_observable.is_some())
     }
 
     /// Whether every check passed.
@@ -122,9 +141,9 @@ impl Report {
                 }
                 out.push('\n');
             }
-            if !s.checks.is_empty() {
+            if s.checks.iter().any(|c| c.not_observable.is_none()) {
                 out.push_str("| check | measured | expected | tolerance | result |\n|---|---|---|---|---|\n");
-                for c in &s.checks {
+                for c in s.checks.iter().filter(|c| c.not_observable.is_none()) {
                     let _ = writeln!(
                         out,
                         "| {} | {} {} | {} {} | {} | {} |",
@@ -136,6 +155,26 @@ impl Report {
                         c.tolerance,
                         if c.passed { "pass" } else { "**FAIL**" }
                     );
+                }
+                out.push('\n');
+            }
+            if s.checks.iter().any(|c| c.not_observable.is_some()) {
+                out.push_str(
+                    "Not observable (no estimator can score these from the case's data; not checks):\n\n\
+                     | figure | measured | target | why |\n|---|---|---|---|\n",
+                );
+                for c in &s.checks {
+                    if let Some(why) = &c.not_observable {
+                        let _ = writeln!(
+                            out,
+                            "| {} | {} {} | {} {} | {why} |",
+                            c.name,
+                            sig(c.measured),
+                            c.unit,
+                            c.expected,
+                            c.unit
+                        );
+                    }
                 }
                 out.push('\n');
             }

@@ -201,7 +201,9 @@ pub(super) const LINKS: TableSpec = TableSpec {
                     Names::Xyz("contact_torque", "nm"),
                     |t, a| t.nums(&a.s.link_contact_torque_nm[a.i]),
                 ),
-                // Ground truth, split: floor (normal + friction), obstacles and where they push.
+                // Ground truth, split: floor (normal + friction), obstacles and where they push,
+                // other links (self-contact) and where they push, and any other geom (scenery);
+                // the four parts add up to contact_force.
                 Group::float(
                     |w| w.flags.external_contact_forces,
                     Names::Xyz("floor_force", "n"),
@@ -217,6 +219,22 @@ pub(super) const LINKS: TableSpec = TableSpec {
                     |w| w.flags.external_contact_forces,
                     Names::Xyz("obstacle_point", "m"),
                     |t, a| t.nums(&a.s.link_obstacle_point_m[a.i].unwrap_or([0.0; 3])),
+                ),
+                Group::float(
+                    |w| w.flags.external_contact_forces,
+                    Names::Xyz("self_contact_force", "n"),
+                    |t, a| t.nums(&a.s.link_self_contact_force_n[a.i]),
+                ),
+                // No self-contact: zeros; self_contact_force is 0.
+                Group::float(
+                    |w| w.flags.external_contact_forces,
+                    Names::Xyz("self_contact_point", "m"),
+                    |t, a| t.nums(&a.s.link_self_contact_point_m[a.i].unwrap_or([0.0; 3])),
+                ),
+                Group::float(
+                    |w| w.flags.external_contact_forces,
+                    Names::Xyz("other_contact_force", "n"),
+                    |t, a| t.nums(&a.s.link_other_contact_force_n[a.i]),
                 ),
                 // The surface under the link's centre: its index in `ground.surfaces`, −1 on the
                 // plain floor (region 0 is the plain floor, region k + 1 is surface k).
@@ -447,6 +465,15 @@ pub(super) const ESTIMATES: TableSpec = TableSpec {
                     let p = a.s.observation_measured.contacts.contact_point_along_m.get(a.i).copied().flatten();
                     t.nums(&[p.unwrap_or(0.0), f64::from(u8::from(p.is_some()))])
                 }),
+                Group::float(always, Names::Xyz("estimated_self_contact_force", "n"), |t, a| {
+                    t.nums(&estimate3(&a.s.observation_measured.contacts.self_contact_force_n, a.i))
+                }),
+                // 1 when the estimator finds the link touching another link, else 0.
+                Group::float(always, Names::One("estimated_self_contact"), |t, a| {
+                    t.num(f64::from(u8::from(
+                        a.s.observation_measured.contacts.self_contact.get(a.i).copied().unwrap_or(false),
+                    )))
+                }),
                 Group::float(always, Names::Xyz("true_external_force", "n"), |t, a| {
                     t.nums(&a.s.link_contact_force_n[a.i])
                 }),
@@ -456,6 +483,9 @@ pub(super) const ESTIMATES: TableSpec = TableSpec {
                 }),
                 Group::float(always, Names::One("true_point_along_m"), |t, a| {
                     t.num(a.s.link_obstacle_point_m[a.i].map_or(0.0, |p| a.s.along_link_axis_m(a.i, p)))
+                }),
+                Group::float(always, Names::Xyz("true_self_contact_force", "n"), |t, a| {
+                    t.nums(&a.s.link_self_contact_force_n[a.i])
                 }),
             ],
         },

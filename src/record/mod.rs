@@ -28,6 +28,7 @@ mod sink;
 mod table;
 
 pub use format::{ColumnKind, TableSink};
+pub(crate) use manifest::sync_folder;
 pub use manifest::{Manifest, Ros2Report, RunStatus, RunSummary, SpaceReserve};
 #[cfg(feature = "parquet")]
 pub use parquet::ParquetTable;

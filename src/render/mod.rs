@@ -1,7 +1,7 @@
 //! Pictures of a run: images at chosen times, videos and the interactive viewer.
 //!
 //! - [`state`]: `state.csv`, the full engine state on recorded steps, so a run can be replayed;
-//! - [`painter`] (cargo feature `render`): offscreen rendering on the CPU through EGL;
+//! - [`painter`] (cargo feature `render`, Linux only): offscreen rendering on the CPU through EGL;
 //! - [`video`]: MP4 through `ffmpeg`, or GIF built in;
 //! - [`viewer`]: MuJoCo's interactive viewer (cargo feature `viewer`, else Python's
 //!   `mujoco.viewer` from the same 3.17 wheel).
@@ -11,7 +11,7 @@
 //! whose time has come. Afterwards, [`render_run_folder`] replays `state.csv` into the same
 //! pictures (`simserpent render RUN_FOLDER`).
 
-#[cfg(feature = "render")]
+#[cfg(offscreen_render)]
 pub mod painter;
 pub mod state;
 pub mod video;
@@ -123,7 +123,7 @@ pub fn overlay_time(rgb: &mut [u8], width: usize, height: usize, time_secs: f64)
 }
 
 /// Frame `i` of a video is the state at simulated time `i × playback_speed / frames_per_sec`.
-#[cfg(feature = "render")]
+#[cfg(offscreen_render)]
 fn frame_interval_secs(config: &Config) -> f64 {
     config.video.playback_speed / config.video.frames_per_sec
 }
@@ -141,7 +141,7 @@ pub fn image_path(folder: &Path, camera: CameraKind, time_secs: f64) -> PathBuf 
 /// What the step loop of a run calls: `state.csv` on recorded steps, frames and images on time.
 pub struct RunVisuals {
     state: Option<StateWriter>,
-    #[cfg(feature = "render")]
+    #[cfg(offscreen_render)]
     live: Option<live::Live>,
     #[cfg(feature = "viewer")]
     viewer: Option<viewer::LiveViewer>,
@@ -172,9 +172,9 @@ impl RunVisuals {
             None
         };
         let pictures = config.video.enabled || !config.render.image_times_secs.is_empty();
-        #[cfg(feature = "render")]
+        #[cfg(offscreen_render)]
         let live = if pictures { Some(live::Live::new(config, folder)?) } else { None };
-        #[cfg(not(feature = "render"))]
+        #[cfg(not(offscreen_render))]
         if pictures {
             return Err(RenderError::NoRenderer(NO_RENDER_FEATURE.into()));
         }
@@ -186,15 +186,15 @@ impl RunVisuals {
         }
         let visuals = Self {
             state,
-            #[cfg(feature = "render")]
+            #[cfg(offscreen_render)]
             live,
             #[cfg(feature = "viewer")]
             viewer,
             outputs: Vec::new(),
         };
-        #[cfg(feature = "render")]
+        #[cfg(offscreen_render)]
         let any = visuals.state.is_some() || visuals.live.is_some();
-        #[cfg(not(feature = "render"))]
+        #[cfg(not(offscreen_render))]
         let any = visuals.state.is_some();
         #[cfg(feature = "viewer")]
         let any = any || visuals.viewer.is_some();
@@ -219,7 +219,7 @@ impl RunVisuals {
         data: &mujoco_rs::prelude::MjData<M>,
         dt: f64,
     ) -> Result<(), RenderError> {
-        #[cfg(feature = "render")]
+        #[cfg(offscreen_render)]
         if let Some(live) = self.live.as_mut() {
             live.on_step(data, dt)?;
         }
@@ -235,7 +235,7 @@ impl RunVisuals {
         if let Some(s) = self.state.take() {
             self.outputs.push(s.finish()?.0);
         }
-        #[cfg(feature = "render")]
+        #[cfg(offscreen_render)]
         if let Some(live) = self.live.take() {
             self.outputs.extend(live.finish()?);
         }
@@ -243,7 +243,7 @@ impl RunVisuals {
     }
 }
 
-#[cfg(feature = "render")]
+#[cfg(offscreen_render)]
 mod live {
     //! Pictures while a run goes.
     use super::*;
@@ -386,7 +386,7 @@ pub fn check_images_wanted(config_path: &Path, config: &Config, options: &Replay
 }
 
 /// Replays a run folder's `state.csv` into a video and/or images; returns the files written.
-#[cfg(feature = "render")]
+#[cfg(offscreen_render)]
 pub fn render_run_folder(folder: &Path, options: &ReplayOptions) -> Result<Vec<PathBuf>, RenderError> {
     use std::io::IsTerminal;
     let config_path = folder.join("config.toml");
@@ -484,16 +484,16 @@ pub fn render_run_folder(folder: &Path, options: &ReplayOptions) -> Result<Vec<P
     Ok(written)
 }
 
-/// Why a build without the `render` feature cannot make pictures.
-#[cfg(all(not(feature = "render"), not(windows)))]
+/// Why a build without offscreen rendering cannot make pictures.
+#[cfg(all(not(offscreen_render), target_os = "linux"))]
 const NO_RENDER_FEATURE: &str = "this build has no `render` feature (rebuild with default features)";
-#[cfg(all(not(feature = "render"), windows))]
-const NO_RENDER_FEATURE: &str = "the Windows build has none (SimSerpent's offscreen renderer goes through EGL, \
-     which Windows lacks): make images and videos on Linux (or WSL2) from the run folder with `simserpent render \
-     RUN_FOLDER`; plots (`simserpent plot`) work on Windows";
+#[cfg(all(not(offscreen_render), not(target_os = "linux")))]
+const NO_RENDER_FEATURE: &str = "only the Linux build has it (SimSerpent's offscreen renderer goes through EGL, \
+     which Windows and macOS lack): make images and videos on Linux (or WSL2) from the run folder with `simserpent \
+     render RUN_FOLDER`; plots (`simserpent plot`) work on every platform";
 
 /// Without the `render` feature there is no offscreen rendering.
-#[cfg(not(feature = "render"))]
+#[cfg(not(offscreen_render))]
 pub fn render_run_folder(_folder: &Path, _options: &ReplayOptions) -> Result<Vec<PathBuf>, RenderError> {
     Err(RenderError::NoRenderer(NO_RENDER_FEATURE.into()))
 }

@@ -15,6 +15,7 @@
 //! | `/<ns>/link_NN/contact_wrench` | geometry_msgs/WrenchStamped | `world` | true contact force on the link, torque about its centre of mass |
 //! | `/<ns>/contacts` | visualization_msgs/MarkerArray | `world` | one arrow per contact (force on its second geom) |
 //! | `/<ns>/ground_truth/contacts` | ros_gz_interfaces/Contacts | `world` | every contact: geoms, bodies, point, normal, depth, force ([`msgs::Contacts`]) |
+//! | `/<ns>/ground_truth/contact_forces` | simserpent_msgs/ContactEstimates | `world` | per link the true contact force split into floor, obstacles and other links (self-contact), as the estimates are |
 //! | `/<ns>/contact_estimates` | simserpent_msgs/ContactEstimates | `world` | with `[estimation] enabled`: the estimator's per-link estimates ([`msgs::ContactEstimates`]) |
 //! | `/<ns>/forward_<kind>_controller/commands` | std_msgs/Float64MultiArray | — | the command of the step that starts at the instant |
 
@@ -36,6 +37,10 @@ pub use super::bag_file::FILE_NAME;
 
 /// The true contacts' topic (under `ros2.namespace`).
 pub const CONTACT_STATES_TOPIC: &str = "ground_truth/contacts";
+
+/// The true per-link contact forces' topic (under `ros2.namespace`): total, floor, obstacles and
+/// other links (self-contact), in the estimates' message.
+pub const CONTACT_FORCES_TOPIC: &str = "ground_truth/contact_forces";
 
 /// The contact estimates' topic (under `ros2.namespace`), with `[estimation] enabled`.
 pub const CONTACT_ESTIMATES_TOPIC: &str = "contact_estimates";
@@ -77,6 +82,8 @@ pub struct RobotMessages {
     body_names: Vec<String>,
     /// Whether the estimator runs (`estimation.enabled`): then `contact_estimates` is published.
     pub estimation: bool,
+    /// The flags of the true contact forces (`estimation.detection_threshold_n`, N).
+    contact_threshold_n: f64,
     gyro_covariance: [f64; 9],
     accel_covariance: [f64; 9],
     arrow_m_per_n: f64,
@@ -98,6 +105,7 @@ impl RobotMessages {
             geom_names: index.geom_names.clone(),
             body_names: index.body_names.clone(),
             estimation: config.estimation.enabled,
+            contact_threshold_n: config.estimation.detection_threshold_n,
             gyro_covariance: msgs::diagonal_covariance(variance(s.gyro.std)),
             accel_covariance: msgs::diagonal_covariance(variance(s.accelerometer.std)),
             arrow_m_per_n: config.ros2.contact_arrow_m_per_n,
@@ -176,6 +184,24 @@ impl RobotMessages {
         ContactEstimates { stamp, frame_id: WORLD_FRAME, link_names: &self.links, estimates: &m.contacts }
     }
 
+    /// `simserpent_msgs/ContactEstimates` of the truth: per link the true contact force split
+    /// into floor, obstacles and other links (self-contact), filled into `split` (sized for the
+    /// robot's links: [`RobotMessages::contact_split`]; no allocation).
+    pub fn contact_forces<'a>(
+        &'a self,
+        stamp: Time,
+        s: &Snapshot,
+        split: &'a mut crate::state::ContactEstimates,
+    ) -> ContactEstimates<'a> {
+        split.fill_true_split(s, self.contact_threshold_n);
+        ContactEstimates { stamp, frame_id: WORLD_FRAME, link_names: &self.links, estimates: split }
+    }
+
+    /// The buffer of [`RobotMessages::contact_forces`].
+    pub fn contact_split(&self) -> crate::state::ContactEstimates {
+        crate::state::ContactEstimates::new(self.links.len())
+    }
+
     /// `visualization_msgs/MarkerArray`: the contacts of the instant as arrows.
     pub fn contacts<'a>(&self, stamp: Time, s: &'a Snapshot) -> ContactMarkers<'a> {
         ContactMarkers { stamp, frame_id: WORLD_FRAME, contacts: &s.contacts, arrow_m_per_n: self.arrow_m_per_n }
@@ -190,6 +216,7 @@ struct Channels {
     command: u16,
     contacts: u16,
     contact_states: u16,
+    contact_forces: u16,
     contact_estimates: Option<u16>,
     wrench: Vec<u16>,
     imu: Vec<u16>,
@@ -243,6 +270,8 @@ pub struct BagWriter {
     channels: Channels,
     instants: u64,
     messages: RobotMessages,
+    /// The buffer of the true contact forces' message.
+    split: crate::state::ContactEstimates,
 }
 
 fn bag_err(path: &Path) -> impl FnOnce(mcap::McapError) -> RecordError + '_ {
@@ -362,6 +391,7 @@ impl BagWriter {
                 )?,
                 contacts: channel(w, &ros.topic("contacts"), "visualization_msgs/MarkerArray")?,
                 contact_states: channel(w, &ros.topic(CONTACT_STATES_TOPIC), "ros_gz_interfaces/Contacts")?,
+                contact_forces: channel(w, &ros.topic(CONTACT_FORCES_TOPIC), "simserpent_msgs/ContactEstimates")?,
                 contact_estimates: if estimation {
                     Some(channel(w, &ros.topic(CONTACT_ESTIMATES_TOPIC), "simserpent_msgs/ContactEstimates")?)
                 } else {
@@ -382,10 +412,14 @@ impl BagWriter {
             })
         })()
         .map_err(bag_err(&path))?;
+        // The schemas and channels in a chunk of their own, on disk at once: damage to the
+        // first chunk of messages then leaves every later chunk readable (`bag-repair`).
+        writer.flush().map_err(bag_err(&path))?;
         Ok(Self {
             out: Out { path, writer: Some(writer), buf: Vec::with_capacity(64 * 1024), sequence: 0 },
             channels,
             instants: 0,
+            split: messages.contact_split(),
             messages,
         })
     }
@@ -415,6 +449,7 @@ impl BagWriter {
         out.put(ch.command, nanos, &command)?;
         out.put(ch.contacts, nanos, &msg.contacts(stamp, s))?;
         out.put(ch.contact_states, nanos, &msg.contact_states(stamp, s))?;
+        out.put(ch.contact_forces, nanos, &msg.contact_forces(stamp, s, &mut self.split))?;
         if let Some(channel) = ch.contact_estimates {
             out.put(channel, nanos, &msg.contact_estimates(stamp, m))?;
         }

@@ -9,7 +9,7 @@
 //! The bridge is an [`Observer`] of the step loop:
 //! - at recorded instants (`recording.every_n_steps`; a forward pass has run, so poses and
 //!   contact forces describe the instant): `/tf`, `/<ns>/link_NN/contact_wrench`,
-//!   `/<ns>/contacts`, `/<ns>/ground_truth/contacts`;
+//!   `/<ns>/contacts`, `/<ns>/ground_truth/contacts`, `/<ns>/ground_truth/contact_forces`;
 //! - at publish instants (`ros2.publish_rate_hz` with the free clock, every
 //!   `ros2.steps_per_command` steps in lockstep): `/clock`, `/joint_states` (measured),
 //!   `/<ns>/ground_truth/joint_states`, `/<ns>/link_NN/imu`, `/<ns>/joint_NN/wrench`,
@@ -22,7 +22,7 @@
 //! already commanded when the state of k was published): one step of transport delay, as a
 //! real robot's sensor-to-actuator loop has.
 
-use super::bag::{CONTACT_ESTIMATES_TOPIC, CONTACT_STATES_TOPIC, RobotMessages};
+use super::bag::{CONTACT_ESTIMATES_TOPIC, CONTACT_FORCES_TOPIC, CONTACT_STATES_TOPIC, RobotMessages};
 use super::commands::{CommandGate, CommandSource, Float64MultiArrayMsg, Interface, JointTrajectoryMsg, Ros2Report};
 use super::msgs::{self, Clock, Time};
 use super::{LiveBridge, Ros2Error};
@@ -77,6 +77,7 @@ struct Writers {
     tf: Writer,
     contacts: Writer,
     contact_states: Writer,
+    contact_forces: Writer,
     contact_estimates: Option<Writer>,
     imu: Vec<Writer>,
     wrench: Vec<Writer>,
@@ -95,6 +96,8 @@ pub struct Bridge {
     gate: CommandGate,
     buf: Vec<u8>,
     messages: RobotMessages,
+    /// The buffer of the true contact forces' message.
+    split: crate::state::ContactEstimates,
     clock: Ros2Clock,
     publish_every_n_steps: u64,
     steps_per_command: u64,
@@ -139,6 +142,7 @@ impl Bridge {
             tf: writer("/tf", "tf2_msgs/TFMessage")?,
             contacts: writer(&ros.topic("contacts"), "visualization_msgs/MarkerArray")?,
             contact_states: writer(&ros.topic(CONTACT_STATES_TOPIC), "ros_gz_interfaces/Contacts")?,
+            contact_forces: writer(&ros.topic(CONTACT_FORCES_TOPIC), "simserpent_msgs/ContactEstimates")?,
             contact_estimates: if messages.estimation {
                 Some(writer(&ros.topic(CONTACT_ESTIMATES_TOPIC), "simserpent_msgs/ContactEstimates")?)
             } else {
@@ -194,6 +198,7 @@ impl Bridge {
             readers: Readers { arrays, trajectory },
             gate,
             buf: Vec::with_capacity(64 * 1024),
+            split: messages.contact_split(),
             messages,
             clock: ros.clock,
             publish_every_n_steps,
@@ -425,6 +430,7 @@ impl Observer<Ros2Error> for Bridge {
         }
         Self::put(buf, &w.contacts, &msg.contacts(stamp, s))?;
         Self::put(buf, &w.contact_states, &msg.contact_states(stamp, s))?;
+        Self::put(buf, &w.contact_forces, &msg.contact_forces(stamp, s, &mut self.split))?;
         Ok(())
     }
 

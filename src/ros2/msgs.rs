@@ -482,7 +482,7 @@ impl Serialize for PointsOrNan<'_> {
 impl Serialize for ContactEstimates<'_> {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let e = self.estimates;
-        let mut s = serializer.serialize_struct("ContactEstimates", 8)?;
+        let mut s = serializer.serialize_struct("ContactEstimates", 10)?;
         s.serialize_field("header", &Header { stamp: self.stamp, frame_id: self.frame_id })?;
         s.serialize_field("link_names", self.link_names)?;
         s.serialize_field("external_force", &Vectors(&e.external_force_n))?;
@@ -491,6 +491,8 @@ impl Serialize for ContactEstimates<'_> {
         s.serialize_field("contact", &e.contact)?;
         s.serialize_field("contact_point_along", &OrNan(&e.contact_point_along_m))?;
         s.serialize_field("contact_point", &PointsOrNan(&e.contact_point_m))?;
+        s.serialize_field("self_contact_force", &Vectors(&e.self_contact_force_n))?;
+        s.serialize_field("self_contact", &e.self_contact)?;
         s.end()
     }
 }

@@ -8,6 +8,7 @@
 
 mod compile;
 mod external;
+pub mod fatal;
 mod ground;
 mod index;
 mod noise;
@@ -134,14 +135,35 @@ pub fn world_body_shapes(model_xml: &Path) -> Result<Vec<PlanarShape>, SimError>
 ///
 /// # Errors
 /// [`SimError::Write`] when the temp dir is not writable.
-pub fn scratch_dir(what: &str) -> Result<tempfile::TempDir, SimError> {
+pub fn scratch_dir(what: &str) -> Result<Scratch, SimError> {
     let prefix = format!("simserpent-{what}-");
     let mut builder = tempfile::Builder::new();
     builder.prefix(&prefix);
     // Created with this mode (mkdir(2)), not chmod-ed afterwards: never readable by others.
     #[cfg(unix)]
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o700));
-    builder.tempdir().map_err(|source| SimError::Write { path: std::env::temp_dir(), source })
+    let dir = builder.tempdir().map_err(|source| SimError::Write { path: std::env::temp_dir(), source })?;
+    // A fatal MuJoCo error ends the process without running destructors: it removes the
+    // scratch folders registered here first (see `fatal`).
+    fatal::register_scratch(dir.path().to_path_buf());
+    Ok(Scratch(dir))
+}
+
+/// A scratch folder of [`scratch_dir`], removed with everything in it when dropped.
+#[derive(Debug)]
+pub struct Scratch(tempfile::TempDir);
+
+impl Scratch {
+    /// The folder.
+    pub fn path(&self) -> &Path {
+        self.0.path()
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        fatal::unregister_scratch(self.0.path());
+    }
 }
 
 /// [`SimError::Write`] for `path`.

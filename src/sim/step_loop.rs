@@ -547,6 +547,8 @@ impl<C: Controller> Simulation<C> {
             }
         }
         loop {
+            // Where a fatal MuJoCo error in this step would stop the run (`fatal`).
+            super::fatal::at_step(*k, self.world.time_secs());
             self.control();
             let recorded = plan.records(*k);
             if recorded {

@@ -127,6 +127,30 @@ fn bad_config_exits_2_names_the_key_and_creates_no_run_folder() {
     assert!(run_folders(dir.path()).is_empty(), "no run folder for bad input");
 }
 
+/// `simserpent estimate` needs every step: a run recorded every 10th step (the default) is
+/// refused with exit 2, naming the key and the fix; recorded every step, the same run is estimated.
+#[test]
+fn estimate_refuses_a_run_recorded_below_every_step_with_the_fix() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = ["run", "--quiet", "--set", "general.duration_secs=0.05", "--set", "snake.n_links=3"];
+    let out = simserpent(dir.path(), &base);
+    assert!(out.status.success(), "{}", text(&out));
+    let sparse = run_folders(dir.path()).remove(0);
+    let out = simserpent(dir.path(), &["estimate", sparse.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out));
+    for needle in ["recording.every_n_steps = 10", "--set recording.every_n_steps=1"] {
+        assert!(text(&out).contains(needle), "{needle}: {}", text(&out));
+    }
+    assert!(!sparse.join("estimation").exists(), "nothing written when refused");
+    std::fs::remove_dir_all(&sparse).unwrap();
+    let out = simserpent(dir.path(), &[&base[..], &["--set", "recording.every_n_steps=1"]].concat());
+    assert!(out.status.success(), "{}", text(&out));
+    let every = run_folders(dir.path()).remove(0);
+    let out = simserpent(dir.path(), &["estimate", every.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(every.join("estimation/scores.md").is_file());
+}
+
 #[test]
 fn init_writes_the_commented_default_and_it_round_trips() {
     let dir = tempfile::tempdir().unwrap();

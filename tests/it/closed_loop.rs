@@ -100,6 +100,8 @@ fn estimates_reach_the_observation_and_the_estimates_table() {
     c.general.duration_secs = 2.0;
     c.estimation.enabled = true;
     c.sensors.noise_enabled = true;
+    // `simserpent estimate` (below) needs every step recorded.
+    c.recording.every_n_steps = 1;
     c.terrain.pegboard.layout = PegLayout::Random;
     c.terrain.pegboard.region_min_m = [-2.2, -0.4];
     c.terrain.pegboard.region_max_m = [0.5, 0.4];

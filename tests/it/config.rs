@@ -424,6 +424,8 @@ contact_point_filter_secs = 0.03
 friction = "identify"
 friction_prior = 0.4
 friction_window_secs = 3.0
+self_contacts = false
+self_contact_margin_m = 0.002
 
 [path_following]
 waypoints_m = [[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]]
@@ -775,6 +777,8 @@ fn all_fields_expected() -> Config {
         friction: FloorFrictionSource::Identify,
         friction_prior: 0.4,
         friction_window_secs: 3.0,
+        self_contacts: false,
+        self_contact_margin_m: 0.002,
     };
     c.path_following = PathFollowing {
         waypoints_m: vec![[1.0, 2.0], [3.0, 4.0], [5.0, 6.0]],

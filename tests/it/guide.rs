@@ -48,3 +48,18 @@ fn the_rust_tutorial_shows_the_example_as_it_is() {
     let page = std::fs::read_to_string(manifest_dir().join("guide/src/tutorials/controller-rust.md")).unwrap();
     assert!(page.contains(code.trim_end()), "copy examples/custom_controller.rs into the tutorial again");
 }
+
+/// The troubleshooting page states the tracking warning's thresholds as the code has them.
+#[test]
+fn the_troubleshooting_page_states_the_tracking_thresholds_of_the_code() {
+    let page = std::fs::read_to_string(manifest_dir().join("guide/src/how-to/troubleshooting.md")).unwrap();
+    let page = page.split_whitespace().collect::<Vec<_>>().join(" ");
+    let [lo, hi] = simserpent::state::TRACKING_AMPLITUDE_PERCENT;
+    let rms = simserpent::state::TRACKING_RMS_ERROR_PERCENT;
+    for claim in [
+        format!("less than {lo} % or more than {hi} % of the commanded amplitude"),
+        format!("its RMS error exceeds {rms} % of it"),
+    ] {
+        assert!(page.contains(&claim), "troubleshooting.md should say: {claim}");
+    }
+}

@@ -315,6 +315,8 @@ fn recorded_run(dir: &Path) -> PathBuf {
             "--set",
             "snake.n_links=3",
             "--set",
+            "recording.every_n_steps=1",
+            "--set",
             &format!("general.output_dir=\"{}\"", dir.join("runs").display()),
         ],
     );

@@ -18,6 +18,7 @@ mod estimation;
 mod guide;
 // Planted symlinks, device files, FIFOs, permission bits and signals: Unix only.
 #[cfg(unix)]
+mod hostile_ends;
 mod hostile_files;
 #[cfg(unix)]
 mod hostile_surfaces;
@@ -30,7 +31,7 @@ mod oal_bench;
 mod parquet;
 mod physics;
 mod plot;
-#[cfg(feature = "render")]
+#[cfg(offscreen_render)]
 mod render;
 mod rl_env;
 mod robustness;

@@ -81,40 +81,59 @@ fn each_law_feels_the_pegs_with_estimated_and_true_contacts() {
     }
 }
 
-/// A small benchmark: every condition runs, the tables are written, and two runs of the same
-/// benchmark give the same tables.
+/// A small benchmark: every condition runs (the tuning sweep, the held-out fields and their
+/// bare-floor twins), the tables are written, two runs of the same benchmark give the same
+/// tables, and two shards merged give the unsharded tables byte for byte.
 #[test]
 #[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
-fn a_small_benchmark_writes_its_tables_and_repeats() {
+fn a_small_benchmark_writes_its_tables_repeats_and_shards() {
     let bench = Bench {
         tuning_fields: 1,
-        held_out_fields: 1,
-        duration_secs: 2.0,
-        floors: vec![Floor::Isotropic],
+        held_out_fields: 2,
+        duration_secs: 3.0,
+        floors: vec![Floor::Anisotropic],
         families: vec![Family::Random],
-        passive_kp_nm_per_rad: vec![5.0],
+        passive_kp_nm_per_rad: vec![5.0, 2.5],
+        law_gain_scales: vec![1.0, 2.0],
+        true_contacts: false,
         path_fields: 1,
         ..Bench::full()
     };
     let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
-    let mut tables = Vec::new();
+    let tables = ["oal_runs.csv", "oal_summary.csv", "oal_paired.csv", "oal_heading.csv", "oal_bare.csv"];
+    let read = |dir: &std::path::Path| -> Vec<String> {
+        tables.iter().map(|t| std::fs::read_to_string(dir.join(t)).unwrap()).collect()
+    };
+    let mut runs = Vec::new();
     for _ in 0..2 {
         let dir = tempfile::tempdir().unwrap();
         let outcome = oal_bench::run_bench(&bench, &Config::default(), &pool, dir.path(), false).unwrap();
-        assert_eq!(outcome.runs_planned, 2 * bench.conditions().len());
-        let runs = std::fs::read_to_string(dir.path().join("oal_runs.csv")).unwrap();
-        assert_eq!(runs.lines().count(), 1 + outcome.runs_planned);
-        for name in ["oal_summary.csv", "oal_paired.csv", "plots/oal_success_isotropic_random.png"] {
-            assert!(dir.path().join(name).exists(), "{name}");
-        }
-        tables.push(runs);
+        let t = read(dir.path());
+        // Tuning: 2 passive gains and 3 laws × 2 scales on one field; held out: open loop, the
+        // chosen passive gain, its matched open loop and 3 laws, on 2 fields and their twins.
+        assert_eq!(outcome.runs_planned, 8 + 2 * 2 * 6, "{}", t[0]);
+        assert_eq!(t[0].lines().count(), 1 + outcome.runs_planned);
+        assert!(t[0].lines().any(|l| l.contains(",twin,")), "{}", t[0]);
+        assert!(dir.path().join("plots/oal_success_anisotropic_random.png").exists());
+        runs.push(t);
     }
-    assert_eq!(tables[0], tables[1]);
+    assert_eq!(runs[0], runs[1]);
+    let dir = tempfile::tempdir().unwrap();
+    for i in 0..2 {
+        let shard = Bench { shard: Some((i, 2)), ..bench.clone() };
+        oal_bench::run_bench(&shard, &Config::default(), &pool, dir.path(), false).unwrap();
+        assert!(dir.path().join(format!("oal_runs-shard-{i}-of-2.csv")).exists());
+    }
+    oal_bench::merge_shards(&bench, &Config::default(), &pool, dir.path()).unwrap();
+    assert_eq!(read(dir.path()), runs[0], "shards merged differ from the unsharded run");
+    // A missing shard is named.
+    std::fs::remove_file(dir.path().join("oal_runs-shard-1-of-2.csv")).unwrap();
+    let err = oal_bench::merge_shards(&bench, &Config::default(), &pool, dir.path()).unwrap_err();
+    assert!(err.to_string().contains("0/2"), "{err}");
 }
 
 /// `law_servo_kp_nm_per_rad` puts the contact laws on the passive baseline's soft servos: with
-/// their feedback off each law's run is then the passive run, row for row. The report gives the
-/// bare-floor speed of the gait on the passive servos beside the base gait's.
+/// their feedback off each law's run is then the passive run, row for row.
 #[test]
 #[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn laws_on_soft_servos_without_feedback_are_the_passive_runs() {
@@ -126,7 +145,9 @@ fn laws_on_soft_servos_without_feedback_are_the_passive_runs() {
         floors: vec![Floor::Anisotropic],
         families: vec![Family::Random],
         passive_kp_nm_per_rad: vec![kp],
+        law_gain_scales: vec![1.0],
         true_contacts: false,
+        twins: false,
         path_fields: 0,
         law_servo_kp_nm_per_rad: Some(kp),
         ..Bench::full()
@@ -137,18 +158,70 @@ fn laws_on_soft_servos_without_feedback_are_the_passive_runs() {
     base.jam_resolution.feedback = false;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let outcome = oal_bench::run_bench(&bench, &base, &pool, dir.path(), false).unwrap();
-    let text = &outcome.section.text;
-    assert!(text.contains("anisotropic: ") && text.contains(&format!("BL/cycle (passive_kp{kp} ")), "{text}");
+    oal_bench::run_bench(&bench, &base, &pool, dir.path(), false).unwrap();
     let runs = std::fs::read_to_string(dir.path().join("oal_runs.csv")).unwrap();
-    // The scores (success, end, jams, speed, exit heading) of a condition's row.
+    // The scores (success … exit heading) of a condition's held-out row.
     let scores = |condition: &str| -> String {
         let row = runs.lines().find(|l| l.split(',').nth(5) == Some(condition)).unwrap();
-        row.split(',').skip(6).take(5).collect::<Vec<_>>().join(",")
+        row.split(',').skip(6).take(8).collect::<Vec<_>>().join(",")
     };
     let passive = scores(&format!("passive_kp{kp}"));
     assert_ne!(passive, scores("open_loop"), "the soft servos changed nothing");
     for law in ["follow_the_leader_reflex_est", "directional_admittance_est", "jam_resolution_est"] {
         assert_eq!(scores(law), passive, "{law}");
+    }
+}
+
+/// The benchmark's base gait on the default servos never brings two links into contact on
+/// either bare floor, over the whole run from t = 0: every contact force of a benchmark run is a
+/// peg's or a wall's (a wider wave, 80°, does touch itself: the measurement can fail).
+#[test]
+fn the_base_gait_clears_itself_on_both_bare_floors() {
+    let defaults = Config::default();
+    for floor in [Floor::Anisotropic, Floor::Isotropic] {
+        let mut c = oal_bench::field_config(&defaults, floor, Layout::Bare, 0);
+        assert_eq!(c.control.position_kp_nm_per_rad, defaults.control.position_kp_nm_per_rad);
+        assert_eq!(c.control.position_kv_nm_s_per_rad, defaults.control.position_kv_nm_s_per_rad);
+        c.estimation.enabled = false;
+        let g = oal_bench::bare_gait(&c, 15.0).unwrap();
+        assert_eq!(g.self_contact_share, 0.0, "{floor:?}: {g:?}");
+        assert_eq!(g.max_self_contact_n, 0.0, "{floor:?}: {g:?}");
+        assert!((g.amplitude_reached_deg - oal_bench::BASE_AMPLITUDE_DEG).abs() < 5.0, "{floor:?}: {g:?}");
+    }
+    let mut wide = oal_bench::field_config(&defaults, Floor::Anisotropic, Layout::Bare, 0);
+    wide.gait.sine_wave.amplitude_deg = 80.0;
+    wide.gait.sine_wave.phase_lag_deg = 30.0;
+    wide.estimation.enabled = false;
+    let g = oal_bench::bare_gait(&wide, 15.0).unwrap();
+    assert!(g.self_contact_share > 0.1, "{g:?}");
+}
+
+/// On the bare floor there is nothing to feel: each contact law fed the step loop's estimates
+/// goes as fast as its open loop, within 1 % of the open loop's speed (anisotropic floor; on the
+/// isotropic floor, where the open loop does not move forward, within 1 % of the anisotropic
+/// speed).
+#[test]
+fn each_law_with_estimated_contacts_equals_its_open_loop_on_the_bare_floor() {
+    let defaults = Config::default();
+    let speed = |c: &Config| oal_bench::bare_gait(c, 15.0).unwrap().speed_bl_per_cycle;
+    let mut scale = None;
+    for floor in [Floor::Anisotropic, Floor::Isotropic] {
+        let mut open = oal_bench::field_config(&defaults, floor, Layout::Bare, 1000);
+        open.estimation.enabled = false;
+        let v_open = speed(&open);
+        let reference = *scale.get_or_insert(v_open.abs());
+        for kind in LAWS {
+            let mut c = open.clone();
+            c.control.controller = kind;
+            c.estimation.enabled = true;
+            c.follow_the_leader_reflex.contacts = ContactSource::Estimated;
+            c.directional_admittance.contacts = ContactSource::Estimated;
+            c.jam_resolution.contacts = ContactSource::Estimated;
+            let v = speed(&c);
+            assert!(
+                (v - v_open).abs() <= 0.01 * reference,
+                "{floor:?} {kind:?}: {v} BL/cycle against the open loop's {v_open}"
+            );
+        }
     }
 }

@@ -153,9 +153,9 @@ fn bag_holds_every_topic_at_every_recorded_instant_with_the_csv_values() {
     let (header, sensors) = read_csv_numbers(&folder.join("sensors.csv"));
     let col = |name: &str| header.iter().position(|h| h == name).unwrap_or_else(|| panic!("{name}"));
     let (n_links, n_joints) = (c.snake.n_links, c.snake.n_links - 1);
-    // clock, joint states (measured, true), tf, commands, contact markers, contact states; per
+    // clock, joint states (measured, true), tf, commands, contact markers, contact states, true contact forces; per
     // link imu and contact wrench; per joint wrench (no contact estimates: estimation is off).
-    assert_eq!(bag.len(), 7 + 2 * n_links + n_joints, "{:?}", bag.keys().collect::<Vec<_>>());
+    assert_eq!(bag.len(), 8 + 2 * n_links + n_joints, "{:?}", bag.keys().collect::<Vec<_>>());
     for (topic, messages) in &bag {
         assert_eq!(messages.len(), sensors.len(), "{topic}: one message per recorded instant");
         for ((t, _), row) in messages.iter().zip(&sensors) {
@@ -286,6 +286,8 @@ struct ContactEstimates {
     contact: Vec<bool>,
     contact_point_along: Vec<f64>,
     contact_point: Vec<Vector3>,
+    self_contact_force: Vec<Vector3>,
+    self_contact: Vec<bool>,
 }
 
 fn decode<'a, T: Deserialize<'a>>(data: &'a [u8]) -> T {
@@ -419,7 +421,9 @@ fn contact_states_estimates_wrenches_and_imus_decode_to_the_table_values() {
             assert_eq!(m.external_force[i].xyz(), v("external_force"));
             assert_eq!(m.floor_force[i].xyz(), v("floor_force"));
             assert_eq!(m.obstacle_force[i].xyz(), v("obstacle_force"));
+            assert_eq!(m.self_contact_force[i].xyz(), v("self_contact_force"));
             assert_eq!(f64::from(u8::from(m.contact[i])), row[col(&format!("{link}_estimated_contact"))]);
+            assert_eq!(f64::from(u8::from(m.self_contact[i])), row[col(&format!("{link}_estimated_self_contact"))]);
             let known = row[col(&format!("{link}_estimated_point_known"))] == 1.0;
             assert_eq!(!m.contact_point_along[i].is_nan(), known);
             assert_eq!(!m.contact_point[i].x.is_nan(), known);
@@ -430,6 +434,33 @@ fn contact_states_estimates_wrenches_and_imus_decode_to_the_table_values() {
         }
     }
     assert!(floor_support, "the estimates are not all zero");
+
+    // The true contact forces, split, against links.csv: floor, obstacles and other links
+    // (self-contact) apart, adding up to the total.
+    let (header, rows) = read_csv_numbers(&folder.join("links.csv"));
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap_or_else(|| panic!("{name}"));
+    let forces = &bag["/snake/ground_truth/contact_forces"];
+    assert_eq!(forces.len(), rows.len());
+    for ((t, data), row) in forces.iter().zip(&rows) {
+        let m: ContactEstimates = decode(data);
+        assert_eq!(stamp_ns(&m.header), *t);
+        assert_eq!((row[0] * 1e9).round() as u64, *t);
+        for (i, link) in m.link_names.iter().enumerate() {
+            let v = |what: &str| ["x", "y", "z"].map(|a| row[col(&format!("{link}_{what}_{a}_n"))]);
+            assert_eq!(m.external_force[i].xyz(), v("contact_force"));
+            assert_eq!(m.floor_force[i].xyz(), v("floor_force"));
+            assert_eq!(m.obstacle_force[i].xyz(), v("obstacle_force"));
+            assert_eq!(m.self_contact_force[i].xyz(), v("self_contact_force"));
+            let other = v("other_contact_force");
+            for k in 0..3 {
+                let sum = m.floor_force[i].xyz()[k]
+                    + m.obstacle_force[i].xyz()[k]
+                    + m.self_contact_force[i].xyz()[k]
+                    + other[k];
+                assert!((sum - m.external_force[i].xyz()[k]).abs() < 1e-9, "{link}: the parts add up");
+            }
+        }
+    }
 
     // Joint force/torque sensors and IMUs against sensors.csv (measured).
     let (header, rows) = read_csv_numbers(&folder.join("sensors.csv"));

@@ -34,6 +34,7 @@ fn files(folder: &Path) -> BTreeMap<String, Vec<u8>> {
 /// is not a multiple of the hand-over batch: run with writer threads and with the writers
 /// inline, every file but the manifest (wall time) is the same, byte for byte.
 #[test]
+#[cfg_attr(not(feature = "parquet"), ignore = "records Parquet, which needs the `parquet` feature")]
 fn files_written_on_writer_threads_are_those_of_the_synchronous_path() {
     let dir = tempfile::tempdir().unwrap();
     let config = default_config_with(&[

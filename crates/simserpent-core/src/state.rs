@@ -99,7 +99,7 @@ pub struct ContactEstimates {
     /// The floor's share: normal support and friction.
     pub floor_force_n: Vec<[f64; 3]>,
     /// The rest: what obstacles push (horizontal), plus the vertical friction of a peg that holds
-    /// the link up (see `estimation::motion`).
+    /// the link up (see `estimation::motion`). Self-contacts are not part of it.
     pub obstacle_force_n: Vec<[f64; 3]>,
     /// Whether the link touches an obstacle (|obstacle force| ≥ the detection threshold).
     pub contact: Vec<bool>,
@@ -108,6 +108,12 @@ pub struct ContactEstimates {
     pub contact_point_along_m: Vec<Option<f64>>,
     /// The same point in the world (m).
     pub contact_point_m: Vec<Option<[f64; 3]>>,
+    /// The other links' share (self-contact, link–link; horizontal, N): equal and opposite over
+    /// each pair of links that the body's shape (encoders) brings into touch.
+    pub self_contact_force_n: Vec<[f64; 3]>,
+    /// Whether the link touches another link (the shape says so and their forces agree, see
+    /// `estimation::motion`).
+    pub self_contact: Vec<bool>,
     /// The floor's Coulomb coefficients the floor share used (forward, backward, lateral):
     /// `[ground]`'s, or the identified ones with `estimation.friction = "identify"`.
     pub floor_friction: [f64; 3],
@@ -116,16 +122,42 @@ pub struct ContactEstimates {
 impl ContactEstimates {
     /// The simulator's true contacts in the estimates' form, for controllers compared on the
     /// truth (`contacts = "true"`): per link the horizontal obstacle force, the contact flag (its
-    /// magnitude at least `threshold_n`, the estimator's detection threshold) and the point.
-    pub fn fill_from_truth(&mut self, state: &Snapshot, threshold_n: f64) {
+    /// magnitude at least `threshold_n`, the estimator's detection threshold) and the point. With
+    /// `with_self` (`contacts = "true_with_self"`), the obstacle force is the obstacles' and the
+    /// other links' together (what an estimator that cannot tell self-contacts apart would
+    /// report if it were exact), the point the obstacles' where they push, else the other
+    /// links'. The self-contact fields hold the true self-contacts either way.
+    pub fn fill_from_truth(&mut self, state: &Snapshot, threshold_n: f64, with_self: bool) {
         self.active = true;
         for i in 0..self.n_links().min(state.link_obstacle_force_n.len()) {
-            let f = state.link_obstacle_force_n[i];
-            let f = [f[0], f[1], 0.0];
+            let (o, c) = (state.link_obstacle_force_n[i], state.link_self_contact_force_n[i]);
+            let c = [c[0], c[1], 0.0];
+            let f = if with_self { [o[0] + c[0], o[1] + c[1], 0.0] } else { [o[0], o[1], 0.0] };
             self.obstacle_force_n[i] = f;
             self.contact[i] = f[0].hypot(f[1]) >= threshold_n;
-            self.contact_point_m[i] = state.link_obstacle_point_m[i];
-            self.contact_point_along_m[i] = state.link_obstacle_point_m[i].map(|p| state.along_link_axis_m(i, p));
+            let point = match state.link_obstacle_point_m[i] {
+                Some(p) => Some(p),
+                None if with_self => state.link_self_contact_point_m[i],
+                None => None,
+            };
+            self.contact_point_m[i] = point;
+            self.contact_point_along_m[i] = point.map(|p| state.along_link_axis_m(i, p));
+            self.self_contact_force_n[i] = c;
+            self.self_contact[i] = c[0].hypot(c[1]) >= threshold_n;
+        }
+    }
+
+    /// The simulator's true contact forces split as the estimator splits them (the truth of the
+    /// ROS 2 topic `ground_truth/contact_forces`): per link the total contact force, the floor's,
+    /// the obstacles' (with their point) and the other links' (self-contact); the flags at
+    /// `threshold_n`. The floor's friction coefficients are left as they are.
+    pub fn fill_true_split(&mut self, state: &Snapshot, threshold_n: f64) {
+        self.fill_from_truth(state, threshold_n, false);
+        for i in 0..self.n_links().min(state.link_contact_force_n.len()) {
+            self.external_force_n[i] = state.link_contact_force_n[i];
+            self.floor_force_n[i] = state.link_floor_force_n[i];
+            self.obstacle_force_n[i] = state.link_obstacle_force_n[i];
+            self.self_contact_force_n[i] = state.link_self_contact_force_n[i];
         }
     }
 
@@ -139,6 +171,8 @@ impl ContactEstimates {
             contact: vec![false; n_links],
             contact_point_along_m: vec![None; n_links],
             contact_point_m: vec![None; n_links],
+            self_contact_force_n: vec![[0.0; 3]; n_links],
+            self_contact: vec![false; n_links],
             floor_friction: [0.0; 3],
         }
     }
@@ -157,6 +191,8 @@ impl ContactEstimates {
         self.contact.clone_from(&other.contact);
         self.contact_point_along_m.clone_from(&other.contact_point_along_m);
         self.contact_point_m.clone_from(&other.contact_point_m);
+        self.self_contact_force_n.clone_from(&other.self_contact_force_n);
+        self.self_contact.clone_from(&other.self_contact);
         self.floor_friction = other.floor_friction;
     }
 }
@@ -239,7 +275,13 @@ pub struct Snapshot {
     pub link_obstacle_force_n: Vec<[f64; 3]>,
     pub link_obstacle_torque_nm: Vec<[f64; 3]>,
     pub link_obstacle_point_m: Vec<Option<[f64; 3]>>,
-    /// Per link: the part that other links (self-collision) and other geoms exert (N).
+    /// Per link: the part that other links of the robot exert (self-contact, link–link; N), and
+    /// its point of application: the contact points weighted by the magnitude of each contact's
+    /// force (m; `None` without self-contact). Equal and opposite over each touching pair.
+    pub link_self_contact_force_n: Vec<[f64; 3]>,
+    pub link_self_contact_point_m: Vec<Option<[f64; 3]>>,
+    /// Per link: the part that any other geom exerts (a user's scenery that is neither floor,
+    /// obstacle nor a link; N). The per-link contact force is floor + obstacle + self + other.
     pub link_other_contact_force_n: Vec<[f64; 3]>,
     /// Per link: origin of the link's frame (m): the anchor of the joint to its parent (for the
     /// generated snake; the head's front end for link 0).
@@ -268,6 +310,8 @@ pub struct Snapshot {
     pub contacts: Vec<ContactRow>,
     /// Per link: sum of obstacle contact force magnitudes (weights of the point of application).
     obstacle_weight: Vec<f64>,
+    /// Per link: the same for the self-contacts.
+    self_weight: Vec<f64>,
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -309,6 +353,8 @@ impl Snapshot {
             link_obstacle_force_n,
             link_obstacle_torque_nm,
             link_obstacle_point_m,
+            link_self_contact_force_n,
+            link_self_contact_point_m,
             link_other_contact_force_n,
             link_origin_m,
             link_region,
@@ -323,6 +369,7 @@ impl Snapshot {
             link_velocimeter_m_per_s,
             contacts,
             obstacle_weight,
+            self_weight,
         } = other;
         self.time_secs = *time_secs;
         self.link_mass_kg.clone_from(link_mass_kg);
@@ -339,6 +386,8 @@ impl Snapshot {
         self.link_obstacle_force_n.clone_from(link_obstacle_force_n);
         self.link_obstacle_torque_nm.clone_from(link_obstacle_torque_nm);
         self.link_obstacle_point_m.clone_from(link_obstacle_point_m);
+        self.link_self_contact_force_n.clone_from(link_self_contact_force_n);
+        self.link_self_contact_point_m.clone_from(link_self_contact_point_m);
         self.link_other_contact_force_n.clone_from(link_other_contact_force_n);
         self.link_origin_m.clone_from(link_origin_m);
         self.link_region.clone_from(link_region);
@@ -353,6 +402,7 @@ impl Snapshot {
         self.link_velocimeter_m_per_s.clone_from(link_velocimeter_m_per_s);
         self.contacts.clone_from(contacts);
         self.obstacle_weight.clone_from(obstacle_weight);
+        self.self_weight.clone_from(self_weight);
     }
     /// A snapshot sized for `n_links` links and `n_joints` joints.
     pub fn new(n_links: usize, n_joints: usize) -> Self {
@@ -371,6 +421,8 @@ impl Snapshot {
             link_obstacle_force_n: vec![[0.0; 3]; n_links],
             link_obstacle_torque_nm: vec![[0.0; 3]; n_links],
             link_obstacle_point_m: vec![None; n_links],
+            link_self_contact_force_n: vec![[0.0; 3]; n_links],
+            link_self_contact_point_m: vec![None; n_links],
             link_other_contact_force_n: vec![[0.0; 3]; n_links],
             link_origin_m: vec![[0.0; 3]; n_links],
             link_region: vec![0; n_links],
@@ -385,6 +437,7 @@ impl Snapshot {
             link_velocimeter_m_per_s: vec![[0.0; 3]; n_links],
             contacts: Vec::with_capacity(64),
             obstacle_weight: vec![0.0; n_links],
+            self_weight: vec![0.0; n_links],
             time_secs: 0.0,
         }
     }
@@ -400,17 +453,20 @@ impl Snapshot {
             &mut self.link_floor_torque_nm,
             &mut self.link_obstacle_force_n,
             &mut self.link_obstacle_torque_nm,
+            &mut self.link_self_contact_force_n,
             &mut self.link_other_contact_force_n,
         ] {
             v.fill([0.0; 3]);
         }
         self.link_obstacle_point_m.fill(None);
+        self.link_self_contact_point_m.fill(None);
         self.obstacle_weight.fill(0.0);
+        self.self_weight.fill(0.0);
     }
 
     /// Adds one contact: to the contact list, and to the per-link sums of each side that is a
     /// link (`link[side]`), split by what the other side is (`class[1 - side]`: floor, obstacle,
-    /// or anything else). The force on the first geom is the opposite of `force_on_geom2_n`.
+    /// another link, or anything else). The force on the first geom is the opposite of `force_on_geom2_n`.
     pub fn add_contact(&mut self, row: ContactRow, link: [Option<usize>; 2], class: [Option<GeomClass>; 2]) {
         let force = row.force_on_geom2_n;
         for (side, sign) in [(0, -1.0), (1, 1.0)] {
@@ -432,16 +488,25 @@ impl Snapshot {
                     add_to(point, row.position_m, w);
                     self.obstacle_weight[link] += w;
                 }
+                Some(GeomClass::Link(other)) if other != link => {
+                    add_to(&mut self.link_self_contact_force_n[link], force, sign);
+                    let w = norm(force);
+                    let point = self.link_self_contact_point_m[link].get_or_insert([0.0; 3]);
+                    add_to(point, row.position_m, w);
+                    self.self_weight[link] += w;
+                }
                 _ => add_to(&mut self.link_other_contact_force_n[link], force, sign),
             }
         }
         self.contacts.push(row);
     }
 
-    /// Ends the contacts of this instant: the obstacle points of application become weighted
-    /// means (a contact without force has no point of application).
+    /// Ends the contacts of this instant: the obstacle and self-contact points of application
+    /// become weighted means (a contact without force has no point of application).
     pub fn end_contacts(&mut self) {
-        for (point, &w) in self.link_obstacle_point_m.iter_mut().zip(&self.obstacle_weight) {
+        let obstacles = self.link_obstacle_point_m.iter_mut().zip(&self.obstacle_weight);
+        let selves = self.link_self_contact_point_m.iter_mut().zip(&self.self_weight);
+        for (point, &w) in obstacles.chain(selves) {
             match point {
                 Some(p) if w > 0.0 => p.iter_mut().for_each(|x| *x /= w),
                 _ => *point = None,
@@ -945,17 +1010,74 @@ mod tests {
         let row =
             ContactRow { position_m: [1.0, 1.0, 0.0], force_on_geom2_n: [0.0, 3.0, 0.0], ..ContactRow::default() };
         s.add_contact(row, [Some(1), None], [Some(GeomClass::Link(1)), Some(GeomClass::Obstacle)]);
+        // Link 0 (geom 0) pushes link 1 (geom 1) with 4 N along +x at (0.6, 0, 0): a self-contact,
+        // equal and opposite on the pair, in neither the floor's nor the obstacles' share; a
+        // scenery geom (class Other) pushes link 0 with 1 N.
+        let row =
+            ContactRow { position_m: [0.6, 0.0, 0.0], force_on_geom2_n: [4.0, 0.0, 0.0], ..ContactRow::default() };
+        s.add_contact(row, [Some(0), Some(1)], [Some(GeomClass::Link(0)), Some(GeomClass::Link(1))]);
+        let row = ContactRow { force_on_geom2_n: [0.0, 1.0, 0.0], ..ContactRow::default() };
+        s.add_contact(row, [None, Some(0)], [Some(GeomClass::Other), Some(GeomClass::Link(0))]);
         s.end_contacts();
+        assert_eq!(s.link_self_contact_force_n[0], [-4.0, 0.0, 0.0]);
+        assert_eq!(s.link_self_contact_force_n[1], [4.0, 0.0, 0.0]);
+        assert_eq!(s.link_self_contact_point_m[1], Some([0.6, 0.0, 0.0]));
+        assert_eq!(s.link_other_contact_force_n[0], [0.0, 1.0, 0.0]);
+        assert_eq!(s.link_other_contact_force_n[1], [0.0; 3]);
+        assert_eq!(s.link_obstacle_force_n[0], [0.0; 3]);
+        for i in 0..2 {
+            let parts = [
+                s.link_floor_force_n[i],
+                s.link_obstacle_force_n[i],
+                s.link_self_contact_force_n[i],
+                s.link_other_contact_force_n[i],
+            ];
+            let sum = parts.iter().fold([0.0; 3], |acc, p| [acc[0] + p[0], acc[1] + p[1], acc[2] + p[2]]);
+            assert_eq!(sum, s.link_contact_force_n[i], "link {i}: the parts add up to the total");
+        }
         assert_eq!(s.link_floor_force_n[0], [0.0, 0.0, 2.0]);
         assert_eq!(s.link_floor_torque_nm[0], [0.0, -1.0, 0.0]);
         assert_eq!(s.link_obstacle_force_n[1], [0.0, -3.0, 0.0]);
         assert_eq!(s.link_obstacle_point_m[1], Some([1.0, 1.0, 0.0]));
         assert_eq!(s.link_obstacle_point_m[0], None);
-        assert_eq!(s.contacts.len(), 2);
+        assert_eq!(s.contacts.len(), 4);
         // A new instant starts from zero.
         s.begin_contacts();
         assert_eq!(s.link_floor_force_n[0], [0.0; 3]);
+        assert_eq!((s.link_self_contact_force_n[1], s.link_self_contact_point_m[1]), ([0.0; 3], None));
         assert!(s.contacts.is_empty());
+    }
+
+    #[test]
+    fn true_contacts_with_and_without_the_self_contacts() {
+        // Link 0 pushed by a peg (2 N along +y at its centre) and by link 1 (3 N along −x);
+        // link 1 only by link 0.
+        let mut s = Snapshot::new(2, 1);
+        s.link_position_m = vec![[0.0; 3], [-0.2, 0.0, 0.0]];
+        s.begin_contacts();
+        let row = ContactRow { force_on_geom2_n: [0.0, 2.0, 0.0], ..ContactRow::default() };
+        s.add_contact(row, [None, Some(0)], [Some(GeomClass::Obstacle), Some(GeomClass::Link(0))]);
+        let row =
+            ContactRow { position_m: [-0.1, 0.0, 0.0], force_on_geom2_n: [-3.0, 0.0, 0.0], ..ContactRow::default() };
+        s.add_contact(row, [Some(1), Some(0)], [Some(GeomClass::Link(1)), Some(GeomClass::Link(0))]);
+        s.end_contacts();
+        let mut e = ContactEstimates::new(2);
+        e.fill_from_truth(&s, 0.8, false);
+        assert_eq!(e.obstacle_force_n, vec![[0.0, 2.0, 0.0], [0.0; 3]]);
+        assert_eq!(e.contact, vec![true, false]);
+        assert_eq!(e.self_contact_force_n, vec![[-3.0, 0.0, 0.0], [3.0, 0.0, 0.0]]);
+        assert_eq!(e.self_contact, vec![true, true]);
+        e.fill_from_truth(&s, 0.8, true);
+        assert_eq!(e.obstacle_force_n, vec![[-3.0, 2.0, 0.0], [3.0, 0.0, 0.0]]);
+        assert_eq!(e.contact, vec![true, true]);
+        // Link 0 keeps the peg's point, link 1 gets the other link's.
+        assert_eq!(e.contact_point_m[0], Some([0.0; 3]));
+        let p = e.contact_point_m[1].expect("the other link's point");
+        assert!((p[0] + 0.1).abs() < 1e-12 && p[1] == 0.0 && p[2] == 0.0, "{p:?}");
+        let mut t = ContactEstimates::new(2);
+        t.fill_true_split(&s, 0.8);
+        assert_eq!(t.external_force_n, s.link_contact_force_n);
+        assert_eq!((t.obstacle_force_n[1], t.self_contact_force_n[1]), ([0.0; 3], [3.0, 0.0, 0.0]));
     }
 
     #[test]

@@ -1184,6 +1184,10 @@ pub struct Estimation {
     pub friction_prior: f64,
     /// Identification: time constant (s) of the forgetting factor (older link-steps weigh less).
     pub friction_window_secs: f64,
+    /// Separate self-contacts (link–link) from obstacle forces, from the body's shape (encoders).
+    pub self_contacts: bool,
+    /// Two links count as touching when the shape puts their capsules at most this far apart (m).
+    pub self_contact_margin_m: f64,
 }
 
 /// `estimation.friction`.
@@ -1315,4 +1319,8 @@ pub enum ContactSource {
     Estimated,
     /// The simulator's obstacle forces and contact points (for comparison).
     True,
+    /// The simulator's obstacle forces and the other links' (self-contact) forces together, as
+    /// one obstacle force per link: what an exact estimator that cannot tell self-contacts from
+    /// obstacles would report (for comparison: how much a law reacts to its own body).
+    TrueWithSelf,
 }

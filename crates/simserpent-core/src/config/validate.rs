@@ -305,10 +305,10 @@ impl Config {
             format!("control.controller = \"{name}\" shapes the sine wave: it needs gait.kind = \"sine_wave\""),
         )?;
         ensure(
-            contacts == ContactSource::True || self.estimation.enabled,
+            contacts != ContactSource::Estimated || self.estimation.enabled,
             &format!("{name}.contacts"),
             "\"estimated\"",
-            "reads the step loop's contact estimates: set estimation.enabled = true (or contacts = \"true\")",
+            "reads the step loop's contact estimates: set estimation.enabled = true (or contacts = \"true\" or \"true_with_self\")",
         )?;
         let w = &self.gait.sine_wave;
         if self.control.controller == ControllerKind::FollowTheLeaderReflex {
@@ -364,7 +364,8 @@ impl Config {
         non_negative("estimation.tilt_gain_per_s", e.tilt_gain_per_s)?;
         non_negative("estimation.contact_point_filter_secs", e.contact_point_filter_secs)?;
         positive("estimation.friction_prior", e.friction_prior)?;
-        positive("estimation.friction_window_secs", e.friction_window_secs)
+        positive("estimation.friction_window_secs", e.friction_window_secs)?;
+        non_negative("estimation.self_contact_margin_m", e.self_contact_margin_m)
     }
 
     fn validate_path_following(&self) -> Check {

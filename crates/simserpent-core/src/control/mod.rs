@@ -337,13 +337,15 @@ impl Controller for TrajectoryController {
 }
 
 /// Where a contact-feeling controller (a contact law) gets its contacts: the step
-/// loop's estimates in the observation, or, with `ContactSource::True` (for comparison), the
-/// simulator's truth, which needs the full state (`Controller::update_with_state`).
+/// loop's estimates in the observation, or, for comparison, the simulator's truth, which needs
+/// the full state (`Controller::update_with_state`): `ContactSource::True` the obstacle forces
+/// alone, `ContactSource::TrueWithSelf` the obstacles' and the other links' (self-contact)
+/// forces together as one obstacle force ([`crate::state::ContactEstimates::fill_from_truth`]).
 #[derive(Debug, Clone)]
 pub struct ContactFeed {
     /// Where the contacts come from.
     pub source: crate::config::ContactSource,
-    /// With `source = True`: a link touches a peg when the true horizontal obstacle force reaches
+    /// With a true source: a link touches a peg when the true horizontal obstacle force reaches
     /// this (N; the estimator's detection threshold).
     pub true_threshold_n: f64,
     /// The true contacts, filled each step (no allocation after construction).
@@ -362,13 +364,13 @@ impl ContactFeed {
 
     /// Whether the controller needs the simulator's state (the true contacts).
     pub fn needs_full_state(&self) -> bool {
-        self.source == crate::config::ContactSource::True
+        self.source != crate::config::ContactSource::Estimated
     }
 }
 
 /// One update of the contact-feeling controller `ctl` (its feed reached through `feed`): calls
 /// `step` with this instant's contacts — the observation's estimates; the truth of `state` with
-/// `source = True`; nothing (inactive estimates) with `source = True` and no state.
+/// a true source; nothing (inactive estimates) with a true source and no state.
 pub(crate) fn feel<C>(
     ctl: &mut C,
     feed: fn(&mut C) -> &mut ContactFeed,
@@ -381,11 +383,13 @@ pub(crate) fn feel<C>(
     let f = feed(ctl);
     match (f.source, state) {
         (ContactSource::Estimated, _) => step(ctl, obs, &obs.contacts, cmd),
-        (ContactSource::True, None) => step(ctl, obs, &crate::state::ContactEstimates::default(), cmd),
-        (ContactSource::True, Some(state)) => {
+        (ContactSource::True | ContactSource::TrueWithSelf, None) => {
+            step(ctl, obs, &crate::state::ContactEstimates::default(), cmd);
+        }
+        (source @ (ContactSource::True | ContactSource::TrueWithSelf), Some(state)) => {
             let threshold_n = f.true_threshold_n;
             let mut truth = std::mem::take(&mut f.truth);
-            truth.fill_from_truth(state, threshold_n);
+            truth.fill_from_truth(state, threshold_n, source == ContactSource::TrueWithSelf);
             step(ctl, obs, &truth, cmd);
             feed(ctl).truth = truth;
         }

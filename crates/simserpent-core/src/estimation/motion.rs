@@ -81,10 +81,30 @@
 //! `±(L/2 − r)·x̂`): [`cap_point_m`]. Without that, a peg pushing on a cap at angle β from the
 //! lateral direction reads `r·(tan β − sin β)` too far out (1.2 cm at 45° with r = 4 cm).
 //!
+//! **Self-contacts** (`estimation.self_contacts`). A link can also be pushed by another link of
+//! the same body (a wide wave folds the body onto itself); the joint sensors cannot tell that push
+//! from a peg's. The encoders can: they give the body's shape (stage 1's chain), so the estimator
+//! knows which links lie close enough to touch. Each link is a capsule of radius `r` around a core
+//! segment `c ± h·x̂` (`h = L/2 − r`, the generated snake's capsule; `L/2` with
+//! `legacy.geometry = "faithful"`); links `i` and `j ≥ i + 2` (a link and its neighbour only meet
+//! at their joint) touch when the distance of their cores, `|pᵢ − pⱼ|` at their closest points
+//! (C. Ericson, *Real-Time Collision Detection*, 2005, §5.1.9), is at most
+//! `2r + estimation.self_contact_margin_m`. Such a pair pushes itself apart along the horizontal
+//! normal `n̂ = (pᵢ − pⱼ)/|pᵢ − pⱼ|` with equal and opposite forces, `+f` on `i` and `−f` on `j`
+//! (Newton's third law), `f = λ·n̂ + t·t̂` (`t̂ = ẑ × n̂`). Of the two links' horizontal rests
+//! after the floor's share, `rᵢ` and `rⱼ`, the pair's force is the part both show:
+//! `λ = max(0, min(rᵢ·n̂, −rⱼ·n̂))`, and the friction `t` the smaller of `rᵢ·t̂` and `−rⱼ·t̂` when
+//! they agree in sign (else 0), at most `μ_link·λ` (`snake.link_friction`). So a peg that pushes
+//! only one link of a close pair stays an obstacle force (the other link shows no push back),
+//! and a push both links share is the pair's. Pairs are taken in the order (i, j); each takes its
+//! force out of both rests before the next. The self-contact force acts at the surface points
+//! `pᵢ − r·n̂` and `pⱼ + r·n̂`; its moment leaves the obstacle's before the contact point is fitted.
+//! A link in a touching pair is also left out of the friction identification.
+//!
 //! Nothing here allocates after construction.
 
 use super::{ContactEstimator, EstimateOutput, EstimatorInput, NewtonEulerEstimator, cross, quat_to_matrix};
-use crate::config::{Config, FloorFrictionSource, GroundModel, JointAxes, OrientationSource};
+use crate::config::{Config, FloorFrictionSource, GroundModel, JointAxes, LegacyGeometry, OrientationSource};
 use crate::state::{ContactEstimates, Observation};
 
 /// Link poses and velocities of one instant (world frame).
@@ -740,6 +760,75 @@ pub fn cap_point_m(side_s_m: f64, axial_n: f64, lateral_n: f64, half_core_m: f64
     }
 }
 
+/// Per link: what stage 3's floor pass hands to the obstacle pass.
+#[derive(Debug, Clone, Copy, Default)]
+struct LinkStage {
+    /// The link's horizontal unit axis and its 3-D axis.
+    axis: [f64; 3],
+    axis3: [f64; 3],
+    /// Centre of mass (m).
+    com_m: [f64; 3],
+    /// The sliding floor friction's vertical moment about the centre of mass (N·m).
+    friction_moment_z: f64,
+    /// The share of the support on sticking floor points.
+    stick_share: f64,
+}
+
+/// Two links that the body's shape brings into touch (module docs, self-contacts).
+#[derive(Debug, Clone, Copy)]
+struct TouchingPair {
+    /// The links (i, j), i + 2 ≤ j.
+    links: [usize; 2],
+    /// The closest points of their core segments (m).
+    core_points_m: [[f64; 3]; 2],
+    /// Horizontal unit normal from link j toward link i.
+    normal: [f64; 3],
+}
+
+/// The self-contact model (`estimation.self_contacts`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct SelfContactModel {
+    /// Half the length of a link's core segment (m).
+    core_half_m: f64,
+    /// Largest gap (m) between two capsules that touch.
+    margin_m: f64,
+    /// Link–link friction coefficient.
+    friction: f64,
+}
+
+/// Closest points of the segments `p1`–`q1` and `p2`–`q2` (C. Ericson, *Real-Time Collision
+/// Detection*, 2005, §5.1.9).
+fn closest_points_of_segments(p1: [f64; 3], q1: [f64; 3], p2: [f64; 3], q2: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let (d1, d2, r) = (sub(q1, p1), sub(q2, p2), sub(p1, p2));
+    let (a, e, f) = (dot(d1, d1), dot(d2, d2), dot(d2, r));
+    const EPS: f64 = 1e-18;
+    let (s, t) = if a <= EPS && e <= EPS {
+        (0.0, 0.0)
+    } else if a <= EPS {
+        (0.0, (f / e).clamp(0.0, 1.0))
+    } else {
+        let c = dot(d1, r);
+        if e <= EPS {
+            ((-c / a).clamp(0.0, 1.0), 0.0)
+        } else {
+            let b = dot(d1, d2);
+            let denom = a * e - b * b;
+            let s = if denom > EPS { ((b * f - c * e) / denom).clamp(0.0, 1.0) } else { 0.0 };
+            let t = (b * s + f) / e;
+            if t < 0.0 {
+                ((-c / a).clamp(0.0, 1.0), 0.0)
+            } else if t > 1.0 {
+                (((b - c) / a).clamp(0.0, 1.0), 1.0)
+            } else {
+                (s, t)
+            }
+        }
+    };
+    (add(p1, scale(d1, s)), add(p2, scale(d2, t)))
+}
+
 /// The estimator of the step loop (module documentation). Built once; `update` does not
 /// allocate.
 pub struct MotionEstimator {
@@ -770,6 +859,14 @@ pub struct MotionEstimator {
     /// The floor model and the friction fit at the start, for [`MotionEstimator::reset`].
     initial_floor: FloorShare,
     initial_friction_fit: Option<FrictionFit>,
+    /// Self-contacts apart from obstacles (`None`: off, or the model has no self-collision).
+    self_contacts: Option<SelfContactModel>,
+    /// Scratch of one update (sized once): the touching pairs, per link whether it is in one,
+    /// the floor pass's figures and the self-contact force's vertical moment (N·m).
+    pairs: Vec<TouchingPair>,
+    near: Vec<bool>,
+    links: Vec<LinkStage>,
+    self_moment_z: Vec<f64>,
 }
 
 /// The internal state of a [`MotionEstimator`] ([`MotionEstimator::save_state`]): the head's
@@ -839,6 +936,20 @@ impl MotionEstimator {
             friction_fit: None,
             initial_floor: FloorShare::from_config(config),
             initial_friction_fit: None,
+            self_contacts: (e.self_contacts && config.physics.self_collision).then(|| {
+                let (l, r) = (config.snake.link_length_m, config.snake.link_radius_m);
+                let core_half_m =
+                    if config.legacy.geometry == LegacyGeometry::Faithful { 0.5 * l } else { (0.5 * l - r).max(0.0) };
+                SelfContactModel {
+                    core_half_m,
+                    margin_m: e.self_contact_margin_m,
+                    friction: config.snake.link_friction[0],
+                }
+            }),
+            pairs: Vec::with_capacity(n * n.saturating_sub(1) / 2),
+            near: vec![false; n],
+            links: vec![LinkStage::default(); n],
+            self_moment_z: vec![0.0; n],
         }
         .with_friction_source(config)
     }
@@ -949,8 +1060,9 @@ impl MotionEstimator {
         copy(&mut input.joint_torque_nm, &obs.joint_torque_nm);
         self.estimator.estimate(&self.input, &mut self.out);
         self.add_inertial_moments(obs.sensor_time_secs, n);
-        // Stage 3: the floor's share and the obstacles'.
+        // Stage 3: the floor's share, the other links' and the obstacles'.
         let half_core = (0.5 * self.geometry.link_length_m - self.geometry.link_radius_m).max(0.0);
+        self.find_touching_pairs(n);
         for i in 0..n {
             let f = self.out.link_force_n[i];
             let r = &self.input.link_rotation[i];
@@ -1013,7 +1125,9 @@ impl MotionEstimator {
                 // A steady support: the floor's friction bound is μ times a normal force of an
                 // earlier evaluation (module docs), so a step where N jumps is not μ·N.
                 let steady = (normal_n - previous_n).abs() <= IDENTIFY_MAX_SUPPORT_CHANGE * normal_n;
-                let cols = (normal_n >= 0.3 * weight_n && steady && peg_z_n == 0.0)
+                // A link the shape brings against another is left out: the other link's push is
+                // no floor friction.
+                let cols = (normal_n >= 0.3 * weight_n && steady && peg_z_n == 0.0 && !self.near[i])
                     .then(|| self.floor.sliding_regressors(axis, normal_n, share, &points, min_speed))
                     .flatten();
                 if let Some(cols) = cols {
@@ -1031,10 +1145,16 @@ impl MotionEstimator {
                 }
             }
             let floor = [friction[0], friction[1], normal_n];
-            let obstacle = [f[0] - friction[0], f[1] - friction[1], f[2] - normal_n];
             out.external_force_n[i] = f;
             out.floor_force_n[i] = floor;
-            out.obstacle_force_n[i] = obstacle;
+            out.obstacle_force_n[i] = [f[0] - friction[0], f[1] - friction[1], f[2] - normal_n];
+            self.links[i] = LinkStage { axis, axis3, com_m: c, friction_moment_z, stick_share };
+        }
+        // Self-contacts: the part of the rest that the other links push (module docs).
+        self.separate_self_contacts(n, out);
+        for i in 0..n {
+            let LinkStage { axis, axis3, com_m: c, friction_moment_z, stick_share } = self.links[i];
+            let obstacle = out.obstacle_force_n[i];
             let magnitude = obstacle[0].hypot(obstacle[1]);
             let touching = magnitude >= self.detection_threshold_n && magnitude.is_finite();
             out.contact[i] = touching;
@@ -1045,7 +1165,7 @@ impl MotionEstimator {
                 // comes from; its axial part (peg friction) has the moment r·sign(f_lat)·f_a there.
                 let axial = axis[0] * obstacle[0] + axis[1] * obstacle[1];
                 let side = self.geometry.link_radius_m * lateral.signum() * axial;
-                let moment = self.out.link_moment_nm[i][2] - friction_moment_z - side;
+                let moment = self.out.link_moment_nm[i][2] - friction_moment_z - self.self_moment_z[i] - side;
                 let held = if stick_share > 0.0 { fit.hold(obs.sensor_time_secs, lateral) } else { None };
                 let s = held.unwrap_or_else(|| fit.add(obs.sensor_time_secs, moment, lateral, self.point_filter_secs));
                 cap_point_m(s, axial, lateral, half_core, self.geometry.link_radius_m)
@@ -1063,6 +1183,82 @@ impl MotionEstimator {
         }
         out.floor_friction = self.floor.coefficients();
         out.active = true;
+    }
+
+    /// The pairs of links (i, i + 2 and further) whose capsules the shape of this update brings
+    /// within the margin (module docs, self-contacts), and per link whether it is in one.
+    fn find_touching_pairs(&mut self, n: usize) {
+        self.pairs.clear();
+        self.near.fill(false);
+        let Some(model) = self.self_contacts else { return };
+        let r = self.geometry.link_radius_m;
+        let core = |poses: &LinkPoses, i: usize| {
+            let axis = super::rotate(&quat_to_matrix(poses.quat[i]), [1.0, 0.0, 0.0]);
+            let c = poses.com_m[i];
+            (add(c, scale(axis, model.core_half_m)), add(c, scale(axis, -model.core_half_m)))
+        };
+        for i in 0..n {
+            let (p1, q1) = core(&self.poses, i);
+            for j in i + 2..n {
+                let (p2, q2) = core(&self.poses, j);
+                let (a, b) = closest_points_of_segments(p1, q1, p2, q2);
+                let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+                let distance = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                let horizontal = d[0].hypot(d[1]);
+                if distance - 2.0 * r > model.margin_m || horizontal <= 1e-9 || !horizontal.is_finite() {
+                    continue;
+                }
+                self.pairs.push(TouchingPair {
+                    links: [i, j],
+                    core_points_m: [a, b],
+                    normal: [d[0] / horizontal, d[1] / horizontal, 0.0],
+                });
+                self.near[i] = true;
+                self.near[j] = true;
+            }
+        }
+    }
+
+    /// Takes each touching pair's equal and opposite force out of both links' obstacle forces
+    /// in `out` and reports it as self-contact force (module docs, self-contacts); the force's
+    /// vertical moment about each link's centre of mass goes to `self_moment_z`.
+    fn separate_self_contacts(&mut self, n: usize, out: &mut ContactEstimates) {
+        for i in 0..n {
+            out.self_contact_force_n[i] = [0.0; 3];
+            self.self_moment_z[i] = 0.0;
+        }
+        let (r, friction) = (self.geometry.link_radius_m, self.self_contacts.map_or(0.0, |m| m.friction));
+        for pair in &self.pairs {
+            let [i, j] = pair.links;
+            let nv = pair.normal;
+            let tv = [-nv[1], nv[0], 0.0];
+            let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1];
+            let (ri, rj) = (out.obstacle_force_n[i], out.obstacle_force_n[j]);
+            let lambda = dot(ri, nv).min(-dot(rj, nv)).max(0.0);
+            if !(lambda > 0.0 && lambda.is_finite()) {
+                continue;
+            }
+            let (ti, tj) = (dot(ri, tv), -dot(rj, tv));
+            let t = if ti * tj > 0.0 { ti.signum() * ti.abs().min(tj.abs()).min(friction * lambda) } else { 0.0 };
+            let f = add(scale(nv, lambda), scale(tv, t));
+            for (link, sign, point) in [
+                (i, 1.0, add(pair.core_points_m[0], scale(nv, -r))),
+                (j, -1.0, add(pair.core_points_m[1], scale(nv, r))),
+            ] {
+                let fk = scale(f, sign);
+                let o = &mut out.obstacle_force_n[link];
+                o[0] -= fk[0];
+                o[1] -= fk[1];
+                out.self_contact_force_n[link] = add(out.self_contact_force_n[link], fk);
+                let arm = [point[0] - self.links[link].com_m[0], point[1] - self.links[link].com_m[1]];
+                self.self_moment_z[link] += arm[0] * fk[1] - arm[1] * fk[0];
+            }
+        }
+        for i in 0..n {
+            let s = out.self_contact_force_n[i];
+            let magnitude = s[0].hypot(s[1]);
+            out.self_contact[i] = magnitude >= self.detection_threshold_n && magnitude.is_finite();
+        }
     }
 
     /// The vertical force (N) a peg exerts on link `i` through its friction, from the link's
@@ -1441,6 +1637,102 @@ mod tests {
         // The head turned by 5e-5 rad over the update (the gyro integrated), so the push has an
         // axial part of 1e-4 N acting at the radius: 2e-6 m.
         assert!((s - 0.03).abs() < 5e-6, "{s}");
+    }
+
+    /// Three links sliding along +x at 0.1 m/s on an isotropic floor (μ 0.5), link 2 lying
+    /// beside link 0 at `y_m` (centre to centre; the capsules touch at 2r = 8 cm); the stage-2
+    /// forces are the floor's sliding friction and support plus `push[i]` on link i.
+    fn folded_chain(y_m: f64, push: [[f64; 3]; 3]) -> ContactEstimates {
+        let mut config = straight_config(3);
+        config.ground.model = GroundModel::Isotropic;
+        config.snake.ground_friction = [0.5, 0.0, 0.0];
+        config.snake.link_friction = [0.5, 0.0, 0.0];
+        config.estimation.orientation = OrientationSource::True;
+        struct Fixed([[f64; 3]; 3]);
+        impl ContactEstimator for Fixed {
+            fn estimate(&mut self, _input: &EstimatorInput, out: &mut EstimateOutput) {
+                let n = 0.3 * 9.81;
+                for i in 0..3 {
+                    out.link_force_n[i] = [-0.5 * n + self.0[i][0], self.0[i][1], n];
+                    out.link_moment_nm[i] = [0.0; 3];
+                }
+            }
+        }
+        let mut est = MotionEstimator::with_estimator(&config, &[0.3; 3], Box::new(Fixed(push)));
+        let mut poses = LinkPoses::new(3);
+        let l = config.snake.link_length_m;
+        poses.com_m = vec![[0.0, 0.0, 0.04], [-0.5 * l, 0.5 * y_m, 0.04], [0.0, y_m, 0.04]];
+        poses.quat[1] = [std::f64::consts::FRAC_1_SQRT_2, 0.0, 0.0, std::f64::consts::FRAC_1_SQRT_2];
+        for i in 0..3 {
+            poses.com_velocity_m_per_s[i] = [0.1, 0.0, 0.0];
+            let x = crate::state::x_axis(poses.quat[i]);
+            poses.origin_m[i] = add(poses.com_m[i], scale(x, 0.5 * l));
+        }
+        let obs = Observation::new(3, 2);
+        let mut out = ContactEstimates::new(3);
+        est.update(&obs, Some(&poses), &mut out);
+        out
+    }
+
+    #[test]
+    fn two_links_pressed_together_are_a_self_contact_not_an_obstacle() {
+        // Link 2 (at y = 8.1 cm: 1 mm gap) pushes link 0 toward −y with 5 N and link 0 pushes back,
+        // with 0.5 N of friction along the links.
+        let out = folded_chain(0.081, [[0.5, -5.0, 0.0], [0.0; 3], [-0.5, 5.0, 0.0]]);
+        for (i, sign) in [(0, 1.0), (2, -1.0)] {
+            let s = out.self_contact_force_n[i];
+            assert!((s[0] - 0.5 * sign).abs() < 1e-9 && (s[1] + 5.0 * sign).abs() < 1e-9, "{i}: {s:?}");
+            assert!(out.self_contact[i] && !out.contact[i], "link {i}: a self-contact, no obstacle");
+            let o = out.obstacle_force_n[i];
+            assert!(o[0].hypot(o[1]) < 1e-9, "{i}: {o:?}");
+            assert_eq!(out.contact_point_along_m[i], None);
+        }
+        assert_eq!(out.self_contact_force_n[1], [0.0; 3]);
+        // Without the separation the same forces are obstacle forces on both links.
+        let mut config = straight_config(3);
+        config.estimation.self_contacts = false;
+        let est = MotionEstimator::from_config(&config, &[0.3; 3]);
+        assert!(est.self_contacts.is_none());
+    }
+
+    #[test]
+    fn a_peg_beside_a_close_pair_stays_an_obstacle() {
+        // The same folded pair, but only link 0 is pushed (by a peg): link 2 shows no push back,
+        // so the whole 5 N is an obstacle force.
+        let out = folded_chain(0.081, [[0.0, -5.0, 0.0], [0.0; 3], [0.0; 3]]);
+        let o = out.obstacle_force_n[0];
+        assert!(o[0].abs() < 1e-9 && (o[1] + 5.0).abs() < 1e-9, "{o:?}");
+        assert!(out.contact[0] && !out.self_contact[0]);
+        assert_eq!(out.self_contact_force_n[0], [0.0; 3]);
+        // A peg pushing link 0 while link 2 presses on it: the pair's 3 N is the self-contact,
+        // the peg's extra 4 N stays on link 0.
+        let out = folded_chain(0.081, [[0.0, -7.0, 0.0], [0.0; 3], [0.0, 3.0, 0.0]]);
+        assert!((out.obstacle_force_n[0][1] + 4.0).abs() < 1e-9, "{:?}", out.obstacle_force_n[0]);
+        assert!((out.self_contact_force_n[0][1] + 3.0).abs() < 1e-9);
+        assert!(out.obstacle_force_n[2][1].abs() < 1e-9 && !out.contact[2]);
+    }
+
+    #[test]
+    fn links_the_shape_keeps_apart_cannot_push_each_other() {
+        // Equal and opposite pushes on links 0 and 2 lying 30 cm apart: no self-contact, both are
+        // obstacle forces (two pegs).
+        let out = folded_chain(0.3, [[0.0, -5.0, 0.0], [0.0; 3], [0.0, 5.0, 0.0]]);
+        for i in [0, 2] {
+            assert!(out.contact[i] && !out.self_contact[i], "{i}");
+            assert!((out.obstacle_force_n[i][1].abs() - 5.0).abs() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn closest_points_of_crossing_and_parallel_segments() {
+        let (a, b) = closest_points_of_segments([-1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, -1.0, 1.0], [0.5, 1.0, 1.0]);
+        assert!((a[0] - 0.5).abs() < 1e-12 && a[1].abs() < 1e-12 && (b[2] - 1.0).abs() < 1e-12, "{a:?} {b:?}");
+        // Parallel, overlapping: a pair at the same distance (1).
+        let (a, b) = closest_points_of_segments([0.0; 3], [1.0, 0.0, 0.0], [0.5, 1.0, 0.0], [2.0, 1.0, 0.0]);
+        assert!(((a[0] - b[0]).hypot(a[1] - b[1]) - 1.0).abs() < 1e-12, "{a:?} {b:?}");
+        // End to end along a line: the facing ends.
+        let (a, b) = closest_points_of_segments([0.0; 3], [1.0, 0.0, 0.0], [3.0, 0.0, 0.0], [2.0, 0.0, 0.0]);
+        assert_eq!((a, b), ([1.0, 0.0, 0.0], [2.0, 0.0, 0.0]));
     }
 
     #[test]
