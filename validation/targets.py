@@ -82,6 +82,15 @@ def _g(x: float) -> str:
     return f"{x:.2e}"
 
 
+def _worst_ratio(values, bases) -> float:
+    """The largest |value / base − 1| with its sign (inf where a zero base meets a non-zero value)."""
+    worst = 0.0
+    for v, b in zip(values, bases):
+        d = (float(v) / float(b) - 1.0) if b != 0 else (0.0 if v == 0 else math.inf)
+        worst = max(worst, d, key=abs)
+    return worst
+
+
 def check(t: Target, ours, ref) -> tuple[bool | None, str]:
     """Whether `ours` meets the target given the reference value `ref`, and the bound as text."""
     if t.kind in ("each ratio", "each fixed"):
@@ -89,7 +98,7 @@ def check(t: Target, ours, ref) -> tuple[bool | None, str]:
             return False, "figure missing (n/a)"
         base = list(ref) if t.kind == "each ratio" else [1.0] * len(ours)
         ok = all(t.lo * b <= o <= t.hi * b for o, b in zip(ours, base))
-        worst = max((o / b - 1.0 for o, b in zip(ours, base)), key=abs)
+        worst = _worst_ratio(ours, base)
         scale = "× the compared figure, each link" if t.kind == "each ratio" else "each link"
         return ok, f"{_g(t.lo)} … {_g(t.hi)} {scale} (worst {100 * worst:+.1f} %)"
     if t.kind == "range fixed":
@@ -128,7 +137,7 @@ def check_fine(t: Target, coarse, fine) -> tuple[bool | None, str]:
         if coarse is None or fine is None:
             return False, "figure missing (n/a)"
         ok = all(t.lo * a <= b <= t.hi * a for a, b in zip(coarse, fine))
-        worst = max((b / a - 1.0 for a, b in zip(coarse, fine)), key=abs)
+        worst = _worst_ratio(fine, coarse)
         return ok, f"fine / default {_g(t.lo)} … {_g(t.hi)} each link (worst {100 * worst:+.1f} %)"
     if c is None or f is None or math.isnan(c) or math.isnan(f):
         return False, "figure missing (n/a)"
