@@ -320,8 +320,8 @@ impl<'a> Scan<'a> {
         while start < self.len {
             let n = BLOCK.min(self.len - start) as usize;
             read_at(self.file, start, &mut block[..n])?;
-            for i in 0..n {
-                if block[i] != mcap::records::op::CHUNK {
+            for (i, &byte) in block.iter().enumerate().take(n) {
+                if byte != mcap::records::op::CHUNK {
                     continue;
                 }
                 let at = start + i as u64;
