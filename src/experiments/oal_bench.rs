@@ -316,8 +316,8 @@ pub struct Bench {
 
 impl Bench {
     /// The full benchmark: 10 tuning and 30 held-out fields per family on both floors and the
-    /// lattice and random families, 60-s runs, every condition with twins (about an hour on
-    /// 2 cores; BENCHMARKS.md).
+    /// lattice and random families, 60-s runs, every condition with twins (its size in runs:
+    /// BENCHMARKS.md).
     pub fn full() -> Self {
         Self {
             tuning_fields: 10,
