@@ -391,9 +391,11 @@ struct OalArgs {
     #[arg(long, value_name = "SECS", value_parser = duration_arg)]
     duration: Option<f64>,
     /// `oal-bench` only: the conditions beside `open_loop`, any of passive, matched (the stiff
-    /// wave at each passive gain's bare-floor speed), laws (estimated contacts), laws_true
-    /// (default all).
-    #[arg(long, value_delimiter = ',', value_parser = ["passive", "matched", "laws", "laws_true"])]
+    /// wave at each passive gain's bare-floor speed), laws (estimated contacts), laws_true,
+    /// laws_true_self (the true obstacle and self-contact forces as one), compliance (Wang et
+    /// al. 2023's generalised compliance G = 0.25, 0.5, 0.75, 1 swept on the tuning fields)
+    /// (default: passive, matched, laws, laws_true).
+    #[arg(long, value_delimiter = ',', value_parser = ["passive", "matched", "laws", "laws_true", "laws_true_self", "compliance"])]
     conditions: Vec<String>,
     /// `oal-bench` only: the passive gains swept on the tuning fields, N·m/rad (each 0.01–1000;
     /// default 10,5,2.5, --quick 5).
@@ -482,11 +484,15 @@ impl OalArgs {
                     "--conditions matched: the matched open loop needs `passive` too (it matches a passive gain)"
                 );
             }
-            b.laws = has("laws") || has("laws_true");
+            if has("compliance") {
+                b.compliance = simserpent::experiments::oal_bench::COMPLIANCE_G.to_vec();
+            }
+            b.laws = has("laws") || has("laws_true") || has("laws_true_self");
             b.true_contacts = has("laws_true");
-            if has("laws_true") && !has("laws") {
+            b.true_with_self = has("laws_true_self");
+            if (has("laws_true") || has("laws_true_self")) && !has("laws") {
                 anyhow::bail!(
-                    "--conditions laws_true: give `laws` too (the laws on true contacts pair with estimated ones)"
+                    "--conditions laws_true / laws_true_self: give `laws` too (the laws on true contacts pair with estimated ones)"
                 );
             }
         }

@@ -298,8 +298,8 @@ def oal_bench(
     ``threads``: 0 = all cores.
 
     Writes ``<out>/oal-bench-<UTC time>/`` (``report.md``, ``oal_runs.csv``, ``oal_summary.csv``,
-    ``oal_paired.csv``, ``oal_heading.csv``, ``oal_bare.csv``, ``plots/``); returns ``{"folder": ..., "report": <the report as
-    Markdown>}``. An exception in your controller stops the benchmark and is raised as the cause
+    ``oal_paired.csv``, ``oal_heading.csv``, ``oal_bare.csv``, ``plots/``); returns
+    ``{"folder": ..., "report": <the report as Markdown>}``. An exception in your controller stops the benchmark and is raised as the cause
     of a :class:`SimSerpentError`.
     """
     if controller is not None and not callable(controller):

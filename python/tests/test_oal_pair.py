@@ -63,7 +63,7 @@ def test_tables_with_a_missing_column_or_a_bad_value_are_refused(tmp_path):
 def test_hostile_tables_are_refused_with_file_line_and_value(tmp_path):
     """A seed that is no ASCII number, one of 5,000 digits, a field over 128 KiB, binary bytes, a
     NUL byte, a short row: exit code 2, the file, the line and the value (cut), no traceback."""
-    row = "anisotropic,random,x,{seed},held_out,law,true,60,0,0,0,NaN\n"
+    row = "anisotropic,random,x,{seed},held_out,law,true,false,60,NaN,0,0,0,0,NaN\n"
     cases = {
         "superscript": (HEADER + row.format(seed="²")).encode(),
         "digits": (HEADER + row.format(seed="9" * 5000)).encode(),
@@ -90,11 +90,12 @@ def test_100000_paired_fields_give_the_exact_mean_and_an_interval_around_it(tmp_
     its interval lies around it within the bootstrap's spread (about 0.2 points here)."""
     rows = [HEADER]
     for i in range(100_000):
-        rows.append(f"anisotropic,random,x,{1000 + i},held_out,law,{str(i % 10 < 3).lower()},60,0,0,0,NaN\n")
-        rows.append(f"anisotropic,random,x,{1000 + i},held_out,base,{str(i % 10 == 0).lower()},60,0,0,0,NaN\n")
+        rows.append(f"anisotropic,random,x,{1000 + i},held_out,law,{str(i % 10 < 3).lower()},false,60,NaN,0,0,0,0,NaN\n")
+        rows.append(f"anisotropic,random,x,{1000 + i},held_out,base,{str(i % 10 == 0).lower()},false,60,NaN,0,0,0,0,NaN\n")
     (tmp_path / "a").mkdir()
     (tmp_path / "a" / "oal_runs.csv").write_text("".join(rows))
     done = pair(tmp_path / "a", "--against", "base")
     assert done.returncode == 0, done.stderr
     # law succeeds on i % 10 in {0, 1, 2}, the base on i % 10 == 0: +20 points exactly.
-    assert done.stdout.strip().splitlines()[-1] == "| anisotropic | random | `law` | 100000 | 30 | 10 | +20 (+20 – +20) |"
+    # 20,000 discordant fields, all the law's: McNemar's p is 2 · 2^-20000, 0 in floating point.
+    assert done.stdout.strip().splitlines()[-1] == "| anisotropic | random | `law` | 100000 | 30 | 10 | +20 (+20 – +20) | 0 (20000 / 0) |"

@@ -18,10 +18,14 @@
 //!   equal bare-floor speed; [`match_frequency`]); on a floor where the base gait does not move
 //!   forward there is nothing to match and every condition is scored against its twin instead;
 //! - each contact law (`follow_the_leader_reflex`, `directional_admittance`, `jam_resolution`),
-//!   fed the step loop's contact estimates (`_est`) and the simulator's true obstacle contacts
-//!   (`_true`), its gains scaled by each of [`Bench::law_gain_scales`] on the tuning fields (the
+//!   fed the step loop's contact estimates (`_est`), the simulator's true obstacle contacts
+//!   (`_true`) and, with [`Bench::true_with_self`], the true obstacle and self-contact forces as
+//!   one (`_true_self`), its gains scaled by each of [`Bench::law_gain_scales`] on the tuning fields (the
 //!   tuning budget: the same for every law and for a plugged controller's variants) and the best
 //!   scale on the held-out fields;
+//! - `compliance_g<G>` (with [`Bench::compliance`]): the base wave with Wang et al. (2023)'s
+//!   generalised compliance G ([`crate::control::BilateralCompliance`]), a mechanical baseline
+//!   without sensing, G swept on the tuning fields;
 //! - any controller a caller plugs in ([`Plugged`]).
 //!
 //! **Twins**: every held-out run also runs on the bare floor with the same seed (no pegs, the
@@ -79,6 +83,8 @@ pub const SERVO_KV_NM_S_PER_RAD: f64 = 1.0;
 pub const TORQUE_LIMIT_NM: f64 = 10.0;
 /// The passive-compliance sweep (position servo kp, N·m/rad; kv = kp/100).
 pub const PASSIVE_KP_NM_PER_RAD: [f64; 3] = [10.0, 5.0, 2.5];
+/// The generalised compliances of the `compliance` conditions (swept on the tuning fields).
+pub const COMPLIANCE_G: [f64; 4] = [0.25, 0.5, 0.75, 1.0];
 /// The law gain scales tried on the tuning fields.
 pub const LAW_GAIN_SCALES: [f64; 3] = [0.5, 1.0, 2.0];
 /// The jam rule: a run stops as jammed when its farthest forward position grows by less than
@@ -234,6 +240,8 @@ enum Kind {
     Matched(f64),
     /// A law, its contact feed and its gain scale.
     Law(ControllerKind, ContactSource, f64),
+    /// The base wave with generalised compliance G ([`crate::control::BilateralCompliance`]).
+    Compliance(f64),
     Plugged(Plugged),
 }
 
@@ -279,10 +287,16 @@ pub struct Bench {
     pub passive_kp_nm_per_rad: Vec<f64>,
     /// Whether the stiff open loop also runs at each passive gain's bare-floor speed.
     pub speed_matched: bool,
+    /// Generalised compliances G swept on the tuning fields (Wang et al. 2023's mechanical
+    /// baseline, `compliance_g<G>`); empty: none.
+    pub compliance: Vec<f64>,
     /// Whether the built-in contact laws run (on estimated contacts).
     pub laws: bool,
     /// Whether they run on the true contacts too (for the estimated-against-true comparison).
     pub true_contacts: bool,
+    /// Whether they also run on the true obstacle and self-contact forces as one
+    /// (`_true_self`: what an exact estimator blind to self-contacts would give).
+    pub true_with_self: bool,
     /// The tuning budget of each law: its gains (every gain of its section that sets how
     /// strongly it reacts) times each of these on the tuning fields; `[1.0]`: untuned.
     pub law_gain_scales: Vec<f64>,
@@ -302,8 +316,8 @@ pub struct Bench {
 
 impl Bench {
     /// The full benchmark: 10 tuning and 30 held-out fields per family on both floors and the
-    /// lattice and random families, 60-s runs, every condition with twins (about an hour on
-    /// 2 cores; BENCHMARKS.md).
+    /// lattice and random families, 60-s runs, every condition with twins (its size in runs:
+    /// BENCHMARKS.md).
     pub fn full() -> Self {
         Self {
             tuning_fields: 10,
@@ -314,8 +328,10 @@ impl Bench {
             families: vec![Family::Lattice, Family::Random],
             passive_kp_nm_per_rad: PASSIVE_KP_NM_PER_RAD.to_vec(),
             speed_matched: true,
+            compliance: Vec::new(),
             laws: true,
             true_contacts: true,
+            true_with_self: false,
             law_gain_scales: LAW_GAIN_SCALES.to_vec(),
             twins: true,
             plugged: Vec::new(),
@@ -365,6 +381,9 @@ impl Bench {
         if self.passive_kp_nm_per_rad.iter().any(|k| !(k.is_finite() && *k > 0.0)) {
             return bad(format!("passive gains {:?}: every gain must be positive", self.passive_kp_nm_per_rad));
         }
+        if self.compliance.iter().any(|g| !(0.0..=1.0).contains(g)) {
+            return bad(format!("compliances {:?}: each G from 0 to 1", self.compliance));
+        }
         if self.law_gain_scales.is_empty() || self.law_gain_scales.iter().any(|k| !(k.is_finite() && *k > 0.0)) {
             return bad(format!("law gain scales {:?}: at least one, each positive", self.law_gain_scales));
         }
@@ -388,10 +407,20 @@ impl Bench {
                 c.push(Condition { name: format!("matched_kp{kp}"), kind: Kind::Matched(kp), group: "matched".into() });
             }
         }
+        for &g in &self.compliance {
+            c.push(Condition {
+                name: format!("compliance_g{g}"),
+                kind: Kind::Compliance(g),
+                group: "compliance".into(),
+            });
+        }
         if self.laws {
             let mut sources = vec![("est", ContactSource::Estimated)];
             if self.true_contacts {
                 sources.push(("true", ContactSource::True));
+            }
+            if self.true_with_self {
+                sources.push(("true_self", ContactSource::TrueWithSelf));
             }
             for (name, kind) in LAWS {
                 for &(tag, source) in &sources {
@@ -550,7 +579,11 @@ fn condition_config(field: &Config, condition: &Condition, bench: &Bench, matche
                 c.control.position_kv_nm_s_per_rad = kp / 100.0;
             }
         }
-        Kind::Plugged(p) => c.estimation.enabled = p.estimation,
+        Kind::Compliance(_) | Kind::Plugged(_) => {
+            if let Kind::Plugged(p) = &condition.kind {
+                c.estimation.enabled = p.estimation;
+            }
+        }
     }
     c
 }
@@ -585,11 +618,10 @@ struct SelfContacts {
 
 impl Observer<SimError> for SelfContacts {
     fn on_record(&mut self, view: &StepView<'_>, snap: &Snapshot) -> Result<(), SimError> {
-        // Link–link contact over the whole run from t = 0: every contact that is neither the
-        // floor's nor an obstacle's is one.
+        // Link–link contact over the whole run from t = 0.
         self.steps += 1;
         let most = snap
-            .link_other_contact_force_n
+            .link_self_contact_force_n
             .iter()
             .map(|f| (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt())
             .fold(0.0, f64::max);
@@ -1200,8 +1232,10 @@ impl Plan<'_> {
             _ => None,
         };
         let config = condition_config(&field, condition, self.bench, matched);
-        let controller = match &condition.kind {
-            Kind::Plugged(p) => Some((p.make)(&config, config.snake.n_links.saturating_sub(1))),
+        let n_joints = config.snake.n_links.saturating_sub(1);
+        let controller: Option<Box<dyn Controller>> = match &condition.kind {
+            Kind::Plugged(p) => Some((p.make)(&config, n_joints)),
+            Kind::Compliance(g) => Some(Box::new(crate::control::BilateralCompliance::new(&config, n_joints, *g))),
             _ => None,
         };
         (config, controller, floor)
@@ -1656,6 +1690,8 @@ fn report(
         |floor: usize| held[floor].iter().copied().find(|&k| matches!(conditions[k].kind, Kind::Passive(_)));
     let matched_of =
         |floor: usize| held[floor].iter().copied().find(|&k| matches!(conditions[k].kind, Kind::Matched(_)));
+    let compliance_of =
+        |floor: usize| held[floor].iter().copied().find(|&k| matches!(conditions[k].kind, Kind::Compliance(_)));
     let quartiles = |mut v: Vec<f64>| -> [f64; 3] {
         v.retain(|x| x.is_finite());
         v.sort_by(f64::total_cmp);
@@ -1715,6 +1751,7 @@ fn report(
                 ));
                 let tag = match condition.kind {
                     Kind::Passive(_) => " (passive baseline)",
+                    Kind::Compliance(_) => " (compliance baseline)",
                     Kind::Matched(_) => " (speed-matched open loop)",
                     _ => "",
                 };
@@ -1766,10 +1803,14 @@ fn report(
                 let mut against: Vec<usize> = Vec::new();
                 match conditions[k].kind {
                     Kind::OpenLoop | Kind::Matched(_) => continue,
-                    Kind::Passive(_) => against.extend([Some(0), matched_of(fl)].into_iter().flatten()),
-                    _ => {
-                        against.extend([Some(0), passive_of(fl), matched_of(fl), truth_of(fl, k)].into_iter().flatten())
+                    Kind::Passive(_) | Kind::Compliance(_) => {
+                        against.extend([Some(0), matched_of(fl)].into_iter().flatten())
                     }
+                    _ => against.extend(
+                        [Some(0), passive_of(fl), matched_of(fl), compliance_of(fl), truth_of(fl, k)]
+                            .into_iter()
+                            .flatten(),
+                    ),
                 }
                 for other in against {
                     let a = values(fl, Some(fa), k, success);
@@ -1852,7 +1893,7 @@ fn report(
         }
         checks.push(Check::at_least(
             &format!(
-                "`{}`: lower 90 % bound of the paired success gain over open loop, passive and speed-matched baselines, worst floor × family (above 0 to beat them)",
+                "`{}`: lower 90 % bound of the paired success gain over the baselines (open loop, passive, speed-matched, compliance when run), worst floor × family (above 0 to beat them)",
                 c.name
             ),
             100.0 * target[k].0,

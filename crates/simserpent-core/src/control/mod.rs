@@ -4,6 +4,7 @@
 //! never touch MuJoCo. The simulation calls [`Controller::update`] once per physics step, before
 //! the step, with the state at the start of that step (see ARCHITECTURE.md for the exact order).
 
+mod bilateral_compliance;
 pub mod contact_jacobian;
 mod directional_admittance;
 mod follow_the_leader_reflex;
@@ -13,6 +14,7 @@ mod keys;
 mod path;
 mod pid;
 
+pub use bilateral_compliance::{BilateralCompliance, admissible_interval};
 pub use directional_admittance::DirectionalAdmittance;
 pub use follow_the_leader_reflex::FollowTheLeaderReflex;
 pub use gait::{
