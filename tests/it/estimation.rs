@@ -222,7 +222,8 @@ fn the_estimation_experiment_writes_data_and_plots_and_counts_every_case() {
     // with identified friction 2 floors × (4 + 2 identification checks); self-contact: 2 floors
     // × 3. A detection that static friction hides is reported as not observable, not checked.
     let hidden: Vec<_> = outcome.report.not_observable().collect();
-    assert_eq!(checks.len() + hidden.len(), 26 + 3 + 24 + 12 + 6);
+    let below = |c: &&&simserpent::experiments::Check| c.name.contains("below the floor's static friction");
+    assert_eq!(checks.len() + hidden.iter().filter(|c| !below(c)).count(), 26 + 3 + 24 + 12 + 6);
     assert!(
         hidden
             .iter()

@@ -452,12 +452,10 @@ fn contact_states_estimates_wrenches_and_imus_decode_to_the_table_values() {
             assert_eq!(m.obstacle_force[i].xyz(), v("obstacle_force"));
             assert_eq!(m.self_contact_force[i].xyz(), v("self_contact_force"));
             let other = v("other_contact_force");
-            for k in 0..3 {
-                let sum = m.floor_force[i].xyz()[k]
-                    + m.obstacle_force[i].xyz()[k]
-                    + m.self_contact_force[i].xyz()[k]
-                    + other[k];
-                assert!((sum - m.external_force[i].xyz()[k]).abs() < 1e-9, "{link}: the parts add up");
+            let parts = [m.floor_force[i].xyz(), m.obstacle_force[i].xyz(), m.self_contact_force[i].xyz(), other];
+            for (k, total) in m.external_force[i].xyz().iter().enumerate() {
+                let sum: f64 = parts.iter().map(|p| p[k]).sum();
+                assert!((sum - total).abs() < 1e-9, "{link}: the parts add up");
             }
         }
     }
