@@ -1269,6 +1269,7 @@ fn bag_repair(run_folder: &Path) -> Result<(), Failure> {
     use simserpent::ros2::bag_file::RepairError;
     let report = simserpent::ros2::repair_bag(run_folder).map_err(|e| match e {
         RepairError::Write { .. } | RepairError::NothingRecoverable { .. } => Failure { code: 1, error: e.into() },
+        RepairError::Interrupted => Failure { code: 130, error: e.into() },
         RepairError::File(ref f) if !f.is_bad_input() => Failure { code: 1, error: e.into() },
         e => bad_input(e),
     })?;
@@ -1387,6 +1388,7 @@ fn main() -> ExitCode {
                 | Command::Bench { .. }
                 | Command::Plot { .. }
                 | Command::Render { .. }
+                | Command::BagRepair { .. }
         )
     );
     if long_running && let Err(e) = simserpent::interrupt::install_handler() {

@@ -167,6 +167,10 @@ pub enum RepairError {
         /// What was found.
         message: String,
     },
+    /// SIGINT/SIGTERM stopped the repair (exit code 130): the temporary file is removed, the bag
+    /// is left as it is.
+    #[error("interrupted by a signal (SIGINT or SIGTERM); the bag is left as it is")]
+    Interrupted,
     /// Writing the repaired bag failed (its temporary file is removed; the bag is left as it
     /// is).
     #[error("cannot write {}: {message}", path.display())]
@@ -436,6 +440,9 @@ impl<'a> Scan<'a> {
         use mcap::records::{Record, op};
         let mut pos = MAGIC.len() as u64;
         while pos < self.len && !self.data_end {
+            if crate::interrupt::requested() {
+                return Err(ScanError::Interrupted);
+            }
             let Some((opcode, len)) = self.header_at(pos)? else {
                 // A record cut by the end of the file (the last one of a killed run) or bytes
                 // that are no record: go on at the next whole chunk, if there is one.
@@ -516,6 +523,7 @@ impl<'a> Scan<'a> {
 enum ScanError {
     Read(std::io::Error),
     Write(mcap::McapError),
+    Interrupted,
 }
 
 impl From<std::io::Error> for ScanError {
@@ -592,6 +600,7 @@ pub fn repair_bag(run_folder: &Path) -> Result<RepairReport, RepairError> {
             Ok(()) => {}
             Err(ScanError::Read(e)) => return Err(read_err(e)),
             Err(ScanError::Write(e)) => return Err(RepairError::Write { path, message: mcap_text(&e) }),
+            Err(ScanError::Interrupted) => return Err(RepairError::Interrupted),
         }
         if scan.data_end && scan.report.damage.is_empty() && scan.report.stopped.is_none() {
             return Ok(scan.report);
@@ -621,6 +630,7 @@ pub fn repair_bag(run_folder: &Path) -> Result<RepairReport, RepairError> {
         Ok(()) => {}
         Err(ScanError::Read(e)) => return Err(read_err(e)),
         Err(ScanError::Write(e)) => return Err(write_err(&mcap_text(&e))),
+        Err(ScanError::Interrupted) => return Err(RepairError::Interrupted),
     }
     let mut report = scan.report;
     if report.messages == 0 {
