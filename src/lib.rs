@@ -13,7 +13,7 @@
 //!   rewards out) behind the Python package's Gymnasium environments;
 //! - [`interrupt`]: the clean stop on SIGINT/SIGTERM;
 //! - the command line lives in `src/main.rs`.
-pub use simserpent_core::{config, control, estimation, model, state};
+pub use simserpent_core::{config, contact_law, control, estimation, model, state};
 
 pub mod bench;
 pub mod cpu_time;

@@ -46,11 +46,17 @@
 //!   contact. k = s·m_eff·ω², c = s·m_eff·b, with m_eff the point's effective mass along the
 //!   normal for the link alone, 1/m_eff = 1/m + (r×n)ᵀI⁻¹(r×n), and s = 2/max(2, the link's
 //!   penetrating ground points) (a capsule on a plane touches with its two caps; the many points
-//!   of a heightfield or mesh share the same total); ω = 1/(τ·ζ) and b = 2/τ from
+//!   of a heightfield or mesh share the same total); ω = 1/(τ·ζ_env) from
 //!   `physics.environment_contact_time_constant_secs` (τ, `"auto"`: max(2 ms, 2 timesteps)) and
-//!   `environment_contact_damping_ratio` (ζ), MuJoCo's reading of `solref`, or ω² and b given
-//!   directly (`contact_stiffness_per_s2`, `contact_damping_per_s`); bounded by ω·dt ≤ 1 and
-//!   b·dt ≤ ½. Every link of the same shape has the same compliance, so a straight body at rest
+//!   `environment_contact_damping_ratio` (ζ_env), MuJoCo's reading of `solref`, or ω² given
+//!   directly (`contact_stiffness_per_s2`); b = 2·ζ·ω with ζ the damping ratio whose linear
+//!   spring–damper, pushing only, rebounds at `physics.contact_restitution`
+//!   ([`crate::contact_law::damping_ratio_for_restitution`]); bounded by ω·dt ≤ 1 and b·dt ≤ ½.
+//!   So a link landing flat rebounds at the configured restitution where the bound leaves b
+//!   alone (0.3 → 0.29–0.30, 0.5 → 0.50–0.51, 0.7 → 0.71 at 0.25 and 0.1 ms steps, measured in
+//!   `tests/it/contact_events.rs`); at 1 ms with the default stiffness b·dt = ½ holds the damping
+//!   at 0.5/dt and a restitution below about 0.45 is not reached (0.3 and 0.5 both give 0.45).
+//!   Every link of the same shape has the same compliance, so a straight body at rest
 //!   carries each link's weight on that link; a capsule lying on the floor sinks about
 //!   m·g/(2·m_eff·ω²) (≈ 10 µm with the defaults).
 //! - **Friction**, per link: ground slots (slot 0: contact points ahead of the centre of mass
@@ -142,6 +148,7 @@
 
 use super::World;
 use crate::config::{Config, FloorFriction, GroundModel};
+use crate::contact_law::{damping_ratio_for_restitution, explicit_normal_force_n};
 use crate::model::{SurfaceMap, names};
 use crate::state::{ContactRow, GeomClass, Snapshot, x_axis};
 use mujoco_rs::prelude::{MjData, MjModel, MjtObjBase};
@@ -512,22 +519,24 @@ impl StickSlip {
         let omega = 1.0 / config.floor_stick_time_constant_secs();
         let g = config.general.gravity_m_per_s2;
         let g_abs = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-        // The environment contact's stiffness and damping per unit mass: MuJoCo's direct form
-        // when given, else ω = 1/τ_env with damping 2ζω.
-        // when given, else MuJoCo's reading of solref (natural frequency ω = 1/(τ·ζ), damping
-        // 2ζω = 2/τ); both bounded for a force held over an explicit step (ω·dt ≤ 1,
-        // 2ζω·dt ≤ 1/2: see the module docs).
+        // The environment contact's stiffness per unit mass: MuJoCo's direct form when given,
+        // else MuJoCo's reading of solref (natural frequency ω = 1/(τ·ζ_env)); its damping from
+        // the restitution; both bounded for a force held over an explicit step (ω·dt ≤ 1,
+        // b·dt ≤ 1/2: see the module docs).
         let p = &config.physics;
         let dt = config.general.timestep_secs;
-        let (omega_sq, damping) = if p.contact_stiffness_per_s2 > 0.0 {
-            (p.contact_stiffness_per_s2, p.contact_damping_per_s)
+        let omega_sq = if p.contact_stiffness_per_s2 > 0.0 {
+            p.contact_stiffness_per_s2
         } else {
             let tau = config.environment_contact_time_constant_secs();
             let zeta = p.environment_contact_damping_ratio;
-            (1.0 / (tau * zeta * tau * zeta), 2.0 / tau)
+            1.0 / (tau * zeta * tau * zeta)
         };
         let normal_stiffness_per_s2 = omega_sq.min(1.0 / (dt * dt));
-        let normal_damping_per_s = damping.min(0.5 / dt);
+        // The damping of `physics.contact_restitution`: b = 2·ζ·ω with ζ the damping ratio of the
+        // linear spring–damper that only pushes and rebounds at that restitution.
+        let zeta = damping_ratio_for_restitution(p.contact_restitution);
+        let normal_damping_per_s = (2.0 * zeta * normal_stiffness_per_s2.sqrt()).min(0.5 / dt);
         // The ground geoms whose contacts this law computes: planes and boxes (the floor, slopes,
         // steps). Heightfields and meshes stay MuJoCo's contacts: their many, flickering contact
         // points (one per prism or face) do not make a compliance held over an explicit step.
@@ -1021,22 +1030,7 @@ impl Ground {
                 let stiffness = share * st.normal_stiffness_per_s2 / inv_mass;
                 let damping = share * st.normal_damping_per_s / inv_mass;
                 let free_approach_accel = -dot(st.gravity_vector_m_per_s2, nrm);
-                let (d0, d1) = (depth, depth + dt * approach + 0.5 * dt * dt * free_approach_accel);
-                let (p0, p1) = (d0.max(0.0), d1.max(0.0));
-                let crossing = (d0 > 0.0) != (d1 > 0.0);
-                let spring = if crossing {
-                    stiffness * (p1 * p1 - p0 * p0) / (2.0 * (d1 - d0))
-                } else {
-                    0.5 * stiffness * (p0 + p1)
-                };
-                let fraction = if crossing {
-                    p0.max(p1) / (d1 - d0).abs()
-                } else if d0 > 0.0 {
-                    1.0
-                } else {
-                    0.0
-                };
-                let n = if spring > 0.0 { (spring + fraction * damping * approach).max(0.0) } else { 0.0 };
+                let n = explicit_normal_force_n(stiffness, damping, depth, approach, free_approach_accel, dt);
                 if depth <= 0.0 && n <= 0.0 {
                     continue; // within the detection margin, not touching
                 }

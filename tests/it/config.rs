@@ -113,6 +113,7 @@ floor_friction = "mujoco"
 floor_stick_time_constant_secs = 0.01
 environment_contact_time_constant_secs = 0.004
 environment_contact_damping_ratio = 0.7
+contact_restitution = 0.6
 external_forces = [{ link = 1, direction = [0.0, 1.0, 0.0], start_secs = 0.5, ramp_n_per_s = 2.0, force_n = 3.0, duration_secs = 1.0 }]
 
 [safety]
@@ -497,6 +498,7 @@ fn all_fields_expected() -> Config {
     p.floor_stick_time_constant_secs = StickTimeConstant::Secs(0.01);
     p.environment_contact_time_constant_secs = AutoSecs::Secs(0.004);
     p.environment_contact_damping_ratio = 0.7;
+    p.contact_restitution = 0.6;
     p.external_forces = vec![simserpent::config::ExternalForce {
         link: 1,
         direction: [0.0, 1.0, 0.0],

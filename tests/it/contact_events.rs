@@ -435,3 +435,99 @@ fn an_external_force_pushes_for_its_duration_and_bad_entries_are_refused() {
         assert!(e.contains(key), "{field}: {e}");
     }
 }
+
+/// One link dropped flat from about `drop_m` on the bare floor with the default settings but
+/// `keys`: its restitution √(rebound apex / drop height), the heights of its lowest point above
+/// the floor, every step from t = 0 until the apex after the first bounce.
+fn dropped_link_restitution(drop_m: f64, keys: &[&str]) -> f64 {
+    let mut sets: Vec<String> = vec![
+        "snake.n_links=1".into(),
+        "terrain.kind=\"none\"".into(),
+        "gait.kind=\"none\"".into(),
+        format!("snake.head_position_m=[0.0, 0.0, {}]", 0.04 + drop_m),
+    ];
+    sets.extend(keys.iter().map(|k| k.to_string()));
+    let c = default_config_with(&sets).unwrap();
+    let r = c.snake.link_radius_m;
+    let mut sim = simulation(&c);
+    let height = sim.world().data().qpos()[2] - r;
+    let dt = c.general.timestep_secs;
+    let (mut touched, mut apex) = (false, f64::NEG_INFINITY);
+    for _ in 0..(1.0 / dt) as usize {
+        sim.step().unwrap();
+        let (z, vz) = (sim.world().data().qpos()[2] - r, sim.world().data().qvel()[2]);
+        touched |= z <= 0.0;
+        if touched && z > 0.0 {
+            apex = apex.max(z);
+            if vz < 0.0 {
+                break;
+            }
+        }
+    }
+    assert!(touched && apex > 0.0, "the link never bounced ({keys:?})");
+    (apex / height).sqrt()
+}
+
+/// The bounce is a setting: a link dropped flat from 0.2 m (2 m/s) rebounds at
+/// `physics.contact_restitution` within ±0.05 wherever the floor's held damping is not bounded
+/// (b·dt ≤ ½: 0.25 ms and 0.1 ms with the default stiffness), for the default and two other
+/// values; gravity during the 3-ms contact takes about 0.01 off. At 1 ms the bound holds the
+/// damping at 0.5/dt and the rebound is higher. Every figure is the one the guide's table
+/// ("Floor contact") states, to its three digits.
+#[test]
+fn a_dropped_link_rebounds_at_the_configured_restitution() {
+    let page = std::fs::read_to_string(crate::common::manifest_dir().join("guide/src/background/physics.md")).unwrap();
+    for e in [0.3, 0.5, 0.7] {
+        let row = page
+            .lines()
+            .find(|l| l.trim_start().starts_with(&format!("| {e} |")))
+            .unwrap_or_else(|| panic!("the guide's restitution table has no row {e}"));
+        let documented: Vec<f64> =
+            row.split('|').map(str::trim).filter(|c| !c.is_empty()).skip(1).map(|c| c.parse().unwrap()).collect();
+        for (dt, doc) in [1e-3, 2.5e-4, 1e-4].into_iter().zip(documented) {
+            let keys = [format!("physics.contact_restitution={e}"), format!("general.timestep_secs={dt}")];
+            let keys: Vec<&str> = keys.iter().map(|s| s.as_str()).collect();
+            let measured = dropped_link_restitution(0.2, &keys);
+            eprintln!("restitution {e}, dt {dt}: measured {measured:.3}, guide {doc}");
+            assert!(
+                (measured - doc).abs() <= 0.0005 + 1e-9,
+                "restitution {e} at dt {dt}: {measured}, the guide says {doc}"
+            );
+            if dt < 1e-3 {
+                assert!((measured - e).abs() <= 0.05, "restitution {e} at dt {dt}: measured {measured}");
+            }
+        }
+    }
+}
+
+/// A run that starts under load: one link on the floor pushed along its axis at 0.999 μ·m·g
+/// from t = 0 (default settings, the link placed on the floor at its radius) should hold: its
+/// centre moving less than 0.1 mm in 1 s, at μ 0.5 and 1. It does not yet: placed at zero
+/// penetration the link carries almost no load in its first steps (the floor spring has not
+/// sunk), slides, and then slides on at μN against a push of 0.999 μN (9.9 mm at μ 0.5).
+#[test]
+#[ignore = "target not reached: friction is bounded by the small normal force of the first steps (run with --ignored)"]
+fn a_link_loaded_just_below_mu_n_from_the_start_holds() {
+    for mu in [0.5, 1.0] {
+        let mut c = straight(mu, &["snake.n_links=1"]);
+        let mu_n = mu * c.snake.link_mass_kg * G;
+        c.physics.external_forces = vec![ExternalForce {
+            link: 0,
+            direction: [1.0, 0.0, 0.0],
+            start_secs: 0.0,
+            ramp_n_per_s: 0.0,
+            force_n: 0.999 * mu_n,
+            duration_secs: 0.0,
+        }];
+        c.validate().unwrap();
+        let mut sim = simulation(&c);
+        let x0 = sim.world().data().qpos()[0];
+        let mut moved: f64 = 0.0;
+        for _ in 0..(1.0 / c.general.timestep_secs) as usize {
+            sim.step().unwrap();
+            moved = moved.max((sim.world().data().qpos()[0] - x0).abs());
+        }
+        eprintln!("μ {mu}: moved {:.4} mm", moved * 1e3);
+        assert!(moved < 1e-4, "μ {mu}: the link moved {} mm under 0.999 μN", moved * 1e3);
+    }
+}

@@ -380,6 +380,11 @@ fn floor_friction_keys_are_checked_with_their_key_paths() {
         let e = load(&[&format!("physics.environment_contact_damping_ratio={bad}")]).unwrap_err();
         assert_eq!(key_of(e), "physics.environment_contact_damping_ratio", "{bad}");
     }
+    assert_eq!(d.physics.contact_restitution, 0.3);
+    for bad in ["0", "-0.1", "1.5", "nan", "\"bouncy\""] {
+        let e = load(&[&format!("physics.contact_restitution={bad}")]).unwrap_err();
+        assert_eq!(key_of(e), "physics.contact_restitution", "{bad}");
+    }
 }
 
 #[test]

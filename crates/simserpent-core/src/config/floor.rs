@@ -134,6 +134,14 @@ impl Config {
                 "must be a finite number greater than 0 (1 = critically damped, below 1 the contact bounces)",
             ));
         }
+        let e = p.contact_restitution;
+        if !e.is_finite() || e <= 0.0 || e > 1.0 {
+            return Err(ConfigError::invalid(
+                "physics.contact_restitution",
+                fmt_f(e),
+                "must be a number greater than 0 and at most 1 (rebound speed / impact speed; 1 = elastic)",
+            ));
+        }
         Ok(())
     }
 }

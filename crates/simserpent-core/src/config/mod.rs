@@ -278,6 +278,10 @@ pub struct Physics {
     pub environment_contact_time_constant_secs: AutoSecs,
     /// Their damping ratio (MuJoCo solref; 1 = critically damped).
     pub environment_contact_damping_ratio: f64,
+    /// Coefficient of restitution of SimSerpent's floor contact (`"stick_slip"`: the floor,
+    /// slopes and boxes): the rebound speed over the impact speed of a link that lands flat. It
+    /// sets the floor's damping, bounded by 0.5/timestep (see `sim::ground`); (0, 1].
+    pub contact_restitution: f64,
     /// External forces on links, ramped from zero (`[[physics.external_forces]]`).
     pub external_forces: Vec<ExternalForce>,
 }
