@@ -276,6 +276,43 @@ impl Bench {
         }
     }
 
+    /// Most held-out fields per family (seeds 1000 to 10999).
+    pub const MAX_HELD_OUT_FIELDS: u64 = 10_000;
+
+    /// Checks the sizes before any field is planned: tuning seeds stay below the held-out ones
+    /// (at most [`HELD_OUT_FIRST_SEED`] tuning fields), 1 to [`Bench::MAX_HELD_OUT_FIELDS`]
+    /// held-out fields, at least one floor and one family, a positive finite
+    /// time limit.
+    ///
+    /// # Errors
+    /// [`ExperimentError::Option`] naming the size, its value and what is allowed.
+    pub fn check(&self) -> Result<(), ExperimentError> {
+        let bad = |what: &str, value: String, allowed: &str| {
+            Err(ExperimentError::Option(format!("oal-bench {what} = {value}: {allowed}")))
+        };
+        if self.tuning_fields > HELD_OUT_FIRST_SEED {
+            return bad(
+                "tuning fields",
+                self.tuning_fields.to_string(),
+                &format!("give 0 to {HELD_OUT_FIRST_SEED} per family (seeds 0 to {})", HELD_OUT_FIRST_SEED - 1),
+            );
+        }
+        if !(1..=Self::MAX_HELD_OUT_FIELDS).contains(&self.held_out_fields) {
+            return bad(
+                "held-out fields",
+                self.held_out_fields.to_string(),
+                &format!("give 1 to {} per family", Self::MAX_HELD_OUT_FIELDS),
+            );
+        }
+        if !(self.duration_secs.is_finite() && self.duration_secs > 0.0) {
+            return bad("duration", format!("{} s", self.duration_secs), "give a positive number of seconds");
+        }
+        if self.floors.is_empty() || self.families.is_empty() {
+            return bad("floors and families", "none".into(), "give at least one floor and one family");
+        }
+        Ok(())
+    }
+
     /// The conditions, in table order.
     pub fn conditions(&self) -> Vec<Condition> {
         let mut c = vec![Condition { name: "open_loop".into(), kind: Kind::OpenLoop }];
@@ -645,6 +682,7 @@ pub fn run_bench(
     progress: bool,
 ) -> Result<BenchOutcome, ExperimentError> {
     use rayon::prelude::*;
+    bench.check()?;
     let conditions = bench.conditions();
     let fields_of = |held_out: bool| -> Vec<(u64, bool)> {
         if held_out {
@@ -1258,6 +1296,8 @@ pub fn run_into(
     intro: &str,
     progress: bool,
 ) -> Result<(std::path::PathBuf, super::Report), ExperimentError> {
+    // Before the folder exists: bad sizes leave nothing behind.
+    bench.check()?;
     let unix_secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
     let folder = crate::record::create_run_folder(out, "oal-bench", &crate::record::utc_stamp(unix_secs))
         .map_err(|e| ExperimentError::Run(RunError::Record(e)))?;

@@ -20,6 +20,8 @@ mod guide;
 #[cfg(unix)]
 mod hostile_files;
 #[cfg(unix)]
+mod hostile_input;
+#[cfg(unix)]
 mod hostile_surfaces;
 mod impacts;
 mod legacy_convert;
