@@ -728,8 +728,10 @@ struct Replay {
     actions: Vec<f64>,
 }
 
-/// A pickled [`PyEnvState`] back: builds the world of the config, resets it with the seed,
-/// replays the actions and checks that the time and `qpos` reached are the pickled ones.
+/// A pickled [`PyEnvState`] back (and [`PyEnvState::from_bytes`]' fields): builds the world of
+/// the config, resets it with the seed, checks the actions (whole steps of the world's action
+/// size, finite), replays them and checks that the time and `qpos` reached are the saved ones
+/// bit for bit. A malformed state is a `SimSerpentError`, never a panic.
 #[pyfunction]
 fn _world_state_from_replay(
     py: Python<'_>,
@@ -739,21 +741,6 @@ fn _world_state_from_replay(
     actions: Vec<f64>,
     time: f64,
     qpos: Vec<f64>,
-) -> PyResult<PyEnvState> {
-    replay_state(py, config_toml, source, seed, actions, time, &qpos)
-}
-
-/// Builds the world of `config_toml`, resets it with `seed`, checks the actions (whole steps of
-/// the world's action size, finite), replays them and checks that the time and `qpos` reached
-/// are the saved ones bit for bit. A malformed state is a `SimSerpentError`, never a panic.
-fn replay_state(
-    py: Python<'_>,
-    config_toml: &str,
-    source: String,
-    seed: Option<u64>,
-    actions: Vec<f64>,
-    time: f64,
-    qpos: &[f64],
 ) -> PyResult<PyEnvState> {
     let config = _config_from_toml(config_toml, source)?;
     let c = config.inner.clone();
@@ -787,7 +774,7 @@ fn replay_state(
     let data = inner.world().data();
     if data.time().to_bits() != time.to_bits()
         || data.qpos().len() != qpos.len()
-        || data.qpos().iter().zip(qpos).any(|(a, b)| a.to_bits() != b.to_bits())
+        || data.qpos().iter().zip(&qpos).any(|(a, b)| a.to_bits() != b.to_bits())
     {
         return Err(SimSerpentError::new_err(format!(
             "cannot restore the WorldState: replaying its episode (seed {seed:?}, {} steps) reached t = {} s, \
@@ -955,7 +942,7 @@ impl PyEnvState {
         if r.at != data.len() {
             return Err(r.bad(&format!("{} bytes after the last field", data.len() - r.at)));
         }
-        let state = replay_state(py, &toml, source, seed, actions, time, &qpos)?;
+        let state = _world_state_from_replay(py, &toml, source, seed, actions, time, qpos)?;
         if state.replay.action_size as u64 != action_size.max(1) {
             return Err(SimSerpentError::new_err(format!(
                 "WorldState.from_bytes: action size {action_size}, but the config's world has {}",
