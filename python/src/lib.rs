@@ -747,7 +747,8 @@ fn _world_state_from_replay(
     let mut core = py.detach(|| EnvCore::new(&c)).map_err(|e| sim_err(&config.source, &e))?;
     let na = core.action_size();
     let bad = |what: String| SimSerpentError::new_err(format!("cannot restore the WorldState: {what}"));
-    if (na == 0 && !actions.is_empty()) || (na > 0 && actions.len() % na != 0) {
+    // (`is_multiple_of(0)` holds only for no actions at all.)
+    if !actions.len().is_multiple_of(na) {
         return Err(bad(format!(
             "its action list has {} values, not a whole number of steps of this world's {na} actions",
             actions.len()
