@@ -103,7 +103,7 @@ impl Variation {
                 // Counted as a float before any cast: a range of 1e308 over a step of 1e-300
                 // has more values than any integer holds.
                 let steps = ((hi - lo) / step + 1e-9).floor();
-                if !(steps < 1_000_000.0) {
+                if steps.is_nan() || steps >= 1_000_000.0 {
                     return Err(argument(&self.key, format!("{:e} values; at most 1000000 per key", steps + 1.0)));
                 }
                 let n = steps as u64 + 1;

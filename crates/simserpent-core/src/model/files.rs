@@ -484,11 +484,7 @@ pub fn scan_robot_file(bytes: &[u8]) -> RobotScan {
     let (mut parent, mut child) = (None::<String>, None::<String>);
     let mut parent_of: std::collections::HashMap<String, String> = std::collections::HashMap::new();
     let mut links: Vec<String> = Vec::new();
-    loop {
-        let event = match reader.read_event_into(&mut buf) {
-            Ok(e) => e,
-            Err(_) => break,
-        };
+    while let Ok(event) = reader.read_event_into(&mut buf) {
         let (start, empty) = match &event {
             Event::Start(s) => (s, false),
             Event::Empty(s) => (s, true),
