@@ -201,13 +201,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     while i < args.len() {
         let value = args.get(i + 1).cloned().unwrap_or_default();
         let number = |v: &str| v.parse::<f64>().map_err(|_| format!("{}: not a number: `{v}`", args[i]));
+        let count = |v: &str| v.parse::<u64>().map_err(|_| format!("{}: not a whole number: `{v}`", args[i]));
         match args[i].as_str() {
-            "--tune" => bench.tuning_fields = number(&value)? as u64,
-            "--held" => bench.held_out_fields = number(&value)? as u64,
-            "--first-seed" => bench.first_held_out_seed = number(&value)? as u64,
+            "--tune" => bench.tuning_fields = count(&value)?,
+            "--held" => bench.held_out_fields = count(&value)?,
+            "--first-seed" => bench.first_held_out_seed = count(&value)?,
             "--law-gain-scales" => bench.law_gain_scales = list(&value, |s| s.parse().ok())?,
             "--duration" => bench.duration_secs = number(&value)?,
-            "--threads" => threads = number(&value)? as usize,
+            "--threads" => threads = usize::try_from(count(&value)?).unwrap_or(usize::MAX),
             "--out" => out = value,
             "--floors" => bench.floors = list(&value, Floor::from_name)?,
             "--families" => bench.families = list(&value, Family::from_name)?,
@@ -246,7 +247,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         i += 2;
     }
     let base = simserpent::config::load_config_str("", simserpent::config::ConfigSource::Toml, &overrides)?;
-    bench.validate()?;
+    if let Some(message) = simserpent::threads_beyond_cap("--threads", threads) {
+        return Err(message.into());
+    }
+    bench.check()?;
     simserpent::interrupt::install_handler()?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build()?;
     let start = std::time::Instant::now();

@@ -257,13 +257,13 @@ pub fn run_bench(
     inline_writers: bool,
     discard_rows: bool,
 ) -> Result<Vec<BenchRow>, RunError> {
+    // Every size's config is checked before the first measurement.
+    let configs = sizes
+        .iter()
+        .map(|&n_links| bench_config(base, n_links, duration_secs, output_dir))
+        .collect::<Result<Vec<_>, _>>()?;
     let mut rows = Vec::new();
-    for &n_links in sizes {
-        let mut config = base.clone();
-        config.snake.n_links = n_links;
-        config.general.duration_secs = duration_secs;
-        config.general.output_dir = output_dir.to_string();
-        config.general.run_name = format!("bench-{n_links}");
+    for (&n_links, config) in sizes.iter().zip(configs) {
         let steps = (duration_secs / config.general.timestep_secs).round() as u64;
         let modes = modes(inline_writers, discard_rows);
         let mut all: Vec<Vec<Measured>> = vec![Vec::new(); modes.len()];
@@ -282,6 +282,33 @@ pub fn run_bench(
         }
     }
     Ok(rows)
+}
+
+/// The config of one benchmark size. The sizes and the duration go through the config's own
+/// bounds (at most 200 links, 1e9 steps per run), named as the arguments that set them.
+fn bench_config(base: &Config, n_links: usize, duration_secs: f64, output_dir: &str) -> Result<Config, RunError> {
+    use crate::config::ConfigError;
+    let mut config = base.clone();
+    config.snake.n_links = n_links;
+    config.general.duration_secs = duration_secs;
+    config.general.output_dir = output_dir.to_string();
+    config.general.run_name = format!("bench-{n_links}");
+    config.validate().map_err(|e| {
+        let e = match e {
+            ConfigError::InvalidValue { key, value, allowed } => ConfigError::InvalidValue {
+                key: match key.as_str() {
+                    "snake.n_links" => "--links (snake.n_links)".into(),
+                    "general.duration_secs" => "--duration-secs (general.duration_secs)".into(),
+                    _ => key,
+                },
+                value,
+                allowed,
+            },
+            e => e,
+        };
+        RunError::Sim(SimError::Config(e))
+    })?;
+    Ok(config)
 }
 
 /// Full pipeline over the bare engine with the same gait ("bare, gait") for each full-pipeline

@@ -79,6 +79,14 @@ pub enum FileError {
         /// The run folder.
         folder: PathBuf,
     },
+    /// A folder argument (a run folder, a sweep folder) that is not a folder.
+    #[error("{} is {what}, not a folder", path.display())]
+    NotAFolder {
+        /// The path given.
+        path: PathBuf,
+        /// "a regular file", "a FIFO", "a device", "a socket".
+        what: &'static str,
+    },
     /// A symbolic link where SimSerpent writes.
     #[error(
         "{} is a symbolic link; SimSerpent does not write through links (remove it, or give another folder)",
@@ -274,6 +282,28 @@ pub fn read_text_in(folder: &Path, path: &Path, cap_bytes: u64) -> Result<String
         path: if path.starts_with(folder) { path.to_path_buf() } else { folder.join(path) },
         offset: e.utf8_error().valid_up_to(),
     })
+}
+
+/// Checks a folder the user named (a run folder, a sweep folder): it exists and is a folder (a
+/// link to one is fine: the user chose it). Commands check it first, so a file given as a run
+/// folder is bad input (exit code 2) whatever the command would have read first.
+///
+/// # Errors
+/// [`FileError::Missing`], [`FileError::NotAFolder`], or I/O.
+pub fn folder_arg(path: &Path) -> Result<(), FileError> {
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_dir() => Ok(()),
+        Ok(m) => Err(FileError::NotAFolder {
+            path: path.to_path_buf(),
+            what: if m.is_file() { "a regular file" } else { special_kind(m.file_type()).unwrap_or("not a folder") },
+        }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Err(FileError::Missing { path: path.to_path_buf() }),
+        // A path through a regular file (`file/x`).
+        Err(e) if e.raw_os_error() == Some(20) => {
+            Err(FileError::NotAFolder { path: path.to_path_buf(), what: "inside a regular file" })
+        }
+        Err(e) => Err(FileError::Io { what: "read", path: path.to_path_buf(), source: e }),
+    }
 }
 
 /// The path of `path` inside `folder` (joined when relative), refusing `..` components.

@@ -562,8 +562,23 @@ fn repeats_arg(text: &str) -> Result<usize, String> {
     }
 }
 
+/// A warning's or note's text as it is printed: every value it quotes at most as long as errors
+/// quote them ([`simserpent::config::shorten_words`]).
+fn echo(text: &str) -> std::borrow::Cow<'_, str> {
+    simserpent::config::shorten_words(text)
+}
+
 fn bad_input(e: impl Into<anyhow::Error>) -> Failure {
     Failure { code: 2, error: e.into() }
+}
+
+/// The RUN_FOLDER argument of `plot`, `render`, `estimate` and `bag-repair`, checked before the
+/// command reads anything: a missing path or one that is not a folder is bad input (exit code 2).
+fn run_folder_arg(path: &Path) -> Result<(), Failure> {
+    simserpent::files::folder_arg(path).map_err(|e| match e {
+        e if e.is_bad_input() => bad_input(anyhow::anyhow!("RUN_FOLDER {e}; give the folder of a run")),
+        e => Failure::from(e),
+    })
 }
 
 /// The documented exit codes (README and user guide, "Exit codes"): 2 for bad input (config, model, robot
@@ -598,6 +613,7 @@ impl ExitCodeOf for simserpent::render::RenderError {
             | RenderError::NoViewer(_)
             | RenderError::Read { .. } => 2,
             RenderError::Interrupted => 130,
+            RenderError::File(f) if f.is_bad_input() => 2,
             _ => 1,
         }
     }
@@ -664,7 +680,7 @@ fn load(args: &ConfigArgs) -> Result<(Config, String), Failure> {
             differences.len()
         );
         for line in &differences {
-            errln!("note:   {line}");
+            errln!("note:   {}", echo(line));
         }
     }
     Ok((config, source))
@@ -674,10 +690,10 @@ fn load(args: &ConfigArgs) -> Result<(Config, String), Failure> {
 /// move the snake (`check` and `run`, once the config has passed every check).
 fn tell_what_does_nothing(config: &Config) {
     for unused in simserpent::control::unused_keys(config) {
-        errln!("warning: {unused}");
+        errln!("warning: {}", echo(&unused.to_string()));
     }
     if let Some(still) = simserpent::control::nothing_moves(config) {
-        errln!("note: {still}");
+        errln!("note: {}", echo(&still));
     }
 }
 
@@ -777,7 +793,7 @@ fn run_command(
     outln!("max penetration    {:.3} mm (at recorded steps)", summary.max_penetration_m * 1e3);
     outln!("actuator energy:   {:.3} J", summary.actuator_energy_j);
     for note in &summary.notes {
-        errln!("note: {note}");
+        errln!("note: {}", echo(note));
     }
     if let Some(joints) = &summary.tracking {
         outln!("tracking of the commanded joint angles (after the ramp-in; error = actual - commanded angle):");
@@ -785,7 +801,7 @@ fn run_command(
         for j in joints {
             outln!(
                 "  {:<12} {:>6.2} deg {:>6.0} %   {:.4} rad {:>5.0} %   {:.4} rad {:>5.0} %{}",
-                j.joint,
+                simserpent::config::shorten(&j.joint),
                 j.command_amplitude_rad.to_degrees(),
                 j.reached_amplitude_percent,
                 j.rms_error_rad,
@@ -797,7 +813,7 @@ fn run_command(
         }
     }
     if let Some(warning) = run::tracking_warning(&config, &summary) {
-        errln!("warning: {warning}");
+        errln!("warning: {}", echo(&warning));
     }
     outln!("speed:             {:.0} steps/s, {:.1}x real time", summary.steps_per_wall_sec, summary.real_time_factor);
     if viewer && !cfg!(feature = "viewer") {
@@ -811,7 +827,7 @@ fn run_command(
 fn plot_command(folder: &Path) -> Result<(), Failure> {
     let out = simserpent::plot::plot_run_folder(folder).map_err(failure)?;
     for (panel, why) in &out.skipped {
-        errln!("skipped {panel}: {why}");
+        errln!("skipped {panel}: {}", echo(why));
     }
     outln!("wrote {} plot files into {}", out.files.len(), folder.join("plots").display());
     Ok(())
@@ -853,20 +869,36 @@ fn view_command(path: Option<&Path>, overrides: &[String]) -> Result<(), Failure
 #[derive(Debug, Clone)]
 struct SeedList(Vec<u64>);
 
-/// `--seeds`: `A-B` (inclusive) or a comma-separated list.
+/// `--seeds`: `A-B` (inclusive) or a comma-separated list, of at most
+/// [`simserpent::experiments::MAX_SEEDS`] seeds (counted before a range is expanded).
 fn parse_seeds(text: &str) -> Result<SeedList, String> {
+    use simserpent::config::shorten;
+    use simserpent::experiments::MAX_SEEDS;
     let number = |s: &str| {
-        s.trim().parse::<u64>().map_err(|_| format!("`{s}` is not a seed (a whole number); give A-B or A,B,C"))
+        s.trim().parse::<u64>().map_err(|_| {
+            format!("`{}` is not a seed (a whole number 0 to {}); give A-B or A,B,C", shorten(s), u64::MAX)
+        })
     };
+    let too_many = |n: u128| format!("`{}`: {n} seeds; give at most {MAX_SEEDS}", shorten(text));
     let seeds = match text.split_once('-') {
         Some((a, b)) => {
             let (a, b) = (number(a)?, number(b)?);
             if a > b {
-                return Err(format!("`{text}`: the range's first seed is larger than its last"));
+                return Err(format!("`{}`: the range's first seed is larger than its last", shorten(text)));
+            }
+            let n = u128::from(b - a) + 1;
+            if n > MAX_SEEDS as u128 {
+                return Err(too_many(n));
             }
             (a..=b).collect()
         }
-        None => text.split(',').map(number).collect::<Result<Vec<_>, _>>()?,
+        None => {
+            let n = text.split(',').count();
+            if n > MAX_SEEDS {
+                return Err(too_many(n as u128));
+            }
+            text.split(',').map(number).collect::<Result<Vec<_>, _>>()?
+        }
     };
     Ok(SeedList(seeds))
 }
@@ -908,7 +940,7 @@ fn experiment(
         simserpent::experiments::run_experiment_with(name, &config, Path::new(&config.general.output_dir), &options)
             .map_err(failure)?;
     for note in &outcome.notes {
-        errln!("note: {note}");
+        errln!("note: {}", echo(note));
     }
     let report = &outcome.report;
     for c in report.checks() {
@@ -1340,18 +1372,29 @@ fn error_text(error: &anyhow::Error) -> String {
 /// shows them all.
 const DEFAULT_LOG_FILTER: &str = "warn,rustdds=error,rustdds::network::util=warn,rustdds::network::udp_listener=off";
 
-/// `simserpent doc-gen`: the guide's generated reference pages.
+/// `simserpent doc-gen`: the guide's generated reference pages, read and written under the one
+/// reader-and-writer rule of `simserpent::files` (regular files only, no links out of DIR or
+/// written through, at most 64 MiB read back).
 fn doc_gen(dir: &Path, check: bool) -> Result<(), Failure> {
     use clap::CommandFactory;
+    use simserpent::files::{self, FileError};
+    let file_failure = |e: FileError| if e.is_bad_input() { bad_input(e) } else { Failure::from(e) };
+    if !dir.is_dir() {
+        return Err(bad_input(anyhow::anyhow!("{}: not a folder (give the guide's reference folder)", dir.display())));
+    }
     let mut stale = Vec::new();
     for (name, text) in simserpent::docgen::pages(&Cli::command()) {
         let path = dir.join(name);
         if check {
-            if std::fs::read_to_string(&path).ok().as_deref() != Some(text.as_str()) {
-                stale.push(path.display().to_string());
+            match files::read_text_in(dir, Path::new(name), files::SMALL_FILE_CAP_BYTES) {
+                Ok(committed) if committed == text => {}
+                Ok(_) | Err(FileError::Missing { .. } | FileError::NotText { .. }) => {
+                    stale.push(path.display().to_string());
+                }
+                Err(e) => return Err(file_failure(e)),
             }
         } else {
-            std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+            files::write_in(dir, Path::new(name), text.as_bytes()).map_err(file_failure)?;
         }
     }
     if !stale.is_empty() {
@@ -1373,7 +1416,17 @@ fn main() -> ExitCode {
     unsafe {
         simserpent::sim::fatal::install();
     }
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // Help and version print as clap prints them.
+        Err(e) if !e.use_stderr() => e.exit(),
+        // A bad argument: clap's message with every echoed value capped as errors cap them (a
+        // 5,000-digit seed is not repeated whole); exit code 2.
+        Err(e) => {
+            errln!("{}", simserpent::config::shorten_words(e.render().to_string().trim_end()));
+            return ExitCode::from(2);
+        }
+    };
     // One signal policy for every long-running command (`simserpent::interrupt`): the first
     // SIGINT/SIGTERM stops cleanly (what was recorded stays readable and marked), the second quits
     // at once; exit code 130 either way.
@@ -1402,16 +1455,18 @@ fn main() -> ExitCode {
             }
             run_command(&config, robot, quiet, viewer, ros2)
         }
-        Some(Command::Plot { run_folder }) => plot_command(&run_folder),
+        Some(Command::Plot { run_folder }) => run_folder_arg(&run_folder).and_then(|()| plot_command(&run_folder)),
         Some(Command::Render { run_folder, video, images, overrides, quiet }) => {
-            render_command(&run_folder, video, images, &overrides, quiet)
+            run_folder_arg(&run_folder).and_then(|()| render_command(&run_folder, video, images, &overrides, quiet))
         }
         Some(Command::View { path, overrides }) => view_command(path.as_deref(), &overrides),
         Some(Command::Init { path, force, preset }) => init(&path, force, preset.as_deref()),
         Some(Command::Experiment { name, config, quick, threads, seeds, floor, oal }) => {
             experiment(&name, &config, quick, threads, seeds.map(|s| s.0), floor.as_deref(), &oal)
         }
-        Some(Command::Estimate { run_folder, overrides }) => estimate_command(&run_folder, &overrides),
+        Some(Command::Estimate { run_folder, overrides }) => {
+            run_folder_arg(&run_folder).and_then(|()| estimate_command(&run_folder, &overrides))
+        }
         Some(Command::Model { config, output, scene_dir }) => model(&config, output.as_deref(), scene_dir.as_deref()),
         Some(Command::Check { config }) => check(&config),
         Some(Command::Convert { input, output, force }) => convert(&input, output.as_deref(), force),
@@ -1440,7 +1495,7 @@ fn main() -> ExitCode {
             sweep(&config, &vary, sample, samples, seed, sweep_dir, threads, shard, quiet)
         }
         Some(Command::SweepMerge { sweep_dir }) => sweep_merge(&sweep_dir),
-        Some(Command::BagRepair { run_folder }) => bag_repair(&run_folder),
+        Some(Command::BagRepair { run_folder }) => run_folder_arg(&run_folder).and_then(|()| bag_repair(&run_folder)),
         Some(Command::DocGen { dir, check }) => doc_gen(&dir, check),
         Some(Command::Study { what: _, config, quick, cases, out, repeats, threads }) => {
             study(&config, quick, &cases, out, repeats, threads)
@@ -1449,7 +1504,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
-            errln!("error: {}", error_text(&failure.error));
+            errln!("error: {}", echo(&error_text(&failure.error)));
             ExitCode::from(failure.code)
         }
     }

@@ -164,13 +164,25 @@ pub fn tracking_warning(config: &Config, summary: &RunSummary) -> Option<String>
         missed.len(),
         joints.len(),
         crate::state::TRACKING_RMS_ERROR_PERCENT,
-        worst.joint,
+        crate::config::shorten(&worst.joint),
         worst.reached_amplitude_percent,
         worst.command_amplitude_rad.to_degrees(),
         worst.rms_error_percent,
         worst.max_error_percent,
         config.snake.torque_range_nm,
     ))
+}
+
+/// Names in a message, capped as errors cap what they echo: each at most
+/// [`crate::config::ECHO_LIMIT`] characters, at most 10 of them and a count of the rest.
+pub fn echo_names(names: &[&str]) -> String {
+    const SHOWN: usize = 10;
+    let mut text =
+        names.iter().take(SHOWN).map(|n| crate::config::shorten(n).into_owned()).collect::<Vec<_>>().join(", ");
+    if names.len() > SHOWN {
+        text.push_str(&format!(", … and {} more", names.len() - SHOWN));
+    }
+    text
 }
 
 /// What the user should know about the set-up of a run ([`RunSummary::notes`]): a robot's
@@ -185,8 +197,8 @@ fn setup_notes(config: &Config, options: &RunOptions, world: &World) -> Vec<Stri
              snake.torque_range_nm)",
             passive.len(),
             world.n_joints(),
-            robot.display(),
-            passive.join(", ")
+            crate::config::shorten(&robot.display().to_string()),
+            echo_names(&passive)
         )],
         _ => Vec::new(),
     }

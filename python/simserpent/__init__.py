@@ -64,7 +64,10 @@ __version__ = _core.__version__
 #: float32 array or a list), plus its sizes, bounds, observation names, ``mjcf`` and
 #: ``centre_of_mass``; the true state ``time``, ``qpos``, ``qvel``, ``act``, ``ctrl``,
 #: ``integration_state()`` (MuJoCo's ``mjSTATE_INTEGRATION``, for ``mujoco.mj_setState``); and
-#: ``get_state() -> WorldState`` / ``set_state(state)`` for branching rollouts (bit for bit);
+#: ``get_state() -> WorldState`` / ``set_state(state)`` for branching rollouts (bit for bit;
+#: a ``WorldState`` pickles for your own processes -- never unpickle one from others, unpickling
+#: runs code -- and ``to_bytes()`` / ``WorldState.from_bytes(data)`` carry it across machines as
+#: checked plain data);
 #: ``contact_estimates()`` -- with ``[estimation] enabled`` the per-link contact estimates of the
 #: latest step as numpy arrays (``obstacle_force_n`` (links x 3, N), ``contact`` (bool),
 #: ``contact_point_along_m`` (NaN when unknown), ``contact_point_m``, ``external_force_n``,

@@ -525,10 +525,10 @@ class SimSerpentVectorEnv(VectorEnv):
                  render_mode: str | None = None,
                  autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP) -> None:
         mode = _autoreset_mode(autoreset_mode)
-        for name, value, low in (("num_envs", num_envs, 1), ("threads", threads, 0)):
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+        for name, value, low, high in (("num_envs", num_envs, 1, 4096), ("threads", threads, 0, 256)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
                 raise ValueError(
-                    f"SimSerpentVectorEnv: {name} must be a whole number >= {low}"
+                    f"SimSerpentVectorEnv: {name} must be a whole number from {low} to {high}"
                     + (" (0: one thread per core)" if name == "threads" else "")
                     + f", got {value!r}"
                 )

@@ -10,7 +10,7 @@ use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArra
 use pyo3::create_exception;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::{PyBytes, PyDict, PyList};
 use rayon::prelude::*;
 use simserpent::config::{self, Config, ConfigError as LibConfigError, ConfigSource};
 use simserpent::control::{Command, Controller, JointTrajectory, Observation};
@@ -575,6 +575,10 @@ fn oal_bench<'py>(
         };
         bench.plugged.push(Plugged { name, make: Arc::new(make), estimation });
     }
+    if let Some(message) = simserpent::threads_beyond_cap("threads", threads) {
+        return Err(value_err(message));
+    }
+    bench.check().map_err(|e| value_err(e.to_string()))?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -700,6 +704,12 @@ fn read_action(action: &Bound<'_, PyAny>, out: &mut [f64]) -> PyResult<()> {
 
 /// A saved state of a `World` (`World.get_state()`): everything that decides the rest of the
 /// trajectory; `World.set_state(state)` continues bit for bit from it.
+///
+/// It pickles (worker processes, your own replay buffers) as its replay: config, seed, actions.
+/// Warning: unpickling runs whatever code a pickle names, so never unpickle a state you did not
+/// pickle yourself. To send a state to another machine or read one from others, use
+/// `to_bytes()` and `WorldState.from_bytes(data)`: plain data in a versioned layout, checked
+/// field by field, never run.
 #[pyclass(name = "WorldState", module = "simserpent._core", frozen)]
 #[derive(Clone)]
 struct PyEnvState {
@@ -721,8 +731,10 @@ struct Replay {
     actions: Vec<f64>,
 }
 
-/// A pickled [`PyEnvState`] back: builds the world of the config, resets it with the seed,
-/// replays the actions and checks that the time and `qpos` reached are the pickled ones.
+/// A pickled [`PyEnvState`] back (and [`PyEnvState::from_bytes`]' fields): builds the world of
+/// the config, resets it with the seed, checks the actions (whole steps of the world's action
+/// size, finite), replays them and checks that the time and `qpos` reached are the saved ones
+/// bit for bit. A malformed state is a `SimSerpentError`, never a panic.
 #[pyfunction]
 fn _world_state_from_replay(
     py: Python<'_>,
@@ -735,18 +747,32 @@ fn _world_state_from_replay(
 ) -> PyResult<PyEnvState> {
     let config = _config_from_toml(config_toml, source)?;
     let c = config.inner.clone();
-    let (inner, action_size) = py
-        .detach(|| -> Result<(EnvState, usize), SimError> {
-            let mut core = EnvCore::new(&c)?;
+    let mut core = py.detach(|| EnvCore::new(&c)).map_err(|e| sim_err(&config.source, &e))?;
+    let na = core.action_size();
+    let bad = |what: String| SimSerpentError::new_err(format!("cannot restore the WorldState: {what}"));
+    // (`is_multiple_of(0)` holds only for no actions at all.)
+    if !actions.len().is_multiple_of(na) {
+        return Err(bad(format!(
+            "its action list has {} values, not a whole number of steps of this world's {na} actions",
+            actions.len()
+        )));
+    }
+    if let Some(i) = actions.iter().position(|a| !a.is_finite()) {
+        return Err(bad(format!("action value {i} is {}; actions are finite numbers", actions[i])));
+    }
+    if !time.is_finite() || qpos.iter().any(|q| !q.is_finite()) {
+        return Err(bad("its time or qpos is not finite".into()));
+    }
+    let inner = py
+        .detach(|| -> Result<EnvState, SimError> {
             let mut obs = vec![0.0; core.observation_size()];
             if let Some(seed) = seed {
                 core.reset(seed, &mut obs)?;
             }
-            let na = core.action_size().max(1);
-            for action in actions.chunks(na) {
+            for action in actions.chunks_exact(na.max(1)) {
                 core.step(action, &mut obs);
             }
-            Ok((core.save_state(), na))
+            Ok(core.save_state())
         })
         .map_err(|e| sim_err(&config.source, &e))?;
     let data = inner.world().data();
@@ -755,16 +781,72 @@ fn _world_state_from_replay(
         || data.qpos().iter().zip(&qpos).any(|(a, b)| a.to_bits() != b.to_bits())
     {
         return Err(SimSerpentError::new_err(format!(
-            "cannot unpickle the WorldState: replaying its episode (seed {seed:?}, {} steps) reached t = {} s, \
-             not the pickled t = {time} s (bit for bit); a state is unpickled by replaying it with the build that \
-             pickled it (simserpent {}, MuJoCo {})",
-            actions.len() / action_size,
+            "cannot restore the WorldState: replaying its episode (seed {seed:?}, {} steps) reached t = {} s, \
+             not the saved t = {time} s (bit for bit); a state is restored by replaying it with the build that \
+             saved it (simserpent {}, MuJoCo {})",
+            actions.len() / na.max(1),
             data.time(),
             env!("CARGO_PKG_VERSION"),
             mujoco_rs::mujoco_version()
         )));
     }
-    Ok(PyEnvState { inner, replay: Replay { seed, action_size, actions }, config })
+    Ok(PyEnvState { inner, replay: Replay { seed, action_size: na.max(1), actions }, config })
+}
+
+/// The layout of [`PyEnvState::to_bytes`]: this magic, then a little-endian u32 version.
+const STATE_MAGIC: &[u8; 16] = b"SimSerpentState\0";
+/// The version of the layout written by this build.
+const STATE_VERSION: u32 = 1;
+
+/// A reader of [`PyEnvState::to_bytes`]' layout that names the field and the byte offset of
+/// whatever is wrong.
+struct StateReader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> StateReader<'a> {
+    fn bad(&self, what: &str) -> PyErr {
+        SimSerpentError::new_err(format!(
+            "WorldState.from_bytes: {what} (byte {} of {}); the bytes are not a state written by \
+             WorldState.to_bytes()",
+            self.at,
+            self.bytes.len()
+        ))
+    }
+    fn take(&mut self, n: usize, what: &str) -> PyResult<&'a [u8]> {
+        if self.bytes.len() - self.at < n {
+            return Err(self.bad(&format!("{what}: cut short")));
+        }
+        let out = &self.bytes[self.at..self.at + n];
+        self.at += n;
+        Ok(out)
+    }
+    fn u64(&mut self, what: &str) -> PyResult<u64> {
+        let b = self.take(8, what)?;
+        Ok(u64::from_le_bytes(b.try_into().unwrap_or([0; 8])))
+    }
+    fn f64(&mut self, what: &str) -> PyResult<f64> {
+        Ok(f64::from_bits(self.u64(what)?))
+    }
+    /// A length of `width`-byte items that must fit in the bytes left.
+    fn len(&mut self, width: usize, what: &str) -> PyResult<usize> {
+        let n = self.u64(what)?;
+        let left = (self.bytes.len() - self.at) / width;
+        usize::try_from(n)
+            .ok()
+            .filter(|&n| n <= left)
+            .ok_or_else(|| self.bad(&format!("{what}: {n} items, more than the {left} the bytes hold")))
+    }
+    fn text(&mut self, what: &str) -> PyResult<String> {
+        let n = self.len(1, what)?;
+        let b = self.take(n, what)?;
+        String::from_utf8(b.to_vec()).map_err(|_| self.bad(&format!("{what}: not UTF-8")))
+    }
+    fn floats(&mut self, what: &str) -> PyResult<Vec<f64>> {
+        let n = self.len(8, what)?;
+        (0..n).map(|_| self.f64(what)).collect()
+    }
 }
 
 #[pymethods]
@@ -797,6 +879,81 @@ impl PyEnvState {
 
     fn __deepcopy__(&self, _memo: &Bound<'_, PyAny>) -> Self {
         self.clone()
+    }
+
+    /// The state as bytes for another process or machine, in a versioned layout that
+    /// `WorldState.from_bytes` validates field by field (unlike a pickle, which can run any code
+    /// when it is loaded): a 16-byte magic, the version (u32), then little-endian fields: the
+    /// config's TOML and its source (u64 length, UTF-8), the seed (u8 0/1, u64), the action size
+    /// (u64), the actions (u64 count, f64 each), the time (f64) and `qpos` (u64 count, f64 each).
+    fn to_bytes<'py>(&self, py: Python<'py>) -> Bound<'py, PyBytes> {
+        let data = self.inner.world().data();
+        let toml = self.config.inner.to_toml_string();
+        let mut out = Vec::with_capacity(64 + toml.len() + 8 * (self.replay.actions.len() + data.qpos().len()));
+        out.extend_from_slice(STATE_MAGIC);
+        out.extend_from_slice(&STATE_VERSION.to_le_bytes());
+        for text in [toml.as_str(), self.config.source.as_str()] {
+            out.extend_from_slice(&(text.len() as u64).to_le_bytes());
+            out.extend_from_slice(text.as_bytes());
+        }
+        out.push(u8::from(self.replay.seed.is_some()));
+        out.extend_from_slice(&self.replay.seed.unwrap_or(0).to_le_bytes());
+        out.extend_from_slice(&(self.replay.action_size as u64).to_le_bytes());
+        let floats = |out: &mut Vec<u8>, values: &[f64]| {
+            out.extend_from_slice(&(values.len() as u64).to_le_bytes());
+            for v in values {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
+        };
+        floats(&mut out, &self.replay.actions);
+        out.extend_from_slice(&data.time().to_le_bytes());
+        floats(&mut out, data.qpos());
+        PyBytes::new(py, &out)
+    }
+
+    /// A state from `to_bytes()`: every field checked (magic, version, lengths, UTF-8, the
+    /// config as any config is, whole steps of finite actions), then the episode replayed with
+    /// this build and its time and `qpos` compared bit for bit with the saved ones. Anything
+    /// else is a `SimSerpentError` naming the field and byte; nothing in the bytes is run as code.
+    #[staticmethod]
+    fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<Self> {
+        let mut r = StateReader { bytes: data, at: 0 };
+        if r.take(STATE_MAGIC.len(), "magic")? != &STATE_MAGIC[..] {
+            r.at = 0;
+            return Err(r.bad("no SimSerpentState magic at the start"));
+        }
+        let version = u32::from_le_bytes(r.take(4, "version")?.try_into().unwrap_or([0; 4]));
+        if version != STATE_VERSION {
+            return Err(r.bad(&format!("layout version {version}; this build reads version {STATE_VERSION}")));
+        }
+        let toml = r.text("config")?;
+        if toml.len() as u64 > simserpent::model::files::MAX_CONFIG_BYTES {
+            return Err(r.bad("config: larger than a config may be"));
+        }
+        let source = simserpent::config::shorten(&r.text("source")?).into_owned();
+        let seed = match r.take(1, "seed flag")?[0] {
+            0 => None,
+            1 => Some(r.u64("seed")?),
+            flag => return Err(r.bad(&format!("seed flag {flag}: 0 or 1"))),
+        };
+        if seed.is_none() {
+            r.u64("seed")?;
+        }
+        let action_size = r.u64("action size")?;
+        let actions = r.floats("actions")?;
+        let time = r.f64("time")?;
+        let qpos = r.floats("qpos")?;
+        if r.at != data.len() {
+            return Err(r.bad(&format!("{} bytes after the last field", data.len() - r.at)));
+        }
+        let state = _world_state_from_replay(py, &toml, source, seed, actions, time, qpos)?;
+        if state.replay.action_size as u64 != action_size.max(1) {
+            return Err(SimSerpentError::new_err(format!(
+                "WorldState.from_bytes: action size {action_size}, but the config's world has {}",
+                state.replay.action_size
+            )));
+        }
+        Ok(state)
     }
 
     /// Number of actions since the episode's reset (what unpickling replays).
@@ -1017,7 +1174,9 @@ impl Env {
         estimates_dict(py, self.core.contact_estimates())
     }
     /// A copy of the whole state (engine, held action, sensor-noise streams, ground model,
-    /// episode bookkeeping).
+    /// episode bookkeeping). It pickles for your own processes (never unpickle a state from
+    /// others: unpickling runs code); `to_bytes()` / `WorldState.from_bytes()` carry it across
+    /// machines as checked plain data.
     fn get_state(&self) -> PyEnvState {
         PyEnvState { inner: self.core.save_state(), replay: self.replay.clone(), config: self.config.clone() }
     }
@@ -1128,6 +1287,9 @@ fn step_slot(s: Slot<'_>, same_step: bool) {
     }
 }
 
+/// Most environments of one [`VecEnv`]: each holds a MuJoCo model and data of its own.
+const MAX_ENVS: usize = 4096;
+
 #[pymethods]
 impl VecEnv {
     /// `num_envs` copies of the environment of `config`, stepped on `threads` threads (0: all
@@ -1135,8 +1297,13 @@ impl VecEnv {
     #[new]
     #[pyo3(signature = (config, num_envs, threads=0, autoreset_mode="next_step"))]
     fn new(py: Python<'_>, config: &PyConfig, num_envs: usize, threads: usize, autoreset_mode: &str) -> PyResult<Self> {
-        if num_envs == 0 {
-            return Err(pyo3::exceptions::PyValueError::new_err("num_envs must be at least 1"));
+        if !(1..=MAX_ENVS).contains(&num_envs) {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "num_envs = {num_envs}: give 1 to {MAX_ENVS} environments (each holds its own MuJoCo model and data)"
+            )));
+        }
+        if let Some(message) = simserpent::threads_beyond_cap("threads", threads) {
+            return Err(pyo3::exceptions::PyValueError::new_err(message));
         }
         let same_step = match autoreset_mode {
             "next_step" => false,

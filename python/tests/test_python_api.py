@@ -127,6 +127,50 @@ def test_a_tampered_pickle_is_refused():
     toml, source, seed, actions, time, qpos = args
     with pytest.raises(simserpent.SimSerpentError, match="replaying its episode"):
         f(toml, source, seed, actions, time, [q + 1.0 for q in qpos])
+    # Malformed: actions that are not whole steps of the action size, non-finite actions, an
+    # infinite time: refused naming what is wrong (before any replay), never a Rust panic.
+    n = w.action_size
+    assert len(actions) == 3 * n
+    with pytest.raises(simserpent.SimSerpentError, match=f"has {3 * n - 1} values, not a whole number of steps of this world's {n} actions"):
+        f(toml, source, seed, actions[:-1], time, qpos)
+    with pytest.raises(simserpent.SimSerpentError, match="action value 2 is NaN"):
+        f(toml, source, seed, actions[:2] + [float("nan")] + actions[3:], time, qpos)
+    with pytest.raises(simserpent.SimSerpentError, match="time or qpos is not finite"):
+        f(toml, source, seed, actions, float("inf"), qpos)
+
+
+def test_states_cross_machines_as_checked_bytes():
+    """to_bytes/from_bytes: the same state bit for bit; every damaged or hostile blob refused as
+    a SimSerpentError naming the field (a pickle of the same would run code)."""
+    cfg = simserpent.load_config(overrides={**SMALL, "env.max_episode_secs": 10.0})
+    w = simserpent.World(cfg)
+    w.reset(5)
+    branch(w, 0, 4)
+    blob = w.get_state().to_bytes()
+    assert blob[:16] == b"SimSerpentState\0"
+    back = simserpent.WorldState.from_bytes(blob)
+    assert back.steps == 4 and back.time == w.time
+    np.testing.assert_array_equal(back.qpos, w.qpos)
+    other = simserpent.World(cfg)
+    other.set_state(back)
+    assert_same(branch(other, 4), branch(w, 4))
+    for damaged, message in [
+        (b"", "no SimSerpentState magic"),
+        (b"\x80\x04K\x01." + blob, "no SimSerpentState magic"),
+        (blob[:16] + (2).to_bytes(4, "little") + blob[20:], "layout version 2"),
+        (blob[:20] + (2**63).to_bytes(8, "little") + blob[28:], "config: 9223372036854775808 items, more than"),
+        (blob[:-3], "qpos: cut short|qpos: .* items"),
+        (blob + b"x", "1 bytes after the last field"),
+    ]:
+        with pytest.raises(simserpent.SimSerpentError, match=message):
+            simserpent.WorldState.from_bytes(damaged)
+    # A config that is not valid is refused as any config is.
+    toml = w.get_state().__reduce__()[1][0]
+    bad = toml.replace("[snake]", "[snake]\nn_links = 100000", 1)
+    encoded = bad.encode()
+    forged = blob[:20] + len(encoded).to_bytes(8, "little") + encoded + blob[28 + len(toml.encode()):]
+    with pytest.raises(simserpent.SimSerpentError, match="n_links"):
+        simserpent.WorldState.from_bytes(forged)
 
 
 # ---------------------------------------------------------------- the render camera
@@ -259,7 +303,7 @@ def test_bad_arguments_get_clear_errors():
     w.step(np.zeros(4, dtype=np.int64))  # integers are numbers
 
 
-def test_bad_arguments_of_the_other_public_functions_get_clear_errors():
+def test_bad_arguments_of_the_other_public_functions_get_clear_errors(tmp_path):
     from simserpent.envs import SimSerpentVectorEnv
 
     with pytest.raises(TypeError, match=r"World\(config\): config must be a simserpent.Config .*got str 'x'"):
@@ -276,10 +320,21 @@ def test_bad_arguments_of_the_other_public_functions_get_clear_errors():
             function(None)
     with pytest.raises(TypeError, match="Gait.targets: t_secs must be a number of seconds, got str 'x'"):
         simserpent.Gait(overrides=SMALL).targets("x")
-    with pytest.raises(ValueError, match="num_envs must be a whole number >= 1, got -1"):
+    with pytest.raises(ValueError, match="num_envs must be a whole number from 1 to 4096, got -1"):
         SimSerpentVectorEnv(num_envs=-1, overrides=SMALL)
-    with pytest.raises(ValueError, match=r"threads must be a whole number >= 0 \(0: one thread per core\), got -1"):
+    with pytest.raises(ValueError, match="num_envs must be a whole number from 1 to 4096, got 1000000000"):
+        SimSerpentVectorEnv(num_envs=10**9, overrides=SMALL)
+    with pytest.raises(ValueError, match=r"threads must be a whole number from 0 to 256 \(0: one thread per core\), got -1"):
         SimSerpentVectorEnv(num_envs=2, overrides=SMALL, threads=-1)
+    with pytest.raises(ValueError, match=r"threads must be a whole number from 0 to 256 .*got 100000"):
+        SimSerpentVectorEnv(num_envs=2, overrides=SMALL, threads=100_000)
+    with pytest.raises(ValueError, match="held-out fields = 1000000: give 1 to 10000 per family"):
+        simserpent.oal_bench(held_out_fields=10**6, out=tmp_path)
+    with pytest.raises(ValueError, match="tuning fields = 5000: give 0 to 1000"):
+        simserpent.oal_bench(tuning_fields=5000, out=tmp_path)
+    with pytest.raises(ValueError, match="threads 100000: at most 256 worker threads"):
+        simserpent.oal_bench(threads=100_000, out=tmp_path)
+    assert not any(tmp_path.iterdir()), "a refused benchmark writes nothing"
     vec = SimSerpentVectorEnv(num_envs=2, overrides=SMALL)
     vec.reset(seed=0)
     with pytest.raises(TypeError, match=r"actions must be real numbers.*dtype <U1 and shape \(2, 4\)"):

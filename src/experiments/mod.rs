@@ -86,6 +86,9 @@ impl ExperimentError {
     }
 }
 
+/// Most seeds of `experiment estimation --seeds` (each is a peg-field run per floor).
+pub const MAX_SEEDS: usize = 10_000;
+
 /// The experiments, by command name.
 pub const NAMES: [&str; 8] =
     ["configure", "collision", "undulation", "form-closure", "oal", "estimation", "bounce", "oal-bench"];
@@ -299,7 +302,13 @@ pub fn run_experiment_with(
         )));
     }
     if let Some(o) = &options.oal {
-        o.bench.validate()?;
+        o.bench.check()?;
+    }
+    if let Some(seeds) = options.seeds.as_ref().filter(|s| s.len() > MAX_SEEDS) {
+        return Err(ExperimentError::Option(format!(
+            "--seeds: {} seeds; give at most {MAX_SEEDS} (each is a peg-field run per floor)",
+            seeds.len()
+        )));
     }
     let start = std::time::Instant::now();
     let quick = options.quick;

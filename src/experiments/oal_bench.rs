@@ -360,11 +360,39 @@ impl Bench {
         (0..self.held_out_fields).map(|i| self.first_held_out_seed + i).collect()
     }
 
-    /// Checks the sizes: a clear message naming the field and what is allowed.
-    pub fn validate(&self) -> Result<(), ExperimentError> {
+    /// Most tuning fields per family (seeds 0 to 999).
+    pub const MAX_TUNING_FIELDS: u64 = 1_000;
+    /// Most held-out fields per family.
+    pub const MAX_HELD_OUT_FIELDS: u64 = 10_000;
+
+    /// Checks the sizes before any field is planned: a clear message naming the size, its value
+    /// and what is allowed (at most [`Bench::MAX_TUNING_FIELDS`] tuning and
+    /// [`Bench::MAX_HELD_OUT_FIELDS`] held-out fields per family, held-out seeds after the tuning
+    /// seeds, a time limit of 2 to 3600 s, at least one floor and one family).
+    ///
+    /// # Errors
+    /// [`ExperimentError::Option`] naming the size, its value and what is allowed.
+    pub fn check(&self) -> Result<(), ExperimentError> {
         let bad = |m: String| Err(ExperimentError::Option(m));
-        if self.held_out_fields == 0 {
-            return bad("held-out fields: 0; at least 1 is needed".into());
+        if self.tuning_fields > Self::MAX_TUNING_FIELDS {
+            return bad(format!(
+                "tuning fields: {}; give 0 to {} per family",
+                self.tuning_fields,
+                Self::MAX_TUNING_FIELDS
+            ));
+        }
+        if !(1..=Self::MAX_HELD_OUT_FIELDS).contains(&self.held_out_fields) {
+            return bad(format!(
+                "held-out fields: {}; give 1 to {} per family",
+                self.held_out_fields,
+                Self::MAX_HELD_OUT_FIELDS
+            ));
+        }
+        if self.first_held_out_seed.checked_add(self.held_out_fields).is_none() {
+            return bad(format!(
+                "held-out seeds from {}: the last seed would pass 2^64 - 1",
+                self.first_held_out_seed
+            ));
         }
         if self.first_held_out_seed < self.tuning_fields {
             return bad(format!(
@@ -1392,7 +1420,7 @@ pub fn run_bench(
     folder: &Path,
     progress: bool,
 ) -> Result<BenchOutcome, ExperimentError> {
-    bench.validate()?;
+    bench.check()?;
     let calibration = calibrate(bench, base, pool)?;
     let plan = Plan { bench, conditions: bench.conditions(), calibration };
     let cost = std::sync::Mutex::new(vec![(0usize, 0.0f64, 0.0f64); plan.conditions.len()]);
@@ -1503,7 +1531,7 @@ pub fn merge_shards(
     let mut unsharded = bench.clone();
     unsharded.shard = None;
     let bench = &unsharded;
-    bench.validate()?;
+    bench.check()?;
     let entries = std::fs::read_dir(folder).map_err(|source| ExperimentError::Io {
         what: "read",
         path: folder.to_path_buf(),
@@ -2145,6 +2173,8 @@ pub fn run_into(
     intro: &str,
     progress: bool,
 ) -> Result<(std::path::PathBuf, super::Report), ExperimentError> {
+    // Before the folder exists: bad sizes leave nothing behind.
+    bench.check()?;
     let unix_secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
     let folder = crate::record::create_run_folder(out, "oal-bench", &crate::record::utc_stamp(unix_secs))
         .map_err(|e| ExperimentError::Run(RunError::Record(e)))?;

@@ -75,6 +75,10 @@ pub enum RenderError {
     /// written so far stay, the video ends at the last frame drawn.
     #[error("rendering interrupted by a signal (SIGINT or SIGTERM); the files written so far are kept")]
     Interrupted,
+    /// A file or folder the pictures go into breaks the writer rule of [`crate::files`] (a link
+    /// out of the run folder, a FIFO), or cannot be created.
+    #[error(transparent)]
+    File(#[from] crate::files::FileError),
     /// A video or image encoder failed.
     #[error("{path}: {message}")]
     Encoder {
@@ -133,9 +137,12 @@ pub fn video_stem(folder: &Path, camera: CameraKind) -> PathBuf {
     folder.join(format!("video_{}", camera.name()))
 }
 
+/// The folder of a run's images.
+pub const IMAGES_DIR: &str = "images";
+
 /// The file of an image: `<folder>/images/<camera>_<time>s.png`.
 pub fn image_path(folder: &Path, camera: CameraKind, time_secs: f64) -> PathBuf {
-    folder.join("images").join(format!("{}_{:.3}s.png", camera.name(), time_secs))
+    folder.join(IMAGES_DIR).join(format!("{}_{:.3}s.png", camera.name(), time_secs))
 }
 
 /// What the step loop of a run calls: `state.csv` on recorded steps, frames and images on time.
@@ -283,8 +290,7 @@ mod live {
             let mut images = config.render.image_times_secs.clone();
             images.sort_by(f64::total_cmp);
             if !images.is_empty() {
-                let dir = folder.join("images");
-                std::fs::create_dir_all(&dir).map_err(RenderError::io(&dir))?;
+                crate::files::create_dir_in(folder, Path::new(IMAGES_DIR))?;
             }
             Ok(Self {
                 painter,
@@ -335,6 +341,7 @@ mod live {
                         overlay_time(&mut self.frame, w, h, t);
                     }
                     let path = image_path(&self.folder, cam, ti);
+                    crate::files::check_target_in(&self.folder, &path)?;
                     write_png(&path, &self.frame, w, h)?;
                     self.written.push(path);
                 }
@@ -399,6 +406,11 @@ pub fn render_run_folder(folder: &Path, options: &ReplayOptions) -> Result<Vec<P
     let config = crate::config::load_config(&config_path, &options.overrides)
         .map_err(|source| RenderError::Config { file: config_path.clone(), source })?;
     check_images_wanted(&config_path, &config, options)?;
+    if options.images {
+        // Before anything is drawn: never through a linked `images/` (the writer rule of
+        // `crate::files`).
+        crate::files::create_dir_in(folder, Path::new(IMAGES_DIR))?;
+    }
     let state_path = folder.join(STATE_FILE);
     if !state_path.is_file() {
         return Err(RenderError::BadFile {
@@ -421,8 +433,6 @@ pub fn render_run_folder(folder: &Path, options: &ReplayOptions) -> Result<Vec<P
     let overlay = config.render.time_overlay;
 
     if options.images && !config.render.image_times_secs.is_empty() {
-        let dir = folder.join("images");
-        std::fs::create_dir_all(&dir).map_err(RenderError::io(&dir))?;
         for &t in &config.render.image_times_secs {
             if crate::interrupt::requested() {
                 return Err(RenderError::Interrupted);
@@ -434,6 +444,7 @@ pub fn render_run_folder(folder: &Path, options: &ReplayOptions) -> Result<Vec<P
                     overlay_time(&mut frame, w, h, painter.time());
                 }
                 let path = image_path(folder, cam, t);
+                crate::files::check_target_in(folder, &path)?;
                 write_png(&path, &frame, w, h)?;
                 written.push(path);
             }

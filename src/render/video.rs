@@ -148,8 +148,7 @@ impl GifWriter {
             u16::try_from(width).map_err(|_| enc("too wide for a GIF".into()))?,
             u16::try_from(height).map_err(|_| enc("too high for a GIF".into()))?,
         );
-        let file = crate::files::open_for_writing(path, false)
-            .map_err(|e| RenderError::io(path)(std::io::Error::other(e.to_string())))?;
+        let file = crate::files::open_for_writing(path, false)?;
         let mut encoder =
             gif::Encoder::new(BufWriter::new(file), w, h, &gif_palette()).map_err(|e| enc(e.to_string()))?;
         encoder.set_repeat(gif::Repeat::Infinite).map_err(|e| enc(e.to_string()))?;
@@ -220,6 +219,9 @@ pub struct Mp4Writer {
 impl Mp4Writer {
     fn create(program: &str, path: &Path, width: usize, height: usize, fps: f64) -> Result<Self, RenderError> {
         let enc = |message: String| RenderError::Encoder { path: path.to_path_buf(), message };
+        // ffmpeg opens the file by name: a link planted there is refused first (the writer rule
+        // of `crate::files`), and the file it overwrites is a regular one.
+        drop(crate::files::open_for_writing(path, false)?);
         let mut child = Command::new(program)
             .args(["-hide_banner", "-loglevel", "error", "-y", "-f", "rawvideo", "-pix_fmt", "rgb24", "-s"])
             .arg(format!("{width}x{height}"))

@@ -3,8 +3,35 @@
 //! into MuJoCo's `qfrc_applied` (through `mj_applyFT`, at the state's kinematics), held over the
 //! step. Body ids and unit directions are resolved once; no allocation per step.
 
-use super::World;
+use super::{SimError, World};
 use crate::config::{Config, ExternalForce};
+
+/// Checks that every `[[physics.external_forces]]` names a link of a user's robot (`--robot`,
+/// whose links are its bodies, not `snake.n_links`): a force on a link the robot does not have is
+/// refused, never dropped.
+///
+/// # Errors
+/// [`SimError::Config`] naming the key, the link and the robot's links.
+pub fn check_robot_links(config: &Config, links: &[String], robot: &str) -> Result<(), SimError> {
+    use crate::config::shorten;
+    for (i, f) in config.physics.external_forces.iter().enumerate() {
+        if f.link >= links.len() {
+            let names = links.iter().take(8).map(|n| shorten(n).into_owned()).collect::<Vec<_>>().join(", ");
+            let more = if links.len() > 8 { format!(", … {} more", links.len() - 8) } else { String::new() };
+            return Err(SimError::Config(crate::config::ConfigError::InvalidValue {
+                key: format!("physics.external_forces[{i}].link"),
+                value: f.link.to_string(),
+                allowed: format!(
+                    "must be a link index of the robot {}: 0 to {} (its {} links in file order: {names}{more})",
+                    shorten(robot),
+                    links.len().saturating_sub(1),
+                    links.len()
+                ),
+            }));
+        }
+    }
+    Ok(())
+}
 
 /// The configured external forces of a run, resolved for its world.
 #[derive(Debug, Clone)]

@@ -145,17 +145,23 @@ impl Index {
         // Only joint transmissions drive a joint directly (a tendon's or site's id is no joint id).
         let trn_type = model.actuator_trntype();
         let actuator_names = object_names(model, MjtObjBase::mjOBJ_ACTUATOR, model.nu() as usize, "actuator");
+        // Joint → the actuators that drive it, in actuator order (one pass over the actuators).
+        let mut driving_of: Vec<Vec<usize>> = vec![Vec::new(); joint_names.len()];
+        for (a, (t, kind)) in trn.iter().zip(trn_type).enumerate() {
+            if matches!(kind, MjtTrn::mjTRN_JOINT | MjtTrn::mjTRN_JOINTINPARENT)
+                && let Some(list) = usize::try_from(t[0]).ok().and_then(|j| driving_of.get_mut(j))
+            {
+                list.push(a);
+            }
+        }
         let mut joints = Vec::new();
         let mut head_free_qpos_adr = None;
         for (jid, name) in joint_names.iter().enumerate() {
             match model.jnt_type()[jid] {
                 MjtJoint::mjJNT_HINGE | MjtJoint::mjJNT_SLIDE => {
                     let mut actuators = [None; 4];
-                    let driving = trn.iter().zip(trn_type).enumerate().filter(|(_, (t, kind))| {
-                        matches!(kind, MjtTrn::mjTRN_JOINT | MjtTrn::mjTRN_JOINTINPARENT) && t[0] as usize == jid
-                    });
                     let mut found = Vec::new();
-                    for (a, _) in driving {
+                    for &a in &driving_of[jid] {
                         let kind = actuator_kind(model, a).ok_or_else(|| {
                             format!(
                                 "actuator `{}` of joint `{name}` is of no kind SimSerpent can command (a <motor>, \
@@ -213,7 +219,16 @@ impl Index {
         let ngeom = model.ngeom() as usize;
         let nbody = model.nbody() as usize;
         let geom_body = model.geom_bodyid();
-        let geom_link = (0..ngeom).map(|g| links.iter().position(|l| l.body as i32 == geom_body[g])).collect();
+        // Body → link, so that the geoms are resolved in one pass (linear in the model's size).
+        let mut link_of_body = vec![None; nbody];
+        for (i, l) in links.iter().enumerate() {
+            if let Some(slot) = link_of_body.get_mut(l.body) {
+                slot.get_or_insert(i);
+            }
+        }
+        let geom_link = (0..ngeom)
+            .map(|g| usize::try_from(geom_body[g]).ok().and_then(|b| link_of_body.get(b).copied().flatten()))
+            .collect();
         let robot_mass_kg = links.iter().map(|l| l.mass_kg).sum();
         let geom_names = object_names(model, MjtObjBase::mjOBJ_GEOM, ngeom, "geom");
         let geom_class = geom_names

@@ -39,11 +39,11 @@ pub enum SimError {
     #[error(transparent)]
     Config(#[from] crate::config::ConfigError),
     /// MuJoCo rejected a model, or a model lacks what the run needs.
-    #[error("model: {0}")]
+    #[error("model: {}", crate::config::shorten_words(.0))]
     Model(String),
     /// MuJoCo rejected the model generated from a validated config (a range that validation
     /// does not know, or a third-party terrain): bad input, like [`SimError::Config`].
-    #[error("MuJoCo rejected {what}: {message}")]
+    #[error("MuJoCo rejected {}: {}", crate::config::shorten_words(what), crate::config::shorten_words(message))]
     ModelRejected {
         /// Which model: "the generated model", "the model with the third-party terrain FILE".
         what: String,
@@ -60,7 +60,7 @@ pub enum SimError {
         source: std::io::Error,
     },
     /// A user's robot file could not be used.
-    #[error("robot file {file}: {message}")]
+    #[error("robot file {}: {}", crate::config::shorten(file), crate::config::shorten_words(message))]
     RobotFile {
         /// The file.
         file: String,
@@ -484,7 +484,25 @@ impl World {
         let robot_err = |message: String| SimError::RobotFile { file: file.clone(), message };
         // A regular file (after following symbolic links) of at most MAX_MJCF_BYTES: not a
         // device or FIFO that MuJoCo's parser would read without end.
-        model::files::check_regular_file(robot, model::files::MAX_MJCF_BYTES).map_err(|e| robot_err(e.to_string()))?;
+        let bytes = model::files::read_regular_file(robot, model::files::MAX_MJCF_BYTES)
+            .map_err(|e| robot_err(e.to_string()))?;
+        // One pass before MuJoCo reads it: NaN or infinities, which MuJoCo would take as they are
+        // (a NaN joint limit runs to the end), and a chain longer than MuJoCo can load.
+        let scan = model::files::scan_robot_file(&bytes);
+        drop(bytes);
+        if let Some(number) = scan.non_finite {
+            return Err(robot_err(number.to_string()));
+        }
+        let cap = model::files::MAX_ROBOT_CHAIN_LINKS;
+        if scan.longest_chain_links > cap {
+            return Err(robot_err(format!(
+                "its longest chain has {} links (to `{}`); a robot may have at most {cap} links on one chain \
+                 (MuJoCo reads a robot as nested bodies and stops at 500 nested elements, and a chain's step \
+                 cost grows with about the cube of its length)",
+                scan.longest_chain_links,
+                crate::config::shorten(&scan.deepest_link)
+            )));
+        }
         let robot_model = MjModel::from_xml(robot).map_err(|e| {
             let message = compile::full_load_error(compile::Mjcf::File(robot)).unwrap_or_else(|| e.to_string());
             robot_err(format!("MuJoCo cannot load the robot ({message})"))
@@ -511,6 +529,8 @@ impl World {
         let model = MjModel::from_xml(&scene_path)
             .map_err(|e| robot_err(format!("MuJoCo cannot load the robot inside the terrain ({e})")))?;
         let index = Index::for_robot(&model, config.control.method).map_err(robot_err)?;
+        let link_names: Vec<String> = index.links.iter().map(|l| l.name.clone()).collect();
+        external::check_robot_links(config, &link_names, &file)?;
         safety::check_robot_actuators(config, &index).map_err(robot_err)?;
         let initial_pair_friction = model.pair_friction().to_vec();
         let mut world = Self {

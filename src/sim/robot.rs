@@ -93,16 +93,17 @@ pub(super) fn prepared_mjcf(config: &Config, robot: &Path, scratch: &Path) -> Re
 
 /// The names of the hinge and slide joints of `model` that no actuator drives directly.
 pub(super) fn unactuated_joints(model: &MjModel) -> Vec<String> {
-    let driven: Vec<usize> = model
-        .actuator_trnid()
-        .iter()
-        .zip(model.actuator_trntype())
-        .filter(|(_, t)| matches!(t, MjtTrn::mjTRN_JOINT | MjtTrn::mjTRN_JOINTINPARENT))
-        .map(|(id, _)| id[0] as usize)
-        .collect();
+    let mut driven = vec![false; model.njnt() as usize];
+    for (id, t) in model.actuator_trnid().iter().zip(model.actuator_trntype()) {
+        if matches!(t, MjtTrn::mjTRN_JOINT | MjtTrn::mjTRN_JOINTINPARENT)
+            && let Some(d) = usize::try_from(id[0]).ok().and_then(|j| driven.get_mut(j))
+        {
+            *d = true;
+        }
+    }
     (0..model.njnt() as usize)
         .filter(|&j| matches!(model.jnt_type()[j], MjtJoint::mjJNT_HINGE | MjtJoint::mjJNT_SLIDE))
-        .filter(|j| !driven.contains(j))
+        .filter(|&j| !driven[j])
         .map(|j| model.id_to_name(MjtObjBase::mjOBJ_JOINT, j).unwrap_or_default().to_string())
         .collect()
 }

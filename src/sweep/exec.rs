@@ -67,6 +67,10 @@ fn finished(folder: &Path) -> Option<SkippedSummary> {
 }
 
 fn run_one(spec: &SweepSpec, run: &PlannedRun, folder: &Path, command_line: &[String]) -> RunOutcome {
+    // A link at a run's name is neither read as a finished run nor written through.
+    if std::fs::symlink_metadata(folder).is_ok_and(|m| m.file_type().is_symlink()) {
+        return RunOutcome::Failed(crate::files::FileError::Link { path: folder.to_path_buf() }.to_string());
+    }
     if let Some(done) = finished(folder) {
         return RunOutcome::Skipped(done);
     }
@@ -164,8 +168,10 @@ pub fn run_sweep(spec: &SweepSpec) -> Result<SweepReport, SweepError> {
 pub fn prepare(spec: &SweepSpec) -> Result<(PathBuf, Vec<PlannedRun>), SweepError> {
     let (base, runs) = plan(spec)?;
     let sweep_dir = spec.sweep_dir.clone().unwrap_or_else(|| default_sweep_dir(spec, &base));
-    let runs_dir = sweep_dir.join("runs");
-    std::fs::create_dir_all(&runs_dir).map_err(io_error(&runs_dir))?;
+    std::fs::create_dir_all(&sweep_dir).map_err(io_error(&sweep_dir))?;
+    // `runs/` is a real folder inside the sweep folder, never a link out of it (the writer rule
+    // of `crate::files`).
+    crate::files::create_dir_in(&sweep_dir, Path::new("runs"))?;
     lock(&sweep_dir, spec.shard)?;
     write_plan(spec, &sweep_dir, &runs)?;
     Ok((sweep_dir, runs))

@@ -100,10 +100,13 @@ impl Variation {
                         "a grid needs a step (`lo:hi:step`); `lo:hi` ranges are for --sample random|lhs",
                     ));
                 };
-                let n = ((hi - lo) / step + 1e-9).floor() as u64 + 1;
-                if n > 1_000_000 {
-                    return Err(argument(&self.key, format!("{n} values; at most 1000000 per key")));
+                // Counted as a float before any cast: a range of 1e308 over a step of 1e-300
+                // has more values than any integer holds.
+                let steps = ((hi - lo) / step + 1e-9).floor();
+                if steps.is_nan() || steps >= 1_000_000.0 {
+                    return Err(argument(&self.key, format!("{:e} values; at most 1000000 per key", steps + 1.0)));
                 }
+                let n = steps as u64 + 1;
                 Ok((0..n).map(|i| make_value(lo + i as f64 * step, *integer)).collect())
             }
         }

@@ -21,6 +21,8 @@ mod guide;
 mod hostile_ends;
 mod hostile_files;
 #[cfg(unix)]
+mod hostile_input;
+#[cfg(unix)]
 mod hostile_surfaces;
 mod impacts;
 mod legacy_convert;

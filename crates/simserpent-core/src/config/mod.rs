@@ -142,6 +142,26 @@ pub fn shorten(text: &str) -> std::borrow::Cow<'_, str> {
     }
 }
 
+/// [`shorten`] applied to every word of a message (a run of characters without white space):
+/// a message that quotes names or values (a 100 KB joint name of a robot file) keeps its
+/// sentences and echoes each at most [`ECHO_LIMIT`] characters.
+pub fn shorten_words(text: &str) -> std::borrow::Cow<'_, str> {
+    if text.split_whitespace().all(|w| w.chars().nth(ECHO_LIMIT).is_none()) {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::with_capacity(text.len().min(64 * ECHO_LIMIT));
+    let mut rest = text;
+    while !rest.is_empty() {
+        let word_end = rest.find(char::is_whitespace).unwrap_or(rest.len());
+        out.push_str(&shorten(&rest[..word_end]));
+        rest = &rest[word_end..];
+        let space_end = rest.find(|c: char| !c.is_whitespace()).unwrap_or(rest.len());
+        out.push_str(&rest[..space_end]);
+        rest = &rest[space_end..];
+    }
+    std::borrow::Cow::Owned(out)
+}
+
 /// [`shorten`] applied to every line of a message (parser messages quote the offending line).
 fn shorten_lines(text: &str) -> std::borrow::Cow<'_, str> {
     if text.lines().all(|l| l.chars().nth(ECHO_LIMIT).is_none()) {

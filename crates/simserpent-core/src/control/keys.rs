@@ -33,7 +33,10 @@ pub struct UnusedKey {
 
 impl std::fmt::Display for UnusedKey {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{} = {} has no effect: {}", self.key, self.value, self.reason)
+        // Values echoed as errors echo them: at most ECHO_LIMIT characters (a 10,000-element list
+        // is not repeated whole).
+        use crate::config::shorten;
+        write!(f, "{} = {} has no effect: {}", shorten(&self.key), shorten(&self.value), self.reason)
     }
 }
 

@@ -377,6 +377,210 @@ fn png_size(path: &Path) -> Option<(u32, u32)> {
     Some((w, h))
 }
 
+/// Attributes of MJCF and URDF whose values are names, files or keywords, never numbers (a joint
+/// may well be named `inf`).
+const NAME_ATTRIBUTES: [&str; 30] = [
+    "name",
+    "class",
+    "childclass",
+    "type",
+    "file",
+    "filename",
+    "mesh",
+    "material",
+    "texture",
+    "hfield",
+    "joint",
+    "joint1",
+    "joint2",
+    "body",
+    "body1",
+    "body2",
+    "link",
+    "site",
+    "geom",
+    "geom1",
+    "geom2",
+    "tendon",
+    "actuator",
+    "target",
+    "objname",
+    "refname",
+    "prefix",
+    "content_type",
+    "key",
+    "version",
+];
+
+/// A number in an MJCF or URDF file that is not finite (`nan`, `inf`, `1e999`), which MuJoCo
+/// would take as it is.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NonFiniteNumber {
+    /// Line of the element (1-based).
+    pub line: usize,
+    /// The element, e.g. `limit`.
+    pub element: String,
+    /// The attribute, e.g. `upper`.
+    pub attribute: String,
+    /// The attribute's whole value.
+    pub value: String,
+}
+
+impl std::fmt::Display for NonFiniteNumber {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        use crate::config::shorten;
+        write!(
+            f,
+            "line {}: <{} {}=\"{}\">: not a finite number; every number of a robot or terrain file must be finite \
+             (NaN and infinities make the simulated state NaN or a limit meaningless)",
+            self.line,
+            shorten(&self.element),
+            shorten(&self.attribute),
+            shorten(&self.value)
+        )
+    }
+}
+
+/// The most links on one chain of a robot file (the longest path of bodies from a root, the root
+/// counted). MuJoCo writes a robot as nested `<body>` elements and its XML reader stops at 500
+/// nested elements (a 1,000-link chain failed after its third compile), and a chain's step cost
+/// grows with about the cube of its length (its joint-space mass matrix is dense): 2.5 times the
+/// links took 9.6 times the CPU time of a 10-step run (BENCHMARKS.md, "Robot set-up").
+pub const MAX_ROBOT_CHAIN_LINKS: usize = 400;
+
+/// What one pass over a robot file (URDF or MJCF) finds.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct RobotScan {
+    /// The first number that is not finite, if any.
+    pub non_finite: Option<NonFiniteNumber>,
+    /// Links on the longest chain (URDF: from the joints' parent and child links; MJCF: nested
+    /// `<body>` elements).
+    pub longest_chain_links: usize,
+    /// The last link of that chain (URDF: its name; MJCF: the deepest body's name, or empty).
+    pub deepest_link: String,
+}
+
+/// The first attribute of the XML text `bytes` (MJCF or URDF) holding a number that is not
+/// finite, if any ([`scan_robot_file`]).
+pub fn first_non_finite_number(bytes: &[u8]) -> Option<NonFiniteNumber> {
+    scan_robot_file(bytes).non_finite
+}
+
+/// One pass over the XML text of a robot or terrain file, linear in its size: the first
+/// attribute holding a number that is not finite (every attribute but names and files,
+/// [`NAME_ATTRIBUTES`], whose whitespace-separated parts include one that reads as a number and
+/// is NaN or infinite), and the longest chain of links. Malformed XML ends the pass (MuJoCo's
+/// loader reports it).
+pub fn scan_robot_file(bytes: &[u8]) -> RobotScan {
+    use quick_xml::events::Event;
+    let mut scan = RobotScan::default();
+    let mut reader = quick_xml::Reader::from_reader(bytes);
+    let mut buf = Vec::new();
+    // Lines counted incrementally up to the reader's position.
+    let (mut line, mut counted) = (1usize, 0usize);
+    // MJCF: nested bodies. URDF: each joint's (parent, child) links.
+    let mut body_depth = 0usize;
+    let mut in_joint = false;
+    let (mut parent, mut child) = (None::<String>, None::<String>);
+    let mut parent_of: std::collections::HashMap<String, String> = std::collections::HashMap::new();
+    let mut links: Vec<String> = Vec::new();
+    while let Ok(event) = reader.read_event_into(&mut buf) {
+        let (start, empty) = match &event {
+            Event::Start(s) => (s, false),
+            Event::Empty(s) => (s, true),
+            Event::End(e) => {
+                match e.name().as_ref() {
+                    b"body" => body_depth = body_depth.saturating_sub(1),
+                    b"joint" if in_joint => {
+                        in_joint = false;
+                        if let (Some(p), Some(c)) = (parent.take(), child.take()) {
+                            parent_of.insert(c, p);
+                        }
+                    }
+                    _ => {}
+                }
+                buf.clear();
+                continue;
+            }
+            Event::Eof => break,
+            _ => {
+                buf.clear();
+                continue;
+            }
+        };
+        let at = (reader.buffer_position() as usize).min(bytes.len());
+        line += bytes[counted.min(at)..at].iter().filter(|&&b| b == b'\n').count();
+        counted = at;
+        let element = start.name().as_ref().to_vec();
+        let attribute = |key: &[u8]| {
+            start.attributes().flatten().find(|a| a.key.as_ref() == key).map(|a| {
+                a.normalized_value(quick_xml::XmlVersion::Implicit1_0).map(|v| v.into_owned()).unwrap_or_default()
+            })
+        };
+        match element.as_slice() {
+            b"body" => {
+                let depth = body_depth + 1;
+                if depth > scan.longest_chain_links {
+                    scan.longest_chain_links = depth;
+                    scan.deepest_link = attribute(b"name").unwrap_or_default();
+                }
+                if !empty {
+                    body_depth = depth;
+                }
+            }
+            b"link" if !in_joint => links.extend(attribute(b"name")),
+            b"joint" if !empty && body_depth == 0 => in_joint = true,
+            b"parent" if in_joint => parent = attribute(b"link"),
+            b"child" if in_joint => child = attribute(b"link"),
+            _ => {}
+        }
+        if scan.non_finite.is_none() {
+            for attr in start.attributes().flatten() {
+                let key = attr.key.as_ref();
+                if NAME_ATTRIBUTES.iter().any(|n| n.as_bytes() == key) {
+                    continue;
+                }
+                let Ok(value) = attr.normalized_value(quick_xml::XmlVersion::Implicit1_0) else { continue };
+                if value.split_whitespace().any(|t| t.parse::<f64>().is_ok_and(|v| !v.is_finite())) {
+                    scan.non_finite = Some(NonFiniteNumber {
+                        line,
+                        element: String::from_utf8_lossy(&element).into_owned(),
+                        attribute: String::from_utf8_lossy(key).into_owned(),
+                        value: value.into_owned(),
+                    });
+                    break;
+                }
+            }
+        }
+        buf.clear();
+    }
+    // URDF: each link's chain length, memoised; a cycle (no root) stops at the number of links.
+    let mut length: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
+    for link in &links {
+        let mut path: Vec<&str> = Vec::new();
+        let mut at = link.as_str();
+        let base = loop {
+            if let Some(&n) = length.get(at) {
+                break n;
+            }
+            path.push(at);
+            match parent_of.get(at) {
+                Some(p) if path.len() <= links.len() => at = p.as_str(),
+                _ => break 0,
+            }
+        };
+        for (i, name) in path.iter().rev().enumerate() {
+            length.insert(name, base + i + 1);
+        }
+        let n = length.get(link.as_str()).copied().unwrap_or(0);
+        if n > scan.longest_chain_links {
+            scan.longest_chain_links = n;
+            scan.deepest_link.clone_from(link);
+        }
+    }
+    scan
+}
+
 /// Checks that `file` is well-formed XML with a `<mujoco>` root, and lists the files it refers to.
 ///
 /// A third-party terrain must be one self-contained folder: the file itself (at most
@@ -398,6 +602,9 @@ pub fn check_mjcf_terrain(key: &str, file: &str) -> Result<MjcfAssets, ConfigErr
     use quick_xml::events::Event;
     let bytes = read_bytes(key, file, MAX_MJCF_BYTES)?;
     let bad = |why: String| file_err(key, file, format!("{file} is not a usable MJCF terrain file: {why}"));
+    if let Some(number) = first_non_finite_number(&bytes) {
+        return Err(bad(number.to_string()));
+    }
     let line_at = |pos: u64| 1 + bytes[..(pos as usize).min(bytes.len())].iter().filter(|&&b| b == b'\n').count();
     let mut reader = quick_xml::Reader::from_reader(bytes.as_slice());
     reader.config_mut().check_end_names = true;
