@@ -710,6 +710,9 @@ pub fn bare_gait(config: &Config, duration_secs: f64) -> Result<BareGait, Experi
     })
 }
 
+/// A run's outcome: its trace, or `None` when an interrupt stopped it.
+type RunResult = Result<Option<Trace>, ExperimentError>;
+
 /// Why a run's loop stopped early.
 #[derive(Debug)]
 enum Stop {
@@ -772,9 +775,7 @@ impl Observer<Stop> for Trace {
         }
         // The jam rule, from the end of the ramp-in.
         self.best_x_m = self.best_x_m.max(com[0]);
-        if t < self.ramp_secs - 1e-9 {
-            self.anchor = (t, self.best_x_m);
-        } else if self.best_x_m >= self.anchor.1 + JAM_PROGRESS_M {
+        if t < self.ramp_secs - 1e-9 || self.best_x_m >= self.anchor.1 + JAM_PROGRESS_M {
             self.anchor = (t, self.best_x_m);
         } else if t - self.anchor.0 >= JAM_WINDOW_SECS - 1e-9 {
             self.jammed = true;
@@ -1367,8 +1368,7 @@ fn run_cases(
 ) -> Vec<Result<Option<Trace>, ExperimentError>> {
     let next = std::sync::atomic::AtomicUsize::new(0);
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let slots: Vec<std::sync::Mutex<Option<Result<Option<Trace>, ExperimentError>>>> =
-        cases.iter().map(|_| std::sync::Mutex::new(None)).collect();
+    let slots: Vec<std::sync::Mutex<Option<RunResult>>> = cases.iter().map(|_| std::sync::Mutex::new(None)).collect();
     pool.scope(|scope| {
         for _ in 0..pool.current_num_threads() {
             scope.spawn(|_| {
