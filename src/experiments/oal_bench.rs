@@ -389,10 +389,7 @@ impl Bench {
             ));
         }
         if self.first_held_out_seed.checked_add(self.held_out_fields).is_none() {
-            return bad(format!(
-                "held-out seeds from {}: the last seed would pass 2^64 - 1",
-                self.first_held_out_seed
-            ));
+            return bad(format!("held-out seeds from {}: the last seed would pass 2^64 - 1", self.first_held_out_seed));
         }
         if self.first_held_out_seed < self.tuning_fields {
             return bad(format!(
