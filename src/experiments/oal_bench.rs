@@ -242,6 +242,9 @@ pub struct Bench {
     /// stiff servos of every run but the passive ones; a passive gain puts the laws on the same
     /// soft servos as that baseline (their feedback-off run is then the passive run).
     pub law_servo_kp_nm_per_rad: Option<f64>,
+    /// Called with (runs done, runs in all) after every run (Python's
+    /// `simserpent.oal_bench(progress=...)`).
+    pub on_progress: Option<crate::run::ProgressCallback>,
 }
 
 impl Bench {
@@ -261,6 +264,7 @@ impl Bench {
             plugged: Vec::new(),
             path_fields: 2,
             law_servo_kp_nm_per_rad: None,
+            on_progress: None,
         }
     }
 
@@ -695,6 +699,9 @@ pub fn run_bench(
             *e = (e.0 + 1, e.1 + t.time_secs.last().copied().unwrap_or(0.0), e.2 + cpu_secs);
         }
         let n = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
+        if let Some(c) = &bench.on_progress {
+            c.report(n as u64, total as u64);
+        }
         if progress && (n.is_multiple_of(50) || n == total) {
             eprintln!("experiment oal-bench: {n} of {total} runs done");
         }
