@@ -407,11 +407,11 @@ pub fn estimate_run_folder(run_folder: &Path, overrides: &[String]) -> Result<Es
             for v in est.external_force_n[i].iter().chain(&est.floor_force_n[i]).chain(&est.obstacle_force_n[i]) {
                 let _ = write!(csv, ",{v}");
             }
-            let _ = write!(csv, ",{},{},{}", u8::from(est.contact[i]), p.unwrap_or(0.0), u8::from(p.is_some()));
+            let _ = write!(csv, ",{},{}", u8::from(est.contact[i]), p.unwrap_or(f64::NAN));
             for v in at(&lc.external, m).iter().chain(&at(&lc.floor, m)).chain(&obstacle) {
                 let _ = write!(csv, ",{v}");
             }
-            let _ = write!(csv, ",{}", true_point.unwrap_or(0.0));
+            let _ = write!(csv, ",{}", true_point.unwrap_or(f64::NAN));
             let s = &mut series[i];
             s[0].push(est.obstacle_force_n[i][0]);
             s[1].push(obstacle[0]); // truth at the sensors' time, as plotted
@@ -459,7 +459,7 @@ fn header(nl: usize) -> String {
                 let _ = write!(h, ",{p}_{stem}_{a}_n");
             }
         }
-        let _ = write!(h, ",{p}_estimated_contact,{p}_estimated_point_along_m,{p}_estimated_point_known");
+        let _ = write!(h, ",{p}_estimated_contact,{p}_estimated_point_along_m");
         for stem in ["true_external_force", "true_floor_force", "true_obstacle_force"] {
             for a in ["x", "y", "z"] {
                 let _ = write!(h, ",{p}_{stem}_{a}_n");

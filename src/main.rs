@@ -177,7 +177,7 @@ enum Command {
         #[arg(long, value_parser = ["isotropic", "anisotropic"])]
         floor: Option<String>,
         #[command(flatten)]
-        oal: OalArgs,
+        oal: Box<OalArgs>,
     },
     /// Run the contact estimator on a recorded run (its config.toml, sensors.csv and links.csv,
     /// CSV, every step recorded: recording.every_n_steps = 1): writes RUN_FOLDER/estimation/ with

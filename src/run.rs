@@ -22,6 +22,9 @@ pub struct RunOptions {
     pub command_line: Vec<String>,
     /// Show a progress bar on runs that take more than two seconds (only on a terminal).
     pub progress: bool,
+    /// Called with (steps done, steps in all) every 1024 steps and once at the end (Python's
+    /// `simserpent.run(progress=...)`).
+    pub on_progress: Option<ProgressCallback>,
     /// Show the run in MuJoCo's interactive viewer (live with the `viewer` feature; see
     /// [`crate::render::viewer`]). Fails before the run when there is no display.
     pub viewer: bool,
@@ -36,6 +39,24 @@ pub struct RunOptions {
     /// writer threads (`record::offload`). The files are byte for byte the same; this is the
     /// synchronous path, for comparisons (`simserpent bench --inline-writers`) and tests.
     pub inline_writers: bool,
+}
+
+/// A caller's progress report: called with (done, in all) — steps of a run, runs of a
+/// benchmark — from the thread that did the work.
+#[derive(Clone)]
+pub struct ProgressCallback(pub std::sync::Arc<dyn Fn(u64, u64) + Send + Sync>);
+
+impl ProgressCallback {
+    /// Reports `done` of `total`.
+    pub fn report(&self, done: u64, total: u64) {
+        (self.0)(done, total);
+    }
+}
+
+impl std::fmt::Debug for ProgressCallback {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ProgressCallback")
+    }
 }
 
 /// Errors of a run (the binary maps them to the documented exit codes).
@@ -340,7 +361,7 @@ fn run_simulation_tracked<C: Controller>(
     let plan = LoopPlan { steps: total_steps, record_every_n_steps: config.recording.every_n_steps.max(1) };
     let mut totals = Totals::default();
     let mut interrupt = Every::new(crate::interrupt::CHECK_EVERY_N_STEPS, InterruptPoll);
-    let mut progress = Every::new(1024, Progress::new(options.progress, total_steps));
+    let mut progress = Every::new(1024, Progress::new(options.progress, total_steps, options.on_progress.clone()));
     let outcome = {
         let mut observers: Vec<&mut dyn Observer<RunError>> = vec![&mut totals];
         if let Some(t) = tracking.as_mut() {
@@ -759,16 +780,18 @@ impl Observer<RunError> for InterruptPoll {
     }
 }
 
-/// A progress bar that appears only after two seconds and only on a terminal.
+/// A progress bar that appears only after two seconds and only on a terminal, and the caller's
+/// callback.
 struct Progress {
     bar: Option<indicatif::ProgressBar>,
     started: Instant,
     total: u64,
     shown: std::cell::Cell<bool>,
+    callback: Option<ProgressCallback>,
 }
 
 impl Progress {
-    fn new(enabled: bool, total: u64) -> Self {
+    fn new(enabled: bool, total: u64, callback: Option<ProgressCallback>) -> Self {
         let bar = (enabled && std::io::stderr().is_terminal()).then(|| {
             let bar = indicatif::ProgressBar::with_draw_target(Some(total), indicatif::ProgressDrawTarget::hidden());
             if let Ok(style) =
@@ -778,10 +801,13 @@ impl Progress {
             }
             bar
         });
-        Self { bar, started: Instant::now(), total, shown: std::cell::Cell::new(false) }
+        Self { bar, started: Instant::now(), total, shown: std::cell::Cell::new(false), callback }
     }
 
     fn tick(&self, step: u64) {
+        if let Some(c) = &self.callback {
+            c.report(step.min(self.total), self.total);
+        }
         if let Some(bar) = &self.bar {
             if !self.shown.get() && self.started.elapsed() > Duration::from_secs(2) {
                 bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
@@ -803,7 +829,10 @@ impl Observer<RunError> for Progress {
         self.tick(view.k);
         Ok(())
     }
-    fn on_end(&mut self, _view: &StepView<'_>, _completed: bool) -> Result<(), RunError> {
+    fn on_end(&mut self, view: &StepView<'_>, _completed: bool) -> Result<(), RunError> {
+        if let Some(c) = &self.callback {
+            c.report(view.k.min(self.total), self.total);
+        }
         self.finish();
         Ok(())
     }

@@ -20,8 +20,7 @@ from above) relative to link j. Link yaw: the head's yaw plus the joint angles i
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -43,11 +42,6 @@ OVERRIDES = {
 }
 
 
-def head_yaw_rad(quat_wxyz: Sequence[float]) -> float:
-    w, x, y, z = quat_wxyz
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-
-
 Log = list[tuple[float, int, float]]
 
 
@@ -65,9 +59,8 @@ def make_controller(
         contacts = obs.get("contacts")  # absent unless [estimation] enabled = true
         if contacts is None:
             return target
-        q = obs["joint_angle_rad"]
         # Yaw of every link: head yaw, then each joint's angle added along the chain.
-        yaw = head_yaw_rad(obs["head_quat"]) + np.concatenate(([0.0], np.cumsum(q)))
+        yaw = simserpent.link_yaws(obs)
         f = contacts["obstacle_force_n"]
         # Lateral force on each link (+ = toward the link's left), zero where no contact.
         lateral_n = (-np.sin(yaw) * f[:, 0] + np.cos(yaw) * f[:, 1]) * contacts["contact"]

@@ -11,7 +11,6 @@ returns the report.
 
 from __future__ import annotations
 
-import math
 from typing import Any, Callable
 
 import numpy as np
@@ -31,9 +30,7 @@ def push_away(config: simserpent.Config) -> Callable[[dict[str, Any]], Any]:
         contacts = obs.get("contacts")
         if contacts is None:
             return target
-        w, x, y, z = obs["head_quat"]
-        head_yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-        yaw = head_yaw + np.concatenate(([0.0], np.cumsum(obs["joint_angle_rad"])))
+        yaw = simserpent.link_yaws(obs)  # every link's heading, counter-clockwise from +x
         f = contacts["obstacle_force_n"]
         across = (-np.sin(yaw) * f[:, 0] + np.cos(yaw) * f[:, 1]) * contacts["contact"]
         # Link i's force bends the joints at both of its ends (i - 1 and i).

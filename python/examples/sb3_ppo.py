@@ -3,7 +3,11 @@
 Not run by the tests (torch is large). Needs::
 
     pip install stable-baselines3 moviepy        # torch comes with stable-baselines3
-    MUJOCO_GL=egl python python/examples/sb3_ppo.py [--steps 200000] [--envs 4] [--fast]
+    python python/examples/sb3_ppo.py [--steps 200000] [--envs 4] [--fast]
+
+(Headless works as it is: without a display ``import simserpent`` chooses MuJoCo's EGL back-end.)
+The settings that learn in a budget of a few hundred thousand steps, and the reference learning
+curve, are in ``ppo_learning_curve.py`` and the guide's Gymnasium page.
 
 1. ``make_vec_env("SimSerpent-v0", n_envs=...)`` -- SB3's own vectorisation (it makes each env
    with ``render_mode="rgb_array"``, wraps it in ``Monitor`` and a ``DummyVecEnv``); with
@@ -20,13 +24,10 @@ RL Zoo's Swimmer settings.
 from __future__ import annotations
 
 import argparse
-import os
 
-os.environ.setdefault("MUJOCO_GL", "egl")  # offscreen rendering without a display
+import gymnasium as gym
 
-import gymnasium as gym  # noqa: E402
-
-import simserpent  # noqa: E402,F401  (registers SimSerpent-v0)
+import simserpent  # noqa: F401  (registers SimSerpent-v0; EGL without a display)
 
 
 def main() -> None:

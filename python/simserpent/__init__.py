@@ -89,6 +89,46 @@ JOINT_SIGN_CONVENTION = (
     "+15 deg: the head's yaw fell by 4.7 rad in 8 s, -15 deg: rose by 6.0 rad)."
 )
 
+
+
+def head_yaw(obs_or_quat: Any) -> float:
+    """The heading of the head (rad, in (-pi, pi]): the direction of the head link's +x axis (it
+    points forward, towards the snout) in the floor plane, measured from world +x,
+    **counter-clockwise seen from above** (right-hand rule about +z). So a snake turning left
+    has a rising yaw and one turning right a falling yaw (``JOINT_SIGN_CONVENTION``: a positive
+    joint offset turns it right).
+
+    ``obs_or_quat``: a controller's observation dict (its ``head_yaw_rad``, else its
+    ``head_quat``) or a quaternion ``(w, x, y, z)`` such as ``obs["head_quat"]``. Link ``i``'s
+    yaw is ``head_yaw(obs) + sum(obs["joint_angle_rad"][:i])`` (:func:`link_yaws`)."""
+    if isinstance(obs_or_quat, Mapping):
+        if "head_yaw_rad" in obs_or_quat:
+            return float(obs_or_quat["head_yaw_rad"])
+        if "head_quat" not in obs_or_quat:
+            raise KeyError(f"head_yaw: the observation has no head_quat; it has {sorted(obs_or_quat)}")
+        obs_or_quat = obs_or_quat["head_quat"]
+    try:
+        w, x, y, z = (float(v) for v in obs_or_quat)
+    except (TypeError, ValueError):
+        raise TypeError(
+            f"head_yaw: expected an observation dict or a quaternion (w, x, y, z), got {obs_or_quat!r}"
+        ) from None
+    return _core.yaw_rad([w, x, y, z])
+
+
+def link_yaws(obs: Mapping[str, Any]) -> Any:
+    """Every link's heading (rad, numpy array, head first), counter-clockwise seen from above as
+    :func:`head_yaw`: the head's yaw plus the joint angles up to the link (joint i turns link i
+    relative to link i-1 about its +z axis), the headings of a planar chain. Not wrapped to
+    (-pi, pi]. Links that tilt (roll on the floor) make it differ from a link's own yaw
+    (``links.csv`` ``link_NN_yaw_rad``) by a few degrees: up to 0.06 rad on the tail of a 6-link
+    snake turning on the default floor (python/tests/test_rl.py)."""
+    import numpy as np
+
+    angles = np.asarray(obs["joint_angle_rad"], dtype=np.float64)
+    return head_yaw(obs) + np.concatenate(([0.0], np.cumsum(angles)))
+
+
 ConfigLike = Union[str, "os.PathLike[str]", Mapping[str, Any], Config, None]
 Overrides = Union[Iterable[str], Mapping[str, Any], None]
 
@@ -111,11 +151,14 @@ __all__ = [
     "JOINT_SIGN_CONVENTION",
     "default_config_toml",
     "estimate",
+    "head_yaw",
+    "link_yaws",
     "load_config",
     "make_world",
     "mujoco_version",
     "oal_bench",
     "open_run",
+    "ProgressBar",
     "plot",
     "render",
     "run",
@@ -180,6 +223,67 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
+class ProgressBar:
+    """A text progress bar on ``sys.stderr`` (``progress=True`` of :func:`run`,
+    :func:`oal_bench` and :func:`simserpent.ray_sweep.sweep`): ``bar(done, total)`` redraws
+    ``label [#####.....]  45% 450/1000 steps, 3 s, ETA 4 s`` on one line (at most 10 times a
+    second) and ends the line when ``done == total``."""
+
+    def __init__(self, label: str, unit: str, stream: Any = None) -> None:
+        import sys
+        import time
+
+        self.label, self.unit = label, unit
+        self.stream = stream if stream is not None else sys.stderr
+        self._clock = time.monotonic
+        self._started = self._clock()
+        self._drawn = -1.0
+        self._ended = False
+
+    def __call__(self, done: int, total: int) -> None:
+        now = self._clock()
+        final = total > 0 and done >= total
+        if self._ended or (not final and now - self._drawn < 0.1):
+            return
+        self._drawn = now
+        fraction = min(1.0, done / total) if total > 0 else 0.0
+        width = 30
+        filled = int(round(fraction * width))
+        elapsed = now - self._started
+        eta = elapsed * (1.0 - fraction) / fraction if 0.0 < fraction < 1.0 else 0.0
+        line = (
+            f"\r{self.label} [{'#' * filled}{'.' * (width - filled)}] {100 * fraction:3.0f}% "
+            f"{done}/{total} {self.unit}, {elapsed:.0f} s" + (f", ETA {eta:.0f} s" if not final else "")
+        )
+        self.stream.write(line + ("\n" if final else ""))
+        self.stream.flush()
+        self._ended = final
+
+
+def _progress_callback(progress: Any, label: str, unit: str) -> Any:
+    """The callable ``(done, total)`` that reports progress, or None (quiet).
+
+    ``progress``: ``None`` (the default) shows a :class:`ProgressBar` on stderr when stderr is
+    a terminal and stays quiet otherwise (pipes, log files, CI, notebooks); ``True`` always
+    shows it; ``False`` is quiet; a callable ``progress(done, total)`` is called instead (e.g.
+    to drive ``tqdm`` or a notebook widget)."""
+    import sys
+
+    if progress is None:
+        isatty = getattr(sys.stderr, "isatty", None)
+        return ProgressBar(label, unit) if callable(isatty) and isatty() else None
+    if progress is True:
+        return ProgressBar(label, unit)
+    if progress is False:
+        return None
+    if callable(progress):
+        return progress
+    raise TypeError(
+        "progress must be None (a bar on stderr when it is a terminal), True, False or a callable "
+        f"progress(done, total), got {type(progress).__name__} {progress!r}"
+    )
+
+
 def load_config(source: ConfigLike = None, overrides: Overrides = None) -> Config:
     """Loads and validates a config.
 
@@ -215,10 +319,17 @@ def run(
     overrides: Overrides = None,
     run_folder: Union[str, "os.PathLike[str]", None] = None,
     controller: Any = None,
+    progress: Any = None,
 ) -> dict[str, Any]:
     """Runs a whole configured simulation, as ``simserpent run`` does (the GIL is released
     while it runs). Returns the summary dict (``run_folder``, ``distance_m``,
     ``forward_speed_m_per_s``, ``peak_contact_force_10ms_n``, ``actuator_energy_j``, ...).
+
+    ``progress``: ``None`` (default) draws a bar of the physics steps on stderr when stderr is
+    a terminal and nothing otherwise (scripts piped to a file, CI, notebooks); ``True`` always,
+    ``False`` never; or a callable ``progress(steps_done, steps_total)``, called every 1024
+    steps and at the end (an exception in it is printed through ``sys.unraisablehook`` and does
+    not stop the run).
 
     ``run_folder``: record into exactly this folder instead of a new
     ``<general.output_dir>/<run_name>-<UTC time>/``.
@@ -227,7 +338,8 @@ def run(
     folder and tables as the built-in controller. It is called at every physics step with the
     measured observation, a dict (``time_secs``, ``joint_angle_rad``,
     ``joint_velocity_rad_per_s``, ``actuator_torque_nm``, ``head_position_m``, ``head_quat``,
-    ``head_velocity_m_per_s``; numpy arrays; with ``[estimation] enabled`` also ``contacts``,
+    ``head_yaw_rad`` (the head's heading, counter-clockwise from +x seen from above:
+    :func:`head_yaw`), ``head_velocity_m_per_s``; numpy arrays; with ``[estimation] enabled`` also ``contacts``,
     the contact estimates as in :meth:`World.contact_estimates`), and returns one command per joint for the
     actuators of ``control.method`` (e.g. target angles in rad for ``"position"``), or a dict
     of blocks (``{"position_rad": ..., "torque_nm": ...}``). An exception in it stops the run
@@ -237,7 +349,7 @@ def run(
     if controller is not None and not callable(controller):
         raise TypeError(f"controller must be callable (obs dict -> command), got {type(controller).__name__}")
     folder = _fspath("run", "run_folder", run_folder) if run_folder is not None else None
-    return _core.run(cfg, folder, controller)
+    return _core.run(cfg, folder, controller, _progress_callback(progress, "run", "steps"))
 
 
 def estimate(run_folder: Union[str, "os.PathLike[str]"], overrides: Overrides = None) -> dict[str, Any]:
@@ -277,6 +389,7 @@ def oal_bench(
     threads: int = 0,
     overrides: Overrides = None,
     law_servo_kp_nm_per_rad: Union[float, None] = None,
+    progress: Any = None,
 ) -> dict[str, Any]:
     """The obstacle-aided locomotion benchmark (``simserpent experiment oal-bench``) with your
     controller plugged in as condition ``name`` beside feedback off (``open_loop``), passive
@@ -298,7 +411,8 @@ def oal_bench(
     (``--set`` syntax) go onto the default config first (e.g. a contact law's gains).
     ``law_servo_kp_nm_per_rad`` puts the built-in laws on soft servos of that kp (kv = kp/100)
     instead of the stiff ones (with a passive gain, their feedback-off run is that baseline's).
-    ``threads``: 0 = all cores.
+    ``threads``: 0 = all cores. ``progress``: as for :func:`run`, counted in runs (a bar on
+    stderr when it is a terminal by default; ``progress(runs_done, runs_total)`` after every run).
 
     Writes ``<out>/oal-bench-<UTC time>/`` (``report.md``, ``oal_runs.csv``, ``oal_summary.csv``,
     ``oal_paired.csv``, ``oal_heading.csv``, ``oal_bare.csv``, ``plots/``); returns
@@ -324,6 +438,7 @@ def oal_bench(
         threads,
         _override_list(overrides),
         None if law_servo_kp_nm_per_rad is None else float(law_servo_kp_nm_per_rad),
+        _progress_callback(progress, "oal-bench", "runs"),
     )
 
 

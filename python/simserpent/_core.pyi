@@ -35,6 +35,7 @@ __all__ = [
     "load_config",
     "default_config_toml",
     "mujoco_version",
+    "yaw_rad",
     "run",
     "estimate",
     "oal_bench",
@@ -83,7 +84,9 @@ def run(
     config: Config,
     run_folder: str | None = None,
     controller: Callable[[dict[str, Any]], Any] | None = None,
+    progress: Callable[[int, int], Any] | None = None,
 ) -> dict[str, Any]: ...
+def yaw_rad(quat_wxyz: Sequence[float]) -> float: ...
 def oal_bench(
     controller: Callable[[Config], Callable[[dict[str, Any]], Any]] | None,
     name: str,
@@ -101,6 +104,7 @@ def oal_bench(
     threads: int,
     overrides: Sequence[str],
     law_servo_kp_nm_per_rad: float | None,
+    progress: Callable[[int, int], Any] | None = None,
 ) -> dict[str, Any]: ...
 def plot_run_folder(run_folder: str) -> tuple[list[str], list[tuple[str, str]]]: ...
 def render_run_folder(run_folder: str, video: bool, images: bool, overrides: Sequence[str] = ...) -> list[str]: ...

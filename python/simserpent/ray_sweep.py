@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from . import ConfigLike, Overrides, _core, load_config, toml_literal
+from . import ConfigLike, Overrides, _core, _progress_callback, load_config, toml_literal
 
 #: The metric columns of a run, as in the CLI's sweep summary (`simserpent::sweep::METRICS`).
 METRICS = tuple(_core.SWEEP_METRICS)
@@ -100,6 +100,7 @@ def sweep(
     sweep_dir: str | os.PathLike[str] | None = None,
     address: str | None = None,
     num_cpus: int | None = None,
+    progress: Any = None,
 ) -> tuple[Any, str]:
     """Runs a sweep on Ray; returns ``(summary DataFrame, path of summary.csv)``.
 
@@ -107,7 +108,9 @@ def sweep(
     default), ``vary`` (``["snake.n_links=5,10", "gait.sine_wave.frequency_hz=0.5:2.0:0.5"]``),
     ``overrides`` (``--set``), ``sample`` (``grid``, ``random``, ``lhs``), ``samples``,
     ``seed``, ``sweep_dir`` (default ``<general.output_dir>/sweep-<config name>``). Runs that
-    completed earlier (manifest ``complete``) are read back, not redone.
+    completed earlier (manifest ``complete``) are read back, not redone. ``progress``: as for
+    :func:`simserpent.run`, counted in runs (a bar on stderr when it is a terminal by default;
+    ``progress(runs_done, runs_total)`` as runs finish).
     """
     import pandas as pd
     import ray
@@ -127,9 +130,20 @@ def sweep(
     args["sweep_dir"] = _abs(plan.sweep_dir)
     task = ray.remote(num_cpus=1)(_remote_sweep_run)
     refs = [task.remote(args, index) for index, _id, _params in plan.runs()]
-    rows = ray.get(refs)
+    rows = _gather(ray, refs, _progress_callback(progress, "sweep", "runs"))
     summary_csv = plan.write_summary(rows)
     return pd.read_csv(summary_csv), summary_csv
+
+
+def _gather(ray: Any, refs: list[Any], report: Any) -> list[Any]:
+    """``ray.get(refs)`` in order, reporting ``report(done, total)`` as tasks finish."""
+    if report is not None:
+        pending, total = list(refs), len(refs)
+        report(0, total)
+        while pending:
+            _ready, pending = ray.wait(pending, num_returns=1)
+            report(total - len(pending), total)
+    return list(ray.get(refs))
 
 
 def _evaluate(config_json: str, sets: list[str], run_folder: str) -> dict[str, Any]:

@@ -17,7 +17,7 @@ use simserpent::control::{Command, Controller, JointTrajectory, Observation};
 use simserpent::env::{EnvCore, EnvState, RewardTerms, StepOutcome};
 use simserpent::estimate::{EstimateError as LibEstimateError, estimate_run_folder};
 use simserpent::estimation::{ContactEstimates, MotionScore};
-use simserpent::run::{RunError, RunOptions, RunSummary};
+use simserpent::run::{ProgressCallback, RunError, RunOptions, RunSummary};
 use simserpent::sim::SimError;
 use simserpent::sweep::{self, SampleMode, SummaryTable, SweepError as LibSweepError, SweepSpec, Variation};
 use std::path::PathBuf;
@@ -360,6 +360,7 @@ impl PyController {
         d.set_item("actuator_torque_nm", PyArray1::from_slice(py, &obs.actuator_torque_nm))?;
         d.set_item("head_position_m", PyArray1::from_slice(py, &obs.head_position_m))?;
         d.set_item("head_quat", PyArray1::from_slice(py, &obs.head_quat))?;
+        d.set_item("head_yaw_rad", simserpent::state::yaw_rad(obs.head_quat))?;
         d.set_item("head_velocity_m_per_s", PyArray1::from_slice(py, &obs.head_velocity_m_per_s))?;
         if obs.contacts.active {
             d.set_item("contacts", estimates_dict(py, &obs.contacts)?)?;
@@ -430,14 +431,16 @@ impl Controller for PyController {
 /// returns the summary (with `run_folder`). With `controller` (a Python callable, see
 /// `PyController`) it replaces the configured gait.
 #[pyfunction]
-#[pyo3(signature = (config, run_folder=None, controller=None))]
+#[pyo3(signature = (config, run_folder=None, controller=None, progress=None))]
 fn run<'py>(
     py: Python<'py>,
     config: &PyConfig,
     run_folder: Option<PathBuf>,
     controller: Option<Py<PyAny>>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let options = RunOptions {
+        on_progress: progress.map(python_progress),
         config_source: config.source.clone(),
         command_line: vec![
             if controller.is_some() { "python: simserpent.run(controller=...)" } else { "python: simserpent.run" }
@@ -472,6 +475,28 @@ fn run<'py>(
     }
 }
 
+/// A Python callable `progress(done, total)` as a progress report. Called with the GIL taken;
+/// an exception in it is printed as an unraisable exception (`sys.unraisablehook`) and does not
+/// stop the work (progress is only shown).
+fn python_progress(callable: Py<PyAny>) -> ProgressCallback {
+    let callable = Arc::new(callable);
+    ProgressCallback(Arc::new(move |done: u64, total: u64| {
+        Python::attach(|py| {
+            if let Err(e) = callable.bind(py).call1((done, total)) {
+                e.write_unraisable(py, Some(callable.bind(py)));
+            }
+        });
+    }))
+}
+
+/// Yaw (rad, in (−π, π]) of an orientation quaternion `(w, x, y, z)`: the heading of the body's
+/// +x axis in the floor plane from world +x, counter-clockwise seen from above
+/// (`simserpent.head_yaw`).
+#[pyfunction]
+fn yaw_rad(quat_wxyz: [f64; 4]) -> f64 {
+    simserpent::state::yaw_rad(quat_wxyz)
+}
+
 /// Each of `names` parsed by `parse`, or an error naming the argument, the unknown `kind` and
 /// what is allowed.
 fn parse_names<T>(
@@ -497,7 +522,7 @@ fn parse_names<T>(
 /// and returns the step callable of `PyController`. Writes `<out>/oal-bench-<UTC time>/`
 /// (report.md, the tables, plots/); returns `folder` and `report` (Markdown).
 #[pyfunction]
-#[pyo3(signature = (controller, name, out, quick, estimation, tuning_fields, held_out_fields, duration_secs, floors, families, laws, true_contacts, passive_kp_nm_per_rad, threads, overrides, law_servo_kp_nm_per_rad))]
+#[pyo3(signature = (controller, name, out, quick, estimation, tuning_fields, held_out_fields, duration_secs, floors, families, laws, true_contacts, passive_kp_nm_per_rad, threads, overrides, law_servo_kp_nm_per_rad, progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn oal_bench<'py>(
     py: Python<'py>,
@@ -517,6 +542,7 @@ fn oal_bench<'py>(
     threads: usize,
     overrides: Vec<String>,
     law_servo_kp_nm_per_rad: Option<f64>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
     use simserpent::experiments::oal_bench::{Bench, Family, Floor, Plugged};
     let value_err = pyo3::exceptions::PyValueError::new_err;
@@ -550,6 +576,7 @@ fn oal_bench<'py>(
     }
     bench.laws = laws;
     bench.true_contacts = true_contacts;
+    bench.on_progress = progress.map(python_progress);
     let error: Arc<Mutex<Option<PyErr>>> = Arc::new(Mutex::new(None));
     if let Some(factory) = controller {
         let factory = Arc::new(factory);
@@ -1729,6 +1756,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(estimate, m)?)?;
     m.add_function(wrap_pyfunction!(oal_bench, m)?)?;
+    m.add_function(wrap_pyfunction!(yaw_rad, m)?)?;
     m.add("SWEEP_METRICS", sweep::METRICS.iter().map(|m| m.name).collect::<Vec<_>>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())

@@ -139,7 +139,17 @@ def check_against_csv(folder: Path, topics, noise_std):
             assert imu.header.frame_id == name
             assert xyz(imu.angular_velocity) == [row[f"{name}_gyro_measured_{a}_rad_per_s"] for a in "xyz"]
             assert xyz(imu.linear_acceleration) == [row[f"{name}_accelerometer_measured_{a}_m_per_s2"] for a in "xyz"]
-            assert imu.orientation_covariance[0] == -1.0
+            # The IMU's framequat (the link's orientation: links.csv's without noise), measured.
+            q = [row[f"{name}_orientation_measured_q{a}"] for a in "xyzw"]
+            assert [imu.orientation.x, imu.orientation.y, imu.orientation.z, imu.orientation.w] == q
+            if not noise_std["gyro"]:
+                lq = links.iloc[k]
+                # The same rotation (q and -q are one orientation) up to one step's turn: the IMU's
+                # sample is the sensors' latest, one step older (sensor_time_s).
+                dot = abs(np.dot(q, [lq[f"{name}_orientation_q{a}"] for a in "xyzw"]))
+                assert 2.0 * np.arccos(min(1.0, dot)) < 0.01  # rad: one 1-ms step at up to 10 rad/s
+            orientation_var = noise_std["orientation"] ** 2
+            assert list(imu.orientation_covariance) == [orientation_var, 0, 0, 0, orientation_var, 0, 0, 0, orientation_var]
             gyro_var, accel_var = noise_std["gyro"] ** 2, noise_std["accelerometer"] ** 2
             assert list(imu.angular_velocity_covariance) == [gyro_var, 0, 0, 0, gyro_var, 0, 0, 0, gyro_var]
             assert list(imu.linear_acceleration_covariance) == [accel_var, 0, 0, 0, accel_var, 0, 0, 0, accel_var]
@@ -209,8 +219,10 @@ def check_against_csv(folder: Path, topics, noise_std):
                     assert got == [row[f"{name}_estimated_{field}_{a}_n"] for a in "xyz"]
                 assert float(msg.contact[i]) == row[f"{name}_estimated_contact"]
                 assert float(msg.self_contact[i]) == row[f"{name}_estimated_self_contact"]
-                known = row[f"{name}_estimated_point_known"] == 1.0
-                assert (not np.isnan(msg.contact_point_along[i])) == known
+                # One "no point" convention: NaN in the message and in the table.
+                along = row[f"{name}_estimated_point_along_m"]
+                assert np.isnan(msg.contact_point_along[i]) == np.isnan(along)
+                assert np.isnan(along) or msg.contact_point_along[i] == along
     return n
 
 
@@ -220,7 +232,7 @@ def test_bag_decodes_and_equals_csv(tmp_path, noise):
     folder = run(tmp_path, *sets)
     bag = folder / "run.mcap"
     topics, summary = read_mcap(bag)
-    std = {"gyro": 0.005, "accelerometer": 0.05} if noise else {"gyro": 0.0, "accelerometer": 0.0}
+    std = {"gyro": 0.005, "accelerometer": 0.05, "orientation": 0.01} if noise else {"gyro": 0.0, "accelerometer": 0.0, "orientation": 0.0}
     n = check_against_csv(folder, topics, std)
     assert summary.statistics.message_count == n * len(topics)
 

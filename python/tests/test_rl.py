@@ -5,6 +5,7 @@ controllers, gaits, and a seeded cross-entropy search that improves the return."
 import copy
 import math
 import pickle
+import sys
 import time
 
 import gymnasium as gym
@@ -542,3 +543,117 @@ def test_cross_entropy_improves_the_return_on_the_vector_env():
     elapsed = time.perf_counter() - start
     assert means[-1] > means[0] + 0.05, means
     assert elapsed < 120, elapsed
+
+
+# ---------------------------------------------------------------- progress and heading
+
+
+def test_run_reports_progress_to_a_callable_a_bar_or_nobody(tmp_path, capsys, monkeypatch):
+    sets = {"snake.n_links": 4, "terrain.kind": "none", "general.duration_secs": 3.0}
+    seen = []
+    simserpent.run(overrides=sets, run_folder=tmp_path / "callable", progress=lambda done, total: seen.append((done, total)))
+    total = 3000  # 3 s of 1-ms steps
+    assert seen[-1] == (total, total) and all(t == total for _, t in seen)
+    assert [d for d, _ in seen] == sorted(d for d, _ in seen) and len(seen) >= 3, seen
+    capsys.readouterr()
+    # Default: a bar only on a terminal (the captured stderr is none), so nothing here.
+    simserpent.run(overrides=sets, run_folder=tmp_path / "quiet")
+    assert capsys.readouterr().err == ""
+    simserpent.run(overrides=sets, run_folder=tmp_path / "bar", progress=True)
+    err = capsys.readouterr().err
+    assert f"100% {total}/{total} steps" in err and err.endswith("\n"), err
+    # An exception in the callable is reported (sys.unraisablehook) and does not stop the run.
+    def broken(done, total):
+        raise RuntimeError("progress display broke")
+
+    reported = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda u: reported.append(u.exc_value))
+    s = simserpent.run(overrides=sets, run_folder=tmp_path / "broken", progress=broken)
+    assert simserpent.open_run(s["run_folder"]).status == "complete"
+    assert reported and all("progress display broke" in str(e) for e in reported)
+    with pytest.raises(TypeError, match="progress must be"):
+        simserpent.run(overrides=sets, run_folder=tmp_path / "bad", progress="yes")
+
+
+def test_oal_bench_reports_progress_in_runs(tmp_path):
+    seen = []
+    small = dict(quick=True, floors=["isotropic"], families=["random"], laws=False, tuning_fields=1,
+                 held_out_fields=1, duration_secs=1.0, passive_kp_nm_per_rad=[5.0], threads=2)
+    simserpent.oal_bench(out=tmp_path, progress=lambda done, total: seen.append((done, total)), **small)
+    # open loop and one passive gain, on one tuning and one held-out field.
+    assert sorted(seen) == [(k, 4) for k in range(1, 5)], seen
+
+
+def test_head_yaw_is_counter_clockwise_seen_from_above_and_matches_the_tables(tmp_path):
+    for angle in (0.0, 0.5, -1.2, 3.0):
+        q = [math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)]
+        assert simserpent.head_yaw(q) == pytest.approx(angle, abs=1e-12)
+    with pytest.raises(TypeError, match="quaternion"):
+        simserpent.head_yaw("north")
+    # A snake bent by a positive offset turns right (clockwise): its yaw falls. The controller's
+    # head_yaw_rad and link_yaws equal the recorded links' yaw_rad at the same instants.
+    sets = {"snake.n_links": 6, "terrain.kind": "none", "general.duration_secs": 3.0, "control.controller": "gait",
+            "recording.every_n_steps": 100}
+    gait = simserpent.Gait(overrides=sets)
+    seen = {}
+
+    def steer(obs):
+        assert obs["head_yaw_rad"] == simserpent.head_yaw(obs["head_quat"])
+        seen[round(obs["time_secs"], 6)] = simserpent.link_yaws(obs)
+        return gait(obs["time_secs"]) + 0.3
+
+    summary = simserpent.run(overrides=sets, run_folder=tmp_path / "turn", controller=steer)
+    links = simserpent.open_run(summary["run_folder"]).links
+    for _, row in links.iterrows():
+        yaws = seen[round(row["time_s"], 6)]
+        recorded = np.array([row[f"link_{i:02d}_yaw_rad"] for i in range(6)])
+        error = np.angle(np.exp(1j * (yaws - recorded)))
+        assert abs(error[0]) < 1e-5, error  # the head's yaw (its quaternion of the same instant)
+        # The other links: the planar chain's headings, within the links' tilt (measured here:
+        # at most 0.056 rad on the tail link).
+        assert np.abs(error).max() < 0.1, error
+    head = np.unwrap([seen[t][0] for t in sorted(seen)])  # every instant: no jump is missed
+    assert head[-1] - head[0] < -0.2, (head[0], head[-1])
+
+
+def test_the_guide_tables_match_the_env():
+    """The Gymnasium page's action and observation tables (per index) are the env's layout."""
+    import re
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[2] / "guide/src/tutorials/gymnasium.md").read_text(encoding="utf-8")
+    env = SimSerpentEnv()  # the default config, as the page describes it
+    names = env.observation_names
+
+    def rows(heading):
+        section = page.split(heading, 1)[1].split("\n### ", 1)[0]
+        found = [[c.strip() for c in line.strip().strip("|").split("|")]
+                 for line in section.splitlines() if re.match(r"\| (\d|\*)", line)]
+        return section, found
+
+    section, table = rows("### Observation space")
+    assert f"Box(-inf, inf, ({len(names)},), float64)" in section
+    covered = []
+    for cells in table:
+        lo, _, hi = cells[0].partition("–")
+        lo, hi = int(lo), int(hi or lo)
+        listed = re.findall(r"`([^`]+)`", cells[1])
+        assert (names[lo], names[hi]) == (listed[0], listed[-1]), cells
+        covered.extend(range(lo, hi + 1))
+    assert covered == list(range(len(names)))
+    assert env.observation_space.shape == (len(names),)
+
+    section, table = rows("### Action space")
+    n = env.action_space.shape[0]
+    assert f"Box(-1.0, 1.0, ({n},), float32)" in section
+    numbered = {int(c[0]): re.findall(r"`(joint_\d\d)`", c[1])[0] for c in table if c[0].isdigit()}
+    assert numbered == {0: "joint_01", n - 1: f"joint_{n:02d}"}
+    # Action i is joint i+1's target angle (rad = action x joint_range_deg): hold one, read it back.
+    env.reset(seed=0)
+    action = np.zeros(n, dtype=np.float32)
+    action[n - 1] = 0.5
+    for _ in range(50):
+        obs, *_ = env.step(action)
+    assert names.index(f"joint_{n:02d}_angle_rad") == n - 1
+    assert obs[n - 1] == pytest.approx(0.5 * math.pi / 2, abs=0.05), obs[:n]
+    assert abs(obs[0]) < 0.05

@@ -683,10 +683,11 @@ def test_the_peer_decodes_the_force_torque_imu_and_contact_topics(binary, domain
             assert m.header.frame_id == link
             assert xyz(m.angular_velocity) == [row[f"{link}_gyro_measured_{a}_rad_per_s"] for a in "xyz"]
             assert xyz(m.linear_acceleration) == [row[f"{link}_accelerometer_measured_{a}_m_per_s2"] for a in "xyz"]
-            # No orientation estimate (sensor_msgs/Imu, REP 145): covariance element 0 is -1.
-            assert m.orientation_covariance[0] == -1.0
+            # The IMU's framequat as measured (noise on), with its covariance.
+            q = m.orientation
+            assert [q.x, q.y, q.z, q.w] == [row[f"{link}_orientation_measured_q{a}"] for a in "xyzw"]
             # Noise on: diagonal covariances, the configured variance.
-            for cov in (m.angular_velocity_covariance, m.linear_acceleration_covariance):
+            for cov in (m.orientation_covariance, m.angular_velocity_covariance, m.linear_acceleration_covariance):
                 assert cov[0] == cov[4] == cov[8] > 0 and cov[1] == cov[2] == cov[3] == cov[5] == cov[6] == cov[7] == 0
 
     # True contacts: contacts.csv, row for row at each instant.
@@ -730,10 +731,10 @@ def test_the_peer_decodes_the_force_torque_imu_and_contact_topics(binary, domain
             ):
                 assert xyz(values[i]) == [row[f"{link}_estimated_{name}_{a}_n"] for a in "xyz"], (stamp, link, name)
             assert float(m.contact[i]) == row[f"{link}_estimated_contact"]
-            known = row[f"{link}_estimated_point_known"] == 1.0
-            assert (not np.isnan(m.contact_point_along[i])) == known
-            if known:
-                assert m.contact_point_along[i] == row[f"{link}_estimated_point_along_m"]
+            along = row[f"{link}_estimated_point_along_m"]  # NaN when none, as in the message
+            assert np.isnan(m.contact_point_along[i]) == np.isnan(along)
+            if not np.isnan(along):
+                assert m.contact_point_along[i] == along
             support += m.floor_force[i].z
     assert support > 0, "the estimated floor support is not zero"
 

@@ -312,6 +312,9 @@ pub struct Bench {
     pub law_servo_kp_nm_per_rad: Option<f64>,
     /// Run one shard `(i, n)`: every tuning case, the held-out cases with index mod n = i.
     pub shard: Option<(usize, usize)>,
+    /// Called with (runs done, runs in all) after every run (Python's
+    /// `simserpent.oal_bench(progress=...)`).
+    pub on_progress: Option<crate::run::ProgressCallback>,
 }
 
 impl Bench {
@@ -338,6 +341,7 @@ impl Bench {
             path_fields: 2,
             law_servo_kp_nm_per_rad: None,
             shard: None,
+            on_progress: None,
         }
     }
 
@@ -1361,6 +1365,7 @@ fn run_cases(
     pool: &rayon::ThreadPool,
     cases: &[Case],
     progress: Option<(&str, usize)>,
+    runs_before: usize,
     cost: &std::sync::Mutex<Vec<(usize, f64, f64)>>,
 ) -> Vec<Result<Option<Trace>, ExperimentError>> {
     let next = std::sync::atomic::AtomicUsize::new(0);
@@ -1388,6 +1393,9 @@ fn run_cases(
                         r
                     };
                     let n = done.fetch_add(1, std::sync::atomic::Ordering::SeqCst) + 1;
+                    if let Some(c) = &plan.bench.on_progress {
+                        c.report((runs_before + n) as u64, (runs_before + cases.len()) as u64);
+                    }
                     if let Some((what, _)) = progress
                         && (n.is_multiple_of(50) || n == cases.len())
                     {
@@ -1422,7 +1430,7 @@ pub fn run_bench(
     let plan = Plan { bench, conditions: bench.conditions(), calibration };
     let cost = std::sync::Mutex::new(vec![(0usize, 0.0f64, 0.0f64); plan.conditions.len()]);
     let tuning = plan.tuning_cases();
-    let tuning_results = run_cases(&plan, base, pool, &tuning, progress.then_some(("tuning", 0)), &cost);
+    let tuning_results = run_cases(&plan, base, pool, &tuning, progress.then_some(("tuning", 0)), 0, &cost);
     let mut tuning_traces = Vec::with_capacity(tuning.len());
     for r in tuning_results {
         match r? {
@@ -1439,7 +1447,8 @@ pub fn run_bench(
         Some((i, n)) => all_held.iter().enumerate().filter(|(k, _)| k % n == i).map(|(_, c)| *c).collect(),
         None => all_held.clone(),
     };
-    let results = run_cases(&plan, base, pool, &mine, progress.then_some(("held-out fields and twins", 0)), &cost);
+    let results =
+        run_cases(&plan, base, pool, &mine, progress.then_some(("held-out fields and twins", 0)), tuning.len(), &cost);
     if progress && let Ok(c) = cost.lock() {
         for (k, (runs, sim_secs, cpu_secs)) in c.iter().enumerate() {
             if *runs > 0 {

@@ -314,6 +314,16 @@ macro_rules! link_sensors {
                 Group::float(imu, Names::Xyz(concat!("gyro_", $variant), "rad_per_s"), |t, a| {
                     t.nums(&a.s.$obs.imu_gyro_rad_per_s[a.i])
                 }),
+                Group::float(
+                    imu,
+                    Names::List(&[
+                        concat!("orientation_", $variant, "_qw"),
+                        concat!("orientation_", $variant, "_qx"),
+                        concat!("orientation_", $variant, "_qy"),
+                        concat!("orientation_", $variant, "_qz"),
+                    ]),
+                    |t, a| t.nums(&a.s.$obs.imu_quat_wxyz[a.i]),
+                ),
             ],
         }
     };
@@ -459,11 +469,11 @@ pub(super) const ESTIMATES: TableSpec = TableSpec {
                         a.s.observation_measured.contacts.contact.get(a.i).copied().unwrap_or(false),
                     )))
                 }),
-                // The contact point along the link from its centre (+ toward the head); 0 and
-                // estimated_point_known = 0 when the estimator reports none.
-                Group::float(always, Names::List(&["estimated_point_along_m", "estimated_point_known"]), |t, a| {
+                // The contact point along the link from its centre (+ toward the head); NaN when
+                // the estimator reports none (as in the ROS 2 message and Python's estimates).
+                Group::float(always, Names::One("estimated_point_along_m"), |t, a| {
                     let p = a.s.observation_measured.contacts.contact_point_along_m.get(a.i).copied().flatten();
-                    t.nums(&[p.unwrap_or(0.0), f64::from(u8::from(p.is_some()))])
+                    t.num(p.unwrap_or(f64::NAN))
                 }),
                 Group::float(always, Names::Xyz("estimated_self_contact_force", "n"), |t, a| {
                     t.nums(&estimate3(&a.s.observation_measured.contacts.self_contact_force_n, a.i))
@@ -481,8 +491,9 @@ pub(super) const ESTIMATES: TableSpec = TableSpec {
                 Group::float(always, Names::Xyz("true_obstacle_force", "n"), |t, a| {
                     t.nums(&a.s.link_obstacle_force_n[a.i])
                 }),
+                // NaN when the link touches no obstacle.
                 Group::float(always, Names::One("true_point_along_m"), |t, a| {
-                    t.num(a.s.link_obstacle_point_m[a.i].map_or(0.0, |p| a.s.along_link_axis_m(a.i, p)))
+                    t.num(a.s.link_obstacle_point_m[a.i].map_or(f64::NAN, |p| a.s.along_link_axis_m(a.i, p)))
                 }),
                 Group::float(always, Names::Xyz("true_self_contact_force", "n"), |t, a| {
                     t.nums(&a.s.link_self_contact_force_n[a.i])

@@ -11,7 +11,7 @@
 //! | `/<ns>/ground_truth/joint_states` | sensor_msgs/JointState | — | the same, true values |
 //! | `/tf` | tf2_msgs/TFMessage | `world` → `link_NN` | every link's frame (true pose), the head `link_00` first |
 //! | `/<ns>/joint_NN/wrench` | geometry_msgs/WrenchStamped | `link_NN` (child link) | measured joint force/torque sensor |
-//! | `/<ns>/link_NN/imu` | sensor_msgs/Imu | `link_NN` | measured gyro and accelerometer, covariances from `[sensors]` |
+//! | `/<ns>/link_NN/imu` | sensor_msgs/Imu | `link_NN` | measured orientation (framequat), gyro and accelerometer, covariances from `[sensors]` |
 //! | `/<ns>/link_NN/contact_wrench` | geometry_msgs/WrenchStamped | `world` | true contact force on the link, torque about its centre of mass |
 //! | `/<ns>/contacts` | visualization_msgs/MarkerArray | `world` | one arrow per contact (force on its second geom) |
 //! | `/<ns>/ground_truth/contacts` | ros_gz_interfaces/Contacts | `world` | every contact: geoms, bodies, point, normal, depth, force ([`msgs::Contacts`]) |
@@ -86,6 +86,9 @@ pub struct RobotMessages {
     contact_threshold_n: f64,
     gyro_covariance: [f64; 9],
     accel_covariance: [f64; 9],
+    orientation_covariance: [f64; 9],
+    /// Per link: whether the model has its IMU's `framequat` sensor (a user's robot may not).
+    has_orientation: Vec<bool>,
     arrow_m_per_n: f64,
 }
 
@@ -108,6 +111,8 @@ impl RobotMessages {
             contact_threshold_n: config.estimation.detection_threshold_n,
             gyro_covariance: msgs::diagonal_covariance(variance(s.gyro.std)),
             accel_covariance: msgs::diagonal_covariance(variance(s.accelerometer.std)),
+            orientation_covariance: msgs::diagonal_covariance(variance(s.orientation.std)),
+            has_orientation: index.links.iter().map(|l| l.framequat_adr.is_some()).collect(),
             arrow_m_per_n: config.ros2.contact_arrow_m_per_n,
         }
     }
@@ -123,14 +128,21 @@ impl RobotMessages {
         JointState { header: Header { stamp, frame_id: "" }, name: &self.joints, position, velocity, effort }
     }
 
-    /// `sensor_msgs/Imu` of link `i` from the observation `m`, in the link's frame. No
+    /// `sensor_msgs/Imu` of link `i` from the observation `m`, in the link's frame: the
+    /// orientation is the IMU's measured `framequat` (the link's axes in `world`), with the
+    /// `[sensors.orientation]` covariance. A link without that sensor (a user's robot) has no
     /// orientation estimate: element 0 of its covariance is −1 (sensor_msgs/Imu's rule).
     pub fn imu(&self, stamp: Time, m: &Observation, i: usize) -> Imu<'_> {
-        let mut orientation_covariance = [0.0; 9];
-        orientation_covariance[0] = -1.0;
+        let (orientation, orientation_covariance) = if self.has_orientation.get(i).copied().unwrap_or(false) {
+            (Quaternion::from_wxyz(m.imu_quat_wxyz[i]), self.orientation_covariance)
+        } else {
+            let mut unknown = [0.0; 9];
+            unknown[0] = -1.0;
+            (Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 }, unknown)
+        };
         Imu {
             header: Header { stamp, frame_id: &self.links[i] },
-            orientation: Quaternion { x: 0.0, y: 0.0, z: 0.0, w: 1.0 },
+            orientation,
             orientation_covariance,
             angular_velocity: m.imu_gyro_rad_per_s[i].into(),
             angular_velocity_covariance: self.gyro_covariance,

@@ -20,6 +20,8 @@ pub struct LinkIndex {
     pub velocimeter_adr: Option<usize>,
     pub accelerometer_adr: Option<usize>,
     pub gyro_adr: Option<usize>,
+    /// sensordata address of the framequat of the IMU site (4 values, w x y z), if present.
+    pub framequat_adr: Option<usize>,
     /// Mass (kg).
     pub mass_kg: f64,
 }
@@ -89,6 +91,7 @@ impl Index {
                 velocimeter_adr: sensor_adr(model, &names::link_velocimeter(i)),
                 accelerometer_adr: sensor_adr(model, &names::link_accelerometer(i)),
                 gyro_adr: sensor_adr(model, &names::link_gyro(i)),
+                framequat_adr: sensor_adr(model, &names::link_framequat(i)),
                 mass_kg: model.body_mass()[body],
                 name,
                 body,
@@ -137,6 +140,7 @@ impl Index {
                 velocimeter_adr: None,
                 accelerometer_adr: None,
                 gyro_adr: None,
+                framequat_adr: None,
                 mass_kg: model.body_mass()[body],
             })
             .collect();

@@ -863,6 +863,9 @@ impl World {
         for (i, link) in self.index.links.iter().enumerate() {
             read3(sensordata, link.accelerometer_adr, &mut obs.imu_accel_m_per_s2[i]);
             read3(sensordata, link.gyro_adr, &mut obs.imu_gyro_rad_per_s[i]);
+            if let Some(a) = link.framequat_adr {
+                obs.imu_quat_wxyz[i].copy_from_slice(&sensordata[a..a + 4]);
+            }
         }
         if let Some(head) = self.index.links.first() {
             obs.head_position_m = d.xpos()[head.body];

@@ -13,6 +13,11 @@
 //! the last measured value is held. Each sensor (one joint encoder, one link's accelerometer, …)
 //! has its own ChaCha8 stream seeded from `(general.seed, stream number)`, so adding a sensor
 //! never changes another sensor's noise. With `noise_enabled = false` measured = truth exactly.
+//!
+//! An IMU's orientation (`[sensors.orientation]`) is measured as the true orientation turned by
+//! a small rotation: its three channels (rotation vector in the link's axes, rad) are the error
+//! terms above with a true value of 0, `q_measured = q_true ⊗ exp(e)`; at `rate_hz` the whole
+//! measured orientation is held between samples.
 
 use crate::config::{SensorModel, Sensors};
 use crate::control::Observation;
@@ -22,11 +27,12 @@ use rand_distr::{Distribution, StandardNormal};
 
 /// Stream numbers: per joint 4 (angle, velocity, force, torque), per link 2 (accelerometer,
 /// gyro) from `LINK_STREAM_OFFSET` on, per joint 1 (actuator torque) from
-/// `ACTUATOR_STREAM_OFFSET` on.
+/// `ACTUATOR_STREAM_OFFSET` on, per link 1 (orientation) from `ORIENTATION_STREAM_OFFSET` on.
 const JOINT_STREAMS: u64 = 4;
 const LINK_STREAMS: u64 = 2;
 const LINK_STREAM_OFFSET: u64 = 1_000_000;
 const ACTUATOR_STREAM_OFFSET: u64 = 2_000_000;
+const ORIENTATION_STREAM_OFFSET: u64 = 3_000_000;
 
 fn stream(seed: u64, number: u64) -> ChaCha8Rng {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -131,6 +137,12 @@ pub struct SensorNoise {
     joint_torque: Kind,
     accelerometer: Kind,
     gyro: Kind,
+    orientation: Kind,
+    /// Per link: 0 (the orientation error's "true value") and the error's rotation vector.
+    orientation_zero: Vec<f64>,
+    orientation_error: Vec<f64>,
+    /// Per link: the measured orientation held between samples.
+    orientation_held: Vec<[f64; 4]>,
 }
 
 impl SensorNoise {
@@ -148,6 +160,10 @@ impl SensorNoise {
             actuator_torque: Kind::new(config.actuator_torque, 1, seed, (0..nj).map(|j| ACTUATOR_STREAM_OFFSET + j)),
             accelerometer: Kind::new(config.accelerometer, 3, seed, link(0)),
             gyro: Kind::new(config.gyro, 3, seed, link(1)),
+            orientation: Kind::new(config.orientation, 3, seed, (0..nl).map(|i| ORIENTATION_STREAM_OFFSET + i)),
+            orientation_zero: vec![0.0; n_links * 3],
+            orientation_error: vec![0.0; n_links * 3],
+            orientation_held: vec![[1.0, 0.0, 0.0, 0.0]; n_links],
         }
     }
 
@@ -170,7 +186,37 @@ impl SensorNoise {
             measured.imu_accel_m_per_s2.as_flattened_mut(),
         );
         self.gyro.measure(t, truth.imu_gyro_rad_per_s.as_flattened(), measured.imu_gyro_rad_per_s.as_flattened_mut());
+        self.orientation.measure(t, &self.orientation_zero, &mut self.orientation_error);
+        // A new sample (the kind sampled at this instant): turn the true orientation by the error.
+        if self.orientation.last_sample_secs == Some(t) {
+            for ((held, q), e) in
+                self.orientation_held.iter_mut().zip(&truth.imu_quat_wxyz).zip(self.orientation_error.chunks_exact(3))
+            {
+                *held = rotate_by_vector(*q, [e[0], e[1], e[2]]);
+            }
+        }
+        for (m, held) in measured.imu_quat_wxyz.iter_mut().zip(&self.orientation_held) {
+            *m = *held;
+        }
     }
+}
+
+/// `q ⊗ exp(e)`: the orientation `q` (w, x, y, z) turned by the rotation vector `e` (rad, in
+/// the body's own axes), normalised.
+fn rotate_by_vector(q: [f64; 4], e: [f64; 3]) -> [f64; 4] {
+    let angle = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]).sqrt();
+    let (s, c) = if angle > 0.0 { ((angle / 2.0).sin() / angle, (angle / 2.0).cos()) } else { (0.5, 1.0) };
+    let r = [c, s * e[0], s * e[1], s * e[2]];
+    let [w1, x1, y1, z1] = q;
+    let [w2, x2, y2, z2] = r;
+    let p = [
+        w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+        w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+        w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+        w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+    ];
+    let norm = p.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if norm > 0.0 { p.map(|v| v / norm) } else { q }
 }
 
 #[cfg(test)]
@@ -237,6 +283,68 @@ mod tests {
         let mean = xs.clone().sum::<f64>() / n;
         let var = xs.map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
         (mean, var.sqrt())
+    }
+
+    /// The rotation vector (rad, body axes) that turns `a` into `b`: 2·log(a⁻¹ ⊗ b).
+    fn rotation_between(a: [f64; 4], b: [f64; 4]) -> [f64; 3] {
+        let [w1, x1, y1, z1] = [a[0], -a[1], -a[2], -a[3]];
+        let [w2, x2, y2, z2] = b;
+        let w = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2;
+        let v = [
+            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
+        ];
+        let sin_half = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        let angle = 2.0 * sin_half.atan2(w);
+        if sin_half > 0.0 { v.map(|c| c * angle / sin_half) } else { [0.0; 3] }
+    }
+
+    /// The orientation's error is a rotation with the configured bias and std per axis; its
+    /// covariance (what ROS 2's Imu publishes) is std² on the diagonal; noise off is exact; at
+    /// rate_hz the measured orientation is held between samples.
+    #[test]
+    fn orientation_is_the_truth_turned_by_the_configured_error() {
+        let (n, std, bias) = (20_000, 0.01, 0.002);
+        let mut sensors = Config::default().sensors;
+        sensors.noise_enabled = true;
+        sensors.orientation = SensorModel { std, bias, ..quiet() };
+        let mut noise = SensorNoise::new(&sensors, 3, 2, 1);
+        let mut truth = Observation::new(2, 1);
+        let mut m = Observation::new(2, 1);
+        let mut errors = Vec::with_capacity(n);
+        for k in 0..n {
+            let yaw = 0.001 * k as f64;
+            truth.time_secs = k as f64 * DT;
+            truth.imu_quat_wxyz[1] = [(yaw / 2.0).cos(), 0.0, 0.0, (yaw / 2.0).sin()];
+            noise.measure(&truth, &mut m);
+            let q = m.imu_quat_wxyz[1];
+            assert!(((q.iter().map(|v| v * v).sum::<f64>()) - 1.0).abs() < 1e-12, "unit quaternion {q:?}");
+            errors.push(rotation_between(truth.imu_quat_wxyz[1], q));
+        }
+        for axis in 0..3 {
+            let (mean, s) = mean_std(errors.iter().map(|e| e[axis]));
+            assert!((mean - bias).abs() < 4.0 * std / (n as f64).sqrt(), "axis {axis}: mean {mean}");
+            assert!((s - std).abs() < 4.0 * std / (2.0 * n as f64).sqrt(), "axis {axis}: std {s}");
+        }
+        // Noise off: exactly the truth.
+        sensors.noise_enabled = false;
+        let mut exact = SensorNoise::new(&sensors, 3, 2, 1);
+        exact.measure(&truth, &mut m);
+        assert_eq!(m.imu_quat_wxyz, truth.imu_quat_wxyz);
+        // 100 Hz on 1-ms steps: ten steps share one measured orientation while the truth turns.
+        sensors.noise_enabled = true;
+        sensors.orientation.rate_hz = 100.0;
+        let mut held = SensorNoise::new(&sensors, 3, 2, 1);
+        let mut seen = Vec::new();
+        for k in 0..20 {
+            truth.time_secs = k as f64 * DT;
+            truth.imu_quat_wxyz[0] = [(0.005 * k as f64).cos(), 0.0, 0.0, (0.005 * k as f64).sin()];
+            held.measure(&truth, &mut m);
+            seen.push(m.imu_quat_wxyz[0]);
+        }
+        assert!(seen[..10].iter().all(|q| *q == seen[0]) && seen[10..].iter().all(|q| *q == seen[10]));
+        assert_ne!(seen[0], seen[10]);
     }
 
     #[test]

@@ -424,11 +424,12 @@ fn contact_states_estimates_wrenches_and_imus_decode_to_the_table_values() {
             assert_eq!(m.self_contact_force[i].xyz(), v("self_contact_force"));
             assert_eq!(f64::from(u8::from(m.contact[i])), row[col(&format!("{link}_estimated_contact"))]);
             assert_eq!(f64::from(u8::from(m.self_contact[i])), row[col(&format!("{link}_estimated_self_contact"))]);
-            let known = row[col(&format!("{link}_estimated_point_known"))] == 1.0;
-            assert_eq!(!m.contact_point_along[i].is_nan(), known);
-            assert_eq!(!m.contact_point[i].x.is_nan(), known);
-            if known {
-                assert_eq!(m.contact_point_along[i], row[col(&format!("{link}_estimated_point_along_m"))]);
+            // One "no point" convention: NaN in the message and in the table.
+            let along = row[col(&format!("{link}_estimated_point_along_m"))];
+            assert_eq!(m.contact_point_along[i].is_nan(), along.is_nan());
+            assert_eq!(m.contact_point[i].x.is_nan(), along.is_nan());
+            if !along.is_nan() {
+                assert_eq!(m.contact_point_along[i], along);
             }
             floor_support |= m.floor_force[i].z > 0.0;
         }
@@ -485,10 +486,13 @@ fn contact_states_estimates_wrenches_and_imus_decode_to_the_table_values() {
             };
             assert_eq!(m.angular_velocity.xyz(), v("gyro", "rad_per_s"));
             assert_eq!(m.linear_acceleration.xyz(), v("accelerometer", "m_per_s2"));
-            // REP 145 / sensor_msgs/Imu: no orientation estimate.
-            assert_eq!(m.orientation_covariance[0], -1.0);
-            assert_eq!([m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w], [0.0, 0.0, 0.0, 1.0]);
+            // The IMU's framequat as measured, with the [sensors.orientation] covariance.
+            let q = ["qx", "qy", "qz", "qw"].map(|a| row[col(&format!("link_{i:02}_orientation_measured_{a}"))]);
+            assert_eq!([m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w], q);
             let diag = |c: &[f64; 9]| [c[0], c[4], c[8], c[1] + c[2] + c[3] + c[5] + c[6] + c[7]];
+            let o = c.sensors.orientation.std;
+            assert!(o > 0.0);
+            assert_eq!(diag(&m.orientation_covariance), [o * o, o * o, o * o, 0.0]);
             let (g, a) = (c.sensors.gyro.std, c.sensors.accelerometer.std);
             assert_eq!(diag(&m.angular_velocity_covariance), [g * g, g * g, g * g, 0.0]);
             assert_eq!(diag(&m.linear_acceleration_covariance), [a * a, a * a, a * a, 0.0]);

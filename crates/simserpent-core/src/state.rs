@@ -36,6 +36,9 @@ pub struct Observation {
     pub imu_accel_m_per_s2: Vec<[f64; 3]>,
     /// Per link IMU: gyro (link frame, rad/s) as measured.
     pub imu_gyro_rad_per_s: Vec<[f64; 3]>,
+    /// Per link IMU: orientation (w, x, y, z; the link's axes in the world frame, its
+    /// `framequat` sensor) as measured; the identity for a link without that sensor.
+    pub imu_quat_wxyz: Vec<[f64; 4]>,
     /// Per joint force sensor (N, in the child link's frame at the joint) as measured.
     pub joint_force_n: Vec<[f64; 3]>,
     /// Per joint torque sensor (N·m, child link frame) as measured.
@@ -58,6 +61,7 @@ impl Observation {
             actuator_torque_nm: vec![0.0; n_joints],
             imu_accel_m_per_s2: vec![[0.0; 3]; n_links],
             imu_gyro_rad_per_s: vec![[0.0; 3]; n_links],
+            imu_quat_wxyz: vec![[1.0, 0.0, 0.0, 0.0]; n_links],
             joint_force_n: vec![[0.0; 3]; n_joints],
             joint_torque_nm: vec![[0.0; 3]; n_joints],
             ..Self::default()
@@ -75,6 +79,7 @@ impl Observation {
         self.head_velocity_m_per_s = other.head_velocity_m_per_s;
         self.imu_accel_m_per_s2.copy_from_slice(&other.imu_accel_m_per_s2);
         self.imu_gyro_rad_per_s.copy_from_slice(&other.imu_gyro_rad_per_s);
+        self.imu_quat_wxyz.copy_from_slice(&other.imu_quat_wxyz);
         self.joint_force_n.copy_from_slice(&other.joint_force_n);
         self.joint_torque_nm.copy_from_slice(&other.joint_torque_nm);
         self.sensor_time_secs = other.sensor_time_secs;

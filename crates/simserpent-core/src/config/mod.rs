@@ -475,6 +475,8 @@ pub struct Sensors {
     pub noise_enabled: bool,
     pub accelerometer: SensorModel,
     pub gyro: SensorModel,
+    /// The IMU's orientation (its `framequat`), rad: a small rotation of the true orientation.
+    pub orientation: SensorModel,
     pub joint_angle: SensorModel,
     pub joint_velocity: SensorModel,
     pub actuator_torque: SensorModel,
@@ -484,10 +486,11 @@ pub struct Sensors {
 
 impl Sensors {
     /// The models by config key (`sensors.<key>`), in a fixed order.
-    pub fn models(&self) -> [(&'static str, &SensorModel); 7] {
+    pub fn models(&self) -> [(&'static str, &SensorModel); 8] {
         [
             ("accelerometer", &self.accelerometer),
             ("gyro", &self.gyro),
+            ("orientation", &self.orientation),
             ("joint_angle", &self.joint_angle),
             ("joint_velocity", &self.joint_velocity),
             ("actuator_torque", &self.actuator_torque),

@@ -43,7 +43,7 @@
 //!   `control.method` gets its gains; the other servo kinds get kp = kv = 0 (MuJoCo accepts zero
 //!   gains, and a servo with zero gains produces exactly zero force, whereas any non-zero gain acts
 //!   even at zero command).
-//! - Sensors (order): per link `link_ii_vel` (velocimeter), `link_ii_acc` (accelerometer),
+//! - Sensors (order): per link `link_ii_vel` (velocimeter), `link_ii_accel` (accelerometer),
 //!   `link_ii_gyro` (gyro), `link_ii_pos` (framepos), `link_ii_quat` (framequat), all of site
 //!   `link_ii_imu`; then per joint `joint_jj_force`, `joint_jj_torque` (at `joint_jj_site`: the
 //!   constraint force between link `j` and its parent, like Boa's force/torque sensors),

@@ -19,7 +19,7 @@
 //! | mesh asset of a mesh obstacle | `obstacle_05_mesh` | [`obstacle_mesh`] |
 //! | ground-like terrain surfaces (counted as floor): slope box, heightfield from a PNG, rasterised mesh terrain (geom and hfield asset) | `terrain_slope`, `terrain_heightfield`, `terrain_mesh` | [`TERRAIN_SLOPE`], [`TERRAIN_HEIGHTFIELD`], [`TERRAIN_MESH`], [`is_ground`] |
 //! | visual tile of floor surface `k` (`ground.surfaces[k]`; no collisions) | `surface_00` | [`surface`] |
-//! | sensors | `link_00_vel`, `link_00_acc`, `link_00_gyro`, `link_00_pos`, `link_00_quat`, `joint_01_force`, `joint_01_torque`, `joint_01_angle`, `joint_01_angvel` | [`sensor`], [`SensorKind`] |
+//! | sensors | `link_00_vel`, `link_00_accel`, `link_00_gyro`, `link_00_pos`, `link_00_quat`, `joint_01_force`, `joint_01_torque`, `joint_01_angle`, `joint_01_angvel` | [`sensor`], [`SensorKind`] |
 //!
 //! Indices are written with at least two digits (`{:02}`): `link_00` … `link_99`. Models with more
 //! than 100 links continue with three digits (`link_100`, `link_101`, …); every name still maps to
@@ -119,7 +119,7 @@ pub enum SensorKind {
     /// `velocimeter` at the link's IMU site: linear velocity in the site frame (m/s). `link_ii_vel`.
     LinkVelocity,
     /// `accelerometer` at the link's IMU site: linear acceleration minus gravity, site frame
-    /// (m/s²). `link_ii_acc`.
+    /// (m/s²). `link_ii_accel` (mujoco_ros2_control's default IMU suffixes: `_quat`, `_gyro`, `_accel`).
     LinkAcceleration,
     /// `gyro` at the link's IMU site: angular velocity in the site frame (rad/s). `link_ii_gyro`.
     LinkGyro,
@@ -155,12 +155,12 @@ impl SensorKind {
         )
     }
 
-    /// Suffix of the sensor name (`vel`, `acc`, `gyro`, `pos`, `quat`, `force`, `torque`, `angle`,
+    /// Suffix of the sensor name (`vel`, `accel`, `gyro`, `pos`, `quat`, `force`, `torque`, `angle`,
     /// `angvel`).
     pub fn suffix(self) -> &'static str {
         match self {
             Self::LinkVelocity => "vel",
-            Self::LinkAcceleration => "acc",
+            Self::LinkAcceleration => "accel",
             Self::LinkGyro => "gyro",
             Self::LinkPosition => "pos",
             Self::LinkQuat => "quat",
@@ -208,7 +208,7 @@ pub fn link_velocimeter(i: usize) -> String {
     sensor(SensorKind::LinkVelocity, i)
 }
 
-/// `link_ii_acc` (accelerometer).
+/// `link_ii_accel` (accelerometer).
 pub fn link_accelerometer(i: usize) -> String {
     sensor(SensorKind::LinkAcceleration, i)
 }
@@ -265,5 +265,20 @@ mod tests {
         assert_eq!(link_body(119), "link_119");
         assert_eq!(sensor(SensorKind::JointAngularVelocity, 4), "joint_04_angvel");
         assert_eq!(link_framequat(0), "link_00_quat");
+    }
+
+    /// mujoco_ros2_control builds a ros2_control IMU from the MJCF sensors `<name>_quat`,
+    /// `<name>_gyro` and `<name>_accel`, and a force/torque sensor from `<name>_force` and
+    /// `<name>_torque` (its default suffixes): `mujoco_sensor_name` `link_03` and `joint_03`
+    /// find ours without any suffix parameter.
+    #[test]
+    fn names_follow_mujoco_ros2_control_default_suffixes() {
+        let imu = link_body(3);
+        assert_eq!(link_framequat(3), format!("{imu}_quat"));
+        assert_eq!(link_gyro(3), format!("{imu}_gyro"));
+        assert_eq!(link_accelerometer(3), format!("{imu}_accel"));
+        let ft = joint(3);
+        assert_eq!(joint_force(3), format!("{ft}_force"));
+        assert_eq!(joint_torque(3), format!("{ft}_torque"));
     }
 }
