@@ -1729,6 +1729,15 @@ fn render_run_folder(
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
+    // MuJoCo's fatal errors end a run as the command line ends it (a `failed` manifest naming
+    // the error and the simulated time, every table flushed to the same instant) instead of
+    // MuJoCo's own handler, which exits with nothing written; its warnings go to the log.
+    // SAFETY: the module is initialised once, under the GIL, before any of its functions can
+    // use this library's MuJoCo (the `mujoco` package loads its own copy, untouched).
+    #[allow(unsafe_code)]
+    unsafe {
+        simserpent::sim::fatal::install();
+    }
     m.add("SimSerpentError", py.get_type::<SimSerpentError>())?;
     m.add("ConfigError", py.get_type::<ConfigError>())?;
     m.add("ModelError", py.get_type::<ModelError>())?;

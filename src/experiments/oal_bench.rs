@@ -377,49 +377,50 @@ impl Bench {
     /// # Errors
     /// [`ExperimentError::Option`] naming the size, its value and what is allowed.
     pub fn check(&self) -> Result<(), ExperimentError> {
-        let bad = |m: String| Err(ExperimentError::Option(m));
+        let bad = |what: &str, value: String, allowed: String| {
+            Err(ExperimentError::Option(format!("oal-bench {what} = {value}: {allowed}")))
+        };
         if self.tuning_fields > Self::MAX_TUNING_FIELDS {
-            return bad(format!(
-                "tuning fields: {}; give 0 to {} per family",
-                self.tuning_fields,
-                Self::MAX_TUNING_FIELDS
-            ));
+            let allowed = format!("give 0 to {} per family", Self::MAX_TUNING_FIELDS);
+            return bad("tuning fields", self.tuning_fields.to_string(), allowed);
         }
         if !(1..=Self::MAX_HELD_OUT_FIELDS).contains(&self.held_out_fields) {
-            return bad(format!(
-                "held-out fields: {}; give 1 to {} per family",
-                self.held_out_fields,
-                Self::MAX_HELD_OUT_FIELDS
-            ));
+            let allowed = format!("give 1 to {} per family", Self::MAX_HELD_OUT_FIELDS);
+            return bad("held-out fields", self.held_out_fields.to_string(), allowed);
         }
         if self.first_held_out_seed.checked_add(self.held_out_fields).is_none() {
-            return bad(format!("held-out seeds from {}: the last seed would pass 2^64 - 1", self.first_held_out_seed));
+            let allowed = "the last held-out seed must not pass 2^64 - 1".to_string();
+            return bad("first held-out seed", self.first_held_out_seed.to_string(), allowed);
         }
         if self.first_held_out_seed < self.tuning_fields {
-            return bad(format!(
-                "held-out seeds start at {} inside the tuning seeds 0..{}: they must start at {} or later",
-                self.first_held_out_seed, self.tuning_fields, self.tuning_fields
-            ));
+            let allowed = format!(
+                "held-out seeds must start at {} or later, after the tuning seeds 0..{}",
+                self.tuning_fields, self.tuning_fields
+            );
+            return bad("first held-out seed", self.first_held_out_seed.to_string(), allowed);
         }
-        if !(self.duration_secs.is_finite() && self.duration_secs >= 2.0 && self.duration_secs <= 3600.0) {
-            return bad(format!("duration {} s: must be 2 to 3600 s", self.duration_secs));
+        if !(self.duration_secs.is_finite() && (2.0..=3600.0).contains(&self.duration_secs)) {
+            return bad("duration", format!("{} s", self.duration_secs), "give 2 to 3600 s".into());
         }
         if self.floors.is_empty() || self.families.is_empty() {
-            return bad("no floor or no layout family given".into());
+            let allowed = "give at least one floor and one family".to_string();
+            return bad("floors and families", "none".into(), allowed);
         }
         if self.passive_kp_nm_per_rad.iter().any(|k| !(k.is_finite() && *k > 0.0)) {
-            return bad(format!("passive gains {:?}: every gain must be positive", self.passive_kp_nm_per_rad));
+            let value = format!("{:?}", self.passive_kp_nm_per_rad);
+            return bad("passive gains", value, "every gain positive and finite".into());
         }
         if self.compliance.iter().any(|g| !(0.0..=1.0).contains(g)) {
-            return bad(format!("compliances {:?}: each G from 0 to 1", self.compliance));
+            return bad("compliances", format!("{:?}", self.compliance), "each G from 0 to 1".into());
         }
         if self.law_gain_scales.is_empty() || self.law_gain_scales.iter().any(|k| !(k.is_finite() && *k > 0.0)) {
-            return bad(format!("law gain scales {:?}: at least one, each positive", self.law_gain_scales));
+            let value = format!("{:?}", self.law_gain_scales);
+            return bad("law gain scales", value, "at least one, each positive and finite".into());
         }
         if let Some((i, n)) = self.shard
             && (n == 0 || i >= n)
         {
-            return bad(format!("shard {i}/{n}: expected i/n with 0 <= i < n"));
+            return bad("shard", format!("{i}/{n}"), "give i/n with 0 <= i < n".into());
         }
         Ok(())
     }

@@ -182,6 +182,13 @@ bias_random_walk_per_sqrt_s = 0.0031
 resolution = 0.0041
 rate_hz = 101.0
 
+[sensors.orientation]
+std = 0.19
+bias = 0.0028
+bias_random_walk_per_sqrt_s = 0.0038
+resolution = 0.0048
+rate_hz = 108.0
+
 [sensors.joint_angle]
 std = 0.13
 bias = 0.0022
@@ -578,6 +585,13 @@ fn all_fields_expected() -> Config {
         bias_random_walk_per_sqrt_s: 0.0031,
         resolution: 0.0041,
         rate_hz: 101.0,
+    };
+    n.orientation = SensorModel {
+        std: 0.19,
+        bias: 0.0028,
+        bias_random_walk_per_sqrt_s: 0.0038,
+        resolution: 0.0048,
+        rate_hz: 108.0,
     };
     n.joint_angle = SensorModel {
         std: 0.13,
