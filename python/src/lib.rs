@@ -945,10 +945,10 @@ impl PyEnvState {
     #[staticmethod]
     fn from_bytes(py: Python<'_>, data: &[u8]) -> PyResult<Self> {
         let mut r = StateReader { bytes: data, at: 0 };
-        if r.take(STATE_MAGIC.len(), "magic")? != &STATE_MAGIC[..] {
-            r.at = 0;
+        if !data.starts_with(&STATE_MAGIC[..]) {
             return Err(r.bad("no SimSerpentState magic at the start"));
         }
+        r.take(STATE_MAGIC.len(), "magic")?;
         let version = u32::from_le_bytes(r.take(4, "version")?.try_into().unwrap_or([0; 4]));
         if version != STATE_VERSION {
             return Err(r.bad(&format!("layout version {version}; this build reads version {STATE_VERSION}")));
