@@ -85,7 +85,7 @@ def check_against_csv(folder: Path, topics, noise_std):
     stamps = np.rint(links["time_s"].to_numpy() * 1e9).astype(np.int64)
 
     expected = {"/clock", "/joint_states", "/tf", "/snake/ground_truth/joint_states", "/snake/contacts"}
-    expected |= {"/snake/ground_truth/contacts"}
+    expected |= {"/snake/ground_truth/contacts", "/snake/ground_truth/contact_forces"}
     estimates = folder / "estimates.csv"
     if estimates.exists():
         expected |= {"/snake/contact_estimates"}
