@@ -1017,4 +1017,3 @@ mod tests {
         assert!(!path.exists(), "removed with its files when dropped");
     }
 }
-
