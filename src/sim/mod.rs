@@ -878,8 +878,8 @@ impl World {
             obs.head_quat = normalized_as_mujoco([p[3], p[4], p[5], p[6]]);
             // The centre of mass's velocity: the origin's plus ω × (R·c), ω = R·ω_body.
             let rot = crate::estimation::quat_to_matrix(obs.head_quat);
-            let omega = mat_vec(&rot, [v[3], v[4], v[5]]);
-            let r = mat_vec(&rot, free.com_local_m);
+            let omega = crate::estimation::rotate(&rot, [v[3], v[4], v[5]]);
+            let r = crate::estimation::rotate(&rot, free.com_local_m);
             obs.head_velocity_m_per_s = [
                 v[0] + omega[1] * r[2] - omega[2] * r[1],
                 v[1] + omega[2] * r[0] - omega[0] * r[2],
@@ -984,14 +984,6 @@ fn normalized_as_mujoco(q: [f64; 4]) -> [f64; 4] {
     } else {
         q
     }
-}
-
-fn mat_vec(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
-    [
-        m[0][0] * v[0] + m[0][1] * v[1] + m[0][2] * v[2],
-        m[1][0] * v[0] + m[1][1] * v[1] + m[1][2] * v[2],
-        m[2][0] * v[0] + m[2][1] * v[1] + m[2][2] * v[2],
-    ]
 }
 
 #[cfg(test)]
