@@ -67,7 +67,9 @@ pub struct Index {
 /// velocity in the body's frame).
 #[derive(Debug, Clone, Copy)]
 pub struct HeadFreeJoint {
+    /// Its first `qpos` address (position x, y, z, then the quaternion w, x, y, z).
     pub qpos_adr: usize,
+    /// Its first `qvel` address (linear velocity, then angular velocity).
     pub dof_adr: usize,
     /// The body's centre of mass in its own frame (m, `body_ipos`).
     pub com_local_m: [f64; 3],
