@@ -61,15 +61,8 @@ impl Controller for PushAway {
 }
 
 fn push_away(config: &Config, n_joints: usize) -> Box<dyn Controller> {
-    let w = &config.gait.sine_wave;
     Box::new(PushAway {
-        wave: SineWave {
-            amplitude_rad: w.amplitude_deg.to_radians(),
-            frequency_hz: w.frequency_hz,
-            phase_lag_rad: w.phase_lag_deg.to_radians(),
-            offset_rad: w.offset_deg.to_radians(),
-            ramp_secs: config.gait.ramp_secs,
-        },
+        wave: SineWave::from_config(config),
         base_rad: vec![0.0; n_joints],
         base_velocity_rad_per_s: vec![0.0; n_joints],
     })

@@ -99,8 +99,8 @@ def head_yaw(obs_or_quat: Any) -> float:
     joint offset turns it right).
 
     ``obs_or_quat``: a controller's observation dict (its ``head_yaw_rad``, else its
-    ``head_quat``) or a quaternion ``(w, x, y, z)`` such as ``obs["head_quat"]``. Link ``i``'s
-    yaw is ``head_yaw(obs) + sum(obs["joint_angle_rad"][:i])`` (:func:`link_yaws`)."""
+    ``head_quat``) or a quaternion ``(w, x, y, z)`` such as ``obs["head_quat"]``. Every link's
+    yaw: :func:`link_yaws`."""
     if isinstance(obs_or_quat, Mapping):
         if "head_yaw_rad" in obs_or_quat:
             return float(obs_or_quat["head_yaw_rad"])
@@ -116,17 +116,49 @@ def head_yaw(obs_or_quat: Any) -> float:
     return _core.yaw_rad([w, x, y, z])
 
 
-def link_yaws(obs: Mapping[str, Any]) -> Any:
+def link_yaws(obs: Mapping[str, Any], joint_axes: str = "yaw") -> Any:
     """Every link's heading (rad, numpy array, head first), counter-clockwise seen from above as
-    :func:`head_yaw`: the head's yaw plus the joint angles up to the link (joint i turns link i
-    relative to link i-1 about its +z axis), the headings of a planar chain. Not wrapped to
-    (-pi, pi]. Links that tilt (roll on the floor) make it differ from a link's own yaw
-    (``links.csv`` ``link_NN_yaw_rad``) by a few degrees: up to 0.06 rad on the tail of a 6-link
-    snake turning on the default floor (python/tests/test_rl.py)."""
+    :func:`head_yaw`: the direction of each link's +x axis in the floor plane, from the head's
+    orientation (``obs["head_quat"]``) turned by the joint angles along the chain (joint i turns
+    link i relative to link i-1 about its own axis). Exact while the links tilt or roll: it
+    equals ``links.csv``'s ``link_NN_yaw_rad`` of the same instant (python/tests/test_rl.py).
+    Not wrapped to (-pi, pi].
+
+    ``joint_axes``: the snake's ``snake.joint_axes``, ``"yaw"`` (every joint turns about the
+    link's +z axis) or ``"alternating"`` (joints 1, 3, 5, … yaw, 2, 4, … pitch about +y). The
+    sum ``head_yaw(obs) + sum(obs["joint_angle_rad"][:i])`` is this heading only while the head
+    lies flat: a head tilted by 0.38 rad (a 6-link snake bending at once) puts the sum 0.07 rad
+    off on the tail."""
     import numpy as np
 
+    if joint_axes not in ("yaw", "alternating"):
+        raise ValueError(f'link_yaws: joint_axes must be "yaw" or "alternating", got {joint_axes!r}')
     angles = np.asarray(obs["joint_angle_rad"], dtype=np.float64)
-    return head_yaw(obs) + np.concatenate(([0.0], np.cumsum(angles)))
+    try:
+        w, x, y, z = (float(v) for v in obs["head_quat"])
+    except KeyError:
+        raise KeyError(f"link_yaws: the observation has no head_quat; it has {sorted(obs)}") from None
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    w, x, y, z = w / n, x / n, y / n, z / n
+    rot = np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+    yaws = np.empty(len(angles) + 1)
+    yaws[0] = math.atan2(rot[1, 0], rot[0, 0])
+    for j, q in enumerate(angles):
+        c, s = math.cos(q), math.sin(q)
+        if joint_axes == "alternating" and j % 2 == 1:
+            turn = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])  # pitch: about +y
+        else:
+            turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])  # yaw: about +z
+        rot = rot @ turn
+        yaws[j + 1] = math.atan2(rot[1, 0], rot[0, 0])
+    # Continuous along the chain (as the joint angles are), from the head's yaw in (-pi, pi].
+    return np.unwrap(yaws)
 
 
 ConfigLike = Union[str, "os.PathLike[str]", Mapping[str, Any], Config, None]

@@ -588,14 +588,13 @@ def test_oal_bench_reports_progress_in_runs(tmp_path):
     assert max(t for _, t in seen) == len(seen) and len(seen) >= 4, seen
 
 
-def test_head_yaw_is_counter_clockwise_seen_from_above_and_matches_the_tables(tmp_path):
+def test_head_yaw_is_counter_clockwise_seen_from_above(tmp_path):
     for angle in (0.0, 0.5, -1.2, 3.0):
         q = [math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2)]
         assert simserpent.head_yaw(q) == pytest.approx(angle, abs=1e-12)
     with pytest.raises(TypeError, match="quaternion"):
         simserpent.head_yaw("north")
-    # A snake bent by a positive offset turns right (clockwise): its yaw falls. The controller's
-    # head_yaw_rad and link_yaws equal the recorded links' yaw_rad at the same instants.
+    # A snake bent by a positive offset turns right (clockwise): its yaw falls.
     sets = {"snake.n_links": 6, "terrain.kind": "none", "general.duration_secs": 3.0, "control.controller": "gait",
             "recording.every_n_steps": 100}
     gait = simserpent.Gait(overrides=sets)
@@ -603,21 +602,51 @@ def test_head_yaw_is_counter_clockwise_seen_from_above_and_matches_the_tables(tm
 
     def steer(obs):
         assert obs["head_yaw_rad"] == simserpent.head_yaw(obs["head_quat"])
-        seen[round(obs["time_secs"], 6)] = simserpent.link_yaws(obs)
+        seen[round(obs["time_secs"], 6)] = simserpent.head_yaw(obs)
         return gait(obs["time_secs"]) + 0.3
 
-    summary = simserpent.run(overrides=sets, run_folder=tmp_path / "turn", controller=steer)
-    links = simserpent.open_run(summary["run_folder"]).links
-    for _, row in links.iterrows():
-        yaws = seen[round(row["time_s"], 6)]
-        recorded = np.array([row[f"link_{i:02d}_yaw_rad"] for i in range(6)])
-        error = np.angle(np.exp(1j * (yaws - recorded)))
-        assert abs(error[0]) < 1e-5, error  # the head's yaw (its quaternion of the same instant)
-        # The other links: the planar chain's headings, within the links' tilt (measured here:
-        # at most 0.056 rad on the tail link).
-        assert np.abs(error).max() < 0.1, error
-    head = np.unwrap([seen[t][0] for t in sorted(seen)])  # every instant: no jump is missed
+    simserpent.run(overrides=sets, run_folder=tmp_path / "turn", controller=steer)
+    head = np.unwrap([seen[t] for t in sorted(seen)])  # every instant: no jump is missed
     assert head[-1] - head[0] < -0.2, (head[0], head[-1])
+
+
+@pytest.mark.parametrize(
+    "joint_axes, gait_kind, offset_rad",
+    [("yaw", "sine_wave", 0.3), ("alternating", "sidewinding", 0.0)],
+)
+def test_link_yaws_are_the_recorded_links_yaws_at_every_step(tmp_path, joint_axes, gait_kind, offset_rad):
+    """link_yaws(obs) at every step equals each link's yaw computed from its orientation in
+    links.csv (recorded every step) at the same instant, while the links tilt: the 6-link snake
+    bent at once by 0.3 rad rolls its head by up to 0.38 rad, where the planar sum of the joint
+    angles is 0.07 rad off on the tail; sidewinding lifts links with its pitch joints."""
+    n = 6
+    sets = {"snake.n_links": n, "terrain.kind": "none", "general.duration_secs": 3.0, "control.controller": "gait",
+            "recording.every_n_steps": 1, "snake.joint_axes": joint_axes, "gait.kind": gait_kind}
+    gait = simserpent.Gait(overrides=sets)
+    seen, planar = {}, {}
+
+    def steer(obs):
+        t = round(obs["time_secs"], 6)
+        seen[t] = simserpent.link_yaws(obs, joint_axes)
+        planar[t] = simserpent.head_yaw(obs) + np.concatenate(([0.0], np.cumsum(obs["joint_angle_rad"])))
+        return gait(obs["time_secs"]) + offset_rad
+
+    summary = simserpent.run(overrides=sets, run_folder=tmp_path / "run", controller=steer)
+    links = simserpent.open_run(summary["run_folder"]).links
+    times = links["time_s"].round(6).to_numpy()
+    assert len(times) == 3001 and all(t in seen for t in times)
+    worst, worst_planar = 0.0, 0.0
+    for i in range(n):
+        qw, qx, qy, qz = (links[f"link_{i:02d}_orientation_q{c}"].to_numpy() for c in "wxyz")
+        truth = np.arctan2(2 * (qx * qy + qw * qz), 1 - 2 * (qy * qy + qz * qz))  # the link's +x axis
+        mine = np.array([seen[t][i] for t in times])
+        worst = max(worst, np.abs(np.angle(np.exp(1j * (mine - truth)))).max())
+        old = np.array([planar[t][i] for t in times])
+        worst_planar = max(worst_planar, np.abs(np.angle(np.exp(1j * (old - truth)))).max())
+    assert worst < 1e-9, worst
+    assert worst_planar > 0.03, worst_planar  # the case needs more than the planar sum
+    with pytest.raises(ValueError, match="joint_axes"):
+        simserpent.link_yaws({"joint_angle_rad": [0.0], "head_quat": [1, 0, 0, 0]}, "pitch")
 
 
 def test_the_guide_tables_match_the_env():

@@ -55,8 +55,24 @@ pub struct Index {
     pub body_names: Vec<String>,
     /// qpos address of the head's free joint, if it has one.
     pub head_free_qpos_adr: Option<usize>,
+    /// The free joint of the head link's own body (link 0), if it has one: its pose and velocity
+    /// are read from `qpos`/`qvel`, exact at the current state whatever kinematics ran last.
+    pub head_free: Option<HeadFreeJoint>,
     /// Total mass of the robot (kg).
     pub robot_mass_kg: f64,
+}
+
+/// Where the state of the head link's free joint lives (a top-level body: its `qpos` is the
+/// body's world position and orientation, its `qvel` the origin's world velocity and the angular
+/// velocity in the body's frame).
+#[derive(Debug, Clone, Copy)]
+pub struct HeadFreeJoint {
+    /// Its first `qpos` address (position x, y, z, then the quaternion w, x, y, z).
+    pub qpos_adr: usize,
+    /// Its first `qvel` address (linear velocity, then angular velocity).
+    pub dof_adr: usize,
+    /// The body's centre of mass in its own frame (m, `body_ipos`).
+    pub com_local_m: [f64; 3],
 }
 
 fn id(model: &MjModel, kind: MjtObjBase, name: &str) -> Option<usize> {
@@ -234,6 +250,15 @@ impl Index {
             .map(|g| usize::try_from(geom_body[g]).ok().and_then(|b| link_of_body.get(b).copied().flatten()))
             .collect();
         let robot_mass_kg = links.iter().map(|l| l.mass_kg).sum();
+        let head_free = links.first().and_then(|head| {
+            let (adr, num) = (model.body_jntadr()[head.body], model.body_jntnum()[head.body]);
+            let jid = usize::try_from(adr).ok().filter(|_| num > 0)?;
+            (model.jnt_type()[jid] == MjtJoint::mjJNT_FREE).then(|| HeadFreeJoint {
+                qpos_adr: model.jnt_qposadr()[jid] as usize,
+                dof_adr: model.jnt_dofadr()[jid] as usize,
+                com_local_m: model.body_ipos()[head.body],
+            })
+        });
         let geom_names = object_names(model, MjtObjBase::mjOBJ_GEOM, ngeom, "geom");
         let geom_class = geom_names
             .iter()
@@ -253,6 +278,7 @@ impl Index {
             joints,
             geom_link,
             head_free_qpos_adr,
+            head_free,
             robot_mass_kg,
         }
     }

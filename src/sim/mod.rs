@@ -845,7 +845,9 @@ impl World {
         }
     }
 
-    /// Fills the exact (noise-free) observation from the current state.
+    /// Fills the exact (noise-free) observation from the current state: joint angles and
+    /// velocities and the head's pose and velocity of the state itself, sensors of the last
+    /// complete evaluation (`Observation::sensor_time_secs`).
     pub fn observe_true(&self, obs: &mut Observation) {
         let d = &self.data;
         let qpos = d.qpos();
@@ -867,7 +869,23 @@ impl World {
                 obs.imu_quat_wxyz[i].copy_from_slice(&sensordata[a..a + 4]);
             }
         }
-        if let Some(head) = self.index.links.first() {
+        if let Some(free) = self.index.head_free {
+            // From the state itself: after an RK4 step the last kinematics are those of the
+            // step's final Runge–Kutta stage, not of the state reached (joint angles come from
+            // qpos; a head pose from `xquat` would not fit them).
+            let (p, v) = (&qpos[free.qpos_adr..free.qpos_adr + 7], &qvel[free.dof_adr..free.dof_adr + 6]);
+            obs.head_position_m = [p[0], p[1], p[2]];
+            obs.head_quat = normalized_as_mujoco([p[3], p[4], p[5], p[6]]);
+            // The centre of mass's velocity: the origin's plus ω × (R·c), ω = R·ω_body.
+            let rot = crate::estimation::quat_to_matrix(obs.head_quat);
+            let omega = crate::estimation::rotate(&rot, [v[3], v[4], v[5]]);
+            let r = crate::estimation::rotate(&rot, free.com_local_m);
+            obs.head_velocity_m_per_s = [
+                v[0] + omega[1] * r[2] - omega[2] * r[1],
+                v[1] + omega[2] * r[0] - omega[0] * r[2],
+                v[2] + omega[0] * r[1] - omega[1] * r[0],
+            ];
+        } else if let Some(head) = self.index.links.first() {
             obs.head_position_m = d.xpos()[head.body];
             obs.head_quat = d.xquat()[head.body];
             let v = d.object_velocity(MjtObjBase::mjOBJ_BODY, head.body, false);
@@ -953,6 +971,20 @@ const WARNING_NAMES: [&str; 7] = [
     "bad qacc (mjWARN_BADQACC)",
     "bad ctrl (mjWARN_BADCTRL)",
 ];
+
+/// A quaternion normalised as MuJoCo's kinematics normalise a free joint's (`mju_normalize4`):
+/// unchanged within 1e-15 of unit length, the identity when (nearly) zero.
+fn normalized_as_mujoco(q: [f64; 4]) -> [f64; 4] {
+    let norm = (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+    if norm.is_nan() || norm < 1e-15 {
+        [1.0, 0.0, 0.0, 0.0]
+    } else if (norm - 1.0).abs() > 1e-15 {
+        let inv = 1.0 / norm;
+        q.map(|c| c * inv)
+    } else {
+        q
+    }
+}
 
 #[cfg(test)]
 #[allow(clippy::unwrap_used)]

@@ -188,3 +188,40 @@ fn an_instant_is_sensed_once() {
     sim.sense();
     assert_eq!(format!("{:?}", sim.observation()), after_step);
 }
+
+/// The head's pose and velocity in the observation are those of the instant sensed, whatever
+/// kinematics ran last (after an RK4 step: its last Runge–Kutta stage's; after an Euler step:
+/// the step's start): they equal the head body's pose and centre-of-mass velocity after a forward
+/// pass at the same state, at every step.
+#[test]
+fn the_observed_head_pose_is_the_state_of_its_instant() {
+    use mujoco_rs::prelude::MjtObjBase;
+    for integrator in ["RK4", "Euler"] {
+        let sets: Vec<String> = [
+            "snake.n_links=6".to_string(),
+            "terrain.kind=\"none\"".to_string(),
+            format!("general.integrator=\"{integrator}\""),
+        ]
+        .to_vec();
+        let config = default_config_with(&sets).unwrap();
+        let world = World::from_config(&config).unwrap();
+        let mut sim = Simulation::new(&config, world);
+        sim.reset(1).unwrap();
+        let head = sim.world().index.links[0].body;
+        let mut worst = [0.0f64; 3];
+        for _ in 0..300 {
+            sim.step().unwrap();
+            let _ = sim.world_mut(); // read afresh at this instant
+            sim.sense();
+            let obs = sim.true_observation().clone();
+            sim.world_mut().forward();
+            let d = sim.world().data();
+            let v = d.object_velocity(MjtObjBase::mjOBJ_BODY, head, false);
+            let diff = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+            worst[0] = worst[0].max(diff(&obs.head_position_m, &d.xpos()[head]));
+            worst[1] = worst[1].max(diff(&obs.head_quat, &d.xquat()[head]));
+            worst[2] = worst[2].max(diff(&obs.head_velocity_m_per_s, &v[3..6]));
+        }
+        assert!(worst[0] < 1e-14 && worst[1] < 1e-14 && worst[2] < 1e-12, "{integrator}: {worst:?}");
+    }
+}

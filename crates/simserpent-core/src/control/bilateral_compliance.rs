@@ -52,15 +52,8 @@ impl BilateralCompliance {
     /// For `n_joints` joints, the wave of `config.gait.sine_wave` (ramp `config.gait.ramp_secs`)
     /// and generalised compliance `compliance` (clamped to [0, 1]).
     pub fn new(config: &Config, n_joints: usize, compliance: f64) -> Self {
-        let w = &config.gait.sine_wave;
         Self {
-            wave: SineWave {
-                amplitude_rad: w.amplitude_deg.to_radians(),
-                frequency_hz: w.frequency_hz,
-                phase_lag_rad: w.phase_lag_deg.to_radians(),
-                offset_rad: w.offset_deg.to_radians(),
-                ramp_secs: config.gait.ramp_secs,
-            },
+            wave: SineWave::from_config(config),
             compliance: compliance.clamp(0.0, 1.0),
             wave_rad: vec![0.0; n_joints],
             wave_velocity_rad_per_s: vec![0.0; n_joints],

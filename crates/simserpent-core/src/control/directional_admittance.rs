@@ -80,14 +80,7 @@ impl DirectionalAdmittance {
     /// The controller of `config` for `n_joints` joints.
     pub fn from_config(config: &Config, n_joints: usize) -> Self {
         let a = &config.directional_admittance;
-        let w = &config.gait.sine_wave;
-        let wave = SineWave {
-            amplitude_rad: w.amplitude_deg.to_radians(),
-            frequency_hz: w.frequency_hz,
-            phase_lag_rad: w.phase_lag_deg.to_radians(),
-            offset_rad: w.offset_deg.to_radians(),
-            ramp_secs: config.gait.ramp_secs,
-        };
+        let wave = SineWave::from_config(config);
         let windows = a.windows.max(1);
         let mut window = vec![vec![0.0; n_joints]; windows];
         for j in 0..n_joints {

@@ -70,13 +70,7 @@ impl FollowTheLeaderReflex {
     pub fn from_config(config: &Config, n_joints: usize) -> Self {
         let r = &config.follow_the_leader_reflex;
         let w = &config.gait.sine_wave;
-        let wave = SineWave {
-            amplitude_rad: w.amplitude_deg.to_radians(),
-            frequency_hz: w.frequency_hz,
-            phase_lag_rad: w.phase_lag_deg.to_radians(),
-            offset_rad: w.offset_deg.to_radians(),
-            ramp_secs: config.gait.ramp_secs,
-        };
+        let wave = SineWave::from_config(config);
         let dt = config.general.timestep_secs;
         // τ = δ/ω in steps (at least one step).
         let tau_secs =

@@ -71,6 +71,21 @@ pub struct SineWave {
     pub ramp_secs: f64,
 }
 
+impl SineWave {
+    /// The wave of `config.gait.sine_wave` with the ramp-in `config.gait.ramp_secs` (whatever
+    /// `config.gait.kind` says: the controllers that shape the sine wave start from it).
+    pub fn from_config(config: &Config) -> Self {
+        let w = &config.gait.sine_wave;
+        Self {
+            amplitude_rad: w.amplitude_deg.to_radians(),
+            frequency_hz: w.frequency_hz,
+            phase_lag_rad: w.phase_lag_deg.to_radians(),
+            offset_rad: w.offset_deg.to_radians(),
+            ramp_secs: config.gait.ramp_secs,
+        }
+    }
+}
+
 impl JointTrajectory for SineWave {
     fn targets(&self, t_secs: f64, angle_rad: &mut [f64], velocity_rad_per_s: &mut [f64]) {
         let (r, dr) = ramp(t_secs, self.ramp_secs);
@@ -187,13 +202,7 @@ pub fn trajectory_from_config(config: &Config) -> Box<dyn JointTrajectory> {
         GaitKind::None => Box::new(Hold {
             angles_rad: config.initial_state.joint_angles_deg.iter().map(|a| a.to_radians()).collect(),
         }),
-        GaitKind::SineWave => Box::new(SineWave {
-            amplitude_rad: gait.sine_wave.amplitude_deg.to_radians(),
-            frequency_hz: gait.sine_wave.frequency_hz,
-            phase_lag_rad: gait.sine_wave.phase_lag_deg.to_radians(),
-            offset_rad: gait.sine_wave.offset_deg.to_radians(),
-            ramp_secs: gait.ramp_secs,
-        }),
+        GaitKind::SineWave => Box::new(SineWave::from_config(config)),
         GaitKind::Serpenoid => {
             let sp = &gait.serpenoid;
             Box::new(serpenoid(

@@ -85,17 +85,10 @@ impl JamResolution {
     /// it is selected).
     pub fn from_config(config: &Config, n_joints: usize) -> Self {
         let j = &config.jam_resolution;
-        let w = &config.gait.sine_wave;
         let goal = j.goal_heading_deg.to_radians();
         let n_links = n_joints + 1;
         Self {
-            wave: SineWave {
-                amplitude_rad: w.amplitude_deg.to_radians(),
-                frequency_hz: w.frequency_hz,
-                phase_lag_rad: w.phase_lag_deg.to_radians(),
-                offset_rad: w.offset_deg.to_radians(),
-                ramp_secs: config.gait.ramp_secs,
-            },
+            wave: SineWave::from_config(config),
             method: config.control.method,
             pids: vec![joint_pid(config); n_joints],
             dt_secs: config.general.timestep_secs,

@@ -39,7 +39,7 @@
 //! Liljebäck's experiments; `Observation::head_position_m`, `head_quat`) and the joint encoders;
 //! the centre of mass and θ̄ follow from the chain (equal links of `snake.link_length_m`).
 
-use super::gait::ramp;
+use super::gait::{SineWave, ramp};
 use super::{
     Command, Controller, Observation, Pid, command_joint, joint_pid, planar_chain, wrap_angle_rad, yaw_joints,
 };
@@ -98,13 +98,13 @@ impl PathFollowing {
     /// The controller of `config` (`[path_following]`, `[gait.sine_wave]`, `[control]`) for
     /// `n_joints` joints.
     pub fn from_config(config: &Config, n_joints: usize) -> Self {
-        let w = &config.gait.sine_wave;
+        let wave = SineWave::from_config(config);
         let p = &config.path_following;
         Self {
-            amplitude_rad: w.amplitude_deg.to_radians(),
-            angular_frequency_rad_per_s: TAU * w.frequency_hz,
-            phase_lag_rad: w.phase_lag_deg.to_radians(),
-            ramp_secs: config.gait.ramp_secs,
+            amplitude_rad: wave.amplitude_rad,
+            angular_frequency_rad_per_s: TAU * wave.frequency_hz,
+            phase_lag_rad: wave.phase_lag_rad,
+            ramp_secs: wave.ramp_secs,
             waypoints_m: p.waypoints_m.clone(),
             lookahead_m: p.lookahead_m,
             heading_gain: p.heading_gain,

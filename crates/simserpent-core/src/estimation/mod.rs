@@ -174,7 +174,8 @@ pub fn quat_to_matrix(q: [f64; 4]) -> [[f64; 3]; 3] {
     ]
 }
 
-pub(crate) fn rotate(r: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+/// `r`·`v`: the vector `v` turned by the rotation matrix `r` (row-major).
+pub fn rotate(r: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
     [
         r[0][0] * v[0] + r[0][1] * v[1] + r[0][2] * v[2],
         r[1][0] * v[0] + r[1][1] * v[1] + r[1][2] * v[2],
