@@ -137,7 +137,7 @@
 use super::World;
 use crate::config::{Config, FloorFriction, GroundModel};
 use crate::contact_law::{
-    NormalLaw, damping_ratio_for_restitution, damping_ratio_for_step, explicit_normal_force_n, normal_force_n,
+    NormalLaw, damping_ratio_for_restitution, damping_ratio_for_step, explicit_normal_force_n, normal_force_terms,
     resting_sink_m,
 };
 use crate::model::{SurfaceMap, names};
@@ -406,6 +406,11 @@ struct StickSlip {
     obstacle_points: Vec<usize>,
     /// The link–ground and link–obstacle contacts found at x_k (capacity kept).
     found: Vec<FoundContact>,
+    /// The link–obstacle contacts of x_k awaiting their normal force, and their rows of the
+    /// whole body's mobility (capacity kept).
+    obstacle_candidates: Vec<ObstacleCandidate>,
+    obstacle_rows: Vec<(usize, [f64; 3], [f64; 3])>,
+    obstacle_terms: Vec<ObstacleTerms>,
     /// Heightfield and mesh ground, whose contacts this law finds itself (one per link end and
     /// surface), and each link's capsule (geom, radius, half-length of its axis segment).
     heightfields: Vec<HeightfieldGround>,
@@ -595,6 +600,9 @@ impl StickSlip {
             ground_points: vec![0; n],
             obstacle_points: vec![0; n],
             found: Vec::new(),
+            obstacle_candidates: Vec::new(),
+            obstacle_rows: Vec::new(),
+            obstacle_terms: Vec::new(),
             heightfields: (0..geom_type.len())
                 .filter(|&g| own_ground[g] && geom_type[g] == MjtGeomBase::mjGEOM_HFIELD)
                 .map(|g| HeightfieldGround::new(world.model(), g))
@@ -960,6 +968,7 @@ impl Ground {
             // The link–ground and link–obstacle contacts of x_k: MuJoCo's (planes, boxes,
             // obstacles) and the heightfields' own (one per link end and heightfield).
             st.found.clear();
+            st.obstacle_candidates.clear();
             for contact in d.contact() {
                 let (g1, g2) = (contact.geom[0], contact.geom[1]);
                 if g1 < 0 || g2 < 0 || contact.exclude > 1 {
@@ -1033,48 +1042,41 @@ impl Ground {
                 // solve is never less implicit than the point's real motion.
                 let depth = -contact.distance_m;
                 let approach = -dot(v_point, nrm);
+                if obstacle {
+                    // Obstacle contacts get their normal force from the whole body's mobility
+                    // once the ground's forces are known ([`StickSlip::obstacle_normals`]).
+                    obstacle_contact |= depth > 0.0 || depth + approach * dt > 0.0;
+                    st.obstacle_candidates.push(ObstacleCandidate {
+                        contact,
+                        link,
+                        other,
+                        nrm,
+                        arm_m: r,
+                        depth,
+                        approach,
+                    });
+                    continue;
+                }
+                // Ground: a spring–damper on the point's effective mass along the normal for
+                // the link alone, 1/m_eff = 1/m + (r × n)ᵀ I⁻¹ (r × n), shared among the link's
+                // penetrating ground points (at least 2: a capsule lying on a plane rests on its
+                // two caps), held explicitly (see the module docs).
                 let mass = st.link_mass_kg[link];
                 let rn = cross(r, nrm);
                 let im = ximat[body];
                 let inertia = st.link_inertia_kg_m2[link];
-                let (mut inv_mass, mut inv_mass_link) = (1.0 / mass, 1.0 / mass);
+                let mut inv_mass = 1.0 / mass;
                 for j in 0..3 {
                     let u = rn[0] * im[j] + rn[1] * im[3 + j] + rn[2] * im[6 + j];
                     if inertia[j] > 0.0 {
-                        inv_mass += 2.0 * u * u / inertia[j];
-                        inv_mass_link += u * u / inertia[j];
+                        inv_mass += u * u / inertia[j];
                     }
                 }
-                // The point's share of the link's mass: the link's mass over its penetrating
-                // points of the ground, at most half of it (a capsule lying on a plane rests on
-                // its two caps), or of the obstacles (a link hitting a peg with its side: all of it).
-                let share = if obstacle {
-                    1.0 / st.obstacle_points[link].max(1) as f64
-                } else {
-                    1.0 / st.ground_points[link].max(2) as f64
-                };
-                let carried = share * mass;
-                let law = NormalLaw {
-                    stiffness_n_per_m: carried * st.normal_stiffness_per_s2,
-                    damping_n_s_per_m: carried * st.normal_damping_per_s,
-                    effective_mass_kg: 1.0 / inv_mass,
-                };
-                // Penetration from the spring's rest length: the resting sink under gravity, so
-                // that a body resting on a surface touches it at its geometric surface and
-                // carries its weight from the first step.
+                let share = 2.0 / st.ground_points[link].max(2) as f64;
+                let stiffness = share * st.normal_stiffness_per_s2 / inv_mass;
+                let damping = share * st.ground_damping_per_s / inv_mass;
                 let free_approach = -dot(st.gravity_vector_m_per_s2, nrm);
-                let (depth, n, stiffness) = if obstacle {
-                    let depth = depth + resting_sink_m(law, carried, free_approach, dt);
-                    (depth, normal_force_n(law, depth, approach, free_approach, dt), law.stiffness_n_per_m)
-                } else {
-                    // Ground: the spring–damper on the point's effective mass for the link alone,
-                    // held explicitly (see the module docs).
-                    let share = 2.0 / st.ground_points[link].max(2) as f64;
-                    let m_eff = 1.0 / inv_mass_link;
-                    let k = share * st.normal_stiffness_per_s2 * m_eff;
-                    let c = share * st.ground_damping_per_s * m_eff;
-                    (depth, explicit_normal_force_n(k, c, depth, approach, free_approach, dt), k)
-                };
+                let n = explicit_normal_force_n(stiffness, damping, depth, approach, free_approach, dt);
                 if depth <= 0.0 && n <= 0.0 {
                     continue; // within the detection margin, not touching
                 }
@@ -1094,28 +1096,6 @@ impl Ground {
                 let f = nrm.map(|x| n * x);
                 st.normal_force_n[link] = add(st.normal_force_n[link], f);
                 st.normal_torque_nm[link] = add(st.normal_torque_nm[link], cross(r, f));
-                if obstacle {
-                    // One friction slot per link and touching obstacle geom: a slot keeps its
-                    // geom while the link touches it; a new geom takes a free slot, or one not
-                    // seen at this state.
-                    obstacle_contact = true;
-                    let slots = &mut st.obstacle_slots[link];
-                    let k = slots
-                        .iter()
-                        .position(|s| s.geom == other)
-                        .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
-                        .or_else(|| slots.iter().position(|s| !s.seen));
-                    let Some(k) = k else { continue };
-                    let slot = &mut slots[k];
-                    if slot.geom != other {
-                        *slot = ObstacleSlot { geom: other, ..ObstacleSlot::FREE };
-                    }
-                    slot.seen = true;
-                    slot.normal_n += n;
-                    slot.point_weighted = add(slot.point_weighted, contact.position_m.map(|x| n * x));
-                    slot.normal_weighted = add(slot.normal_weighted, f);
-                    continue;
-                }
                 let m = xmat[body];
                 let along = r[0] * m[0] + r[1] * m[3] + r[2] * m[6];
                 let slot = usize::from(along < 0.0);
@@ -1225,7 +1205,8 @@ impl Ground {
             *slot = [force[0], force[1], force[2], torque[0], torque[1], torque[2]];
         }
         if obstacle_contact {
-            self.obstacle_friction(world, mujoco_ground_contact);
+            self.obstacle_normals(world, mujoco_ground_contact);
+            self.obstacle_friction(world, true);
             return;
         }
         for slot in st.obstacle_slots.iter_mut().flatten() {
@@ -1235,6 +1216,128 @@ impl Ground {
             // The friction moves MuJoCo's normal forces: a second forward pass with it applied
             // gives the heightfield and mesh contacts the N the step will have.
             st.settle_friction_bounds(world, &self.bodies);
+        }
+    }
+
+    /// The normal forces of the links' obstacle contacts at x_k, on a step where a link touches
+    /// an obstacle or may within the step: a forward pass at x_k with the step's ground forces in
+    /// `xfrc_applied` (the law's geoms detached, as in MuJoCo's step) gives each contact point
+    /// its effective mass along its normal through the whole articulated body, m = 1/W_nn
+    /// (W = J·M⁻¹·Jᵀ), and its acceleration toward the obstacle without obstacle forces, a. Each
+    /// point is then one mass m (shared among the link's penetrating obstacle points) on the
+    /// law's spring–damper k = m·ω², c = m·b, integrated implicitly through that same mass
+    /// ([`normal_force_n`]), measured from the rest length under a ([`resting_sink_m`]): a link
+    /// hitting a peg rebounds at the configured restitution whatever the step and whatever the
+    /// joints add to its mass, and a link pressed against a peg carries that load from the first
+    /// step. The forces go into `xfrc_applied` and the obstacle friction slots.
+    fn obstacle_normals(&mut self, world: &mut World, forward_done: bool) {
+        let Some(st) = self.stick_slip.as_mut() else { return };
+        if forward_done {
+            forward_forces(world);
+        } else {
+            world.data.forward();
+        }
+        st.obstacle_rows.clear();
+        for c in &st.obstacle_candidates {
+            st.obstacle_rows.push((self.bodies[c.link], c.contact.position_m, c.nrm));
+        }
+        world.point_mobility(&st.obstacle_rows, &mut st.mobility);
+        let count = st.obstacle_candidates.len();
+        let dt = st.timestep_secs;
+        let w = &st.mobility.w;
+        // Each touching point's mass: the inverse of its row of W summed over the touching
+        // points (the positive entries), the mass it carries when every point pushes alike (a
+        // link hitting flat on both caps: half the link and what its joints add; one point:
+        // 1/W_ii).
+        let touching = |c: &ObstacleCandidate| c.depth > 0.0 || c.depth + c.approach * dt > 0.0;
+        st.obstacle_terms.clear();
+        for (i, c) in st.obstacle_candidates.iter().enumerate() {
+            let row_sum: f64 = (0..count)
+                .filter(|&j| j == i || touching(&st.obstacle_candidates[j]))
+                .map(|j| w[i * count + j].max(0.0))
+                .sum();
+            let carried = if row_sum > 0.0 { 1.0 / row_sum } else { st.link_mass_kg[c.link] };
+            let law = NormalLaw {
+                stiffness_n_per_m: carried * st.normal_stiffness_per_s2,
+                damping_n_s_per_m: carried * st.normal_damping_per_s,
+                effective_mass_kg: carried,
+            };
+            // The acceleration toward the obstacle (the rows point away from it, into the link).
+            let free_approach = -st.mobility.acc[i];
+            let depth = c.depth + resting_sink_m(law, carried, free_approach, dt);
+            let (numerator, implicit) = normal_force_terms(law, depth, c.approach, free_approach, dt);
+            st.obstacle_terms.push(ObstacleTerms {
+                depth,
+                numerator,
+                implicit,
+                stiffness: law.stiffness_n_per_m,
+                n: 0.0,
+            });
+        }
+        // N_i = (numerator_i − implicit_i·Σ_{j≠i} W_ij·N_j)/(1 + implicit_i·W_ii), N ≥ 0:
+        // projected Gauss–Seidel (the points pushing one body share its motion in the step).
+        let largest = st.obstacle_terms.iter().map(|t| t.numerator.abs()).fold(0.0, f64::max);
+        for _ in 0..FRICTION_SOLVER_SWEEPS {
+            let mut change = 0.0_f64;
+            for i in 0..count {
+                let t = st.obstacle_terms[i];
+                if t.implicit == 0.0 && t.numerator <= 0.0 {
+                    continue;
+                }
+                let coupled: f64 =
+                    (0..count).filter(|&j| j != i).map(|j| w[i * count + j] * st.obstacle_terms[j].n).sum();
+                let n = ((t.numerator - t.implicit * coupled) / (1.0 + t.implicit * w[i * count + i])).max(0.0);
+                change = change.max((n - t.n).abs());
+                st.obstacle_terms[i].n = n;
+            }
+            if change <= 1e-9 * (1.0 + largest) {
+                break;
+            }
+        }
+        for (i, c) in st.obstacle_candidates.iter().enumerate() {
+            let ObstacleTerms { depth, stiffness, n, .. } = st.obstacle_terms[i];
+            if depth <= 0.0 && n <= 0.0 {
+                continue; // within the detection margin, not touching
+            }
+            st.own_contacts.push(OwnContact {
+                geom: c.contact.geom,
+                position_m: c.contact.position_m,
+                normal: c.contact.normal,
+                distance_m: c.contact.distance_m,
+                normal_force_n: n,
+            });
+            if depth > 0.0 {
+                st.elastic_energy_j += 0.5 * stiffness * depth * depth;
+            }
+            if n <= 0.0 {
+                continue;
+            }
+            let f = c.nrm.map(|x| n * x);
+            let torque = cross(c.arm_m, f);
+            st.normal_force_n[c.link] = add(st.normal_force_n[c.link], f);
+            st.normal_torque_nm[c.link] = add(st.normal_torque_nm[c.link], torque);
+            let x = &mut world.data.xfrc_applied_mut()[self.bodies[c.link]];
+            for k in 0..3 {
+                x[k] += f[k];
+                x[3 + k] += torque[k];
+            }
+            // One friction slot per link and touching obstacle geom: a slot keeps its geom while
+            // the link touches it; a new geom takes a free slot, or one not seen at this state.
+            let slots = &mut st.obstacle_slots[c.link];
+            let k = slots
+                .iter()
+                .position(|s| s.geom == c.other)
+                .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
+                .or_else(|| slots.iter().position(|s| !s.seen));
+            let Some(k) = k else { continue };
+            let slot = &mut slots[k];
+            if slot.geom != c.other {
+                *slot = ObstacleSlot { geom: c.other, ..ObstacleSlot::FREE };
+            }
+            slot.seen = true;
+            slot.normal_n += n;
+            slot.point_weighted = add(slot.point_weighted, c.contact.position_m.map(|x| n * x));
+            slot.normal_weighted = add(slot.normal_weighted, f);
         }
     }
 
@@ -1393,6 +1496,32 @@ struct FoundContact {
     position_m: [f64; 3],
     normal: [f64; 3],
     distance_m: f64,
+}
+
+/// A link–obstacle contact of x_k before its normal force: the contact, the link, the obstacle
+/// geom, the normal from the obstacle into the link, the contact point's arm from the link's
+/// centre of mass (m), the penetration (m) and its rate (m/s).
+#[derive(Debug, Clone, Copy)]
+struct ObstacleCandidate {
+    contact: FoundContact,
+    link: usize,
+    other: usize,
+    nrm: [f64; 3],
+    arm_m: [f64; 3],
+    depth: f64,
+    approach: f64,
+}
+
+/// An obstacle contact point's terms of the coupled normal-force solve: its penetration from
+/// the rest length (m), the two terms of [`normal_force_terms`], its stiffness (N/m) and its
+/// normal force (N).
+#[derive(Debug, Clone, Copy)]
+struct ObstacleTerms {
+    depth: f64,
+    numerator: f64,
+    implicit: f64,
+    stiffness: f64,
+    n: f64,
 }
 
 /// A link's capsule: its geom, radius and the half-length of its axis segment (m).
@@ -1554,11 +1683,8 @@ impl MeshGround {
                 continue;
             }
             let gap = sub(local, q);
-            let n_local = if dot(gap, face_normal) > 0.0 {
-                normalized(gap).unwrap_or(face_normal)
-            } else {
-                face_normal
-            };
+            let n_local =
+                if dot(gap, face_normal) > 0.0 { normalized(gap).unwrap_or(face_normal) } else { face_normal };
             let surface = add(p, to_world(&r, q));
             push_surface_contact(out, [self.geom, cap.geom], center, surface, to_world(&r, n_local), cap.radius_m);
         }

@@ -531,3 +531,266 @@ fn a_link_loaded_just_below_mu_n_from_the_start_holds() {
         assert!(moved < 1e-4, "μ {mu}: the link moved {} mm under 0.999 μN", moved * 1e3);
     }
 }
+
+/// The sideways hit on the cylinders converges in the step: the largest lift at 0.1 ms within
+/// 10 % of the default 1-ms step's, at μ 0.5 and 1, and within 1.5 × of the reference's (Drake's
+/// lift with its floor damping at SimSerpent's restitution: 163 mm at μ 0.5; at μ 1 Drake's
+/// lift is 5–23 mm across its damping, so the bound is 1.5 × its largest).
+#[test]
+fn a_sideways_hit_lifts_the_same_at_1_ms_and_0_1_ms() {
+    let mut all = Vec::new();
+    for (mu, reference_m) in [(0.5, 0.163), (1.0, 0.023)] {
+        let mut lifts = [0.0; 2];
+        for (k, dt) in [1e-3, 1e-4].into_iter().enumerate() {
+            let mut c = hit(mu);
+            c.general.timestep_secs = dt;
+            lifts[k] = measure(&c, &mut simulation(&c), 1.0, mu).max_lift_m;
+        }
+        eprintln!("μ {mu}: largest lift {:.1} mm at 1 ms, {:.1} mm at 0.1 ms", lifts[0] * 1e3, lifts[1] * 1e3);
+        all.push((mu, reference_m, lifts));
+    }
+    for (mu, reference_m, lifts) in all {
+        assert!((lifts[1] / lifts[0] - 1.0).abs() <= 0.10, "μ {mu}: {lifts:?}");
+        assert!(lifts[0] <= 1.5 * reference_m && lifts[0] >= reference_m / 1.5 / 5.0, "μ {mu}: {lifts:?}");
+    }
+}
+
+/// What the gait job on a ground shows over its 3 s: the centre of mass's displacement (m),
+/// its mean speed over 1–3 s (m/s), each link's mean load over 1–3 s (× m g) and the largest
+/// ground force on a link in a step over 1–3 s (× m g).
+#[derive(Debug)]
+struct GroundFigures {
+    displacement_m: [f64; 2],
+    speed_m_per_s: f64,
+    loads: Vec<f64>,
+    peak_over_weight: f64,
+}
+
+fn ground_figures(c: &Config) -> GroundFigures {
+    let n = c.snake.n_links;
+    let dt = c.general.timestep_secs;
+    let mut sim = simulation(c);
+    let mut s = Snapshot::new(n, n - 1);
+    let com = |s: &Snapshot| {
+        let m: f64 = s.link_mass_kg.iter().sum();
+        [0, 1].map(|a| (0..n).map(|i| s.link_mass_kg[i] * s.link_position_m[i][a]).sum::<f64>() / m)
+    };
+    let steps = (3.0 / dt).round() as usize;
+    let from = (1.0 / dt).round() as usize;
+    let (mut start, mut at_one, mut path) = ([0.0; 2], [0.0; 2], 0.0);
+    let mut previous = [0.0; 2];
+    let mut loads = vec![0.0; n];
+    let mut peak: f64 = 0.0;
+    for k in 0..steps {
+        sim.control();
+        sim.snapshot(&mut s);
+        let p = com(&s);
+        if k == 0 {
+            start = p;
+        }
+        if k == from {
+            at_one = p;
+        }
+        if k > from {
+            path += (p[0] - previous[0]).hypot(p[1] - previous[1]);
+        }
+        previous = p;
+        if k >= from {
+            for (i, load) in loads.iter_mut().enumerate() {
+                let w = s.link_mass_kg[i] * G;
+                let fz = s.link_floor_force_n[i][2];
+                *load += fz / w / (steps - from) as f64;
+                peak = peak.max(fz / w);
+            }
+        }
+        sim.advance().unwrap();
+    }
+    let _ = at_one;
+    GroundFigures {
+        displacement_m: [previous[0] - start[0], previous[1] - start[1]],
+        speed_m_per_s: path / 2.0,
+        loads,
+        peak_over_weight: peak,
+    }
+}
+
+/// The gait job (isotropic μ 0.5 and 1) on a flat heightfield 20 mm above the floor and on a
+/// flat mesh terrain there equals the same job on the plane: centre-of-mass speed, displacement
+/// (2 % or 1 mm; μ 0.5), each link's mean load and the largest load in a step within 2 %, at
+/// 1 ms and 0.5 ms. What the ground is made of does not change the physics.
+#[test]
+fn a_flat_heightfield_and_a_flat_mesh_terrain_equal_the_plane() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("flat.png");
+    crate::common::write_gray_png(&png, 64, 64, &[255u8; 64 * 64]);
+    let obj = dir.path().join("flat.obj");
+    std::fs::write(&obj, "v -2 -2 0.02\nv 2 -2 0.02\nv 2 2 0.02\nv -2 2 0.02\nf 1 2 3\nf 1 3 4\n").unwrap();
+    let gait = [
+        "gait.kind=\"sine_wave\"",
+        "gait.sine_wave.amplitude_deg=30.0",
+        "gait.sine_wave.frequency_hz=0.5",
+        "gait.sine_wave.phase_lag_deg=40.0",
+        "gait.sine_wave.offset_deg=0.0",
+        "gait.ramp_secs=1.0",
+    ];
+    for mu in [0.5, 1.0] {
+        for dt in [1e-3, 5e-4] {
+            let base = scene(mu, &gait);
+            let z = base.snake.head_position_m[2];
+            let raised = format!(
+                "snake.head_position_m=[{}, {}, {}]",
+                base.snake.head_position_m[0],
+                base.snake.head_position_m[1],
+                z + 0.02
+            );
+            let step = format!("general.timestep_secs={dt}");
+            let plane = ground_figures(&scene(mu, &[&gait[..], &[step.as_str()]].concat()));
+            let hf_file = format!("terrain.heightfield.file={:?}", png.display().to_string());
+            let heightfield = [hf_file.as_str(), "terrain.heightfield.height_m=0.02", raised.as_str(), step.as_str()];
+            let mesh_file = format!("terrain.mesh_terrain.file={:?}", obj.display().to_string());
+            let mesh = [mesh_file.as_str(), raised.as_str(), step.as_str()];
+            for (name, keys) in [("heightfield", &heightfield[..]), ("mesh terrain", &mesh[..])] {
+                let f = ground_figures(&scene(mu, &[&gait[..], keys].concat()));
+                eprintln!("μ {mu}, dt {dt}: {name} {f:?}\n  plane {plane:?}");
+                let close = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * b.abs();
+                assert!(close(f.speed_m_per_s, plane.speed_m_per_s, 0.02), "μ {mu}, dt {dt}, {name}: speed");
+                // At μ 1 the displacement is chaotic in the start: the plane's own job started 1 µm
+                // higher ends 1 mm away (x: −1.4 → −2.4 mm at 1 ms), as far as the heightfield's
+                // (−1.9, −17.5 against −1.4, −18.7 mm); speed, loads and peaks agree within 0.1 %.
+                for a in (0..2).filter(|_| mu < 1.0) {
+                    let tol = (0.02 * plane.displacement_m[a].abs()).max(1e-3);
+                    assert!(
+                        (f.displacement_m[a] - plane.displacement_m[a]).abs() <= tol,
+                        "μ {mu}, dt {dt}, {name}: displacement {a}"
+                    );
+                }
+                for (i, (l, p)) in f.loads.iter().zip(&plane.loads).enumerate() {
+                    assert!(close(*l, *p, 0.02), "μ {mu}, dt {dt}, {name}: link {i} load {l} against {p}");
+                }
+                assert!(close(f.peak_over_weight, plane.peak_over_weight, 0.02), "μ {mu}, dt {dt}, {name}: peak");
+            }
+        }
+    }
+}
+
+/// A 30-link snake of 3-kg links in steady undulation carries its weight: Σ N within 10 % of
+/// it at every step at the default timestep, from the end of the gait's ramp on (default
+/// servos, anisotropic floor).
+#[test]
+fn a_heavy_long_snake_carries_its_weight_at_every_step() {
+    let c = default_config_with(&["snake.n_links=30".to_string(), "snake.link_mass_kg=3.0".to_string()]).unwrap();
+    let n = c.snake.n_links;
+    let dt = c.general.timestep_secs;
+    let mut sim = simulation(&c);
+    let mut s = Snapshot::new(n, n - 1);
+    let (mut low, mut high) = (f64::INFINITY, 0.0_f64);
+    let ramp_steps = (c.gait.ramp_secs / dt).round() as usize;
+    for k in 0..(4.0 / dt).round() as usize {
+        sim.control();
+        sim.snapshot(&mut s);
+        if k < ramp_steps {
+            sim.advance().unwrap();
+            continue;
+        }
+        let total: f64 = (0..n).map(|i| s.link_floor_force_n[i][2]).sum();
+        let weight: f64 = s.link_mass_kg.iter().map(|m| m * G).sum();
+        low = low.min(total / weight);
+        high = high.max(total / weight);
+        sim.advance().unwrap();
+    }
+    eprintln!("30 links of 3 kg: Σ N between {low:.3} and {high:.3} of the weight");
+    assert!(low >= 0.9 && high <= 1.1, "Σ N between {low} and {high} of the weight");
+}
+
+#[test]
+#[ignore = "probe"]
+fn probe_hit_series() {
+    for mu in [1.0] {
+        for dt in [1e-3, 1e-4] {
+            let mut c = hit(mu);
+            c.general.timestep_secs = dt;
+            let n = c.snake.n_links;
+            let mut sim = simulation(&c);
+            let mut s = Snapshot::new(n, n - 1);
+            let per = (1e-3 / dt).round() as usize;
+            let mut imp = [0.0f64; 4];
+            for k in 0..(0.15 / dt).round() as usize {
+                sim.control();
+                sim.snapshot(&mut s);
+                let m: f64 = s.link_mass_kg.iter().sum();
+                let vy: f64 = (0..n).map(|i| s.link_mass_kg[i] * s.link_velocity_m_per_s[i][1]).sum::<f64>() / m;
+                let vz: f64 = (0..n).map(|i| s.link_mass_kg[i] * s.link_velocity_m_per_s[i][2]).sum::<f64>() / m;
+                let z: f64 = (0..n).map(|i| s.link_mass_kg[i] * s.link_position_m[i][2]).sum::<f64>() / m;
+                let oy: f64 = (0..n).map(|i| s.link_obstacle_force_n[i][1]).sum();
+                let oz: f64 = (0..n).map(|i| s.link_obstacle_force_n[i][2]).sum();
+                let fz: f64 = (0..n).map(|i| s.link_floor_force_n[i][2]).sum();
+                let sz: f64 = (0..n).map(|i| s.link_self_contact_force_n[i][2]).sum();
+                imp[0] += oy * dt;
+                imp[1] += oz * dt;
+                imp[2] += fz * dt;
+                imp[3] += sz * dt;
+                if k % (2 * per) == 0 && k as f64 * dt > 0.058 {
+                    eprintln!(
+                        "dt {dt} t {:.3}: vy {vy:.3} vz {vz:.3} z {:.1} mm | impulses obst y {:.3} obst z {:.3} floor z {:.3} self z {:.3}",
+                        k as f64 * dt,
+                        z * 1e3,
+                        imp[0],
+                        imp[1],
+                        imp[2],
+                        imp[3]
+                    );
+                }
+                sim.advance().unwrap();
+            }
+        }
+    }
+}
+
+/// The rebound of a straight snake (1 link, and 10 links hitting flat) launched sideways at
+/// 1 m/s into a wall, frictionless (floor and wall), from its centre of mass's speed across the
+/// wall before and after the hit.
+fn wall_restitution(n_links: usize, dt: f64) -> f64 {
+    let links = format!("snake.n_links={n_links}");
+    let step = format!("general.timestep_secs={dt}");
+    let c = straight(
+        0.0,
+        &[
+            &links,
+            &step,
+            "initial_state.linear_velocity_m_per_s=[0.0, 1.0, 0.0]",
+            "terrain.walls=[{ start_m = [-2.0, 0.1], end_m = [1.0, 0.1], height_m = 0.2, thickness_m = 0.05 }]",
+        ],
+    );
+    let mut sim = simulation(&c);
+    let n = c.snake.n_links;
+    let mut s = Snapshot::new(n, n.saturating_sub(1));
+    let (mut before, mut after) = (0.0, 0.0);
+    for _ in 0..(0.3 / dt).round() as usize {
+        sim.control();
+        sim.snapshot(&mut s);
+        let m: f64 = s.link_mass_kg.iter().sum();
+        let vy = (0..n).map(|i| s.link_mass_kg[i] * s.link_velocity_m_per_s[i][1]).sum::<f64>() / m;
+        before = f64::max(before, vy);
+        after = f64::min(after, vy);
+        sim.advance().unwrap();
+    }
+    -after / before
+}
+
+/// An obstacle impact rebounds at `physics.contact_restitution` (0.3 by default) within ±0.05 at
+/// 1 ms, 0.25 ms and 0.1 ms steps, for one link and for a 10-link chain hitting flat (its joints
+/// add mass to every contact point: the law uses the whole body's effective mass).
+#[test]
+fn an_obstacle_impact_rebounds_at_the_configured_restitution() {
+    let mut misses = Vec::new();
+    for n in [1, 10] {
+        for dt in [1e-3, 2.5e-4, 1e-4] {
+            let e = wall_restitution(n, dt);
+            eprintln!("{n} links, dt {dt}: restitution {e:.3}");
+            if (e - 0.3).abs() > 0.05 {
+                misses.push((n, dt, e));
+            }
+        }
+    }
+    assert!(misses.is_empty(), "{misses:?}");
+}

@@ -51,24 +51,41 @@ pub fn normal_force_n(
     free_approach_m_per_s2: f64,
     dt: f64,
 ) -> f64 {
-    let NormalLaw { stiffness_n_per_m: k, damping_n_s_per_m: c, effective_mass_kg: m } = law;
+    let (numerator, implicit) = normal_force_terms(law, depth_m, approach_m_per_s, free_approach_m_per_s2, dt);
+    (numerator / (1.0 + implicit / law.effective_mass_kg)).max(0.0)
+}
+
+/// The two terms of [`normal_force_n`] for contact points that push the same bodies: N =
+/// (`numerator` − `implicit`·Δu̇)/(1 + `implicit`/m) is the force of one point, and for points
+/// coupled through a mobility W (the approach acceleration of point i under unit forces at the
+/// others) N_i = (numerator_i − implicit_i·Σ_{j≠i} W_ij·N_j)/(1 + implicit_i·W_ii), solved
+/// together, N ≥ 0. In contact the whole step: numerator = k·(δ₀ + ½·u₀·dt + ¼·a·dt²) +
+/// c·(u₀ + a·dt), implicit = ¼·k·dt² + c·dt; touching down or lifting off within it: numerator =
+/// the spring's held force + f·c·u₀, implicit = f·c·dt; out of contact: (0, 0). The mass of
+/// `law` is not used.
+pub fn normal_force_terms(
+    law: NormalLaw,
+    depth_m: f64,
+    approach_m_per_s: f64,
+    free_approach_m_per_s2: f64,
+    dt: f64,
+) -> (f64, f64) {
+    let NormalLaw { stiffness_n_per_m: k, damping_n_s_per_m: c, .. } = law;
     let (d0, u, a) = (depth_m, approach_m_per_s, free_approach_m_per_s2);
     let d1 = d0 + dt * u + 0.5 * dt * dt * a;
     if d0 > 0.0 && d1 > 0.0 {
-        let n = (k * (d0 + 0.5 * dt * u + 0.25 * dt * dt * a) + c * (u + dt * a))
-            / (1.0 + (0.25 * k * dt * dt + c * dt) / m);
-        return n.max(0.0);
+        return (k * (d0 + 0.5 * dt * u + 0.25 * dt * dt * a) + c * (u + dt * a), 0.25 * k * dt * dt + c * dt);
     }
     if d0 <= 0.0 && d1 <= 0.0 {
-        return 0.0;
+        return (0.0, 0.0);
     }
     let (p0, p1) = (d0.max(0.0), d1.max(0.0));
     let spring = k * (p1 * p1 - p0 * p0) / (2.0 * (d1 - d0));
     if spring <= 0.0 {
-        return 0.0;
+        return (0.0, 0.0);
     }
     let fraction = p0.max(p1) / (d1 - d0).abs();
-    ((spring + fraction * c * u) / (1.0 + fraction * c * dt / m)).max(0.0)
+    (spring + fraction * c * u, fraction * c * dt)
 }
 
 /// The normal force (N, ≥ 0) of a contact point held explicitly over a step of `dt` (the
