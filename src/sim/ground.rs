@@ -44,25 +44,42 @@
 //!   that surface's), or against the mesh's nearest triangle ([`closest_point_on_triangle`]).
 //!   MuJoCo's own heightfield and mesh collisions give one contact per prism or face, which
 //!   appear and vanish between steps; these move smoothly with the link, as a plane's do.
-//! - **Normal force** of each contact point ([`normal_force_n`]): a spring–damper on the
-//!   penetration δ (−distance) and its rate δ̇ (the link point's velocity relative to the other
-//!   body, along the normal), integrated by the trapezoidal rule through the point's own mass,
-//!   so that the damping is implicit (stable at any c·dt) and the undamped spring neither gains
-//!   nor loses energy. k = m_c·ω², c = m_c·2ζω with m_c the mass the point carries: the link's
-//!   mass over its penetrating points of that kind (ground: at least 2 — a capsule lying on a
-//!   plane rests on its two caps; obstacles: at least 1 — a link hitting a peg with its side)
-//!   and the solve's mass the point's effective mass along the normal for the link alone,
-//!   1/m_eff = 1/m + (r×n)ᵀI⁻¹(r×n) (joints only add mass). ω = 1/(τ·ζ_env) from
+//! - **Ground normal force** of each link–ground contact point: N = max(0, F_s + c·δ̇·f), δ the
+//!   penetration (−distance), δ̇ its rate (the link point's velocity relative to the ground body,
+//!   along the normal). The spring's held force is its energy's change over the penetration's
+//!   predicted change in the step, F_s = k·(δ₁⁺² − δ₀⁺²)/(2·(δ₁ − δ₀)) with δ₁ = δ₀ + δ̇·dt + ½·a·dt²
+//!   (a: gravity along the normal): k·(δ₀ + δ₁)/2 while the contact lasts the whole step, and the
+//!   spring's exact work when it starts or ends within the step; f is the part of the step in
+//!   contact ([`explicit_normal_force_n`]). k = s·m_eff·ω², c = s·m_eff·b, with m_eff the point's
+//!   effective mass along the normal for the link alone, 1/m_eff = 1/m + (r×n)ᵀI⁻¹(r×n), and
+//!   s = 2/max(2, the link's penetrating ground points) (a capsule on a plane, a heightfield or a
+//!   mesh touches with its two caps); ω = 1/(τ·ζ_env) from
 //!   `physics.environment_contact_time_constant_secs` (τ, `"auto"`: max(2 ms, 2 timesteps)) and
 //!   `environment_contact_damping_ratio` (ζ_env), MuJoCo's reading of `solref`, or ω² given
-//!   directly (`contact_stiffness_per_s2`), at most 1/dt. ζ comes from
-//!   `physics.contact_restitution` e: the damping ratio of a linear spring–damper that only
-//!   pushes and rebounds at e ([`damping_ratio_for_restitution`], Schwager and Pöschel 2007).
-//!   So a link landing flat (both caps, each carrying half its mass) rebounds at e, at 1 ms and
-//!   at 0.1 ms steps alike (measured in `tests/it/contact_events.rs`: within 0.05 of e for 0.1,
-//!   0.3 and 0.7). Every link of the same shape has the same compliance, so a straight body at
-//!   rest carries each link's weight on that link; a capsule lying on the floor sinks about g/ω²
-//!   (≈ 10 µm with the defaults).
+//!   directly (`contact_stiffness_per_s2`), at most 1/dt; b = 2·ζ·ω with ζ the damping ratio whose
+//!   linear spring–damper, pushing only, rebounds at `physics.contact_restitution`
+//!   ([`damping_ratio_for_restitution`], Schwager and Pöschel 2007), bounded by b·dt ≤ ½. So a
+//!   link landing flat rebounds at the configured restitution where the bound leaves b alone
+//!   (0.3 → 0.29–0.30 at 0.25 and 0.1 ms steps, measured in `tests/it/contact_events.rs`); at
+//!   1 ms with the default stiffness the bound holds the damping at 0.5/dt and 0.3 gives 0.45.
+//!   Every link of the same shape has the same compliance, so a straight body at rest carries
+//!   each link's weight on that link; a capsule lying on the floor sinks about
+//!   m·g/(2·m_eff·ω²) (≈ 10 µm with the defaults).
+//! - **Obstacle normal force** ([`Ground::obstacle_normals`]): on a step where a link touches an
+//!   obstacle at x_k, or may within the step, a forward pass at x_k with the step's ground forces
+//!   applied gives every link–obstacle contact point its mobility through the whole articulated
+//!   body, W = J·M⁻¹·Jᵀ along the normals, and its acceleration toward the obstacle without
+//!   obstacle forces, a. Each point's mass m_c is the inverse of its row of W summed over the
+//!   touching points (the mass it carries when all push alike: one point, 1/W_ii; a link hitting
+//!   flat on both caps, half the link and what its joints add), k = m_c·ω², c = m_c·b with b from
+//!   the restitution for this step ([`damping_ratio_for_step`]: the damping whose discrete
+//!   rebound is e at ω·dt), the spring by the trapezoidal rule and the damper by backward Euler,
+//!   implicit through W ([`normal_force_terms`]): N_i = (num_i − X_i·Σ_{j≠i} W_ij·N_j)/(1 +
+//!   X_i·W_ii), N ≥ 0, solved by projected Gauss–Seidel, with penetration measured from the rest
+//!   length under a ([`resting_sink_m`]: a link pressed against a peg carries that load from the
+//!   first step). So an obstacle impact rebounds at `physics.contact_restitution` at any step and
+//!   whatever the joints add (0.3 → 0.305–0.317 at 1, 0.25 and 0.1 ms, one link and ten links
+//!   hitting a wall flat, `tests/it/contact_events.rs`).
 //! - **Friction**, per link: ground slots (slot 0: contact points ahead of the centre of mass
 //!   along the link's axis, slot 1: behind; a capsule lying on a plane touches it at both caps),
 //!   each an elasto-plastic Coulomb force bounded by μ times the N of the same contacts:
@@ -82,11 +99,10 @@
 //!     energy it stored: at most [`STICK_RELEASE_J`] per step and slot (the rest of the force
 //!     along v is dropped and the anchor follows, z = −F/k_t), so a coasting snake does not
 //!     gain energy from the springs that held it.
-//! - **Obstacle contacts**: their normal force is the law's (above); their friction, one slot
-//!   per link and touching obstacle geom (at most 4 per link), isotropic with
-//!   `terrain.obstacle_friction[0]`, the link's axis as the first tangent, is solved jointly over
-//!   all of them. On a step where a link touches an obstacle at x_k, a forward pass at x_k (the
-//!   law's geoms detached, the step's normal and ground friction forces in `xfrc_applied`) gives
+//! - **Obstacle friction**, one slot per link and touching obstacle geom (at most 4 per link),
+//!   isotropic with `terrain.obstacle_friction[0]`, the link's axis as the first tangent, solved
+//!   jointly over all of them. A second forward pass at x_k (the law's geoms detached, the step's
+//!   normal and ground friction forces in `xfrc_applied`) gives
 //!   the contact points' accelerations a without obstacle friction and the factorised mass
 //!   matrix M. With J the contact points' tangential Jacobians and W = J·M⁻¹·Jᵀ (how a force at
 //!   one contact point moves every contact point, through the whole articulated body), the
@@ -95,27 +111,33 @@
 //!   contact point's slip s within the step where μ·N allows, and slides at μ·N otherwise. s is
 //!   the point's tangential velocity plus its drift since it stuck over
 //!   `floor_stick_time_constant_secs`, so a stuck contact does not creep. The normal force does
-//!   not depend on the friction (it is the law's of x_k), so no second pass is needed. A slot
+//!   not depend on the friction (it is the law's of x_k), so no third pass is needed. A slot
 //!   without contact at x_k has no friction.
 //! - Normal and friction forces of a link and their moments about its centre of mass go into
 //!   `xfrc_applied`, held over the step. [`Ground::own_contacts`] gives a snapshot its
 //!   link–ground and link–obstacle contact rows; [`Ground::fill_snapshot`] adds the friction.
 //!
-//! **Why it is stable** with forces held over an explicit step: for one contact point of mass
-//! m_eff the trapezoidal normal force is unconditionally stable and conserves the spring's
-//! energy (Newmark's average-acceleration rule); the point's real mass is at least m_eff
-//! (joints only add mass), which only makes the solve more implicit. The stick spring–damper is
-//! scaled by at most half the link's mass (c_t·dt/m ≤ 2·dt/τ_s ≤ 0.4). Cost per step: one
-//! `mj_collision` (the kinematics and velocities were computed for friction already), a loop
-//! over the contacts and, per link end, one heightfield lookup or one pass over a mesh's
-//! triangles.
+//! **Why it is stable** with forces held over an explicit step: for one ground contact point the
+//! held spring–damper maps (δ, δ̇) to the next step with eigenvalues of modulus √(1 − b·dt)
+//! while ω·dt ≤ 1.2 (the energy-consistent spring alone neither gains nor loses energy), so
+//! b·dt ≤ ½ leaves room for the damping the stick springs add through the link's rotation. m_eff
+//! is the link alone: joints only add mass to a point, which lowers ω·dt and b·dt. The obstacle
+//! law is implicit through the body's real mobility: unconditionally stable for the spring
+//! (Newmark's average acceleration) and the damper (backward Euler), whatever c·dt. The stick
+//! spring–damper is scaled by at most half the link's mass (c_t·dt/m ≤ 2·dt/τ_s ≤ 0.4). Cost
+//! per step: one `mj_collision` (the kinematics and velocities were computed for friction
+//! already), a loop over the contacts and, per link end, one heightfield lookup or one pass over
+//! a mesh's triangles.
 //!
-//! **Limits of the law.** The restitution is exact for a link landing flat (its two ends
-//! carrying half its mass each, the mass the solve assumes); a link landing on one end, or a
-//! link held by its neighbours, meets a point whose real mass differs from the one the law
-//! assumes, and rebounds somewhat differently (a chain's joints add mass: a higher rebound).
-//! Gravity during the contact (≈ 3 ms) takes about g·t/v off a rebound at speed v. Rolling and
-//! torsional friction are not modelled.
+//! **Limits of the law.** The floor's damping, held explicitly, is bounded by 0.5/dt: at the
+//! default 1-ms step a bounce on the floor is higher than configured (0.45 for 0.3), and a chain
+//! of heavy links rocks on the floor (30 links of 3 kg: Σ N between 0.56 and 1.81 of the weight
+//! in steady undulation). A run that starts with a link pushed at 0.999·μN slides at first: its
+//! stick spring–damper, critically damped, asks 13 % more than the push while it settles. A hard
+//! sideways hit at μ 1 lifts the snake 37–42 mm where the reference engine lifts it 5–23 mm: the
+//! links roll on the floor before the hit, the obstacles' friction stops their spin and drives
+//! them into the floor, which throws them back. Gravity during a contact (≈ 3 ms) takes about
+//! g·t/v off a rebound at speed v. Rolling and torsional friction are not modelled.
 //!
 //! **Obstacles.** MuJoCo's own friction on the link–obstacle contacts (condim 3) would bound
 //! friction by the normal force of the same solve, but its convex contact model turns sliding
@@ -126,9 +148,9 @@
 //! reaches thousands of newtons within a step, and only a force computed from the body's real
 //! mobility reaches μ·N when the contact slides and no more than what stops it when it sticks.
 //! Solving with W is stable: the force held over the step removes the predicted slip and no
-//! more. Cost on steps with an obstacle contact: one forward pass, one `mj_jac` per contact
-//! point and tangent, one `mj_solveM` for all of them and a handful of Gauss–Seidel sweeps over
-//! 2 × 2 blocks; nothing on the other steps.
+//! more. Cost on steps with an obstacle contact: two forward passes (normal forces, friction),
+//! one `mj_jac` per contact point and direction, one `mj_solveM` per pass and a handful of
+//! Gauss–Seidel sweeps; nothing on the other steps.
 //!
 //! Velocities are those of the state at the start of the step: kinematics and centre-of-mass
 //! velocities are recomputed first, because after `mj_step` MuJoCo's derived quantities belong
@@ -350,8 +372,8 @@ struct StickSlip {
     link_of_geom: Vec<Option<usize>>,
     /// Whether each geom carries the snake like the floor (floor, slope, heightfield, mesh terrain).
     ground_geom: Vec<bool>,
-    /// Whether each ground geom's contacts get this law's normal force (planes and boxes); the
-    /// others (heightfields, meshes) keep MuJoCo's.
+    /// Whether each ground geom's contacts get this law's normal force (planes, boxes,
+    /// heightfields, meshes); the others (ground geoms of a third-party terrain of other shapes) keep MuJoCo's.
     own_ground_geom: Vec<bool>,
     /// Whether each geom is an obstacle (`obstacle_*`: cylinders, pegs, walls, mesh obstacles).
     obstacle_geom: Vec<bool>,
@@ -419,6 +441,10 @@ struct StickSlip {
     /// Heightfield and mesh ground geoms with their compiled margin: never part of MuJoCo's
     /// collision detection.
     surface_geoms: Vec<(usize, f64)>,
+    /// Whether each geom is such heightfield or mesh ground: its contacts (the link's ends and
+    /// a bump under its middle) each carry a full end's share, so that a contact appearing under
+    /// the middle starts from zero force instead of taking load off the ends at once.
+    surface_geom: Vec<bool>,
     /// Velocity of each link's centre of mass at x_k: [angular; linear] (world frame).
     link_velocity: Vec<[f64; 6]>,
     /// The ground geoms with their collision bits and margin as compiled (geom, contype,
@@ -556,8 +582,9 @@ impl StickSlip {
         let ground_damping_per_s =
             (2.0 * omega_normal * damping_ratio_for_restitution(p.contact_restitution)).min(0.5 / dt);
         // The ground geoms whose contacts this law computes: planes and boxes (the floor, slopes,
-        // steps). Heightfields and meshes stay MuJoCo's contacts: their many, flickering contact
-        // points (one per prism or face) do not make a compliance held over an explicit step.
+        // steps) through MuJoCo's collision detection, heightfields and meshes through the law's
+        // own (one contact per link end: MuJoCo's give one per prism or face, which appear and
+        // vanish between steps). Other shapes of a third-party terrain stay MuJoCo's contacts.
         let geom_type = world.model().geom_type();
         let own_ground: Vec<bool> = (0..world.index.geom_class.len())
             .map(|g| {
@@ -612,6 +639,9 @@ impl StickSlip {
                 .map(|g| MeshGround::new(world.model(), g))
                 .collect(),
             link_capsules: link_capsules(world),
+            surface_geom: (0..geom_type.len())
+                .map(|g| own_ground[g] && matches!(geom_type[g], MjtGeomBase::mjGEOM_HFIELD | MjtGeomBase::mjGEOM_MESH))
+                .collect(),
             surface_geoms: (0..geom_type.len())
                 .filter(|&g| {
                     own_ground[g] && matches!(geom_type[g], MjtGeomBase::mjGEOM_HFIELD | MjtGeomBase::mjGEOM_MESH)
@@ -1006,7 +1036,7 @@ impl Ground {
                 let Some((l, other, _)) = st.link_side(contact.geom[0], contact.geom[1]) else { continue };
                 if st.obstacle_geom[other] {
                     st.obstacle_points[l] += 1;
-                } else {
+                } else if !st.surface_geom[other] {
                     st.ground_points[l] += 1;
                 }
             }
@@ -1107,8 +1137,9 @@ impl Ground {
         for &(g, _, _, margin) in &st.env_geoms {
             world.set_geom_collision(g, 0, 0, margin);
         }
-        // Heightfield and mesh ground: MuJoCo's normal forces at x_k, from a forward pass with the
-        // step's own normal forces applied (the ground geoms detached, as in MuJoCo's step).
+        // Ground of other shapes (a third-party terrain): MuJoCo's normal forces at x_k, from a
+        // forward pass with the step's own normal forces applied (the law's geoms detached, as in
+        // MuJoCo's step).
         if mujoco_ground_contact {
             for (i, &body) in self.bodies.iter().enumerate() {
                 let (f, t) = (st.normal_force_n[i], st.normal_torque_nm[i]);
@@ -1609,33 +1640,90 @@ impl HeightfieldGround {
         Self { geom, half_size_m: [size[0], size[1]], rows, cols, elevation_m }
     }
 
-    /// The contacts of both ends of `cap` with this heightfield into `out` (none off its grid).
+    /// The surface under `local` (a point in the heightfield's frame): its height (m) and
+    /// outward unit normal (heightfield frame), interpolated bilinearly from the four elevations
+    /// around it; `None` off the grid.
+    fn surface_at(&self, local: [f64; 3]) -> Option<(f64, [f64; 3])> {
+        let [sx, sy] = self.half_size_m;
+        let (dx, dy) = (2.0 * sx / (self.cols - 1) as f64, 2.0 * sy / (self.rows - 1) as f64);
+        let (fx, fy) = ((local[0] + sx) / dx, (local[1] + sy) / dy);
+        if !(0.0..=(self.cols - 1) as f64).contains(&fx) || !(0.0..=(self.rows - 1) as f64).contains(&fy) {
+            return None;
+        }
+        let (i, j) = ((fx as usize).min(self.cols - 2), (fy as usize).min(self.rows - 2));
+        let (tx, ty) = (fx - i as f64, fy - j as f64);
+        let h = |ii: usize, jj: usize| self.elevation_m[jj * self.cols + ii];
+        let (h00, h10, h01, h11) = (h(i, j), h(i + 1, j), h(i, j + 1), h(i + 1, j + 1));
+        let height = (1.0 - ty) * ((1.0 - tx) * h00 + tx * h10) + ty * ((1.0 - tx) * h01 + tx * h11);
+        let slope_x = ((1.0 - ty) * (h10 - h00) + ty * (h11 - h01)) / dx;
+        let slope_y = ((1.0 - tx) * (h01 - h00) + tx * (h11 - h10)) / dy;
+        Some((height, normalized([-slope_x, -slope_y, 1.0])?))
+    }
+
+    /// The contacts of `cap` with this heightfield into `out` (none off its grid): one per end of
+    /// its axis segment, and one where the surface rises above the line between the ends (a bump
+    /// under the link's middle): the interior point, sampled at the grid's spacing along the
+    /// segment, whose gap lies furthest below the gaps of the ends interpolated to it. On a plane
+    /// no interior point does, so a flat heightfield gives the two contacts a plane gives.
     fn contacts(&self, d: &MjData<Box<MjModel>>, cap: &Capsule, out: &mut Vec<FoundContact>) {
         if self.rows < 2 || self.cols < 2 {
             return;
         }
         let (p, r) = (d.geom_xpos()[self.geom], d.geom_xmat()[self.geom]);
-        let [sx, sy] = self.half_size_m;
-        let (dx, dy) = (2.0 * sx / (self.cols - 1) as f64, 2.0 * sy / (self.rows - 1) as f64);
-        for center in capsule_ends(d, cap) {
+        let contact_at = |center: [f64; 3]| -> Option<([f64; 3], [f64; 3], f64)> {
             let local = to_local(&r, p, center);
-            let (fx, fy) = ((local[0] + sx) / dx, (local[1] + sy) / dy);
-            if !(0.0..=(self.cols - 1) as f64).contains(&fx) || !(0.0..=(self.rows - 1) as f64).contains(&fy) {
-                continue;
-            }
-            let (i, j) = ((fx as usize).min(self.cols - 2), (fy as usize).min(self.rows - 2));
-            let (tx, ty) = (fx - i as f64, fy - j as f64);
-            let h = |ii: usize, jj: usize| self.elevation_m[jj * self.cols + ii];
-            let (h00, h10, h01, h11) = (h(i, j), h(i + 1, j), h(i, j + 1), h(i + 1, j + 1));
-            let height = (1.0 - ty) * ((1.0 - tx) * h00 + tx * h10) + ty * ((1.0 - tx) * h01 + tx * h11);
-            let slope_x = ((1.0 - ty) * (h10 - h00) + ty * (h11 - h01)) / dx;
-            let slope_y = ((1.0 - tx) * (h01 - h00) + tx * (h11 - h10)) / dy;
-            let Some(n_local) = normalized([-slope_x, -slope_y, 1.0]) else { continue };
+            let (height, n_local) = self.surface_at(local)?;
             let surface = add(p, to_world(&r, [local[0], local[1], height]));
-            push_surface_contact(out, [self.geom, cap.geom], center, surface, to_world(&r, n_local), cap.radius_m);
+            let normal = to_world(&r, n_local);
+            Some((surface, normal, dot(sub(center, surface), normal) - cap.radius_m))
+        };
+        let ends = capsule_ends(d, cap);
+        let mut gaps = [None; 2];
+        for (k, center) in ends.into_iter().enumerate() {
+            if let Some((surface, normal, gap)) = contact_at(center) {
+                gaps[k] = Some(gap);
+                push_surface_contact(out, [self.geom, cap.geom], center, surface, normal, cap.radius_m);
+            }
+        }
+        let (Some(g0), Some(g1)) = (gaps[0], gaps[1]) else { return };
+        let [sx, sy] = self.half_size_m;
+        let spacing = (2.0 * sx / (self.cols - 1) as f64).min(2.0 * sy / (self.rows - 1) as f64);
+        let span = sub(ends[1], ends[0]);
+        let length = dot(span, span).sqrt();
+        let samples = ((length / spacing).ceil() as usize).clamp(1, INTERIOR_SAMPLES);
+        // How far the gap at t (0 … 1 along the segment) lies below the ends' gaps interpolated.
+        let below = |t: f64| {
+            let center = add(ends[0], span.map(|x| t * x));
+            contact_at(center).map(|(_, _, gap)| gap - (g0 + t * (g1 - g0)))
+        };
+        let mut deepest: Option<(usize, f64)> = None;
+        for k in 1..samples {
+            let Some(b) = below(k as f64 / samples as f64) else { continue };
+            if b < -INTERIOR_RISE_M && deepest.is_none_or(|(_, d)| b < d) {
+                deepest = Some((k, b));
+            }
+        }
+        let Some((k, b)) = deepest else { return };
+        // The lowest point between the samples beside the deepest (a parabola through the three),
+        // so that the contact moves smoothly along the link as the link moves over the bump.
+        let step = 1.0 / samples as f64;
+        let t_mid = k as f64 * step;
+        let (left, right) = (below(t_mid - step).unwrap_or(b), below(t_mid + step).unwrap_or(b));
+        let curvature = left - 2.0 * b + right;
+        let shift = if curvature > 0.0 { (0.5 * (left - right) / curvature).clamp(-0.5, 0.5) } else { 0.0 };
+        let center = add(ends[0], span.map(|x| (t_mid + shift * step) * x));
+        if let Some((surface, normal, _)) = contact_at(center) {
+            push_surface_contact(out, [self.geom, cap.geom], center, surface, normal, cap.radius_m);
         }
     }
 }
+
+/// Interior points sampled along a link's axis segment over a heightfield at most.
+const INTERIOR_SAMPLES: usize = 32;
+
+/// How far (m) the surface must rise above the line between a link's end contacts before an
+/// interior point gets a contact of its own (rounding on a flat surface stays far below it).
+const INTERIOR_RISE_M: f64 = 1e-6;
 
 /// Mesh ground: its triangles in the geom's frame (m) with their outward unit normals. A link
 /// end touches the nearest point of the nearest triangle: one contact per link end.

