@@ -75,9 +75,7 @@
 //!   the restitution for this step ([`damping_ratio_for_step`]: the damping whose discrete
 //!   rebound is e at ω·dt), the spring by the trapezoidal rule and the damper by backward Euler,
 //!   implicit through W ([`normal_force_terms`]): N_i = (num_i − X_i·Σ_{j≠i} W_ij·N_j)/(1 +
-//!   X_i·W_ii), N ≥ 0, solved by projected Gauss–Seidel, with penetration measured from the rest
-//!   length under a ([`resting_sink_m`]: a link pressed against a peg carries that load from the
-//!   first step). So an obstacle impact rebounds at `physics.contact_restitution` at any step and
+//!   X_i·W_ii), N ≥ 0, solved by projected Gauss–Seidel. So an obstacle impact rebounds at `physics.contact_restitution` at any step and
 //!   whatever the joints add (0.3 → 0.305–0.317 at 1, 0.25 and 0.1 ms, one link and ten links
 //!   hitting a wall flat, `tests/it/contact_events.rs`).
 //! - **Friction**, per link: ground slots (slot 0: contact points ahead of the centre of mass
@@ -160,7 +158,6 @@ use super::World;
 use crate::config::{Config, FloorFriction, GroundModel};
 use crate::contact_law::{
     NormalLaw, damping_ratio_for_restitution, damping_ratio_for_step, explicit_normal_force_n, normal_force_terms,
-    resting_sink_m,
 };
 use crate::model::{SurfaceMap, names};
 use crate::state::{ContactRow, GeomClass, Snapshot, x_axis};
@@ -1252,15 +1249,14 @@ impl Ground {
 
     /// The normal forces of the links' obstacle contacts at x_k, on a step where a link touches
     /// an obstacle or may within the step: a forward pass at x_k with the step's ground forces in
-    /// `xfrc_applied` (the law's geoms detached, as in MuJoCo's step) gives each contact point
-    /// its effective mass along its normal through the whole articulated body, m = 1/W_nn
-    /// (W = J·M⁻¹·Jᵀ), and its acceleration toward the obstacle without obstacle forces, a. Each
-    /// point is then one mass m (shared among the link's penetrating obstacle points) on the
-    /// law's spring–damper k = m·ω², c = m·b, integrated implicitly through that same mass
-    /// ([`normal_force_n`]), measured from the rest length under a ([`resting_sink_m`]): a link
-    /// hitting a peg rebounds at the configured restitution whatever the step and whatever the
-    /// joints add to its mass, and a link pressed against a peg carries that load from the first
-    /// step. The forces go into `xfrc_applied` and the obstacle friction slots.
+    /// `xfrc_applied` (the law's geoms detached, as in MuJoCo's step) gives the contact points'
+    /// mobility through the whole articulated body along their normals, W = J·M⁻¹·Jᵀ, and their
+    /// accelerations toward the obstacles without obstacle forces, a. Each point carries the mass
+    /// m_c = 1/Σ_j W_ij over the touching points, on the law's spring–damper k = m_c·ω²,
+    /// c = m_c·b, integrated implicitly through W ([`normal_force_terms`]), solved over the
+    /// points by projected Gauss–Seidel: a link hitting a peg rebounds at the configured
+    /// restitution whatever the step and whatever the joints add to its mass. The forces go into
+    /// `xfrc_applied` and the obstacle friction slots.
     fn obstacle_normals(&mut self, world: &mut World, forward_done: bool) {
         let Some(st) = self.stick_slip.as_mut() else { return };
         if forward_done {
@@ -1295,7 +1291,7 @@ impl Ground {
             };
             // The acceleration toward the obstacle (the rows point away from it, into the link).
             let free_approach = -st.mobility.acc[i];
-            let depth = c.depth + resting_sink_m(law, carried, free_approach, dt);
+            let depth = c.depth;
             let (numerator, implicit) = normal_force_terms(law, depth, c.approach, free_approach, dt);
             st.obstacle_terms.push(ObstacleTerms {
                 depth,
