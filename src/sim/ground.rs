@@ -76,7 +76,7 @@
 //!   rebound is e at ω·dt), the spring by the trapezoidal rule and the damper by backward Euler,
 //!   implicit through W ([`normal_force_terms`]): N_i = (num_i − X_i·Σ_{j≠i} W_ij·N_j)/(1 +
 //!   X_i·W_ii), N ≥ 0, solved by projected Gauss–Seidel. So an obstacle impact rebounds at `physics.contact_restitution` at any step and
-//!   whatever the joints add (0.3 → 0.305–0.317 at 1, 0.25 and 0.1 ms, one link and ten links
+//!   whatever the joints add (0.3 → 0.304–0.314 at 1, 0.25 and 0.1 ms, one link and ten links
 //!   hitting a wall flat, `tests/it/contact_events.rs`).
 //! - **Friction**, per link: ground slots (slot 0: contact points ahead of the centre of mass
 //!   along the link's axis, slot 1: behind; a capsule lying on a plane touches it at both caps),
@@ -132,7 +132,7 @@
 //! of heavy links rocks on the floor (30 links of 3 kg: Σ N between 0.56 and 1.81 of the weight
 //! in steady undulation). A run that starts with a link pushed at 0.999·μN slides at first: its
 //! stick spring–damper, critically damped, asks 13 % more than the push while it settles. A hard
-//! sideways hit at μ 1 lifts the snake 37–42 mm where the reference engine lifts it 5–23 mm: the
+//! sideways hit at μ 1 lifts the snake 32–40 mm where the reference engine lifts it 5–23 mm: the
 //! links roll on the floor before the hit, the obstacles' friction stops their spin and drives
 //! them into the floor, which throws them back. Gravity during a contact (≈ 3 ms) takes about
 //! g·t/v off a rebound at speed v. Rolling and torsional friction are not modelled.
