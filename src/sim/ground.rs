@@ -29,36 +29,55 @@
 //! v·dt into a region with the old friction (0.5 mm at 0.5 m/s and 1 ms).
 //!
 //! **SimSerpent's contact law** (`physics.floor_friction = "stick_slip"`, the default; every
-//! ground model but viscous): MuJoCo finds the links' contacts with the ground (floor, slopes,
-//! heightfields, mesh terrain) but its step does not act on them: the ground geoms collide only in
-//! this law's own collision detection (their `contype`/`conaffinity` are restored for it, with a
-//! detection margin of [`DETECTION_MARGIN_M`], and zeroed again before MuJoCo's step; the
-//! compiled model, and the MJCF written to the run folder, keep MuJoCo's contacts). Before every
-//! step, from the state x_k alone:
+//! ground model but viscous) computes every link–environment contact: the floor, slopes and
+//! boxes, heightfields, mesh terrain and the obstacles (`obstacle_*` geoms: cylinders, pegs,
+//! walls, mesh obstacles). MuJoCo's step does not act on any of them: planes, boxes and
+//! obstacles collide only in this law's own collision detection (their `contype`/`conaffinity`
+//! are restored for it, with a detection margin of [`DETECTION_MARGIN_M`], and zeroed again
+//! before MuJoCo's step), heightfields and meshes never collide in MuJoCo (the law finds their
+//! contacts itself); the compiled model, and the MJCF written to the run folder, keep MuJoCo's
+//! contacts. Link–link contacts stay MuJoCo's. Before every step, from the state x_k alone:
 //! - **Contacts of x_k**: `mj_kinematics`, `mj_comPos`, `mj_comVel` and `mj_collision` at the
-//!   state itself, so the ground forces of the step belong to contacts of its start.
-//! - **Normal force** of each link–ground contact point: N = max(0, F_s + c·δ̇·f), δ the
+//!   state itself (planes, boxes, obstacles), and one contact per link end and heightfield or
+//!   mesh: the end's sphere (the capsule's radius about an end of its axis segment) against the
+//!   heightfield's surface interpolated bilinearly from the four elevations around it (normal:
+//!   that surface's), or against the mesh's nearest triangle ([`closest_point_on_triangle`]).
+//!   MuJoCo's own heightfield and mesh collisions give one contact per prism or face, which
+//!   appear and vanish between steps; these move smoothly with the link, as a plane's do.
+//! - **Ground normal force** of each link–ground contact point: N = max(0, F_s + c·δ̇·f), δ the
 //!   penetration (−distance), δ̇ its rate (the link point's velocity relative to the ground body,
 //!   along the normal). The spring's held force is its energy's change over the penetration's
 //!   predicted change in the step, F_s = k·(δ₁⁺² − δ₀⁺²)/(2·(δ₁ − δ₀)) with δ₁ = δ₀ + δ̇·dt + ½·a·dt²
 //!   (a: gravity along the normal): k·(δ₀ + δ₁)/2 while the contact lasts the whole step, and the
 //!   spring's exact work when it starts or ends within the step; f is the part of the step in
-//!   contact. k = s·m_eff·ω², c = s·m_eff·b, with m_eff the point's effective mass along the
-//!   normal for the link alone, 1/m_eff = 1/m + (r×n)ᵀI⁻¹(r×n), and s = 2/max(2, the link's
-//!   penetrating ground points) (a capsule on a plane touches with its two caps; the many points
-//!   of a heightfield or mesh share the same total); ω = 1/(τ·ζ_env) from
+//!   contact ([`explicit_normal_force_n`]). k = s·m_eff·ω², c = s·m_eff·b, with m_eff the point's
+//!   effective mass along the normal for the link alone, 1/m_eff = 1/m + (r×n)ᵀI⁻¹(r×n), and
+//!   s = 2/max(2, the link's penetrating ground points) (a capsule on a plane, a heightfield or a
+//!   mesh touches with its two caps); ω = 1/(τ·ζ_env) from
 //!   `physics.environment_contact_time_constant_secs` (τ, `"auto"`: max(2 ms, 2 timesteps)) and
 //!   `environment_contact_damping_ratio` (ζ_env), MuJoCo's reading of `solref`, or ω² given
-//!   directly (`contact_stiffness_per_s2`); b = 2·ζ·ω with ζ the damping ratio whose linear
-//!   spring–damper, pushing only, rebounds at `physics.contact_restitution`
-//!   ([`crate::contact_law::damping_ratio_for_restitution`]); bounded by ω·dt ≤ 1 and b·dt ≤ ½.
-//!   So a link landing flat rebounds at the configured restitution where the bound leaves b
-//!   alone (0.3 → 0.29–0.30, 0.5 → 0.50–0.51, 0.7 → 0.71 at 0.25 and 0.1 ms steps, measured in
-//!   `tests/it/contact_events.rs`); at 1 ms with the default stiffness b·dt = ½ holds the damping
-//!   at 0.5/dt and a restitution below about 0.45 is not reached (0.3 and 0.5 both give 0.45).
-//!   Every link of the same shape has the same compliance, so a straight body at rest
-//!   carries each link's weight on that link; a capsule lying on the floor sinks about
+//!   directly (`contact_stiffness_per_s2`), at most 1/dt; b = 2·ζ·ω with ζ the damping ratio whose
+//!   linear spring–damper, pushing only, rebounds at `physics.contact_restitution`
+//!   ([`damping_ratio_for_restitution`], Schwager and Pöschel 2007), bounded by b·dt ≤ ½. So a
+//!   link landing flat rebounds at the configured restitution where the bound leaves b alone
+//!   (0.3 → 0.29–0.30 at 0.25 and 0.1 ms steps, measured in `tests/it/contact_events.rs`); at
+//!   1 ms with the default stiffness the bound holds the damping at 0.5/dt and 0.3 gives 0.45.
+//!   Every link of the same shape has the same compliance, so a straight body at rest carries
+//!   each link's weight on that link; a capsule lying on the floor sinks about
 //!   m·g/(2·m_eff·ω²) (≈ 10 µm with the defaults).
+//! - **Obstacle normal force** ([`Ground::obstacle_normals`]): on a step where a link touches an
+//!   obstacle at x_k, or may within the step, a forward pass at x_k with the step's ground forces
+//!   applied gives every link–obstacle contact point its mobility through the whole articulated
+//!   body, W = J·M⁻¹·Jᵀ along the normals, and its acceleration toward the obstacle without
+//!   obstacle forces, a. Each point's mass m_c is the inverse of its row of W summed over the
+//!   touching points (the mass it carries when all push alike: one point, 1/W_ii; a link hitting
+//!   flat on both caps, half the link and what its joints add), k = m_c·ω², c = m_c·b with b from
+//!   the restitution for this step ([`damping_ratio_for_step`]: the damping whose discrete
+//!   rebound is e at ω·dt), the spring by the trapezoidal rule and the damper by backward Euler,
+//!   implicit through W ([`normal_force_terms`]): N_i = (num_i − X_i·Σ_{j≠i} W_ij·N_j)/(1 +
+//!   X_i·W_ii), N ≥ 0, solved by projected Gauss–Seidel. So an obstacle impact rebounds at `physics.contact_restitution` at any step and
+//!   whatever the joints add (0.3 → 0.304–0.314 at 1, 0.25 and 0.1 ms, one link and ten links
+//!   hitting a wall flat, `tests/it/contact_events.rs`).
 //! - **Friction**, per link: ground slots (slot 0: contact points ahead of the centre of mass
 //!   along the link's axis, slot 1: behind; a capsule lying on a plane touches it at both caps),
 //!   each an elasto-plastic Coulomb force bounded by μ times the N of the same contacts:
@@ -78,69 +97,58 @@
 //!     energy it stored: at most [`STICK_RELEASE_J`] per step and slot (the rest of the force
 //!     along v is dropped and the anchor follows, z = −F/k_t), so a coasting snake does not
 //!     gain energy from the springs that held it.
-//! - **Obstacle contacts** (`obstacle_*` geoms: cylinders, pegs, walls, mesh obstacles) keep
-//!   MuJoCo's normal force (frictionless, condim 1: a stiff impact needs its implicit solver),
-//!   one friction slot per link and touching obstacle geom (at most 4 per link), isotropic with
-//!   `terrain.obstacle_friction[0]`, the link's axis as the first tangent, bounded by MuJoCo's
-//!   normal force **of the same state**. On a step where a link touches an obstacle at x_k, a
-//!   forward pass at x_k (ground geoms detached, the step's ground forces in `xfrc_applied`)
-//!   gives every link–obstacle contact its normal force N_k, the contact points' accelerations
-//!   a without obstacle friction, and the factorised mass matrix M. With J the contact points'
-//!   tangential Jacobians and W = J·M⁻¹·Jᵀ (how a force at one contact point moves every
-//!   contact point, through the whole articulated body), the friction F solves
-//!   W·F = −(s/dt + a), each slot's force inside its disk |F| ≤ μ·N_k (projected Gauss–Seidel
-//!   over the slots): it stops every contact point's slip s within the step where μ·N allows,
-//!   and slides at μ·N otherwise. s is the point's tangential velocity plus its drift since it
-//!   stuck over `floor_stick_time_constant_secs`, so a stuck contact does not creep. A second
-//!   forward pass with that friction applied gives the normal force the step itself will have,
-//!   and a slot above μ times it is scaled back onto it. A slot without contact at x_k has no
-//!   friction. See "Obstacles" below.
-//! - **Heightfield and mesh ground** contacts keep MuJoCo's normal force (condim 1), taken at
-//!   the same state: on a step where a link touches such ground at x_k, a forward pass at x_k
-//!   with the step's normal forces applied gives their N_k (per link and ground slot, with the
-//!   plane contacts' own N), the slot's friction is bounded by it, and forward passes with the
-//!   friction applied scale back a slot whose friction needs more N than that pass found (the
-//!   load it can carry solved through the last two passes, 0.1 % inside), until none does (at
-//!   most [`BOUND_PASSES`]). Recorded rows keep |f_t| ≤ μ·N (the gait on 10 mm bumps, 3 s, every
-//!   step: ≤ 0.999999 at μ 0.5 and 1). Cost on such steps: one forward pass and one to four
-//!   passes from the acceleration stage on (same state and contacts: no kinematics or collision
-//!   detection again); the gait on those bumps runs at 9,000 steps/s against 36,000 on the flat
-//!   floor.
+//! - **Obstacle friction**, one slot per link and touching obstacle geom (at most 4 per link),
+//!   isotropic with `terrain.obstacle_friction[0]`, the link's axis as the first tangent, solved
+//!   jointly over all of them. A second forward pass at x_k (the law's geoms detached, the step's
+//!   normal and ground friction forces in `xfrc_applied`) gives
+//!   the contact points' accelerations a without obstacle friction and the factorised mass
+//!   matrix M. With J the contact points' tangential Jacobians and W = J·M⁻¹·Jᵀ (how a force at
+//!   one contact point moves every contact point, through the whole articulated body), the
+//!   friction F solves W·F = −(s/dt + a), each slot's force inside its disk |F| ≤ μ·N (projected
+//!   Gauss–Seidel over the slots), N the law's normal force of the same step: it stops every
+//!   contact point's slip s within the step where μ·N allows, and slides at μ·N otherwise. s is
+//!   the point's tangential velocity plus its drift since it stuck over
+//!   `floor_stick_time_constant_secs`, so a stuck contact does not creep. The normal force does
+//!   not depend on the friction (it is the law's of x_k), so no third pass is needed. A slot
+//!   without contact at x_k has no friction.
 //! - Normal and friction forces of a link and their moments about its centre of mass go into
 //!   `xfrc_applied`, held over the step. [`Ground::own_contacts`] gives a snapshot its
-//!   link–ground contact rows; [`Ground::fill_snapshot`] adds the friction.
+//!   link–ground and link–obstacle contact rows; [`Ground::fill_snapshot`] adds the friction.
 //!
-//! **Why it is stable** with forces held over an explicit step: for one contact point the held
-//! spring–damper maps (δ, δ̇) to the next step with eigenvalues of modulus √(1 − b·dt) while
-//! ω·dt ≤ 1.2 (the energy-consistent spring alone neither gains nor loses energy), so b·dt ≤ ½
-//! leaves room for the damping the stick springs add through the link's rotation (at b·dt = 1
-//! a pushed link's pitch oscillates and grows). m_eff is the link alone: joints only add mass
-//! to a point, which lowers ω·dt and b·dt. The stick spring–damper is scaled by at most half
-//! the link's mass (c_t·dt/m ≤ 2·dt/τ_s ≤ 0.4). Cost per step: one `mj_collision` (the
-//! kinematics and velocities were computed for friction already) and a loop over the contacts.
+//! **Why it is stable** with forces held over an explicit step: for one ground contact point the
+//! held spring–damper maps (δ, δ̇) to the next step with eigenvalues of modulus √(1 − b·dt)
+//! while ω·dt ≤ 1.2 (the energy-consistent spring alone neither gains nor loses energy), so
+//! b·dt ≤ ½ leaves room for the damping the stick springs add through the link's rotation. m_eff
+//! is the link alone: joints only add mass to a point, which lowers ω·dt and b·dt. The obstacle
+//! law is implicit through the body's real mobility: unconditionally stable for the spring
+//! (Newmark's average acceleration) and the damper (backward Euler), whatever c·dt. The stick
+//! spring–damper is scaled by at most half the link's mass (c_t·dt/m ≤ 2·dt/τ_s ≤ 0.4). Cost
+//! per step: one `mj_collision` (the kinematics and velocities were computed for friction
+//! already), a loop over the contacts and, per link end, one heightfield lookup or one pass over
+//! a mesh's triangles.
+//!
+//! **Limits of the law.** The floor's damping, held explicitly, is bounded by 0.5/dt: at the
+//! default 1-ms step a bounce on the floor is higher than configured (0.45 for 0.3), and a chain
+//! of heavy links rocks on the floor (30 links of 3 kg: Σ N between 0.56 and 1.81 of the weight
+//! in steady undulation). A run that starts with a link pushed at 0.999·μN slides at first: its
+//! stick spring–damper, critically damped, asks 13 % more than the push while it settles. A hard
+//! sideways hit at μ 1 lifts the snake 32–40 mm where the reference engine lifts it 5–23 mm: the
+//! links roll on the floor before the hit, the obstacles' friction stops their spin and drives
+//! them into the floor, which throws them back. Gravity during a contact (≈ 3 ms) takes about
+//! g·t/v off a rebound at speed v. Rolling and torsional friction are not modelled.
 //!
 //! **Obstacles.** MuJoCo's own friction on the link–obstacle contacts (condim 3) would bound
 //! friction by the normal force of the same solve, but its convex contact model turns sliding
 //! into separation: a link pushed against a wall with 2 N and sliding along it loses the contact
 //! on 488 of 500 steps (its normal velocity grows with μ times the sliding speed), the hop this
-//! law removes from the floor. The normal force stays MuJoCo's (an explicit compliant obstacle
-//! law is unstable at 5 m/s impacts), and the friction is bounded by the N of a forward pass at
-//! the step's own state, not of the previous step: a contact that opens or closes between steps
-//! gets no friction from a stale N (no period-2 cycle of N and friction). The friction is the
-//! one that stops the slip within the step, from the mobility W of the whole body, not a spring
-//! scaled by a guessed mass: in an impact N reaches thousands of newtons within a step, and only
-//! a force computed from the body's real mobility reaches μ·N when the contact slides and no
-//! more than what stops it when it sticks (a spring–damper scaled by half the link's mass gave
-//! 45 N of friction where μ·N was 4,300 N in a 5 m/s hit on a cylinder). Solving with W is
-//! stable: the force held over the step removes the predicted slip and no more. Friction moves
-//! the normal forces through the links' inertia, so the N of x_k with the friction applied is
-//! found by a second forward pass and the friction scaled back where it exceeds μ times that;
-//! scaling friction down only gives back normal force that friction took, so the step's recorded
-//! rows keep |f_t| ≤ μ·N. Cost on steps with an obstacle contact: one more forward pass, one or
-//! more from the acceleration stage on (same state and contacts), one `mj_jac` per contact point
-//! and tangent, one `mj_solveM` for all of them and a handful of Gauss–Seidel sweeps over 2 × 2
-//! blocks; nothing on the other steps (the default job's first 10 s have none). The default
-//! gait through a square peg lattice, touching pegs for 7 of 10 s, runs at 9,900 steps/s.
+//! law removes from the floor. The friction is the one that stops the slip within the step,
+//! from the mobility W of the whole body, not a spring scaled by a guessed mass: in an impact N
+//! reaches thousands of newtons within a step, and only a force computed from the body's real
+//! mobility reaches μ·N when the contact slides and no more than what stops it when it sticks.
+//! Solving with W is stable: the force held over the step removes the predicted slip and no
+//! more. Cost on steps with an obstacle contact: two forward passes (normal forces, friction),
+//! one `mj_jac` per contact point and direction, one `mj_solveM` per pass and a handful of
+//! Gauss–Seidel sweeps; nothing on the other steps.
 //!
 //! Velocities are those of the state at the start of the step: kinematics and centre-of-mass
 //! velocities are recomputed first, because after `mj_step` MuJoCo's derived quantities belong
@@ -148,7 +156,9 @@
 
 use super::World;
 use crate::config::{Config, FloorFriction, GroundModel};
-use crate::contact_law::{damping_ratio_for_restitution, explicit_normal_force_n};
+use crate::contact_law::{
+    NormalLaw, damping_ratio_for_restitution, damping_ratio_for_step, explicit_normal_force_n, normal_force_terms,
+};
 use crate::model::{SurfaceMap, names};
 use crate::state::{ContactRow, GeomClass, Snapshot, x_axis};
 use mujoco_rs::prelude::{MjData, MjModel, MjtObjBase};
@@ -359,8 +369,8 @@ struct StickSlip {
     link_of_geom: Vec<Option<usize>>,
     /// Whether each geom carries the snake like the floor (floor, slope, heightfield, mesh terrain).
     ground_geom: Vec<bool>,
-    /// Whether each ground geom's contacts get this law's normal force (planes and boxes); the
-    /// others (heightfields, meshes) keep MuJoCo's.
+    /// Whether each ground geom's contacts get this law's normal force (planes, boxes,
+    /// heightfields, meshes); the others (ground geoms of a third-party terrain of other shapes) keep MuJoCo's.
     own_ground_geom: Vec<bool>,
     /// Whether each geom is an obstacle (`obstacle_*`: cylinders, pegs, walls, mesh obstacles).
     obstacle_geom: Vec<bool>,
@@ -398,6 +408,8 @@ struct StickSlip {
     /// c = m_eff · this) per kilogram of the point's effective mass.
     normal_stiffness_per_s2: f64,
     normal_damping_per_s: f64,
+    /// The ground contacts' damping per kilogram of effective mass (1/s; b·dt ≤ ½).
+    ground_damping_per_s: f64,
     /// The part of each ground slot's Σ N from MuJoCo's heightfield and mesh contacts at x_k, and
     /// the same after the step's friction is applied (the check of the second forward pass).
     mujoco_ground_n: Vec<[f64; SLOTS]>,
@@ -409,6 +421,27 @@ struct StickSlip {
     bound_previous: Vec<[(f64, f64); SLOTS]>,
     /// Penetrating ground contact points of each link at x_k.
     ground_points: Vec<usize>,
+    /// Penetrating obstacle contact points of each link at x_k.
+    obstacle_points: Vec<usize>,
+    /// The link–ground and link–obstacle contacts found at x_k (capacity kept).
+    found: Vec<FoundContact>,
+    /// The link–obstacle contacts of x_k awaiting their normal force, and their rows of the
+    /// whole body's mobility (capacity kept).
+    obstacle_candidates: Vec<ObstacleCandidate>,
+    obstacle_rows: Vec<(usize, [f64; 3], [f64; 3])>,
+    obstacle_terms: Vec<ObstacleTerms>,
+    /// Heightfield and mesh ground, whose contacts this law finds itself (one per link end and
+    /// surface), and each link's capsule (geom, radius, half-length of its axis segment).
+    heightfields: Vec<HeightfieldGround>,
+    meshes: Vec<MeshGround>,
+    link_capsules: Vec<Option<Capsule>>,
+    /// Heightfield and mesh ground geoms with their compiled margin: never part of MuJoCo's
+    /// collision detection.
+    surface_geoms: Vec<(usize, f64)>,
+    /// Whether each geom is such heightfield or mesh ground: its contacts (the link's ends and
+    /// a bump under its middle) each carry a full end's share, so that a contact appearing under
+    /// the middle starts from zero force instead of taking load off the ends at once.
+    surface_geom: Vec<bool>,
     /// Velocity of each link's centre of mass at x_k: [angular; linear] (world frame).
     link_velocity: Vec<[f64; 6]>,
     /// The ground geoms with their collision bits and margin as compiled (geom, contype,
@@ -519,10 +552,9 @@ impl StickSlip {
         let omega = 1.0 / config.floor_stick_time_constant_secs();
         let g = config.general.gravity_m_per_s2;
         let g_abs = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
-        // The environment contact's stiffness per unit mass: MuJoCo's direct form when given,
-        // else MuJoCo's reading of solref (natural frequency ω = 1/(τ·ζ_env)); its damping from
-        // the restitution; both bounded for a force held over an explicit step (ω·dt ≤ 1,
-        // b·dt ≤ 1/2: see the module docs).
+        // The environment contact's stiffness per unit of carried mass: MuJoCo's direct form
+        // when given, else MuJoCo's reading of solref (natural frequency ω = 1/(τ·ζ)), bounded by
+        // ω·dt ≤ 1 (the contact resolved over at least π steps).
         let p = &config.physics;
         let dt = config.general.timestep_secs;
         let omega_sq = if p.contact_stiffness_per_s2 > 0.0 {
@@ -532,19 +564,35 @@ impl StickSlip {
             let zeta = p.environment_contact_damping_ratio;
             1.0 / (tau * zeta * tau * zeta)
         };
+        // The damping comes from the restitution (the stiffness stays that of the keys above):
+        // b = 2·ζ·ω with ζ the damping ratio whose linear spring–damper rebounds at
+        // `physics.contact_restitution`. The damping is integrated implicitly (see
+        // `normal_force_n`): no bound on b·dt.
         let normal_stiffness_per_s2 = omega_sq.min(1.0 / (dt * dt));
-        // The damping of `physics.contact_restitution`: b = 2·ζ·ω with ζ the damping ratio of the
-        // linear spring–damper that only pushes and rebounds at that restitution.
-        let zeta = damping_ratio_for_restitution(p.contact_restitution);
-        let normal_damping_per_s = (2.0 * zeta * normal_stiffness_per_s2.sqrt()).min(0.5 / dt);
+        let omega_normal = normal_stiffness_per_s2.sqrt();
+        // Obstacles: the damping ratio whose implicit law rebounds at the restitution at this
+        // step (a link hitting a peg with its side: the solve's mass is the link's, ratio 1).
+        let normal_damping_per_s =
+            2.0 * omega_normal * damping_ratio_for_step(p.contact_restitution, omega_normal * dt, 1.0);
+        // Ground: the same restitution's damping ratio of the continuous law, held explicitly:
+        // bounded by b·dt ≤ ½ (see the module docs).
+        let ground_damping_per_s =
+            (2.0 * omega_normal * damping_ratio_for_restitution(p.contact_restitution)).min(0.5 / dt);
         // The ground geoms whose contacts this law computes: planes and boxes (the floor, slopes,
-        // steps). Heightfields and meshes stay MuJoCo's contacts: their many, flickering contact
-        // points (one per prism or face) do not make a compliance held over an explicit step.
+        // steps) through MuJoCo's collision detection, heightfields and meshes through the law's
+        // own (one contact per link end: MuJoCo's give one per prism or face, which appear and
+        // vanish between steps). Other shapes of a third-party terrain stay MuJoCo's contacts.
         let geom_type = world.model().geom_type();
         let own_ground: Vec<bool> = (0..world.index.geom_class.len())
             .map(|g| {
                 world.index.geom_class[g] == GeomClass::Floor
-                    && matches!(geom_type[g], MjtGeomBase::mjGEOM_PLANE | MjtGeomBase::mjGEOM_BOX)
+                    && matches!(
+                        geom_type[g],
+                        MjtGeomBase::mjGEOM_PLANE
+                            | MjtGeomBase::mjGEOM_BOX
+                            | MjtGeomBase::mjGEOM_HFIELD
+                            | MjtGeomBase::mjGEOM_MESH
+                    )
             })
             .collect();
         Self {
@@ -571,14 +619,41 @@ impl StickSlip {
             link_inertia_kg_m2: world.index.links.iter().map(|l| world.model().body_inertia()[l.body]).collect(),
             normal_stiffness_per_s2,
             normal_damping_per_s,
+            ground_damping_per_s,
             link_velocity: vec![[0.0; 6]; n],
             ground_points: vec![0; n],
+            obstacle_points: vec![0; n],
+            found: Vec::new(),
+            obstacle_candidates: Vec::new(),
+            obstacle_rows: Vec::new(),
+            obstacle_terms: Vec::new(),
+            heightfields: (0..geom_type.len())
+                .filter(|&g| own_ground[g] && geom_type[g] == MjtGeomBase::mjGEOM_HFIELD)
+                .map(|g| HeightfieldGround::new(world.model(), g))
+                .collect(),
+            meshes: (0..geom_type.len())
+                .filter(|&g| own_ground[g] && geom_type[g] == MjtGeomBase::mjGEOM_MESH)
+                .map(|g| MeshGround::new(world.model(), g))
+                .collect(),
+            link_capsules: link_capsules(world),
+            surface_geom: (0..geom_type.len())
+                .map(|g| own_ground[g] && matches!(geom_type[g], MjtGeomBase::mjGEOM_HFIELD | MjtGeomBase::mjGEOM_MESH))
+                .collect(),
+            surface_geoms: (0..geom_type.len())
+                .filter(|&g| {
+                    own_ground[g] && matches!(geom_type[g], MjtGeomBase::mjGEOM_HFIELD | MjtGeomBase::mjGEOM_MESH)
+                })
+                .map(|g| (g, world.model().geom_margin()[g]))
+                .collect(),
             mujoco_ground_n: vec![[0.0; SLOTS]; n],
             mujoco_ground_check_n: vec![[0.0; SLOTS]; n],
             bound_load_n: vec![[0.0; SLOTS]; n],
             bound_previous: vec![[(0.0, 0.0); SLOTS]; n],
             env_geoms: (0..world.index.geom_class.len())
-                .filter(|&g| own_ground[g])
+                .filter(|&g| {
+                    (own_ground[g] && !matches!(geom_type[g], MjtGeomBase::mjGEOM_HFIELD | MjtGeomBase::mjGEOM_MESH))
+                        || world.index.geom_class[g] == GeomClass::Obstacle
+                })
                 .map(|g| {
                     let m = world.model();
                     (g, m.geom_contype()[g], m.geom_conaffinity()[g], m.geom_margin()[g])
@@ -596,53 +671,6 @@ impl StickSlip {
             force_n: vec![[0.0; 3]; n],
             slot_force_n: vec![[[0.0; 3]; SLOTS]; n],
             torque_nm: vec![[0.0; 3]; n],
-        }
-    }
-}
-
-impl StickSlip {
-    /// Σ N, Σ N·point and Σ N·normal of each link's obstacle slots from MuJoCo's contacts of the
-    /// latest forward pass (a slot keeps its geom while the link touches it; a new geom takes a
-    /// free slot, or one not seen in this pass).
-    fn collect_obstacle_normals(&mut self, d: &MjData<Box<MjModel>>) {
-        let st = self;
-        for slot in st.obstacle_slots.iter_mut().flatten() {
-            slot.seen = false;
-            slot.normal_n = 0.0;
-            slot.point_weighted = [0.0; 3];
-            slot.normal_weighted = [0.0; 3];
-        }
-        for (c, contact) in d.contact().iter().enumerate() {
-            let (g1, g2) = (contact.geom[0], contact.geom[1]);
-            if g1 < 0 || g2 < 0 || contact.exclude != 0 {
-                continue;
-            }
-            let (g1, g2) = (g1 as usize, g2 as usize);
-            let Some((link, geom, sign)) = st.link_side(g1, g2) else { continue };
-            if !st.obstacle_geom[geom] {
-                continue;
-            }
-            let n = d.contact_force(c)[0];
-            if n <= 0.0 {
-                continue;
-            }
-            let slots = &mut st.obstacle_slots[link];
-            let k = slots
-                .iter()
-                .position(|s| s.geom == geom)
-                .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
-                .or_else(|| slots.iter().position(|s| !s.seen));
-            let Some(k) = k else { continue };
-            let slot = &mut slots[k];
-            if slot.geom != geom {
-                *slot = ObstacleSlot { geom, ..ObstacleSlot::FREE };
-            }
-            slot.seen = true;
-            slot.normal_n += n;
-            for j in 0..3 {
-                slot.point_weighted[j] += n * contact.pos[j];
-                slot.normal_weighted[j] += n * sign * contact.frame[j];
-            }
         }
     }
 }
@@ -912,6 +940,9 @@ impl Ground {
             for &(g, _, _, margin) in &st.env_geoms {
                 world.set_geom_collision(g, 0, 0, margin);
             }
+            for &(g, margin) in &st.surface_geoms {
+                world.set_geom_collision(g, 0, 0, margin);
+            }
         }
     }
 
@@ -961,55 +992,102 @@ impl Ground {
             st.evaluated_at_secs = d.time();
             st.own_contacts.clear();
             st.elastic_energy_j = 0.0;
-            // Penetrating ground contact points per link: a link's two end caps on a plane share
-            // its compliance; more points (a heightfield, a mesh) share the same total.
-            st.ground_points.fill(0);
-            for contact in d.contact() {
-                let (g1, g2) = (contact.geom[0], contact.geom[1]);
-                if g1 < 0 || g2 < 0 || contact.dist >= 0.0 {
-                    continue;
-                }
-                let (g1, g2) = (g1 as usize, g2 as usize);
-                match (st.link_of_geom[g1], st.link_of_geom[g2]) {
-                    (Some(l), None) if st.own_ground_geom[g2] => st.ground_points[l] += 1,
-                    (None, Some(l)) if st.own_ground_geom[g1] => st.ground_points[l] += 1,
-                    _ => {}
-                }
-            }
+            // The link–ground and link–obstacle contacts of x_k: MuJoCo's (planes, boxes,
+            // obstacles) and the heightfields' own (one per link end and heightfield).
+            st.found.clear();
+            st.obstacle_candidates.clear();
             for contact in d.contact() {
                 let (g1, g2) = (contact.geom[0], contact.geom[1]);
                 if g1 < 0 || g2 < 0 || contact.exclude > 1 {
                     continue;
                 }
                 let (g1, g2) = (g1 as usize, g2 as usize);
-                // The link side, the other geom, whether it is an obstacle, and the sign that
-                // turns MuJoCo's normal (geom1 → geom2) into the normal pointing from the
-                // obstacle or ground into the link.
-                let Some((link, other, sign)) = st.link_side(g1, g2) else { continue };
-                if st.obstacle_geom[other] {
-                    obstacle_contact |= contact.dist < 0.0;
-                    continue;
-                }
-                if !st.own_ground_geom[other] {
+                let Some((_, other, _)) = st.link_side(g1, g2) else { continue };
+                if !st.obstacle_geom[other] && !st.own_ground_geom[other] {
                     mujoco_ground_contact |= st.ground_geom[other];
                     continue;
                 }
+                st.found.push(FoundContact {
+                    geom: [g1, g2],
+                    position_m: contact.pos,
+                    normal: [contact.frame[0], contact.frame[1], contact.frame[2]],
+                    distance_m: contact.dist,
+                });
+            }
+            for cap in st.link_capsules.iter().flatten() {
+                for hf in &st.heightfields {
+                    hf.contacts(d, cap, &mut st.found);
+                }
+                for mesh in &st.meshes {
+                    mesh.contacts(d, cap, &mut st.found);
+                }
+            }
+            // Penetrating ground contact points per link: a link's two end caps on a plane share
+            // its compliance; more points (a box edge, a mesh) share the same total.
+            st.ground_points.fill(0);
+            st.obstacle_points.fill(0);
+            for contact in &st.found {
+                if contact.distance_m >= 0.0 {
+                    continue;
+                }
+                let Some((l, other, _)) = st.link_side(contact.geom[0], contact.geom[1]) else { continue };
+                if st.obstacle_geom[other] {
+                    st.obstacle_points[l] += 1;
+                } else if !st.surface_geom[other] {
+                    st.ground_points[l] += 1;
+                }
+            }
+            for slot in st.obstacle_slots.iter_mut().flatten() {
+                slot.seen = false;
+                slot.normal_n = 0.0;
+                slot.point_weighted = [0.0; 3];
+                slot.normal_weighted = [0.0; 3];
+            }
+            for c in 0..st.found.len() {
+                let contact = st.found[c];
+                let [g1, g2] = contact.geom;
+                // The link side, the other geom, whether it is an obstacle, and the sign that
+                // turns the contact's normal (geom1 → geom2) into the normal pointing from the
+                // obstacle or ground into the link.
+                let Some((link, other, sign)) = st.link_side(g1, g2) else { continue };
+                let obstacle = st.obstacle_geom[other];
                 let body = self.bodies[link];
                 let com = xipos[body];
-                let nrm = [0, 1, 2].map(|k| sign * contact.frame[k]);
-                let r = sub(contact.pos, com);
+                let nrm = contact.normal.map(|x| sign * x);
+                let r = sub(contact.position_m, com);
                 let vel = st.link_velocity[link];
                 let mut v_point = add([vel[3], vel[4], vel[5]], cross([vel[0], vel[1], vel[2]], r));
                 let other_body = geom_body[other].max(0) as usize;
                 if other_body != 0 {
                     let vo = d.object_velocity(MjtObjBase::mjOBJ_BODY, other_body, false);
-                    let ro = sub(contact.pos, xipos[other_body]);
+                    let ro = sub(contact.position_m, xipos[other_body]);
                     v_point = sub(v_point, add([vo[3], vo[4], vo[5]], cross([vo[0], vo[1], vo[2]], ro)));
                 }
-                // Penetration and its rate; the point's effective mass along the normal for the
-                // link alone (1/m + (r × n)ᵀ I⁻¹ (r × n)).
-                let depth = -contact.dist;
+                // Penetration and its rate; the mass the normal force's solve assumes for the
+                // point: 1/m + 2·(r × n)ᵀ I⁻¹ (r × n), at most the point's effective mass for the
+                // link alone and for the link rocking on two opposite points (its pitch), so the
+                // solve is never less implicit than the point's real motion.
+                let depth = -contact.distance_m;
                 let approach = -dot(v_point, nrm);
+                if obstacle {
+                    // Obstacle contacts get their normal force from the whole body's mobility
+                    // once the ground's forces are known ([`StickSlip::obstacle_normals`]).
+                    obstacle_contact |= depth > 0.0 || depth + approach * dt > 0.0;
+                    st.obstacle_candidates.push(ObstacleCandidate {
+                        contact,
+                        link,
+                        other,
+                        nrm,
+                        arm_m: r,
+                        depth,
+                        approach,
+                    });
+                    continue;
+                }
+                // Ground: a spring–damper on the point's effective mass along the normal for
+                // the link alone, 1/m_eff = 1/m + (r × n)ᵀ I⁻¹ (r × n), shared among the link's
+                // penetrating ground points (at least 2: a capsule lying on a plane rests on its
+                // two caps), held explicitly (see the module docs).
                 let mass = st.link_mass_kg[link];
                 let rn = cross(r, nrm);
                 let im = ximat[body];
@@ -1021,24 +1099,19 @@ impl Ground {
                         inv_mass += u * u / inertia[j];
                     }
                 }
-                // Held over the step, the spring force is the spring energy's change over the
-                // penetration's change from now to the end of the step (predicted at the present
-                // rate and gravity): k·(δ₁⁺² − δ₀⁺²) / (2·(δ₁ − δ₀)), which is k at the mean penetration while
-                // the contact lasts the whole step, and does the spring's work exactly when it
-                // starts or ends within it. The damper acts over the part of the step in contact.
                 let share = 2.0 / st.ground_points[link].max(2) as f64;
                 let stiffness = share * st.normal_stiffness_per_s2 / inv_mass;
-                let damping = share * st.normal_damping_per_s / inv_mass;
-                let free_approach_accel = -dot(st.gravity_vector_m_per_s2, nrm);
-                let n = explicit_normal_force_n(stiffness, damping, depth, approach, free_approach_accel, dt);
+                let damping = share * st.ground_damping_per_s / inv_mass;
+                let free_approach = -dot(st.gravity_vector_m_per_s2, nrm);
+                let n = explicit_normal_force_n(stiffness, damping, depth, approach, free_approach, dt);
                 if depth <= 0.0 && n <= 0.0 {
                     continue; // within the detection margin, not touching
                 }
                 st.own_contacts.push(OwnContact {
                     geom: [g1, g2],
-                    position_m: contact.pos,
-                    normal: [contact.frame[0], contact.frame[1], contact.frame[2]],
-                    distance_m: contact.dist,
+                    position_m: contact.position_m,
+                    normal: contact.normal,
+                    distance_m: contact.distance_m,
                     normal_force_n: n,
                 });
                 if depth > 0.0 {
@@ -1054,15 +1127,16 @@ impl Ground {
                 let along = r[0] * m[0] + r[1] * m[3] + r[2] * m[6];
                 let slot = usize::from(along < 0.0);
                 st.normal_n[link][slot] += n;
-                st.point_weighted[link][slot] = add(st.point_weighted[link][slot], contact.pos.map(|x| n * x));
+                st.point_weighted[link][slot] = add(st.point_weighted[link][slot], contact.position_m.map(|x| n * x));
                 st.normal_weighted[link][slot] = add(st.normal_weighted[link][slot], f);
             }
         }
         for &(g, _, _, margin) in &st.env_geoms {
             world.set_geom_collision(g, 0, 0, margin);
         }
-        // Heightfield and mesh ground: MuJoCo's normal forces at x_k, from a forward pass with the
-        // step's own normal forces applied (the ground geoms detached, as in MuJoCo's step).
+        // Ground of other shapes (a third-party terrain): MuJoCo's normal forces at x_k, from a
+        // forward pass with the step's own normal forces applied (the law's geoms detached, as in
+        // MuJoCo's step).
         if mujoco_ground_contact {
             for (i, &body) in self.bodies.iter().enumerate() {
                 let (f, t) = (st.normal_force_n[i], st.normal_torque_nm[i]);
@@ -1159,7 +1233,8 @@ impl Ground {
             *slot = [force[0], force[1], force[2], torque[0], torque[1], torque[2]];
         }
         if obstacle_contact {
-            self.obstacle_friction(world, mujoco_ground_contact);
+            self.obstacle_normals(world, mujoco_ground_contact);
+            self.obstacle_friction(world, true);
             return;
         }
         for slot in st.obstacle_slots.iter_mut().flatten() {
@@ -1168,7 +1243,128 @@ impl Ground {
         if mujoco_ground_contact {
             // The friction moves MuJoCo's normal forces: a second forward pass with it applied
             // gives the heightfield and mesh contacts the N the step will have.
-            st.settle_friction_bounds(world, &self.bodies, false);
+            st.settle_friction_bounds(world, &self.bodies);
+        }
+    }
+
+    /// The normal forces of the links' obstacle contacts at x_k, on a step where a link touches
+    /// an obstacle or may within the step: a forward pass at x_k with the step's ground forces in
+    /// `xfrc_applied` (the law's geoms detached, as in MuJoCo's step) gives the contact points'
+    /// mobility through the whole articulated body along their normals, W = J·M⁻¹·Jᵀ, and their
+    /// accelerations toward the obstacles without obstacle forces, a. Each point carries the mass
+    /// m_c = 1/Σ_j W_ij over the touching points, on the law's spring–damper k = m_c·ω²,
+    /// c = m_c·b, integrated implicitly through W ([`normal_force_terms`]), solved over the
+    /// points by projected Gauss–Seidel: a link hitting a peg rebounds at the configured
+    /// restitution whatever the step and whatever the joints add to its mass. The forces go into
+    /// `xfrc_applied` and the obstacle friction slots.
+    fn obstacle_normals(&mut self, world: &mut World, forward_done: bool) {
+        let Some(st) = self.stick_slip.as_mut() else { return };
+        if forward_done {
+            forward_forces(world);
+        } else {
+            world.data.forward();
+        }
+        st.obstacle_rows.clear();
+        for c in &st.obstacle_candidates {
+            st.obstacle_rows.push((self.bodies[c.link], c.contact.position_m, c.nrm));
+        }
+        world.point_mobility(&st.obstacle_rows, &mut st.mobility);
+        let count = st.obstacle_candidates.len();
+        let dt = st.timestep_secs;
+        let w = &st.mobility.w;
+        // Each touching point's mass: the inverse of its row of W summed over the touching
+        // points (the positive entries), the mass it carries when every point pushes alike (a
+        // link hitting flat on both caps: half the link and what its joints add; one point:
+        // 1/W_ii).
+        let touching = |c: &ObstacleCandidate| c.depth > 0.0 || c.depth + c.approach * dt > 0.0;
+        st.obstacle_terms.clear();
+        for (i, c) in st.obstacle_candidates.iter().enumerate() {
+            let row_sum: f64 = (0..count)
+                .filter(|&j| j == i || touching(&st.obstacle_candidates[j]))
+                .map(|j| w[i * count + j].max(0.0))
+                .sum();
+            let carried = if row_sum > 0.0 { 1.0 / row_sum } else { st.link_mass_kg[c.link] };
+            let law = NormalLaw {
+                stiffness_n_per_m: carried * st.normal_stiffness_per_s2,
+                damping_n_s_per_m: carried * st.normal_damping_per_s,
+                effective_mass_kg: carried,
+            };
+            // The acceleration toward the obstacle (the rows point away from it, into the link).
+            let free_approach = -st.mobility.acc[i];
+            let depth = c.depth;
+            let (numerator, implicit) = normal_force_terms(law, depth, c.approach, free_approach, dt);
+            st.obstacle_terms.push(ObstacleTerms {
+                depth,
+                numerator,
+                implicit,
+                stiffness: law.stiffness_n_per_m,
+                n: 0.0,
+            });
+        }
+        // N_i = (numerator_i − implicit_i·Σ_{j≠i} W_ij·N_j)/(1 + implicit_i·W_ii), N ≥ 0:
+        // projected Gauss–Seidel (the points pushing one body share its motion in the step).
+        let largest = st.obstacle_terms.iter().map(|t| t.numerator.abs()).fold(0.0, f64::max);
+        for _ in 0..FRICTION_SOLVER_SWEEPS {
+            let mut change = 0.0_f64;
+            for i in 0..count {
+                let t = st.obstacle_terms[i];
+                if t.implicit == 0.0 && t.numerator <= 0.0 {
+                    continue;
+                }
+                let coupled: f64 =
+                    (0..count).filter(|&j| j != i).map(|j| w[i * count + j] * st.obstacle_terms[j].n).sum();
+                let n = ((t.numerator - t.implicit * coupled) / (1.0 + t.implicit * w[i * count + i])).max(0.0);
+                change = change.max((n - t.n).abs());
+                st.obstacle_terms[i].n = n;
+            }
+            if change <= 1e-9 * (1.0 + largest) {
+                break;
+            }
+        }
+        for (i, c) in st.obstacle_candidates.iter().enumerate() {
+            let ObstacleTerms { depth, stiffness, n, .. } = st.obstacle_terms[i];
+            if depth <= 0.0 && n <= 0.0 {
+                continue; // within the detection margin, not touching
+            }
+            st.own_contacts.push(OwnContact {
+                geom: c.contact.geom,
+                position_m: c.contact.position_m,
+                normal: c.contact.normal,
+                distance_m: c.contact.distance_m,
+                normal_force_n: n,
+            });
+            if depth > 0.0 {
+                st.elastic_energy_j += 0.5 * stiffness * depth * depth;
+            }
+            if n <= 0.0 {
+                continue;
+            }
+            let f = c.nrm.map(|x| n * x);
+            let torque = cross(c.arm_m, f);
+            st.normal_force_n[c.link] = add(st.normal_force_n[c.link], f);
+            st.normal_torque_nm[c.link] = add(st.normal_torque_nm[c.link], torque);
+            let x = &mut world.data.xfrc_applied_mut()[self.bodies[c.link]];
+            for k in 0..3 {
+                x[k] += f[k];
+                x[3 + k] += torque[k];
+            }
+            // One friction slot per link and touching obstacle geom: a slot keeps its geom while
+            // the link touches it; a new geom takes a free slot, or one not seen at this state.
+            let slots = &mut st.obstacle_slots[c.link];
+            let k = slots
+                .iter()
+                .position(|s| s.geom == c.other)
+                .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
+                .or_else(|| slots.iter().position(|s| !s.seen));
+            let Some(k) = k else { continue };
+            let slot = &mut slots[k];
+            if slot.geom != c.other {
+                *slot = ObstacleSlot { geom: c.other, ..ObstacleSlot::FREE };
+            }
+            slot.seen = true;
+            slot.normal_n += n;
+            slot.point_weighted = add(slot.point_weighted, c.contact.position_m.map(|x| n * x));
+            slot.normal_weighted = add(slot.normal_weighted, f);
         }
     }
 
@@ -1186,7 +1382,6 @@ impl Ground {
         } else {
             world.data.forward();
         }
-        st.collect_obstacle_normals(&world.data);
         let dt = st.timestep_secs;
         let mu = st.obstacle_mu;
         // Every touching obstacle slot: its contact point, normal and tangent frame (the link's
@@ -1282,10 +1477,11 @@ impl Ground {
             slot.arm_m = a.arm_m;
             st.add_friction(world, self.bodies[a.link], a.link, f_world, torque, true);
         }
-        // The friction moves the normal forces through the links' inertia: with it applied, a
-        // second forward pass at x_k gives each contact the normal force the step will have, and
-        // a slot whose friction exceeds μ times that is scaled back onto it.
-        st.settle_friction_bounds(world, &self.bodies, true);
+        // The obstacle contacts' normal forces are the law's of x_k (the friction does not move
+        // them); heightfield and mesh ground contacts get MuJoCo's, moved by the friction.
+        if contacts_found {
+            st.settle_friction_bounds(world, &self.bodies);
+        }
     }
 }
 
@@ -1298,48 +1494,16 @@ const BOUND_MARGIN: f64 = 1e-3;
 
 impl StickSlip {
     /// Forward passes at x_k with the step's friction applied, each scaling back every
-    /// heightfield or mesh ground slot (and, with `obstacles`, every obstacle slot) whose
-    /// friction exceeds μ times the normal force that pass found, until a pass scales none back
-    /// (at most [`BOUND_PASSES`]). Scaling friction back changes MuJoCo's normal forces again,
-    /// usually giving back normal force that friction took.
-    fn settle_friction_bounds(&mut self, world: &mut World, bodies: &[usize], obstacles: bool) {
+    /// heightfield or mesh ground slot whose friction exceeds μ times the normal force that pass
+    /// found, until a pass scales none back (at most [`BOUND_PASSES`]). Scaling friction back
+    /// changes MuJoCo's normal forces again, usually giving back normal force that friction took.
+    fn settle_friction_bounds(&mut self, world: &mut World, bodies: &[usize]) {
         for _ in 0..BOUND_PASSES {
             forward_forces(world);
-            let mut changed = self.rescale_mujoco_ground_slots(world, bodies);
-            if obstacles {
-                self.collect_obstacle_normals(&world.data);
-                changed |= self.rescale_obstacle_slots(world, bodies);
-            }
-            if !changed {
+            if !self.rescale_mujoco_ground_slots(world, bodies) {
                 break;
             }
         }
-    }
-
-    /// Scales every obstacle slot whose friction exceeds μ times its normal force of the latest
-    /// forward pass back onto it; whether any was.
-    fn rescale_obstacle_slots(&mut self, world: &mut World, bodies: &[usize]) -> bool {
-        let mu = self.obstacle_mu;
-        let mut changed = false;
-        for (i, &body) in bodies.iter().enumerate() {
-            let (mut d_force, mut d_torque) = ([0.0; 3], [0.0; 3]);
-            for slot in self.obstacle_slots[i].iter_mut() {
-                let size = dot(slot.force_n, slot.force_n).sqrt();
-                let limit = if slot.seen { mu * slot.normal_n } else { 0.0 };
-                if size <= limit {
-                    continue;
-                }
-                changed = true;
-                let f = slot.force_n.map(|x| x * limit / size);
-                let change = sub(f, slot.force_n);
-                d_force = add(d_force, change);
-                d_torque = add(d_torque, cross(slot.arm_m, change));
-                slot.force_n = f;
-                slot.deflection_m = [0.0; 3];
-            }
-            self.add_friction(world, body, i, d_force, d_torque, true);
-        }
-        changed
     }
 }
 
@@ -1349,6 +1513,305 @@ impl StickSlip {
 /// kinematics, collision detection and the velocity stage.
 fn forward_forces(world: &mut World) {
     world.data.forward_skip(mujoco_rs::prelude::MjtStage::mjSTAGE_VEL, true);
+}
+
+/// A link–ground or link–obstacle contact of x_k before its normal force: the geoms (one of them
+/// a link's), the point, the normal from geom 1 to geom 2 and the distance (negative: penetrating).
+#[derive(Debug, Clone, Copy)]
+struct FoundContact {
+    geom: [usize; 2],
+    position_m: [f64; 3],
+    normal: [f64; 3],
+    distance_m: f64,
+}
+
+/// A link–obstacle contact of x_k before its normal force: the contact, the link, the obstacle
+/// geom, the normal from the obstacle into the link, the contact point's arm from the link's
+/// centre of mass (m), the penetration (m) and its rate (m/s).
+#[derive(Debug, Clone, Copy)]
+struct ObstacleCandidate {
+    contact: FoundContact,
+    link: usize,
+    other: usize,
+    nrm: [f64; 3],
+    arm_m: [f64; 3],
+    depth: f64,
+    approach: f64,
+}
+
+/// An obstacle contact point's terms of the coupled normal-force solve: its penetration from
+/// the rest length (m), the two terms of [`normal_force_terms`], its stiffness (N/m) and its
+/// normal force (N).
+#[derive(Debug, Clone, Copy)]
+struct ObstacleTerms {
+    depth: f64,
+    numerator: f64,
+    implicit: f64,
+    stiffness: f64,
+    n: f64,
+}
+
+/// A link's capsule: its geom, radius and the half-length of its axis segment (m).
+#[derive(Debug, Clone, Copy)]
+struct Capsule {
+    geom: usize,
+    radius_m: f64,
+    half_length_m: f64,
+}
+
+/// The capsule geom of each link (`None` for a link without one: a user's robot).
+fn link_capsules(world: &World) -> Vec<Option<Capsule>> {
+    let m = world.model();
+    let (types, sizes) = (m.geom_type(), m.geom_size());
+    let mut out = vec![None; world.n_links()];
+    for (g, link) in world.index.geom_link.iter().enumerate() {
+        if let Some(l) = *link
+            && types[g] == MjtGeomBase::mjGEOM_CAPSULE
+            && out[l].is_none()
+        {
+            out[l] = Some(Capsule { geom: g, radius_m: sizes[g][0], half_length_m: sizes[g][1] });
+        }
+    }
+    out
+}
+
+/// The two ends of a capsule's axis segment (world frame) at the latest kinematics.
+fn capsule_ends(d: &MjData<Box<MjModel>>, cap: &Capsule) -> [[f64; 3]; 2] {
+    let (p, r) = (d.geom_xpos()[cap.geom], d.geom_xmat()[cap.geom]);
+    let axis = [r[2], r[5], r[8]];
+    let h = cap.half_length_m;
+    [add(p, axis.map(|x| h * x)), sub(p, axis.map(|x| h * x))]
+}
+
+/// `w` (world frame) in the frame of a geom with rotation `r` (row-major) at `p`.
+fn to_local(r: &[f64; 9], p: [f64; 3], w: [f64; 3]) -> [f64; 3] {
+    let v = sub(w, p);
+    [0, 1, 2].map(|j| r[j] * v[0] + r[3 + j] * v[1] + r[6 + j] * v[2])
+}
+
+/// `v` (a direction in a geom's frame with rotation `r`) in the world frame.
+fn to_world(r: &[f64; 9], v: [f64; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|i| r[3 * i] * v[0] + r[3 * i + 1] * v[1] + r[3 * i + 2] * v[2])
+}
+
+/// A contact of a capsule end (a sphere of the capsule's radius at `center`, world frame) with a
+/// surface whose nearest point is `surface` and outward normal `normal` (world frame), found
+/// within [`DETECTION_MARGIN_M`]: the point halfway between the surfaces, as MuJoCo places it.
+fn push_surface_contact(
+    out: &mut Vec<FoundContact>,
+    geoms: [usize; 2],
+    center: [f64; 3],
+    surface: [f64; 3],
+    normal: [f64; 3],
+    radius_m: f64,
+) {
+    let distance_m = dot(sub(center, surface), normal) - radius_m;
+    if distance_m >= DETECTION_MARGIN_M {
+        return;
+    }
+    let position_m = sub(center, normal.map(|x| x * (radius_m + 0.5 * distance_m)));
+    out.push(FoundContact { geom: geoms, position_m, normal, distance_m });
+}
+
+/// Heightfield ground: its grid of elevations (m, row-major, rows along y), half-sizes along x
+/// and y (m) and geom. A link end over it touches the surface interpolated bilinearly from the
+/// four elevations around it, with the normal of that surface: one contact per link end, which
+/// moves smoothly as the link does (MuJoCo's own collision gives one per prism it overlaps).
+#[derive(Debug, Clone)]
+struct HeightfieldGround {
+    geom: usize,
+    half_size_m: [f64; 2],
+    rows: usize,
+    cols: usize,
+    elevation_m: Vec<f64>,
+}
+
+impl HeightfieldGround {
+    fn new(m: &MjModel, geom: usize) -> Self {
+        let id = m.geom_dataid()[geom].max(0) as usize;
+        let size = m.hfield_size()[id];
+        let (rows, cols) = (m.hfield_nrow()[id] as usize, m.hfield_ncol()[id] as usize);
+        let adr = m.hfield_adr()[id] as usize;
+        let elevation_m = m.hfield_data()[adr..adr + rows * cols].iter().map(|&h| f64::from(h) * size[2]).collect();
+        Self { geom, half_size_m: [size[0], size[1]], rows, cols, elevation_m }
+    }
+
+    /// The surface under `local` (a point in the heightfield's frame): its height (m) and
+    /// outward unit normal (heightfield frame), interpolated bilinearly from the four elevations
+    /// around it; `None` off the grid.
+    fn surface_at(&self, local: [f64; 3]) -> Option<(f64, [f64; 3])> {
+        let [sx, sy] = self.half_size_m;
+        let (dx, dy) = (2.0 * sx / (self.cols - 1) as f64, 2.0 * sy / (self.rows - 1) as f64);
+        let (fx, fy) = ((local[0] + sx) / dx, (local[1] + sy) / dy);
+        if !(0.0..=(self.cols - 1) as f64).contains(&fx) || !(0.0..=(self.rows - 1) as f64).contains(&fy) {
+            return None;
+        }
+        let (i, j) = ((fx as usize).min(self.cols - 2), (fy as usize).min(self.rows - 2));
+        let (tx, ty) = (fx - i as f64, fy - j as f64);
+        let h = |ii: usize, jj: usize| self.elevation_m[jj * self.cols + ii];
+        let (h00, h10, h01, h11) = (h(i, j), h(i + 1, j), h(i, j + 1), h(i + 1, j + 1));
+        let height = (1.0 - ty) * ((1.0 - tx) * h00 + tx * h10) + ty * ((1.0 - tx) * h01 + tx * h11);
+        let slope_x = ((1.0 - ty) * (h10 - h00) + ty * (h11 - h01)) / dx;
+        let slope_y = ((1.0 - tx) * (h01 - h00) + tx * (h11 - h10)) / dy;
+        Some((height, normalized([-slope_x, -slope_y, 1.0])?))
+    }
+
+    /// The contacts of `cap` with this heightfield into `out` (none off its grid): one per end of
+    /// its axis segment, and one where the surface rises above the line between the ends (a bump
+    /// under the link's middle): the interior point, sampled at the grid's spacing along the
+    /// segment, whose gap lies furthest below the gaps of the ends interpolated to it. On a plane
+    /// no interior point does, so a flat heightfield gives the two contacts a plane gives.
+    fn contacts(&self, d: &MjData<Box<MjModel>>, cap: &Capsule, out: &mut Vec<FoundContact>) {
+        if self.rows < 2 || self.cols < 2 {
+            return;
+        }
+        let (p, r) = (d.geom_xpos()[self.geom], d.geom_xmat()[self.geom]);
+        let contact_at = |center: [f64; 3]| -> Option<([f64; 3], [f64; 3], f64)> {
+            let local = to_local(&r, p, center);
+            let (height, n_local) = self.surface_at(local)?;
+            let surface = add(p, to_world(&r, [local[0], local[1], height]));
+            let normal = to_world(&r, n_local);
+            Some((surface, normal, dot(sub(center, surface), normal) - cap.radius_m))
+        };
+        let ends = capsule_ends(d, cap);
+        let mut gaps = [None; 2];
+        for (k, center) in ends.into_iter().enumerate() {
+            if let Some((surface, normal, gap)) = contact_at(center) {
+                gaps[k] = Some(gap);
+                push_surface_contact(out, [self.geom, cap.geom], center, surface, normal, cap.radius_m);
+            }
+        }
+        let (Some(g0), Some(g1)) = (gaps[0], gaps[1]) else { return };
+        let [sx, sy] = self.half_size_m;
+        let spacing = (2.0 * sx / (self.cols - 1) as f64).min(2.0 * sy / (self.rows - 1) as f64);
+        let span = sub(ends[1], ends[0]);
+        let length = dot(span, span).sqrt();
+        let samples = ((length / spacing).ceil() as usize).clamp(1, INTERIOR_SAMPLES);
+        // How far the gap at t (0 … 1 along the segment) lies below the ends' gaps interpolated.
+        let below = |t: f64| {
+            let center = add(ends[0], span.map(|x| t * x));
+            contact_at(center).map(|(_, _, gap)| gap - (g0 + t * (g1 - g0)))
+        };
+        let mut deepest: Option<(usize, f64)> = None;
+        for k in 1..samples {
+            let Some(b) = below(k as f64 / samples as f64) else { continue };
+            if b < -INTERIOR_RISE_M && deepest.is_none_or(|(_, d)| b < d) {
+                deepest = Some((k, b));
+            }
+        }
+        let Some((k, b)) = deepest else { return };
+        // The lowest point between the samples beside the deepest (a parabola through the three),
+        // so that the contact moves smoothly along the link as the link moves over the bump.
+        let step = 1.0 / samples as f64;
+        let t_mid = k as f64 * step;
+        let (left, right) = (below(t_mid - step).unwrap_or(b), below(t_mid + step).unwrap_or(b));
+        let curvature = left - 2.0 * b + right;
+        let shift = if curvature > 0.0 { (0.5 * (left - right) / curvature).clamp(-0.5, 0.5) } else { 0.0 };
+        let center = add(ends[0], span.map(|x| (t_mid + shift * step) * x));
+        if let Some((surface, normal, _)) = contact_at(center) {
+            push_surface_contact(out, [self.geom, cap.geom], center, surface, normal, cap.radius_m);
+        }
+    }
+}
+
+/// Interior points sampled along a link's axis segment over a heightfield at most.
+const INTERIOR_SAMPLES: usize = 32;
+
+/// How far (m) the surface must rise above the line between a link's end contacts before an
+/// interior point gets a contact of its own (rounding on a flat surface stays far below it).
+const INTERIOR_RISE_M: f64 = 1e-6;
+
+/// Mesh ground: its triangles in the geom's frame (m) with their outward unit normals. A link
+/// end touches the nearest point of the nearest triangle: one contact per link end.
+#[derive(Debug, Clone)]
+struct MeshGround {
+    geom: usize,
+    triangles: Vec<([[f64; 3]; 3], [f64; 3])>,
+}
+
+impl MeshGround {
+    fn new(m: &MjModel, geom: usize) -> Self {
+        let id = m.geom_dataid()[geom].max(0) as usize;
+        let (vadr, fadr, fnum) =
+            (m.mesh_vertadr()[id] as usize, m.mesh_faceadr()[id] as usize, m.mesh_facenum()[id] as usize);
+        let verts = m.mesh_vert();
+        let triangles = m.mesh_face()[fadr..fadr + fnum]
+            .iter()
+            .filter_map(|f| {
+                let v = f.map(|k| verts[vadr + k as usize].map(f64::from));
+                let n = normalized(cross(sub(v[1], v[0]), sub(v[2], v[0])))?;
+                Some((v, n))
+            })
+            .collect();
+        Self { geom, triangles }
+    }
+
+    /// The contacts of both ends of `cap` with this mesh into `out`: for each end, the triangle
+    /// nearest to it; outside the mesh the normal points from that nearest point to the end's
+    /// centre, inside (penetrating) it is the triangle's.
+    fn contacts(&self, d: &MjData<Box<MjModel>>, cap: &Capsule, out: &mut Vec<FoundContact>) {
+        let (p, r) = (d.geom_xpos()[self.geom], d.geom_xmat()[self.geom]);
+        for center in capsule_ends(d, cap) {
+            let local = to_local(&r, p, center);
+            let mut best: Option<(f64, [f64; 3], [f64; 3])> = None;
+            for (tri, n) in &self.triangles {
+                let q = closest_point_on_triangle(local, tri);
+                let gap = sub(local, q);
+                let dist_sq = dot(gap, gap);
+                if best.is_none_or(|(b, _, _)| dist_sq < b) {
+                    best = Some((dist_sq, q, *n));
+                }
+            }
+            let Some((dist_sq, q, face_normal)) = best else { continue };
+            if dist_sq.sqrt() > cap.radius_m + DETECTION_MARGIN_M && dot(sub(local, q), face_normal) > 0.0 {
+                continue;
+            }
+            let gap = sub(local, q);
+            let n_local =
+                if dot(gap, face_normal) > 0.0 { normalized(gap).unwrap_or(face_normal) } else { face_normal };
+            let surface = add(p, to_world(&r, q));
+            push_surface_contact(out, [self.geom, cap.geom], center, surface, to_world(&r, n_local), cap.radius_m);
+        }
+    }
+}
+
+/// The point of triangle `t` nearest to `p` (Ericson, *Real-Time Collision Detection*, 2005,
+/// §5.1.5).
+fn closest_point_on_triangle(p: [f64; 3], t: &[[f64; 3]; 3]) -> [f64; 3] {
+    let [a, b, c] = *t;
+    let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
+    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = sub(p, b);
+    let (d3, d4) = (dot(ab, bp), dot(ac, bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return add(a, ab.map(|x| v * x));
+    }
+    let cp = sub(p, c);
+    let (d5, d6) = (dot(ab, cp), dot(ac, cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return add(a, ac.map(|x| w * x));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return add(b, sub(c, b).map(|x| w * x));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    add(a, add(ab.map(|x| v * x), ac.map(|x| w * x)))
 }
 
 fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {

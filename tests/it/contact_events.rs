@@ -210,9 +210,9 @@ fn write_bumps_png(path: &std::path::Path) {
     crate::common::write_gray_png(path, w, h, &pixels);
 }
 
-/// On heightfield ground (MuJoCo's normal force, per-prism contacts that appear and vanish
-/// between steps) friction is bounded by the normal force of the same instant too: the gait on
-/// 10 mm bumps, every step for 3 s from t = 0, μ 0.5 and 1.
+/// On heightfield ground (the law's contacts at the link's ends and under a bump at its middle)
+/// friction is bounded by the normal force of the same instant too: the gait on 10 mm bumps,
+/// every step for 3 s from t = 0, μ 0.5 and 1.
 #[test]
 fn friction_on_a_bumpy_heightfield_stays_within_mu_n_of_the_same_instant() {
     let dir = tempfile::tempdir().unwrap();
@@ -235,9 +235,7 @@ fn friction_on_a_bumpy_heightfield_stays_within_mu_n_of_the_same_instant() {
     }
 }
 
-/// At μ 1 the reference lifts the snake 8.3 mm; here it lifts about 0.1 m, converged in the step
-/// (the impact's floor and cylinder impulses differ from the reference's; the guide's contact
-/// events section says how): this prints both μ.
+/// Prints the sideways hit's events at μ 0.5 and 1.
 #[test]
 #[ignore = "probe: the sideways hit at μ 0.5 and 1 (run with --ignored --nocapture)"]
 fn measure_sideways_hit() {
@@ -502,11 +500,15 @@ fn a_dropped_link_rebounds_at_the_configured_restitution() {
 
 /// A run that starts under load: one link on the floor pushed along its axis at 0.999 μ·m·g
 /// from t = 0 (default settings, the link placed on the floor at its radius) should hold: its
-/// centre moving less than 0.1 mm in 1 s, at μ 0.5 and 1. It does not yet: placed at zero
-/// penetration the link carries almost no load in its first steps (the floor spring has not
-/// sunk), slides, and then slides on at μN against a push of 0.999 μN (9.9 mm at μ 0.5).
+/// centre moving less than 0.1 mm in 1 s, at μ 0.5 and 1. It does not yet (9.9 mm at μ 0.5):
+/// the stick spring–damper that holds a contact is critically damped, and settling under a
+/// sudden push it asks up to 1.135 × the push (its force is the push minus the link's
+/// deceleration), above μN for any push above 0.88 μN; the link slides, and then slides on at
+/// μN against 0.999 μN. Loading the floor from the first step (its spring measured from the
+/// resting sink) leaves the figure as it is; a friction that stops the slip within the step from
+/// the forces acting on the link would hold it.
 #[test]
-#[ignore = "target not reached: friction is bounded by the small normal force of the first steps (run with --ignored)"]
+#[ignore = "target not reached: the critically damped stick spring asks 1.135 x a sudden push while it settles (run with --ignored)"]
 fn a_link_loaded_just_below_mu_n_from_the_start_holds() {
     for mu in [0.5, 1.0] {
         let mut c = straight(mu, &["snake.n_links=1"]);
@@ -530,4 +532,241 @@ fn a_link_loaded_just_below_mu_n_from_the_start_holds() {
         eprintln!("μ {mu}: moved {:.4} mm", moved * 1e3);
         assert!(moved < 1e-4, "μ {mu}: the link moved {} mm under 0.999 μN", moved * 1e3);
     }
+}
+
+/// The sideways hit's largest lift (m) at the default 1-ms step and at 0.1 ms.
+fn hit_lifts(mu: f64) -> [f64; 2] {
+    [1e-3, 1e-4].map(|dt| {
+        let mut c = hit(mu);
+        c.general.timestep_secs = dt;
+        measure(&c, &mut simulation(&c), 1.0, mu).max_lift_m
+    })
+}
+
+/// The sideways hit on the cylinders at μ 0.5 converges in the step: the largest lift at 0.1 ms
+/// within 10 % of the default 1-ms step's (216 and 204 mm), and within 1/1.5 … 1.5 × the
+/// reference's (Drake, its floor and obstacle damping at SimSerpent's restitution: 163 mm).
+#[test]
+fn a_sideways_hit_at_mu_0_5_lifts_the_same_at_1_ms_and_0_1_ms() {
+    let lifts = hit_lifts(0.5);
+    eprintln!("μ 0.5: largest lift {:.1} mm at 1 ms, {:.1} mm at 0.1 ms", lifts[0] * 1e3, lifts[1] * 1e3);
+    assert!((lifts[1] / lifts[0] - 1.0).abs() <= 0.10, "{lifts:?}");
+    for lift in lifts {
+        assert!((0.163 / 1.5..=0.163 * 1.5).contains(&lift), "{lifts:?}");
+    }
+}
+
+/// At μ 1 the target is the same: within 10 % between the steps and within 1.5 × Drake's lift
+/// (5 mm with its damping at SimSerpent's restitution, 16–23 mm with its defaults). Measured:
+/// 40.0 mm at 1 ms and 32.4 mm at 0.1 ms (19 % apart). The lift comes from the floor: the
+/// links roll sideways on it before the hit, the cylinders' friction stops their spin and drives
+/// them down into the floor, and the floor's normal force throws them back up (a floor impulse
+/// of 5 N·s in 4 ms against 2.5 N·s of the cylinders' friction pushing down).
+#[test]
+#[ignore = "target not reached: at μ 1 the lift is 40.0 / 32.4 mm at 1 / 0.1 ms (run with --ignored)"]
+fn a_sideways_hit_at_mu_1_lifts_the_same_at_1_ms_and_0_1_ms() {
+    let lifts = hit_lifts(1.0);
+    eprintln!("μ 1: largest lift {:.1} mm at 1 ms, {:.1} mm at 0.1 ms", lifts[0] * 1e3, lifts[1] * 1e3);
+    assert!((lifts[1] / lifts[0] - 1.0).abs() <= 0.10, "{lifts:?}");
+    for lift in lifts {
+        assert!(lift <= 1.5 * 0.023, "{lifts:?}");
+    }
+}
+
+/// What the gait job on a ground shows over its 3 s: the centre of mass's displacement (m),
+/// its mean speed over 1–3 s (m/s), each link's mean load over 1–3 s (× m g) and the largest
+/// ground force on a link in a step over 1–3 s (× m g).
+#[derive(Debug)]
+struct GroundFigures {
+    displacement_m: [f64; 2],
+    speed_m_per_s: f64,
+    loads: Vec<f64>,
+    peak_over_weight: f64,
+}
+
+fn ground_figures(c: &Config) -> GroundFigures {
+    let n = c.snake.n_links;
+    let dt = c.general.timestep_secs;
+    let mut sim = simulation(c);
+    let mut s = Snapshot::new(n, n - 1);
+    let com = |s: &Snapshot| {
+        let m: f64 = s.link_mass_kg.iter().sum();
+        [0, 1].map(|a| (0..n).map(|i| s.link_mass_kg[i] * s.link_position_m[i][a]).sum::<f64>() / m)
+    };
+    let steps = (3.0 / dt).round() as usize;
+    let from = (1.0 / dt).round() as usize;
+    let (mut start, mut at_one, mut path) = ([0.0; 2], [0.0; 2], 0.0);
+    let mut previous = [0.0; 2];
+    let mut loads = vec![0.0; n];
+    let mut peak: f64 = 0.0;
+    for k in 0..steps {
+        sim.control();
+        sim.snapshot(&mut s);
+        let p = com(&s);
+        if k == 0 {
+            start = p;
+        }
+        if k == from {
+            at_one = p;
+        }
+        if k > from {
+            path += (p[0] - previous[0]).hypot(p[1] - previous[1]);
+        }
+        previous = p;
+        if k >= from {
+            for (i, load) in loads.iter_mut().enumerate() {
+                let w = s.link_mass_kg[i] * G;
+                let fz = s.link_floor_force_n[i][2];
+                *load += fz / w / (steps - from) as f64;
+                peak = peak.max(fz / w);
+            }
+        }
+        sim.advance().unwrap();
+    }
+    let _ = at_one;
+    GroundFigures {
+        displacement_m: [previous[0] - start[0], previous[1] - start[1]],
+        speed_m_per_s: path / 2.0,
+        loads,
+        peak_over_weight: peak,
+    }
+}
+
+/// The gait job (isotropic μ 0.5 and 1) on a flat heightfield 20 mm above the floor and on a
+/// flat mesh terrain there equals the same job on the plane: centre-of-mass speed, displacement
+/// (2 % or 1 mm; μ 0.5), each link's mean load and the largest load in a step within 2 %, at
+/// 1 ms and 0.5 ms. What the ground is made of does not change the physics.
+#[test]
+fn a_flat_heightfield_and_a_flat_mesh_terrain_equal_the_plane() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("flat.png");
+    crate::common::write_gray_png(&png, 64, 64, &[255u8; 64 * 64]);
+    let obj = dir.path().join("flat.obj");
+    std::fs::write(&obj, "v -2 -2 0.02\nv 2 -2 0.02\nv 2 2 0.02\nv -2 2 0.02\nf 1 2 3\nf 1 3 4\n").unwrap();
+    let gait = [
+        "gait.kind=\"sine_wave\"",
+        "gait.sine_wave.amplitude_deg=30.0",
+        "gait.sine_wave.frequency_hz=0.5",
+        "gait.sine_wave.phase_lag_deg=40.0",
+        "gait.sine_wave.offset_deg=0.0",
+        "gait.ramp_secs=1.0",
+    ];
+    for mu in [0.5, 1.0] {
+        for dt in [1e-3, 5e-4] {
+            let base = scene(mu, &gait);
+            let z = base.snake.head_position_m[2];
+            let raised = format!(
+                "snake.head_position_m=[{}, {}, {}]",
+                base.snake.head_position_m[0],
+                base.snake.head_position_m[1],
+                z + 0.02
+            );
+            let step = format!("general.timestep_secs={dt}");
+            let plane = ground_figures(&scene(mu, &[&gait[..], &[step.as_str()]].concat()));
+            let hf_file = format!("terrain.heightfield.file={:?}", png.display().to_string());
+            let heightfield = [hf_file.as_str(), "terrain.heightfield.height_m=0.02", raised.as_str(), step.as_str()];
+            let mesh_file = format!("terrain.mesh_terrain.file={:?}", obj.display().to_string());
+            let mesh = [mesh_file.as_str(), raised.as_str(), step.as_str()];
+            for (name, keys) in [("heightfield", &heightfield[..]), ("mesh terrain", &mesh[..])] {
+                let f = ground_figures(&scene(mu, &[&gait[..], keys].concat()));
+                eprintln!("μ {mu}, dt {dt}: {name} {f:?}\n  plane {plane:?}");
+                let close = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * b.abs();
+                assert!(close(f.speed_m_per_s, plane.speed_m_per_s, 0.02), "μ {mu}, dt {dt}, {name}: speed");
+                // At μ 1 the displacement is chaotic in the start: the plane's own job started 1 µm
+                // higher ends 1 mm away (x: −1.4 → −2.4 mm at 1 ms), as far as the heightfield's
+                // (−1.9, −17.5 against −1.4, −18.7 mm); speed, loads and peaks agree within 0.1 %.
+                for a in (0..2).filter(|_| mu < 1.0) {
+                    let tol = (0.02 * plane.displacement_m[a].abs()).max(1e-3);
+                    assert!(
+                        (f.displacement_m[a] - plane.displacement_m[a]).abs() <= tol,
+                        "μ {mu}, dt {dt}, {name}: displacement {a}"
+                    );
+                }
+                for (i, (l, p)) in f.loads.iter().zip(&plane.loads).enumerate() {
+                    assert!(close(*l, *p, 0.02), "μ {mu}, dt {dt}, {name}: link {i} load {l} against {p}");
+                }
+                assert!(close(f.peak_over_weight, plane.peak_over_weight, 0.02), "μ {mu}, dt {dt}, {name}: peak");
+            }
+        }
+    }
+}
+
+/// A 30-link snake of 3-kg links in steady undulation carries its weight: Σ N within 10 % of
+/// it at every step at the default timestep, from the end of the gait's ramp on (default
+/// servos, anisotropic floor). Measured: Σ N between 0.56 and 1.81 of the weight: the floor's
+/// damping, held explicitly, is bounded by 0.5/timestep, and the heavy links rock on it.
+#[test]
+#[ignore = "target not reached: Σ N between 0.56 and 1.81 of the weight (run with --ignored)"]
+fn a_heavy_long_snake_carries_its_weight_at_every_step() {
+    let c = default_config_with(&["snake.n_links=30".to_string(), "snake.link_mass_kg=3.0".to_string()]).unwrap();
+    let n = c.snake.n_links;
+    let dt = c.general.timestep_secs;
+    let mut sim = simulation(&c);
+    let mut s = Snapshot::new(n, n - 1);
+    let (mut low, mut high) = (f64::INFINITY, 0.0_f64);
+    let ramp_steps = (c.gait.ramp_secs / dt).round() as usize;
+    for k in 0..(4.0 / dt).round() as usize {
+        sim.control();
+        sim.snapshot(&mut s);
+        if k < ramp_steps {
+            sim.advance().unwrap();
+            continue;
+        }
+        let total: f64 = (0..n).map(|i| s.link_floor_force_n[i][2]).sum();
+        let weight: f64 = s.link_mass_kg.iter().map(|m| m * G).sum();
+        low = low.min(total / weight);
+        high = high.max(total / weight);
+        sim.advance().unwrap();
+    }
+    eprintln!("30 links of 3 kg: Σ N between {low:.3} and {high:.3} of the weight");
+    assert!(low >= 0.9 && high <= 1.1, "Σ N between {low} and {high} of the weight");
+}
+
+/// The rebound of a straight snake (1 link, and 10 links hitting flat) launched sideways at
+/// 1 m/s into a wall, frictionless (floor and wall), from its centre of mass's speed across the
+/// wall before and after the hit.
+fn wall_restitution(n_links: usize, dt: f64) -> f64 {
+    let links = format!("snake.n_links={n_links}");
+    let step = format!("general.timestep_secs={dt}");
+    let c = straight(
+        0.0,
+        &[
+            &links,
+            &step,
+            "initial_state.linear_velocity_m_per_s=[0.0, 1.0, 0.0]",
+            "terrain.walls=[{ start_m = [-2.0, 0.1], end_m = [1.0, 0.1], height_m = 0.2, thickness_m = 0.05 }]",
+        ],
+    );
+    let mut sim = simulation(&c);
+    let n = c.snake.n_links;
+    let mut s = Snapshot::new(n, n.saturating_sub(1));
+    let (mut before, mut after) = (0.0, 0.0);
+    for _ in 0..(0.3 / dt).round() as usize {
+        sim.control();
+        sim.snapshot(&mut s);
+        let m: f64 = s.link_mass_kg.iter().sum();
+        let vy = (0..n).map(|i| s.link_mass_kg[i] * s.link_velocity_m_per_s[i][1]).sum::<f64>() / m;
+        before = f64::max(before, vy);
+        after = f64::min(after, vy);
+        sim.advance().unwrap();
+    }
+    -after / before
+}
+
+/// An obstacle impact rebounds at `physics.contact_restitution` (0.3 by default) within ±0.05 at
+/// 1 ms, 0.25 ms and 0.1 ms steps, for one link and for a 10-link chain hitting flat (its joints
+/// add mass to every contact point: the law uses the whole body's effective mass).
+#[test]
+fn an_obstacle_impact_rebounds_at_the_configured_restitution() {
+    let mut misses = Vec::new();
+    for n in [1, 10] {
+        for dt in [1e-3, 2.5e-4, 1e-4] {
+            let e = wall_restitution(n, dt);
+            eprintln!("{n} links, dt {dt}: restitution {e:.3}");
+            if (e - 0.3).abs() > 0.05 {
+                misses.push((n, dt, e));
+            }
+        }
+    }
+    assert!(misses.is_empty(), "{misses:?}");
 }
