@@ -2318,7 +2318,7 @@ mod tests {
         assert_eq!(c.control.controller, ControllerKind::FollowTheLeaderReflex);
         assert!(!c.follow_the_leader_reflex.feedback);
         assert_eq!(c.follow_the_leader_reflex.heading_gain, 0.4);
-        c.validate().unwrap();
+        c.validate().expect("a valid config");
         for law in conditions.iter().filter(|c| matches!(c.kind, Kind::Law(..))) {
             let c = condition_config(&field, law, &bench, None);
             assert_eq!(c.follow_the_leader_reflex.heading_gain, 0.4, "{}", law.name());

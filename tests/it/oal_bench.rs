@@ -334,7 +334,7 @@ fn probe_bare_floor_flags_per_link() {
                 let f = e.obstacle_force_n[i];
                 let m = f[0].hypot(f[1]);
                 if e.contact[i] {
-                    if std::env::var("DUMP").is_ok() && (self.flags[i] % 10 == 0) {
+                    if std::env::var("DUMP").is_ok() && self.flags[i].is_multiple_of(10) {
                         let x = e.external_force_n[i];
                         let fl = e.floor_force_n[i];
                         let tf = snap.link_floor_force_n[i];

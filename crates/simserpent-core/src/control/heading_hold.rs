@@ -116,7 +116,7 @@ mod tests {
 
     #[test]
     fn the_offset_is_the_gain_times_the_mean_heading_error_clamped() {
-        let mut h = HeadingHold::new(0.5, 8.0, 0.0, 0.1, vec![true; 3]).unwrap();
+        let mut h = HeadingHold::new(0.5, 8.0, 0.0, 0.1, vec![true; 3]).expect("gain > 0");
         // Straight body turned 4° left of the goal: φ₀ = 0.5 · 4° = 2°.
         let phi = h.offset_rad(&observation(4f64.to_radians(), &[0.0; 3]));
         assert!((phi - 2f64.to_radians()).abs() < 1e-12, "{phi}");
@@ -126,14 +126,14 @@ mod tests {
         assert!((phi - 8f64.to_radians()).abs() < 1e-12, "{phi}");
         // Right of the goal: negative; the error wraps (goal 170°, heading −170° is 20° left).
         assert!(h.offset_rad(&observation(-4f64.to_radians(), &[0.0; 3])) < 0.0);
-        let mut h = HeadingHold::new(0.5, 30.0, 170.0, 0.1, vec![true; 3]).unwrap();
+        let mut h = HeadingHold::new(0.5, 30.0, 170.0, 0.1, vec![true; 3]).expect("gain > 0");
         let phi = h.offset_rad(&observation(-170f64.to_radians(), &[0.0; 3]));
         assert!((phi - 10f64.to_radians()).abs() < 1e-9, "{}", phi.to_degrees());
     }
 
     #[test]
     fn pitch_joints_do_not_turn_the_heading_and_gain_zero_is_off() {
-        let mut h = HeadingHold::new(1.0, 45.0, 0.0, 0.1, vec![false, true]).unwrap();
+        let mut h = HeadingHold::new(1.0, 45.0, 0.0, 0.1, vec![false, true]).expect("gain > 0");
         h.offset_rad(&observation(0.0, &[0.3, 0.0]));
         assert_eq!(h.mean_heading_rad, 0.0);
         assert!(HeadingHold::new(0.0, 10.0, 0.0, 0.1, vec![true; 3]).is_none());
