@@ -405,6 +405,11 @@ struct OalArgs {
     /// the held-out fields (each 0.01–100; default 0.5,1,2, --quick 1).
     #[arg(long, value_delimiter = ',', value_name = "SCALE", value_parser = scale_arg)]
     law_gain_scales: Vec<f64>,
+    /// `oal-bench` only: every law steers its mean heading to the goal with this heading-hold
+    /// gain (gait offset per radian of heading error, at most 10°; 0–10; default 0 = off), and
+    /// the condition open_loop_heading (the open loop with the same term) is their baseline.
+    #[arg(long, value_name = "GAIN", value_parser = heading_gain_arg)]
+    heading_gain: Option<f64>,
     /// `oal-bench` only: no bare-floor twins of the held-out runs.
     #[arg(long)]
     no_twins: bool,
@@ -434,6 +439,7 @@ impl OalArgs {
             || !self.conditions.is_empty()
             || !self.passive_kp.is_empty()
             || !self.law_gain_scales.is_empty()
+            || self.heading_gain.is_some()
             || self.no_twins
             || self.shard.is_some()
             || self.merge
@@ -502,6 +508,9 @@ impl OalArgs {
         if !self.law_gain_scales.is_empty() {
             b.law_gain_scales = self.law_gain_scales.clone();
         }
+        if let Some(g) = self.heading_gain {
+            b.heading_gain = g;
+        }
         b.twins = !self.no_twins;
         b.shard = self.shard.map(|s| (s.index, s.count));
         if self.merge && self.shard.is_some() {
@@ -515,6 +524,14 @@ impl OalArgs {
             );
         }
         Ok(OalOptions { bench: b, merge: self.merge })
+    }
+}
+
+/// `--heading-gain`: 0 to 10.
+fn heading_gain_arg(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(g) if (0.0..=10.0).contains(&g) => Ok(g),
+        _ => Err(format!("`{text}`: a heading-hold gain of 0 (off) to 10 (rad of offset per rad of heading error)")),
     }
 }
 

@@ -26,6 +26,9 @@
 //! - `compliance_g<G>` (with [`Bench::compliance`]): the base wave with Wang et al. (2023)'s
 //!   generalised compliance G ([`crate::control::BilateralCompliance`]), a mechanical baseline
 //!   without sensing, G swept on the tuning fields;
+//! - `open_loop_heading` (with [`Bench::heading_gain`] above 0): the open loop with the heading
+//!   hold ([`crate::control::HeadingHold`]) that every law then also has, the laws' baseline
+//!   that steers like them;
 //! - any controller a caller plugs in ([`Plugged`]).
 //!
 //! **Twins**: every held-out run also runs on the bare floor with the same seed (no pegs, the
@@ -240,6 +243,9 @@ enum Kind {
     Matched(f64),
     /// A law, its contact feed and its gain scale.
     Law(ControllerKind, ContactSource, f64),
+    /// The open loop with the laws' heading hold ([`Bench::heading_gain`]): the baseline of
+    /// laws that steer.
+    HeadingHold,
     /// The base wave with generalised compliance G ([`crate::control::BilateralCompliance`]).
     Compliance(f64),
     Plugged(Plugged),
@@ -310,6 +316,11 @@ pub struct Bench {
     /// stiff servos of every run but the passive ones; a passive gain puts the laws on the same
     /// soft servos as that baseline (their feedback-off run is then the passive run).
     pub law_servo_kp_nm_per_rad: Option<f64>,
+    /// The heading hold of every law ([`crate::control::HeadingHold`]; gait offset per radian
+    /// of mean-heading error): 0 = off; above 0 each law steers its mean heading to the goal
+    /// with this gain (at most [`HEADING_MAX_OFFSET_DEG`]), and the condition
+    /// `open_loop_heading`, the open loop with the same term, is their baseline.
+    pub heading_gain: f64,
     /// Run one shard `(i, n)`: every tuning case, the held-out cases with index mod n = i.
     pub shard: Option<(usize, usize)>,
     /// Called with (runs done, runs in all) after every run (Python's
@@ -340,6 +351,7 @@ impl Bench {
             plugged: Vec::new(),
             path_fields: 2,
             law_servo_kp_nm_per_rad: None,
+            heading_gain: 0.0,
             shard: None,
             on_progress: None,
         }
@@ -417,6 +429,9 @@ impl Bench {
             let value = format!("{:?}", self.law_gain_scales);
             return bad("law gain scales", value, "at least one, each positive and finite".into());
         }
+        if !(self.heading_gain.is_finite() && (0.0..=10.0).contains(&self.heading_gain)) {
+            return bad("heading gain", self.heading_gain.to_string(), "give 0 (off) to 10".into());
+        }
         if let Some((i, n)) = self.shard
             && (n == 0 || i >= n)
         {
@@ -436,6 +451,9 @@ impl Bench {
             for &kp in &self.passive_kp_nm_per_rad {
                 c.push(Condition { name: format!("matched_kp{kp}"), kind: Kind::Matched(kp), group: "matched".into() });
             }
+        }
+        if self.heading_gain > 0.0 && self.laws {
+            c.push(one("open_loop_heading".into(), Kind::HeadingHold));
         }
         for &g in &self.compliance {
             c.push(Condition {
@@ -580,6 +598,21 @@ fn scale_law_gains(c: &mut Config, kind: ControllerKind, g: f64) {
     }
 }
 
+/// Largest gait offset of the laws' heading hold in the benchmark (degrees).
+pub const HEADING_MAX_OFFSET_DEG: f64 = 10.0;
+
+/// Puts every law's heading hold at `gain` (0: off), at most [`HEADING_MAX_OFFSET_DEG`].
+fn set_heading_hold(c: &mut Config, gain: f64) {
+    for (g, max) in [
+        (&mut c.follow_the_leader_reflex.heading_gain, &mut c.follow_the_leader_reflex.heading_max_offset_deg),
+        (&mut c.directional_admittance.heading_gain, &mut c.directional_admittance.heading_max_offset_deg),
+        (&mut c.jam_resolution.heading_gain, &mut c.jam_resolution.heading_max_offset_deg),
+    ] {
+        *g = gain;
+        *max = HEADING_MAX_OFFSET_DEG;
+    }
+}
+
 /// The config of one condition on a field (`matched_hz`: the matched frequency of a `Matched`
 /// condition on this floor).
 fn condition_config(field: &Config, condition: &Condition, bench: &Bench, matched_hz: Option<f64>) -> Config {
@@ -604,6 +637,20 @@ fn condition_config(field: &Config, condition: &Condition, bench: &Bench, matche
             c.jam_resolution.contacts = *source;
             c.estimation.enabled = *source == ContactSource::Estimated;
             scale_law_gains(&mut c, *kind, *g);
+            set_heading_hold(&mut c, bench.heading_gain);
+            if let Some(kp) = bench.law_servo_kp_nm_per_rad {
+                c.control.position_kp_nm_per_rad = kp;
+                c.control.position_kv_nm_s_per_rad = kp / 100.0;
+            }
+        }
+        Kind::HeadingHold => {
+            // A law without its contact terms is the open loop bit for bit; its heading hold
+            // stays.
+            c.control.controller = ControllerKind::FollowTheLeaderReflex;
+            c.follow_the_leader_reflex.feedback = false;
+            // No contact is read (feedback off): no estimator to run.
+            c.follow_the_leader_reflex.contacts = ContactSource::True;
+            set_heading_hold(&mut c, bench.heading_gain);
             if let Some(kp) = bench.law_servo_kp_nm_per_rad {
                 c.control.position_kp_nm_per_rad = kp;
                 c.control.position_kv_nm_s_per_rad = kp / 100.0;
@@ -1727,6 +1774,8 @@ fn report(
         |floor: usize| held[floor].iter().copied().find(|&k| matches!(conditions[k].kind, Kind::Matched(_)));
     let compliance_of =
         |floor: usize| held[floor].iter().copied().find(|&k| matches!(conditions[k].kind, Kind::Compliance(_)));
+    let heading_of =
+        |floor: usize| held[floor].iter().copied().find(|&k| matches!(conditions[k].kind, Kind::HeadingHold));
     let quartiles = |mut v: Vec<f64>| -> [f64; 3] {
         v.retain(|x| x.is_finite());
         v.sort_by(f64::total_cmp);
@@ -1838,11 +1887,11 @@ fn report(
                 let mut against: Vec<usize> = Vec::new();
                 match conditions[k].kind {
                     Kind::OpenLoop | Kind::Matched(_) => continue,
-                    Kind::Passive(_) | Kind::Compliance(_) => {
+                    Kind::Passive(_) | Kind::Compliance(_) | Kind::HeadingHold => {
                         against.extend([Some(0), matched_of(fl)].into_iter().flatten())
                     }
                     _ => against.extend(
-                        [Some(0), passive_of(fl), matched_of(fl), compliance_of(fl), truth_of(fl, k)]
+                        [Some(0), passive_of(fl), matched_of(fl), compliance_of(fl), heading_of(fl), truth_of(fl, k)]
                             .into_iter()
                             .flatten(),
                     ),
@@ -2252,6 +2301,35 @@ mod tests {
             com_m: xs.iter().map(|x| [*x, 0.0]).collect(),
             ..Trace::default()
         }
+    }
+
+    /// `heading_gain` adds the baseline `open_loop_heading` (a law with its contact terms off and
+    /// the heading hold on) and gives every law the same heading hold; 0 leaves both out.
+    #[test]
+    fn the_heading_switch_adds_its_baseline_and_steers_every_law() {
+        let names = |b: &Bench| b.conditions().iter().map(|c| c.name().to_string()).collect::<Vec<_>>();
+        assert!(!names(&Bench::quick()).iter().any(|n| n == "open_loop_heading"));
+        let bench = Bench { heading_gain: 0.4, ..Bench::quick() };
+        assert!(bench.check().is_ok());
+        let conditions = bench.conditions();
+        let field = field_config(&Config::default(), Floor::Anisotropic, Layout::Bare, 1000);
+        let heading = conditions.iter().find(|c| c.name() == "open_loop_heading").expect("the baseline");
+        let c = condition_config(&field, heading, &bench, None);
+        assert_eq!(c.control.controller, ControllerKind::FollowTheLeaderReflex);
+        assert!(!c.follow_the_leader_reflex.feedback);
+        assert_eq!(c.follow_the_leader_reflex.heading_gain, 0.4);
+        c.validate().expect("a valid config");
+        for law in conditions.iter().filter(|c| matches!(c.kind, Kind::Law(..))) {
+            let c = condition_config(&field, law, &bench, None);
+            assert_eq!(c.follow_the_leader_reflex.heading_gain, 0.4, "{}", law.name());
+            assert_eq!(c.directional_admittance.heading_gain, 0.4, "{}", law.name());
+            assert_eq!(c.jam_resolution.heading_gain, 0.4, "{}", law.name());
+            assert_eq!(c.jam_resolution.heading_max_offset_deg, HEADING_MAX_OFFSET_DEG);
+        }
+        let off = condition_config(&field, &conditions[0], &bench, None);
+        assert_eq!(off.follow_the_leader_reflex.heading_gain, 0.0, "the open loop does not steer");
+        assert!(Bench { heading_gain: -1.0, ..Bench::quick() }.check().is_err());
+        assert!(Bench { heading_gain: f64::NAN, ..Bench::quick() }.check().is_err());
     }
 
     #[test]

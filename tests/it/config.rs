@@ -446,6 +446,8 @@ acceptance_radius_m = 0.4
 contacts = "true"
 feedback = false
 goal_heading_deg = 5.0
+heading_gain = 0.3
+heading_max_offset_deg = 12.0
 propulsive_gain_rad_per_n = 0.03
 resisting_gain_rad_per_n = 0.01
 force_filter_secs = 0.1
@@ -455,6 +457,8 @@ max_offset_deg = 20.0
 contacts = "true"
 feedback = false
 goal_heading_deg = -5.0
+heading_gain = 0.4
+heading_max_offset_deg = 8.0
 windows = 2
 window_sigma_joints = 2.0
 stiffness_nm_per_rad = 8.0
@@ -472,6 +476,8 @@ escape_secs = 1.0
 contacts = "true"
 feedback = false
 goal_heading_deg = 15.0
+heading_gain = 0.5
+heading_max_offset_deg = 6.0
 jam_window_secs = 1.5
 jam_min_progress_m = 0.04
 resolve_secs = 1.0
@@ -807,6 +813,8 @@ fn all_fields_expected() -> Config {
         contacts: ContactSource::True,
         feedback: false,
         goal_heading_deg: 5.0,
+        heading_gain: 0.3,
+        heading_max_offset_deg: 12.0,
         propulsive_gain_rad_per_n: 0.03,
         resisting_gain_rad_per_n: 0.01,
         force_filter_secs: 0.1,
@@ -816,6 +824,8 @@ fn all_fields_expected() -> Config {
         contacts: ContactSource::True,
         feedback: false,
         goal_heading_deg: -5.0,
+        heading_gain: 0.4,
+        heading_max_offset_deg: 8.0,
         windows: 2,
         window_sigma_joints: 2.0,
         stiffness_nm_per_rad: 8.0,
@@ -833,6 +843,8 @@ fn all_fields_expected() -> Config {
         contacts: ContactSource::True,
         feedback: false,
         goal_heading_deg: 15.0,
+        heading_gain: 0.5,
+        heading_max_offset_deg: 6.0,
         jam_window_secs: 1.5,
         jam_min_progress_m: 0.04,
         resolve_secs: 1.0,

@@ -251,7 +251,7 @@ fn the_estimation_experiment_writes_data_and_plots_and_counts_every_case() {
         assert!(outcome.folder.join(format!("plots/estimation_{case}_link_00.png")).is_file());
     }
     assert!(outcome.folder.join("estimation_motion.csv").is_file());
-    assert!(outcome.folder.join("estimation_friction.csv").is_file());
+    assert!(outcome.folder.join("estimation_mu_identified.csv").is_file());
     assert!(outcome.folder.join("plots/estimation_friction_isotropic.png").is_file());
 }
 

@@ -1266,6 +1266,11 @@ pub struct FollowTheLeaderReflex {
     /// The goal direction (degrees from +x): a contact force with a component along it is
     /// propulsive, one against it resisting.
     pub goal_heading_deg: f64,
+    /// Heading hold (`control::HeadingHold`): gait offset φ₀ (rad) per radian of the mean link
+    /// heading's deviation from the goal (0 = off; independent of `feedback`).
+    pub heading_gain: f64,
+    /// Largest heading-hold offset φ₀ (degrees).
+    pub heading_max_offset_deg: f64,
     /// Bend toward a peg on the propulsive flank: joint offset (rad) per newton of lateral force.
     pub propulsive_gain_rad_per_n: f64,
     /// Relax away from a peg on the resisting flank: joint offset (rad) per newton.
@@ -1287,6 +1292,11 @@ pub struct DirectionalAdmittance {
     pub feedback: bool,
     /// The goal direction (degrees from +x).
     pub goal_heading_deg: f64,
+    /// Heading hold (`control::HeadingHold`): gait offset φ₀ (rad) per radian of the mean link
+    /// heading's deviation from the goal (0 = off; independent of `feedback`).
+    pub heading_gain: f64,
+    /// Largest heading-hold offset φ₀ (degrees).
+    pub heading_max_offset_deg: f64,
     /// Number of body windows, each with its own wave amplitude.
     pub windows: usize,
     /// Width (standard deviation, in joints) of each window's Gaussian.
@@ -1321,6 +1331,11 @@ pub struct JamResolution {
     pub feedback: bool,
     /// The goal direction (degrees from +x).
     pub goal_heading_deg: f64,
+    /// Heading hold (`control::HeadingHold`): gait offset φ₀ (rad) per radian of the mean link
+    /// heading's deviation from the goal (0 = off; independent of `feedback`).
+    pub heading_gain: f64,
+    /// Largest heading-hold offset φ₀ (degrees).
+    pub heading_max_offset_deg: f64,
     /// A jam: the centre of mass gains less than `jam_min_progress_m` (m) along the goal
     /// within `jam_window_secs` (s).
     pub jam_window_secs: f64,

@@ -232,6 +232,7 @@ impl Config {
     fn validate_contact_laws(&self) -> Check {
         let r = &self.follow_the_leader_reflex;
         finite("follow_the_leader_reflex.goal_heading_deg", r.goal_heading_deg)?;
+        self.validate_heading_hold("follow_the_leader_reflex", r.heading_gain, r.heading_max_offset_deg)?;
         non_negative("follow_the_leader_reflex.propulsive_gain_rad_per_n", r.propulsive_gain_rad_per_n)?;
         non_negative("follow_the_leader_reflex.resisting_gain_rad_per_n", r.resisting_gain_rad_per_n)?;
         non_negative("follow_the_leader_reflex.force_filter_secs", r.force_filter_secs)?;
@@ -239,6 +240,7 @@ impl Config {
 
         let a = &self.directional_admittance;
         finite("directional_admittance.goal_heading_deg", a.goal_heading_deg)?;
+        self.validate_heading_hold("directional_admittance", a.heading_gain, a.heading_max_offset_deg)?;
         ensure(a.windows >= 1, "directional_admittance.windows", a.windows, "must be at least 1")?;
         positive("directional_admittance.window_sigma_joints", a.window_sigma_joints)?;
         positive("directional_admittance.stiffness_nm_per_rad", a.stiffness_nm_per_rad)?;
@@ -266,6 +268,7 @@ impl Config {
 
         let j = &self.jam_resolution;
         finite("jam_resolution.goal_heading_deg", j.goal_heading_deg)?;
+        self.validate_heading_hold("jam_resolution", j.heading_gain, j.heading_max_offset_deg)?;
         positive("jam_resolution.jam_window_secs", j.jam_window_secs)?;
         non_negative("jam_resolution.jam_min_progress_m", j.jam_min_progress_m)?;
         positive("jam_resolution.resolve_secs", j.resolve_secs)?;
@@ -354,6 +357,13 @@ impl Config {
             fmt_f(offset_deg),
             format!("must be below snake.joint_range_deg ({})", fmt_f(self.snake.joint_range_deg)),
         )
+    }
+
+    /// A contact law's heading hold: `<section>.heading_gain` ≥ 0 and its largest offset below
+    /// the joint range.
+    fn validate_heading_hold(&self, section: &str, gain: f64, max_offset_deg: f64) -> Check {
+        non_negative(&format!("{section}.heading_gain"), gain)?;
+        self.below_joint_range(&format!("{section}.heading_max_offset_deg"), max_offset_deg)
     }
 
     fn validate_estimation(&self) -> Check {

@@ -32,8 +32,8 @@
 
 use super::contact_jacobian::{Flank, PlanarBody, flank};
 use super::{
-    Command, ContactFeed, Controller, Observation, Pid, SineWave, command_joint, feel, joint_pid, low_pass_gain,
-    yaw_joints,
+    Command, ContactFeed, Controller, HeadingHold, Observation, Pid, SineWave, command_joint, feel, joint_pid,
+    low_pass_gain, yaw_joints,
 };
 use crate::config::{Config, ControlMethod};
 use crate::control::JointTrajectory;
@@ -43,6 +43,8 @@ use crate::state::Snapshot;
 /// The controller of `control.controller = "directional_admittance"`.
 pub struct DirectionalAdmittance {
     wave: SineWave,
+    /// The heading-hold term (`heading_gain` > 0), which sets the wave's offset.
+    heading: Option<HeadingHold>,
     method: ControlMethod,
     pids: Vec<Pid>,
     dt_secs: f64,
@@ -102,6 +104,13 @@ impl DirectionalAdmittance {
             pids: vec![joint_pid(config); n_joints],
             dt_secs: config.general.timestep_secs,
             contacts: ContactFeed::new(config, a.contacts, n_links),
+            heading: HeadingHold::for_law(
+                config,
+                n_joints,
+                a.heading_gain,
+                a.heading_max_offset_deg,
+                a.goal_heading_deg,
+            ),
             feedback: a.feedback,
             goal: [goal.cos(), goal.sin()],
             window,
@@ -146,6 +155,9 @@ impl DirectionalAdmittance {
 
     fn step(&mut self, obs: &Observation, contacts: &ContactEstimates, cmd: &mut Command) {
         let t = obs.time_secs;
+        if let Some(h) = self.heading.as_mut() {
+            self.wave.offset_rad = h.wave_offset_rad(obs);
+        }
         self.wave.targets(t, &mut self.base_rad, &mut self.base_velocity_rad_per_s);
         let n = self.base_rad.len();
         let omega = std::f64::consts::TAU * self.wave.frequency_hz;

@@ -29,8 +29,8 @@
 
 use super::contact_jacobian::{Flank, PlanarBody, flank};
 use super::{
-    Command, ContactFeed, Controller, Observation, Pid, SineWave, command_joint, feel, joint_pid, low_pass_gain,
-    yaw_joints,
+    Command, ContactFeed, Controller, HeadingHold, Observation, Pid, SineWave, command_joint, feel, joint_pid,
+    low_pass_gain, yaw_joints,
 };
 use crate::config::{Config, ControlMethod};
 use crate::control::JointTrajectory;
@@ -40,6 +40,8 @@ use crate::state::Snapshot;
 /// The controller of `control.controller = "follow_the_leader_reflex"`.
 pub struct FollowTheLeaderReflex {
     wave: SineWave,
+    /// The heading-hold term (`heading_gain` > 0), which sets the wave's offset.
+    heading: Option<HeadingHold>,
     method: ControlMethod,
     pids: Vec<Pid>,
     dt_secs: f64,
@@ -84,6 +86,13 @@ impl FollowTheLeaderReflex {
             pids: vec![joint_pid(config); n_joints],
             dt_secs: dt,
             contacts: ContactFeed::new(config, r.contacts, n_links),
+            heading: HeadingHold::for_law(
+                config,
+                n_joints,
+                r.heading_gain,
+                r.heading_max_offset_deg,
+                r.goal_heading_deg,
+            ),
             feedback: r.feedback,
             goal: [goal.cos(), goal.sin()],
             propulsive_gain_rad_per_n: r.propulsive_gain_rad_per_n,
@@ -114,6 +123,9 @@ impl FollowTheLeaderReflex {
 
     fn step(&mut self, obs: &Observation, contacts: &ContactEstimates, cmd: &mut Command) {
         let n = self.offset_rad.len();
+        if let Some(h) = self.heading.as_mut() {
+            self.wave.offset_rad = h.wave_offset_rad(obs);
+        }
         self.wave.targets(obs.time_secs, &mut self.base_rad, &mut self.base_velocity_rad_per_s);
         if self.feedback {
             let dt = self.body.sense(obs);
@@ -264,6 +276,41 @@ mod tests {
         assert_eq!(seen[steps - 2].1, 0.0);
         assert_eq!(seen[2 * steps - 1].2, first, "joint 5 2τ later");
         assert_eq!(seen[0].0, 0.0, "joint 3's own offset ends with its contact");
+    }
+
+    /// During the gait's ramp-in the contacts do not feed the law (`control::feel`): the same
+    /// contact moves the joints only from `gait.ramp_secs` on.
+    #[test]
+    fn contacts_feed_the_reflex_only_after_the_ramp_in() {
+        let mut c = config();
+        c.gait.ramp_secs = 1.0;
+        let mut ctl = FollowTheLeaderReflex::from_config(&c, 9);
+        let mut cmd = Command::new(9);
+        ctl.update(&observation(0.999, 1.0), &mut cmd);
+        assert!(ctl.reflex_rad().iter().all(|r| *r == 0.0), "{:?}", ctl.reflex_rad());
+        ctl.update(&observation(1.0, 1.0), &mut cmd);
+        assert!(ctl.reflex_rad()[2] < 0.0, "{:?}", ctl.reflex_rad());
+    }
+
+    /// The heading hold adds φ₀ = k·(θ̄ − θ_goal) to the wave's offset, with the feedback on or
+    /// off: a straight body yawed 4° left of the goal, gain 0.5, gets +2° on every joint.
+    #[test]
+    fn the_heading_hold_adds_its_offset_to_every_joint() {
+        let mut c = config();
+        c.follow_the_leader_reflex.feedback = false;
+        c.follow_the_leader_reflex.heading_gain = 0.5;
+        let mut ctl = FollowTheLeaderReflex::from_config(&c, 9);
+        let mut open = super::super::TrajectoryController::from_config(&c, 9);
+        let (mut a, mut b) = (Command::new(9), Command::new(9));
+        let mut obs = observation(0.7, 0.0);
+        obs.contacts.contact[3] = false;
+        let yaw = 4f64.to_radians();
+        obs.head_quat = [(0.5 * yaw).cos(), 0.0, 0.0, (0.5 * yaw).sin()];
+        ctl.update(&obs, &mut a);
+        open.update(&obs, &mut b);
+        for j in 0..9 {
+            assert!((a.position_rad[j] - b.position_rad[j] - 2f64.to_radians()).abs() < 1e-12, "joint {j}");
+        }
     }
 
     #[test]

@@ -32,8 +32,8 @@
 
 use super::contact_jacobian::{Flank, PlanarBody, flank, servo_stiffness_nm_per_rad};
 use super::{
-    Command, ContactFeed, Controller, Observation, Pid, SineWave, command_joint, feel, joint_pid, low_pass_gain,
-    yaw_joints,
+    Command, ContactFeed, Controller, HeadingHold, Observation, Pid, SineWave, command_joint, feel, joint_pid,
+    low_pass_gain, yaw_joints,
 };
 use crate::config::{Config, ControlMethod};
 use crate::control::JointTrajectory;
@@ -54,6 +54,8 @@ pub enum Resolution {
 /// The controller of `control.controller = "jam_resolution"`.
 pub struct JamResolution {
     wave: SineWave,
+    /// The heading-hold term (`heading_gain` > 0), which sets the wave's offset.
+    heading: Option<HeadingHold>,
     method: ControlMethod,
     pids: Vec<Pid>,
     dt_secs: f64,
@@ -93,6 +95,13 @@ impl JamResolution {
             pids: vec![joint_pid(config); n_joints],
             dt_secs: config.general.timestep_secs,
             contacts: ContactFeed::new(config, j.contacts, n_links),
+            heading: HeadingHold::for_law(
+                config,
+                n_joints,
+                j.heading_gain,
+                j.heading_max_offset_deg,
+                j.goal_heading_deg,
+            ),
             feedback: j.feedback,
             goal: [goal.cos(), goal.sin()],
             jam_window_secs: j.jam_window_secs,
@@ -202,6 +211,9 @@ impl JamResolution {
 
     fn step(&mut self, obs: &Observation, contacts: &ContactEstimates, cmd: &mut Command) {
         let t = obs.time_secs;
+        if let Some(h) = self.heading.as_mut() {
+            self.wave.offset_rad = h.wave_offset_rad(obs);
+        }
         self.wave.targets(t, &mut self.base_rad, &mut self.base_velocity_rad_per_s);
         if self.feedback {
             let dt = self.body.sense(obs);
