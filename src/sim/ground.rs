@@ -132,7 +132,7 @@
 //! of heavy links rocks on the floor (30 links of 3 kg: Σ N between 0.56 and 1.81 of the weight
 //! in steady undulation). A run that starts with a link pushed at 0.999·μN slides at first: its
 //! stick spring–damper, critically damped, asks 13 % more than the push while it settles. A hard
-//! sideways hit at μ 1 lifts the snake 32–40 mm where the reference engine lifts it 5–23 mm: the
+//! sideways hit at μ 1 lifts the snake 29–46 mm where the reference engine lifts it 5–23 mm: the
 //! links roll on the floor before the hit, the obstacles' friction stops their spin and drives
 //! them into the floor, which throws them back. Gravity during a contact (≈ 3 ms) takes about
 //! g·t/v off a rebound at speed v. Rolling and torsional friction are not modelled.
