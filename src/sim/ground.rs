@@ -1234,7 +1234,7 @@ impl Ground {
         }
         if obstacle_contact {
             self.obstacle_normals(world, mujoco_ground_contact);
-            self.obstacle_friction(world, true);
+            self.obstacle_friction(world, mujoco_ground_contact);
             return;
         }
         for slot in st.obstacle_slots.iter_mut().flatten() {
@@ -1369,19 +1369,16 @@ impl Ground {
     }
 
     /// The friction of the links' obstacle contacts at x_k, on a step where a link touches an
-    /// obstacle: a forward pass at x_k with the step's ground forces in `xfrc_applied` (and the
-    /// ground geoms detached, as in MuJoCo's step) gives each link–obstacle contact its normal
-    /// force N_k, the contact points' accelerations without obstacle friction and the factorised
+    /// obstacle: a forward pass at x_k from the acceleration stage on, with the step's ground and
+    /// obstacle normal forces in `xfrc_applied` ([`Ground::obstacle_normals`] gave each contact its
+    /// N_k), gives the contact points' accelerations without obstacle friction and the factorised
     /// mass matrix; the friction that stops every obstacle contact point's slip within the step,
     /// each slot's force inside its disk μ·N_k, is solved over all slots at once and added to
     /// `xfrc_applied`. See "Obstacles" in the module docs.
-    fn obstacle_friction(&mut self, world: &mut World, contacts_found: bool) {
+    fn obstacle_friction(&mut self, world: &mut World, mujoco_ground_contact: bool) {
         let Some(st) = self.stick_slip.as_mut() else { return };
-        if contacts_found {
-            forward_forces(world);
-        } else {
-            world.data.forward();
-        }
+        // The obstacle normal forces' pass ran the kinematics and collision of x_k already.
+        forward_forces(world);
         let dt = st.timestep_secs;
         let mu = st.obstacle_mu;
         // Every touching obstacle slot: its contact point, normal and tangent frame (the link's
@@ -1479,7 +1476,7 @@ impl Ground {
         }
         // The obstacle contacts' normal forces are the law's of x_k (the friction does not move
         // them); heightfield and mesh ground contacts get MuJoCo's, moved by the friction.
-        if contacts_found {
+        if mujoco_ground_contact {
             st.settle_friction_bounds(world, &self.bodies);
         }
     }

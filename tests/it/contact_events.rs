@@ -253,20 +253,20 @@ const RAMP_REFERENCE: [(f64, f64, f64, [f64; 10]); 2] = [
     (1.0, 3.55e-3, 68.1, [1.002, 0.998, 1.000, 1.004, 1.004, 1.000, 0.995, 0.992, 0.997, 1.011]),
 ];
 
+/// The reference scenes' gait: a 30° wave at 0.5 Hz, 40° between joints, ramped in over 1 s.
+const SCENE_GAIT: [&str; 6] = [
+    "gait.kind=\"sine_wave\"",
+    "gait.sine_wave.amplitude_deg=30.0",
+    "gait.sine_wave.frequency_hz=0.5",
+    "gait.sine_wave.phase_lag_deg=40.0",
+    "gait.sine_wave.offset_deg=0.0",
+    "gait.ramp_secs=1.0",
+];
+
 #[test]
 fn the_gait_ramp_and_steady_undulation_stay_within_the_reference_envelope() {
     for (mu, lift, peak, loads) in RAMP_REFERENCE {
-        let c = scene(
-            mu,
-            &[
-                "gait.kind=\"sine_wave\"",
-                "gait.sine_wave.amplitude_deg=30.0",
-                "gait.sine_wave.frequency_hz=0.5",
-                "gait.sine_wave.phase_lag_deg=40.0",
-                "gait.sine_wave.offset_deg=0.0",
-                "gait.ramp_secs=1.0",
-            ],
-        );
+        let c = scene(mu, &SCENE_GAIT);
         let mut sim = simulation(&c);
         let e = measure(&c, &mut sim, 1.0, mu);
         eprintln!("μ {mu}, ramp: {e:?}");
@@ -590,12 +590,12 @@ fn ground_figures(c: &Config) -> GroundFigures {
     let mut sim = simulation(c);
     let mut s = Snapshot::new(n, n - 1);
     let com = |s: &Snapshot| {
-        let m: f64 = s.link_mass_kg.iter().sum();
-        [0, 1].map(|a| (0..n).map(|i| s.link_mass_kg[i] * s.link_position_m[i][a]).sum::<f64>() / m)
+        let c = s.centre_of_mass_m();
+        [c[0], c[1]]
     };
     let steps = (3.0 / dt).round() as usize;
     let from = (1.0 / dt).round() as usize;
-    let (mut start, mut at_one, mut path) = ([0.0; 2], [0.0; 2], 0.0);
+    let (mut start, mut path) = ([0.0; 2], 0.0);
     let mut previous = [0.0; 2];
     let mut loads = vec![0.0; n];
     let mut peak: f64 = 0.0;
@@ -605,9 +605,6 @@ fn ground_figures(c: &Config) -> GroundFigures {
         let p = com(&s);
         if k == 0 {
             start = p;
-        }
-        if k == from {
-            at_one = p;
         }
         if k > from {
             path += (p[0] - previous[0]).hypot(p[1] - previous[1]);
@@ -623,7 +620,6 @@ fn ground_figures(c: &Config) -> GroundFigures {
         }
         sim.advance().unwrap();
     }
-    let _ = at_one;
     GroundFigures {
         displacement_m: [previous[0] - start[0], previous[1] - start[1]],
         speed_m_per_s: path / 2.0,
@@ -643,14 +639,7 @@ fn a_flat_heightfield_and_a_flat_mesh_terrain_equal_the_plane() {
     crate::common::write_gray_png(&png, 64, 64, &[255u8; 64 * 64]);
     let obj = dir.path().join("flat.obj");
     std::fs::write(&obj, "v -2 -2 0.02\nv 2 -2 0.02\nv 2 2 0.02\nv -2 2 0.02\nf 1 2 3\nf 1 3 4\n").unwrap();
-    let gait = [
-        "gait.kind=\"sine_wave\"",
-        "gait.sine_wave.amplitude_deg=30.0",
-        "gait.sine_wave.frequency_hz=0.5",
-        "gait.sine_wave.phase_lag_deg=40.0",
-        "gait.sine_wave.offset_deg=0.0",
-        "gait.ramp_secs=1.0",
-    ];
+    let gait = SCENE_GAIT;
     for mu in [0.5, 1.0] {
         for dt in [1e-3, 5e-4] {
             let base = scene(mu, &gait);
@@ -744,8 +733,9 @@ fn wall_restitution(n_links: usize, dt: f64) -> f64 {
     for _ in 0..(0.3 / dt).round() as usize {
         sim.control();
         sim.snapshot(&mut s);
-        let m: f64 = s.link_mass_kg.iter().sum();
-        let vy = (0..n).map(|i| s.link_mass_kg[i] * s.link_velocity_m_per_s[i][1]).sum::<f64>() / m;
+        let vy = simserpent::state::centre_of_mass_m(
+            s.link_mass_kg.iter().copied().zip(s.link_velocity_m_per_s.iter().copied()),
+        )[1];
         before = f64::max(before, vy);
         after = f64::min(after, vy);
         sim.advance().unwrap();
