@@ -344,6 +344,35 @@ pub fn cpu_ratios(rows: &[BenchRow], baseline: &str) -> Vec<(usize, &'static str
         .collect()
 }
 
+/// The share of the recording's CPU work that the step-loop thread does, for each full-pipeline
+/// row that records tables (CSV, Parquet, MCAP, and their writers-inline rows):
+/// `(n_links, mode, share)` with
+/// share = Δ / (Δ + W), Δ the step loop's CPU time per step above "full pipeline (no tables)"
+/// (0 when below) and W the writer threads' CPU time per step, least over the repeats each.
+/// About 0 when the writer threads format and write the files, 1 when the loop does it itself
+/// (no writer threads). Unlike [`cpu_ratios`] it does not divide by the bare engine, whose CPU
+/// time per step on a virtual machine can vary by more than half between repeats.
+pub fn loop_shares(rows: &[BenchRow]) -> Vec<(usize, &'static str, f64)> {
+    let none_of =
+        |n: usize| rows.iter().find(|r| r.n_links == n && r.mode == FULL_NONE).map(BenchRow::loop_cpu_ns_per_step);
+    rows.iter()
+        .filter(|r| {
+            matches!(
+                r.mode,
+                FULL_CSV | FULL_PARQUET | FULL_MCAP | FULL_CSV_INLINE | FULL_PARQUET_INLINE | FULL_MCAP_INLINE
+            )
+        })
+        .filter_map(|r| {
+            none_of(r.n_links).map(|none| {
+                let delta = (r.loop_cpu_ns_per_step() - none).max(0.0);
+                let writers = if r.fastest.writer_threads == 0 { 0.0 } else { r.writer_cpu_ns_per_step() };
+                let share = if delta + writers > 0.0 { delta / (delta + writers) } else { 0.0 };
+                (r.n_links, r.mode, share)
+            })
+        })
+        .collect()
+}
+
 /// How many rows the step loop can run ahead of the tables' writer thread in `mode`.
 fn lead_rows(mode: &str) -> usize {
     use crate::record::{BATCH, PARQUET_POOL, offload::POOL};
@@ -358,6 +387,7 @@ pub fn to_json(config: &Config, duration_secs: f64, repeats: usize, rows: &[Benc
     let same_physics = same_physics_ratios(rows);
     let cpu = cpu_ratios(rows, BARE_GAIT);
     let cpu_same_physics = cpu_ratios(rows, BARE_GAIT_GROUND);
+    let shares = loop_shares(rows);
     let find = |list: &[(usize, &str, f64)], r: &BenchRow| {
         list.iter().find(|(n, m, _)| *n == r.n_links && *m == r.mode).map(|(_, _, x)| *x)
     };
@@ -382,6 +412,7 @@ pub fn to_json(config: &Config, duration_secs: f64, repeats: usize, rows: &[Benc
                 "wall_us_per_step": 1e6 / r.steps_per_sec,
                 "cpu_ratio_to_bare_gait": find(&cpu, r),
                 "cpu_ratio_to_bare_gait_ground": find(&cpu_same_physics, r),
+                "loop_share_of_recording": find(&shares, r),
                 "loop_waits": waits,
                 "loop_wait_secs": wait_secs,
                 "writer_longest_batch_ms": r.repeats.iter().map(|m| m.writer_longest_batch_secs * 1e3).fold(0.0, f64::max),
@@ -407,4 +438,50 @@ pub fn to_json(config: &Config, duration_secs: f64, repeats: usize, rows: &[Benc
         "repeats": repeats,
         "rows": rows,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(mode: &'static str, loop_ns: &[f64], writer_ns: f64, writer_threads: u64) -> BenchRow {
+        let repeats: Vec<Measured> = loop_ns
+            .iter()
+            .map(|&l| Measured {
+                steps_per_sec: 1e9 / l,
+                loop_cpu_ns_per_step: l,
+                writer_cpu_ns_per_step: writer_ns,
+                writer_threads,
+                ..Measured::default()
+            })
+            .collect();
+        BenchRow {
+            n_links: 10,
+            mode,
+            steps: 1000,
+            steps_per_sec: repeats[0].steps_per_sec,
+            fastest: repeats[0],
+            repeats,
+        }
+    }
+
+    /// The share is Δ / (Δ + W) on the least CPU times: writers that do the formatting give a
+    /// small share, a loop below the pipeline without tables gives 0, no writer threads give 1.
+    #[test]
+    fn the_loop_share_of_the_recording_follows_its_definition() {
+        let rows = [
+            row(FULL_NONE, &[60_000.0, 50_000.0], 0.0, 0),
+            row(FULL_CSV, &[90_000.0, 70_000.0], 80_000.0, 2),
+            row(FULL_MCAP, &[45_000.0], 150_000.0, 2),
+            row(FULL_CSV_INLINE, &[150_000.0], 0.0, 0),
+            row(BARE_GAIT_GROUND, &[40_000.0], 0.0, 0),
+        ];
+        let shares = loop_shares(&rows);
+        let share = |mode: &str| shares.iter().find(|(_, m, _)| *m == mode).map(|(_, _, s)| *s);
+        assert!((share(FULL_CSV).expect("a CSV share") - 20_000.0 / 100_000.0).abs() < 1e-12, "{shares:?}");
+        assert_eq!(share(FULL_MCAP), Some(0.0));
+        assert_eq!(share(FULL_CSV_INLINE), Some(1.0));
+        assert_eq!(share(BARE_GAIT_GROUND), None);
+        assert_eq!(share(FULL_NONE), None);
+    }
 }

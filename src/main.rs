@@ -270,6 +270,13 @@ enum Command {
         /// this value, e.g. 0.85.
         #[arg(long, value_name = "RATIO")]
         min_cpu_ratio: Option<f64>,
+        /// Regression guard on where the recording's work runs: exit with code 1 when, for CSV,
+        /// Parquet or MCAP, the share of the recording's CPU time spent on the step-loop thread
+        /// (its CPU time per step above the pipeline without tables, over that plus the writer
+        /// threads' CPU time) is above this value, e.g. 0.5. About 0 with writer threads, 1 with
+        /// the files written on the step-loop thread.
+        #[arg(long, value_name = "SHARE")]
+        max_loop_share: Option<f64>,
     },
     /// Accuracy study: every case with RK4, implicitfast and Euler at 0.25 to 10 ms
     /// against RK4 at 0.1 ms; errors, cost, work-precision plots and a recommendation (user
@@ -1154,13 +1161,16 @@ fn bench(
     output_dir: &str,
     repeats: usize,
     json: bool,
-    (min_ratio, min_cpu_ratio): (Option<f64>, Option<f64>),
+    (min_ratio, min_cpu_ratio, max_loop_share): (Option<f64>, Option<f64>, Option<f64>),
     (inline_writers, discard_rows): (bool, bool),
 ) -> Result<(), Failure> {
     for (flag, floor) in [("--min-ratio", min_ratio), ("--min-cpu-ratio", min_cpu_ratio)] {
         if let Some(r) = floor.filter(|r| !(r.is_finite() && *r > 0.0)) {
             return Err(bad_input(anyhow::anyhow!("{flag} {r}: must be a number greater than 0 (e.g. 0.85)")));
         }
+    }
+    if let Some(s) = max_loop_share.filter(|s| !(s.is_finite() && *s > 0.0 && *s < 1.0)) {
+        return Err(bad_input(anyhow::anyhow!("--max-loop-share {s}: must be a number between 0 and 1 (e.g. 0.5)")));
     }
     let (config, source) = load(args)?;
     let rows =
@@ -1175,6 +1185,12 @@ fn bench(
     };
     let below = below_of(simserpent::bench::pipeline_ratios(&rows), min_ratio);
     let below_cpu = below_of(simserpent::bench::cpu_ratios(&rows, simserpent::bench::BARE_GAIT_GROUND), min_cpu_ratio);
+    let shares = simserpent::bench::loop_shares(&rows);
+    let above_share: Vec<String> = shares
+        .iter()
+        .filter(|(_, mode, share)| !mode.ends_with("writers inline)") && max_loop_share.is_some_and(|m| *share > m))
+        .map(|(n, mode, share)| format!("{n} links, {mode}: {share:.3}"))
+        .collect();
     let guard = || -> Result<(), Failure> {
         let mut failed = Vec::new();
         if let (false, Some(floor)) = (below.is_empty(), min_ratio) {
@@ -1184,6 +1200,12 @@ fn bench(
             failed.push(format!(
                 "step-loop CPU time per step, bare engine (gait + ground) / full pipeline, below the floor {floor}: {}",
                 below_cpu.join("; ")
+            ));
+        }
+        if let (false, Some(ceiling)) = (above_share.is_empty(), max_loop_share) {
+            failed.push(format!(
+                "share of the recording's CPU time on the step-loop thread above {ceiling}: {}",
+                above_share.join("; ")
             ));
         }
         if failed.is_empty() {
@@ -1205,16 +1227,20 @@ fn bench(
     outln!(
         "| links | mode | steps/s | real-time factor | vs bare still | vs bare gait | vs bare gait + ground \
          | wall µs/step | loop CPU µs/step | writers' CPU µs/step | loop CPU: bare gait + ground / this \
-         | loop waits (s) |"
+         | recording's CPU on the loop | loop waits (s) |"
     );
-    outln!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    outln!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     for chunk in rows.chunks(simserpent::bench::modes(inline_writers, discard_rows).len()) {
         let (still, gait, ground) = (chunk[0].steps_per_sec, chunk[1].steps_per_sec, chunk[2].steps_per_sec);
         let ground_cpu = chunk[2].loop_cpu_ns_per_step();
         for r in chunk {
             let (waits, wait_secs) = r.loop_waits();
+            let share = shares
+                .iter()
+                .find(|(n, mode, _)| *n == r.n_links && *mode == r.mode)
+                .map_or_else(|| "–".to_string(), |(_, _, s)| format!("{s:.2}"));
             outln!(
-                "| {} | {} | {:.0} | {:.1} | {:.0}% | {:.0}% | {:.0}% | {:.1} | {:.1} | {:.1} | {:.3} | {} ({:.3}) |",
+                "| {} | {} | {:.0} | {:.1} | {:.0}% | {:.0}% | {:.0}% | {:.1} | {:.1} | {:.1} | {:.3} | {} | {} ({:.3}) |",
                 r.n_links,
                 r.mode,
                 r.steps_per_sec,
@@ -1226,6 +1252,7 @@ fn bench(
                 r.loop_cpu_ns_per_step() * 1e-3,
                 r.writer_cpu_ns_per_step() * 1e-3,
                 ground_cpu / r.loop_cpu_ns_per_step(),
+                share,
                 waits,
                 wait_secs
             );
@@ -1496,6 +1523,7 @@ fn main() -> ExitCode {
             json,
             min_ratio,
             min_cpu_ratio,
+            max_loop_share,
             inline_writers,
             discard_rows,
         }) => bench(
@@ -1505,7 +1533,7 @@ fn main() -> ExitCode {
             &output_dir,
             repeats,
             json,
-            (min_ratio, min_cpu_ratio),
+            (min_ratio, min_cpu_ratio, max_loop_share),
             (inline_writers, discard_rows),
         ),
         Some(Command::Sweep { config, vary, sample, samples, seed, sweep_dir, threads, shard, quiet }) => {

@@ -162,6 +162,12 @@ fn bench_reports_cpu_time_per_step_of_the_loop_and_of_the_writer_threads() {
     let expected = num(bare, "loop_cpu_us_per_step") / num(csv, "loop_cpu_us_per_step");
     assert!((ratio - expected).abs() < 1e-9, "{ratio} against {expected}");
     assert!(num(csv, "writer_longest_batch_ms") > 0.0 && num(csv, "loop_lead_ms") > 0.0, "{csv}");
+    // The share of the recording's CPU work on the loop thread, from the same figures.
+    let none = row("full pipeline (no tables)");
+    let delta = (num(csv, "loop_cpu_us_per_step") - num(none, "loop_cpu_us_per_step")).max(0.0);
+    let share = num(csv, "loop_share_of_recording");
+    assert!((share - delta / (delta + formatting)).abs() < 1e-9, "{share} against {delta} and {formatting}");
+    assert!(bare["loop_share_of_recording"].is_null(), "{bare}");
 }
 
 /// `--min-cpu-ratio` fails the bench (exit 1, naming the ratio) when the step loop's CPU time
@@ -186,4 +192,23 @@ fn the_cpu_ratio_guard_fails_below_its_floor_and_rejects_a_bad_floor() {
     let out = bench("0");
     assert_eq!(out.status.code(), Some(2), "{}", text(&out));
     assert!(text(&out).contains("--min-cpu-ratio 0: must be a number greater than 0"), "{}", text(&out));
+}
+
+/// `--max-loop-share` takes a share strictly between 0 and 1 (exit 2 naming the value
+/// otherwise); the share itself is checked on constructed rows in `bench`'s unit tests.
+#[test]
+fn the_loop_share_guard_rejects_a_share_outside_0_to_1() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for bad in ["0", "1", "1.5", "NaN"] {
+        let out = simserpent(
+            dir.path(),
+            &["bench", "--links", "3", "--duration-secs", "0.05", "--max-loop-share", bad, "--output-dir", "bench"],
+        );
+        assert_eq!(out.status.code(), Some(2), "{bad}: {}", text(&out));
+        assert!(
+            text(&out).contains(&format!("--max-loop-share {bad}: must be a number between 0 and 1")),
+            "{}",
+            text(&out)
+        );
+    }
 }
