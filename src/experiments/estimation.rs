@@ -97,6 +97,30 @@ pub struct Trace {
     /// Per sample, per link: the step loop's contact flag (`Observation::contacts`, floor
     /// separated), empty when estimation is off.
     pub contact_flag: Vec<Vec<bool>>,
+    /// Per sample: the time (s) of the sensor values the contact flag comes from
+    /// (`Observation::sensor_time_secs`: the last complete model evaluation, one step before the
+    /// sample's instant), so a flag is scored against the truth of the instant it describes.
+    pub contact_flag_time_s: Vec<f64>,
+}
+
+impl Trace {
+    /// Per sample: the step loop's contact flags that describe this sample's instant (the flags
+    /// whose sensor time is the sample's time; `None` where no recorded flag does, e.g. at the
+    /// last instant).
+    pub fn aligned_contact_flags(&self) -> Vec<Option<&[bool]>> {
+        let mut j = 0;
+        self.time_s
+            .iter()
+            .map(|&t| {
+                while j < self.contact_flag_time_s.len() && self.contact_flag_time_s[j] < t - 1e-9 {
+                    j += 1;
+                }
+                (j < self.contact_flag_time_s.len() && (self.contact_flag_time_s[j] - t).abs() <= 1e-9)
+                    .then(|| self.contact_flag.get(j).map(Vec::as_slice))
+                    .flatten()
+            })
+            .collect()
+    }
 }
 
 /// Runs `config` for `steps` steps with a constant torque on every joint and scores
@@ -167,6 +191,7 @@ impl Observer<SimError> for Scorer<'_> {
         self.score.add(&out.link_force_n, &snap.link_contact_force_n);
         trace.time_s.push(snap.time_secs);
         trace.contact_flag.push(view.observation.contacts.contact.clone());
+        trace.contact_flag_time_s.push(view.observation.sensor_time_secs);
         trace.estimate_n.push(out.link_force_n.clone());
         trace.exact_estimate_n.push(self.exact.link_force_n.clone());
         trace.truth_total_n.push(snap.link_contact_force_n.clone());
@@ -280,7 +305,9 @@ struct Detection {
 }
 
 /// Obstacle contact detection: a contact is present when the true obstacle force reaches the
-/// threshold; it is detected when the step loop's estimator flags it (`Observation::contacts`:
+/// threshold; it is detected when the step loop's estimator flags it at the same instant (the
+/// flag whose sensor values describe the instant: [`Trace::aligned_contact_flags`]; an instant
+/// no flag describes is not scored) (`Observation::contacts`:
 /// the floor's share — support and friction up to μ·N while the link sticks — removed from the
 /// external force, the rest above `estimation.detection_threshold_n`). A present contact is
 /// observable when the link's true horizontal external force exceeds `mu`·N (N its true vertical
@@ -290,10 +317,16 @@ struct Detection {
 fn detection(trace: &Trace, link: usize, mu: f64, threshold_n: f64) -> Detection {
     let mut d = Detection::default();
     let mut previous_n = f64::NAN;
-    for ((flags, t), total) in trace.contact_flag.iter().zip(&trace.truth_obstacle_n).zip(&trace.truth_total_n) {
+    let flags = trace.aligned_contact_flags();
+    for ((flags, t), total) in flags.iter().zip(&trace.truth_obstacle_n).zip(&trace.truth_total_n) {
+        let f = total[link];
+        // The support of this instant enters the next one's bound (below) even when unscored.
+        let Some(flags) = flags else {
+            previous_n = f[2];
+            continue;
+        };
         let present = t[link][0].hypot(t[link][1]).hypot(t[link][2]) >= DETECTION_THRESHOLD_N;
         let detected = flags.get(link).copied().unwrap_or(false);
-        let f = total[link];
         // The floor's hold is bounded by μ times a normal force of this or the previous instant
         // (the floor's friction bound comes from an earlier model evaluation than the one the
         // sensors describe: `estimation::motion`), so a push is observable only beyond the
@@ -1250,12 +1283,29 @@ mod tests {
     }
 
     #[test]
+    fn a_flag_is_scored_against_the_instant_its_sensors_describe() {
+        // The step loop's flag at record k comes from the sensors of instant k − 1: a push at
+        // instants 3 and 4 flagged at records 4 and 5 is two hits, not a miss and a hit.
+        let mut t = pinch_trace(8);
+        for (k, row) in t.truth_obstacle_n.iter_mut().enumerate() {
+            row[0] = if k == 3 || k == 4 { [1.0, 0.0, 0.0] } else { [0.0; 3] };
+        }
+        t.contact_flag = (0..8).map(|k| vec![k == 4 || k == 5, false]).collect();
+        t.contact_flag_time_s = (0..8).map(|k| t.time_s[k.max(1) - 1]).collect();
+        let d = detection(&t, 0, 0.0, 0.0);
+        assert_eq!((d.hits, d.misses, d.false_alarms), (2, 0, 0));
+        // The last instant has no flag that describes it: not scored.
+        assert!(t.aligned_contact_flags()[7].is_none());
+    }
+
+    #[test]
     fn a_push_below_static_friction_is_not_observable_and_not_a_miss() {
         // The pushed link's horizontal external force (1.6 N) exceeds μ·N (1.5 N at μ 0.5) by
         // 0.1 N: with the in-loop threshold 0.8 N it is hidden, not missed; at μ 0.1 (excess
         // 1.3 N) it is observable, and an unflagged push is a miss.
         let mut t = pinch_trace(10);
         t.contact_flag = vec![vec![false, false]; 10];
+        t.contact_flag_time_s = t.time_s.clone();
         let d = detection(&t, 0, 0.5, 0.8);
         assert_eq!((d.hits, d.misses, d.hidden), (0, 0, 10));
         assert!((d.hidden_excess_sum_n / 10.0 - 0.1).abs() < 1e-9);
