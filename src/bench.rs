@@ -220,7 +220,7 @@ fn measure(config: &Config, mode: &str, steps: u64) -> Result<Measured, RunError
                 config.ros2.real_time_factor = 0.0;
                 config.ros2.interfaces = vec!["127.0.0.1".to_string()];
             }
-            let inline_writers = matches!(mode, FULL_CSV_INLINE | FULL_PARQUET_INLINE | FULL_MCAP_INLINE);
+            let inline_writers = writers_inline(mode);
             let options = RunOptions { config_source: "bench".into(), inline_writers, ros2, ..RunOptions::default() };
             let account = Arc::new(WriterAccount::new(mode == FULL_CSV_DISCARD));
             let summary = {
@@ -323,8 +323,18 @@ pub fn same_physics_ratios(rows: &[BenchRow]) -> Vec<(usize, &'static str, f64)>
     ratios_to(rows, BARE_GAIT_GROUND)
 }
 
+/// Whether `mode` writes its files on the step-loop thread (`--inline-writers`).
+pub fn writers_inline(mode: &str) -> bool {
+    matches!(mode, FULL_CSV_INLINE | FULL_PARQUET_INLINE | FULL_MCAP_INLINE)
+}
+
+/// The row of `mode` at `n_links` links.
+fn row_of<'a>(rows: &'a [BenchRow], n_links: usize, mode: &str) -> Option<&'a BenchRow> {
+    rows.iter().find(|r| r.n_links == n_links && r.mode == mode)
+}
+
 fn ratios_to(rows: &[BenchRow], baseline: &str) -> Vec<(usize, &'static str, f64)> {
-    let bare_of = |n: usize| rows.iter().find(|r| r.n_links == n && r.mode == baseline).map(|r| r.steps_per_sec);
+    let bare_of = |n: usize| row_of(rows, n, baseline).map(|r| r.steps_per_sec);
     rows.iter()
         .filter(|r| r.mode == FULL_CSV || r.mode == FULL_PARQUET)
         .filter_map(|r| bare_of(r.n_links).map(|b| (r.n_links, r.mode, r.steps_per_sec / b)))
@@ -336,8 +346,7 @@ fn ratios_to(rows: &[BenchRow], baseline: &str) -> Vec<(usize, &'static str, f64
 /// full pipeline needs no more CPU per step than the bare engine; it is not lowered by other
 /// processes waiting for the cores (see the module documentation).
 pub fn cpu_ratios(rows: &[BenchRow], baseline: &str) -> Vec<(usize, &'static str, f64)> {
-    let bare_of =
-        |n: usize| rows.iter().find(|r| r.n_links == n && r.mode == baseline).map(BenchRow::loop_cpu_ns_per_step);
+    let bare_of = |n: usize| row_of(rows, n, baseline).map(BenchRow::loop_cpu_ns_per_step);
     rows.iter()
         .filter(|r| r.mode == FULL_CSV || r.mode == FULL_PARQUET)
         .filter_map(|r| bare_of(r.n_links).map(|b| (r.n_links, r.mode, b / r.loop_cpu_ns_per_step())))
@@ -353,15 +362,9 @@ pub fn cpu_ratios(rows: &[BenchRow], baseline: &str) -> Vec<(usize, &'static str
 /// (no writer threads). Unlike [`cpu_ratios`] it does not divide by the bare engine, whose CPU
 /// time per step on a virtual machine can vary by more than half between repeats.
 pub fn loop_shares(rows: &[BenchRow]) -> Vec<(usize, &'static str, f64)> {
-    let none_of =
-        |n: usize| rows.iter().find(|r| r.n_links == n && r.mode == FULL_NONE).map(BenchRow::loop_cpu_ns_per_step);
+    let none_of = |n: usize| row_of(rows, n, FULL_NONE).map(BenchRow::loop_cpu_ns_per_step);
     rows.iter()
-        .filter(|r| {
-            matches!(
-                r.mode,
-                FULL_CSV | FULL_PARQUET | FULL_MCAP | FULL_CSV_INLINE | FULL_PARQUET_INLINE | FULL_MCAP_INLINE
-            )
-        })
+        .filter(|r| matches!(r.mode, FULL_CSV | FULL_PARQUET | FULL_MCAP) || writers_inline(r.mode))
         .filter_map(|r| {
             none_of(r.n_links).map(|none| {
                 let delta = (r.loop_cpu_ns_per_step() - none).max(0.0);

@@ -1188,7 +1188,9 @@ fn bench(
     let shares = simserpent::bench::loop_shares(&rows);
     let above_share: Vec<String> = shares
         .iter()
-        .filter(|(_, mode, share)| !mode.ends_with("writers inline)") && max_loop_share.is_some_and(|m| *share > m))
+        .filter(|(_, mode, share)| {
+            !simserpent::bench::writers_inline(mode) && max_loop_share.is_some_and(|m| *share > m)
+        })
         .map(|(n, mode, share)| format!("{n} links, {mode}: {share:.3}"))
         .collect();
     let guard = || -> Result<(), Failure> {

@@ -292,16 +292,17 @@ fn total_relative_rms(trace: &Trace, link: usize) -> f64 {
 
 /// Obstacle contact detection of one link over a trace (see [`detection`]).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
-struct Detection {
-    /// Observable pushes flagged and not flagged.
-    hits: usize,
-    misses: usize,
+pub struct Detection {
+    /// Observable pushes flagged.
+    pub hits: usize,
+    /// Observable pushes not flagged.
+    pub misses: usize,
     /// Flags without a push.
-    false_alarms: usize,
-    /// Pushes that no estimator can see (below the floor's static friction), and the sum of
-    /// their excess over μ·N (N).
-    hidden: usize,
-    hidden_excess_sum_n: f64,
+    pub false_alarms: usize,
+    /// Pushes that no estimator can see (below the floor's static friction).
+    pub hidden: usize,
+    /// The sum of those pushes' excess over μ·N (N).
+    pub hidden_excess_sum_n: f64,
 }
 
 /// Obstacle contact detection: a contact is present when the true obstacle force reaches the
@@ -314,7 +315,7 @@ struct Detection {
 /// force) by at least `threshold_n` (the in-loop threshold): a sticking floor can hold any
 /// horizontal force up to μ·N, so a weaker push is indistinguishable from floor friction (with
 /// `mu` = 0 every push is observable).
-fn detection(trace: &Trace, link: usize, mu: f64, threshold_n: f64) -> Detection {
+pub fn detection(trace: &Trace, link: usize, mu: f64, threshold_n: f64) -> Detection {
     let mut d = Detection::default();
     let mut previous_n = f64::NAN;
     let flags = trace.aligned_contact_flags();

@@ -366,24 +366,14 @@ fn the_static_pinch_flags_every_push_that_exceeds_the_floors_static_friction() {
     // Ground friction 0.5, exact sensors: the end links hit their pegs at 0.134-0.137 s with
     // pushes up to 2.2 N beyond μ·N. Scored against the instant its sensor values describe, the
     // step loop's flag is on at each of them.
-    use simserpent::experiments::estimation::{pinch_config, score_estimator};
+    use simserpent::experiments::estimation::{detection, pinch_config, score_estimator};
     let config = pinch_config(&Config::default(), 0.5);
     let (_, trace) = score_estimator(&config, TORQUE_NM, 300, &mut NewtonEulerEstimator::default()).unwrap();
-    let flags = trace.aligned_contact_flags();
     let threshold = config.estimation.detection_threshold_n;
-    let mut observable = 0;
-    for (k, flags) in flags.iter().enumerate() {
-        let Some(flags) = flags else { continue };
-        for i in 0..N_LINKS {
-            let (o, f) = (trace.truth_obstacle_n[k][i], trace.truth_total_n[k][i]);
-            let support = f[2].max(if k > 0 { trace.truth_total_n[k - 1][i][2] } else { f[2] });
-            if norm(o) >= 0.1 && f[0].hypot(f[1]) - 0.5 * support >= threshold {
-                observable += 1;
-                assert!(flags[i], "t = {} s, link {i}: push {o:?} not flagged", trace.time_s[k]);
-            }
-        }
-    }
-    assert!(observable >= 8, "{observable}");
+    let per_link: Vec<_> = (0..N_LINKS).map(|i| detection(&trace, i, 0.5, threshold)).collect();
+    let (hits, misses) = per_link.iter().fold((0, 0), |(h, m), d| (h + d.hits, m + d.misses));
+    assert_eq!(misses, 0, "{per_link:?}");
+    assert!(hits >= 8, "{per_link:?}");
 }
 
 /// A user's estimator: reports no force at all.
