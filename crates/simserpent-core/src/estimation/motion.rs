@@ -68,7 +68,7 @@
 //!    slides there with `μ·N`, but a speed threshold called it sticking and let it absorb up to
 //!    `μ·N/2` of the push (the nearest point of its ellipse to the residual), which moved the
 //!    obstacle's force and moment: 92.4 % of that seed's points within 1 cm without noise and
-//!    88.6 % with the default noise under a 5 mm/s threshold, 98 % and 93 % with the springs;
+//!    88.6 % with the default noise under a 5 mm/s threshold, 99.1 % and 93.2 % with the springs;
 //!    lower thresholds left the misses (the point then slides with a direction the noise sets).
 //!    **Without stick springs** (`physics.floor_friction = "mujoco"`): a point faster than
 //!    `estimation.sliding_speed_m_per_s` slides with the maximum-dissipation point of its
