@@ -68,8 +68,9 @@
 //!    slides there with `μ·N`, but a speed threshold called it sticking and let it absorb up to
 //!    `μ·N/2` of the push (the nearest point of its ellipse to the residual), which moved the
 //!    obstacle's force and moment: 92.4 % of that seed's points within 1 cm without noise and
-//!    88.6 % with the default noise under a 5 mm/s threshold, 99.1 % and 93.2 % with the springs;
-//!    lower thresholds left the misses (the point then slides with a direction the noise sets).
+//!    88.6 % with the default noise under a 5 mm/s threshold, 99.1 % and 93.2 % with the springs.
+//!    Thresholds of 0.2–2 mm/s placed 92.6–93.1 % with the default noise but missed elsewhere
+//!    (anisotropic floor, μ identified: seed 2's points 88.8 %, seed 4's false alarms 5.5 %).
 //!    **Without stick springs** (`physics.floor_friction = "mujoco"`): a point faster than
 //!    `estimation.sliding_speed_m_per_s` slides with the maximum-dissipation point of its
 //!    ellipse (semi-axes `A = μ_a·Nₖ` along the link, `B = μ_l·Nₖ` across it) opposite its
@@ -78,7 +79,8 @@
 //!    the remaining horizontal force as the sticking points' ellipse allows (its nearest point),
 //!    and only the excess counts as obstacle force. The coefficients are those of `[ground]`
 //!    (isotropic: `μ` in every direction; anisotropic: axial and lateral; directional: axial
-//!    toward the tail, backward toward the head; viscous: `−c_t·v_t·x̂ − c_n·v_n·ŷ` at the centre of mass, no Coulomb part).
+//!    toward the tail, backward toward the head; viscous: `−c_t·v_t·x̂ − c_n·v_n·ŷ` at the centre
+//!    of mass, no Coulomb part).
 //!    Floor surfaces with other friction are not modelled (the plain floor's coefficients apply).
 //!    The floor's friction bound comes from a model evaluation other than the one the sensors
 //!    describe (SimSerpent's floor uses the previous evaluation's normal force), and the contact
@@ -90,7 +92,8 @@
 //! The obstacle force is the horizontal residual; a link touches an obstacle when its magnitude
 //! reaches `estimation.detection_threshold_n`. Its contact point along the link: the obstacle's
 //! vertical moment about the centre of mass is the total's minus the floor friction's (sliding
-//! points and stick springs), `M_obs = M_z − Σₖ ((pₖ − c) × Fₖ)_z`. An obstacle touches the capsule's side, at
+//! points and stick springs), `M_obs = M_z − Σₖ ((pₖ − c) × Fₖ)_z`. An obstacle touches the
+//! capsule's side, at
 //! `c + s·x̂ + r·n̂` with `n̂ = −sign(f_lat)·ŷ` (the side the push comes from, `ŷ = ẑ × x̂`,
 //! `f_lat = f·ŷ`, `f_a = f·x̂`), so its moment is `s·f_lat + r·sign(f_lat)·f_a` (the second term:
 //! the peg's friction along the link, acting at the radius), and
@@ -422,8 +425,8 @@ impl FloorPoints {
 /// One floor contact point's friction in this update (see [`FloorShare::point`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum PointFriction {
-    /// The point sticks: the floor holds it with any force inside its friction ellipse; its
-    /// stick spring's force (N, world).
+    /// The point sticks, held by its stick spring's force (N, world); without stick springs
+    /// (zero here) by any force inside its friction ellipse.
     Stick([f64; 3]),
     /// The point slides with this friction force (N, world) on its friction ellipse.
     Slide([f64; 3]),
@@ -434,7 +437,8 @@ enum PointFriction {
 struct FloorFrictionShare {
     /// The floor's horizontal friction (N, world).
     force_n: [f64; 3],
-    /// Its vertical moment about the centre of mass from the sliding points (N·m).
+    /// Its vertical moment about the centre of mass from the sliding points and the stick
+    /// springs (N·m).
     moment_z_nm: f64,
     /// The share of the support on sticking points whose force is not known (without stick
     /// springs: any force inside their ellipse).
