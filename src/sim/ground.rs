@@ -146,9 +146,12 @@
 //! reaches thousands of newtons within a step, and only a force computed from the body's real
 //! mobility reaches μ·N when the contact slides and no more than what stops it when it sticks.
 //! Solving with W is stable: the force held over the step removes the predicted slip and no
-//! more. Cost on steps with an obstacle contact: two forward passes (normal forces, friction),
-//! one `mj_jac` per contact point and direction, one `mj_solveM` per pass and a handful of
-//! Gauss–Seidel sweeps; nothing on the other steps.
+//! more. Cost on steps with an obstacle contact: a forward pass (normal forces) and one from
+//! the actuation stage on (friction), one `mj_jac` per contact point and direction, one
+//! `mj_solveM` per pass and a handful of Gauss–Seidel sweeps; the step's own forward pass then
+//! starts from the actuation stage too ([`Ground::forward`]: kinematics, collision detection,
+//! the mass matrix and the velocities are those of the law's pass, at the same state); nothing
+//! on the other steps.
 //!
 //! Velocities are those of the state at the start of the step: kinematics and centre-of-mass
 //! velocities are recomputed first, because after `mj_step` MuJoCo's derived quantities belong
@@ -190,6 +193,10 @@ pub struct Ground {
     /// with more contacts than ever), and Σ N of the rows of each link's ground slots.
     row_slots: Vec<Option<(usize, usize, f64)>>,
     slot_normal_n: Vec<[f64; SLOTS]>,
+    /// Whether the latest [`Ground::before_step`] ended with a full forward pass at the state it
+    /// prepared, with the law's geoms detached as in MuJoCo's step: MuJoCo's position and
+    /// velocity stages then already describe the step's forward pass ([`Ground::forward`]).
+    forward_ready: bool,
 }
 
 impl Ground {
@@ -235,7 +242,28 @@ impl Ground {
             bodies: world.index.links.iter().map(|l| l.body).collect(),
             row_slots: Vec::new(),
             slot_normal_n: vec![[0.0; SLOTS]; n],
+            forward_ready: false,
         }
+    }
+
+    /// MuJoCo's forward pass at the current state and controls ([`World::forward`]). Right
+    /// after a [`Ground::before_step`] whose own forward pass ran at this state (steps with an
+    /// obstacle contact, and heightfield or mesh ground), the position and velocity stages
+    /// (kinematics, collision, mass matrix, constraints, velocities) are already those of this
+    /// pass and only the later stages run: the applied forces and the controls enter there
+    /// only, so the result is bit for bit a full pass's.
+    pub fn forward(&mut self, world: &mut World) {
+        if std::mem::take(&mut self.forward_ready) {
+            world.forward_from_actuation();
+        } else {
+            world.forward();
+        }
+    }
+
+    /// The state was changed from outside since the latest [`Ground::before_step`]: the next
+    /// [`Ground::forward`] is a full pass.
+    pub fn state_changed(&mut self) {
+        self.forward_ready = false;
     }
 
     /// Whether this model does anything per step.
@@ -260,11 +288,12 @@ impl Ground {
     /// (surfaces, directional) or writes the viscous forces into `xfrc_applied`. Does not
     /// allocate.
     pub fn before_step(&mut self, world: &mut World) {
+        self.forward_ready = false;
         if !self.is_active() {
             return;
         }
         if self.stick_slip.is_some() {
-            self.before_step_stick_slip(world);
+            self.forward_ready = self.before_step_stick_slip(world);
             return;
         }
         let needs_velocity = matches!(self.model, GroundModel::Directional | GroundModel::Viscous);
@@ -951,8 +980,9 @@ impl Ground {
     /// `physics.floor_friction = "stick_slip"`: the contacts of x_k (collision detection at the
     /// state itself), their normal forces and the friction of every link's ground and obstacle
     /// contacts into `xfrc_applied`.
-    fn before_step_stick_slip(&mut self, world: &mut World) {
-        let Some(st) = self.stick_slip.as_mut() else { return };
+    /// Returns whether it ended with a full forward pass at x_k (the law's geoms detached).
+    fn before_step_stick_slip(&mut self, world: &mut World) -> bool {
+        let Some(st) = self.stick_slip.as_mut() else { return false };
         for v in &mut st.normal_n {
             *v = [0.0; SLOTS];
         }
@@ -1230,7 +1260,7 @@ impl Ground {
         if obstacle_contact {
             self.obstacle_normals(world, mujoco_ground_contact);
             self.obstacle_friction(world, mujoco_ground_contact);
-            return;
+            return true;
         }
         for slot in st.obstacle_slots.iter_mut().flatten() {
             *slot = ObstacleSlot::FREE;
@@ -1240,6 +1270,7 @@ impl Ground {
             // gives the heightfield and mesh contacts the N the step will have.
             st.settle_friction_bounds(world, &self.bodies);
         }
+        mujoco_ground_contact
     }
 
     /// The normal forces of the links' obstacle contacts at x_k, on a step where a link touches

@@ -571,6 +571,14 @@ impl World {
         self.sensor_time_secs = self.data.time();
     }
 
+    /// [`World::forward`] from the actuation stage on, with the sensors: for a state whose
+    /// position and velocity stages a full forward pass computed already, with nothing but the
+    /// controls and applied forces changed since. Bit for bit [`World::forward`]'s result.
+    pub(crate) fn forward_from_actuation(&mut self) {
+        self.data.forward_skip(mujoco_rs::prelude::MjtStage::mjSTAGE_VEL, false);
+        self.sensor_time_secs = self.data.time();
+    }
+
     /// How forces at points of the bodies move those points, at the latest forward pass: for
     /// rows r = (body, point, unit direction d), `w` gets the n × n matrix (row-major)
     /// W[r][s] = d_rᵀ·J_r·M⁻¹·J_sᵀ·d_s — the acceleration along d_r that a unit force along d_s

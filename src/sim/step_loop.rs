@@ -341,6 +341,7 @@ impl<C: Controller> Simulation<C> {
         self.cmd.clone_from(&state.cmd);
         self.steps = state.steps;
         self.ground.clone_from(&state.ground);
+        self.ground.state_changed();
         self.energy_guard = state.energy_guard;
         self.sensed = state.sensed;
         self.contact_peaks.clone_from(&state.contact_peaks);
@@ -375,6 +376,7 @@ impl<C: Controller> Simulation<C> {
     /// state may change, so the next instant is sensed afresh.
     pub fn world_mut(&mut self) -> &mut World {
         self.sensed = false;
+        self.ground.state_changed();
         &mut self.world
     }
 
@@ -444,7 +446,7 @@ impl<C: Controller> Simulation<C> {
             // fresh sensors for this instant and its whole state.
             self.ground.before_step(&mut self.world);
             self.external.before_step(&mut self.world);
-            self.world.forward();
+            self.ground.forward(&mut self.world);
         }
         if self.controller.reads_sensors() || self.controller_state.is_some() {
             self.sense();
@@ -479,7 +481,7 @@ impl<C: Controller> Simulation<C> {
         // — the forces at the step's start, as a recorded row shows them — then the rest of
         // `mj_step`: bit for bit `mj_step` (`World::step_after_forward`), at the same cost.
         if !forward_done {
-            self.world.forward();
+            self.ground.forward(&mut self.world);
         }
         let own = self.ground.own_contacts(&self.world);
         let largest_n = self.world.link_contact_normal_forces(own, &mut self.link_normal_n);
@@ -583,7 +585,7 @@ fn read_instant(
     obs: &Observation,
     snapshot: &mut Snapshot,
 ) {
-    world.forward();
+    ground.forward(world);
     world.read_snapshot_with(snapshot, obs_true, obs, ground.own_contacts(world));
     ground.fill_snapshot(snapshot);
 }
