@@ -1047,6 +1047,9 @@ pub struct MotionEstimator {
     orientation: OrientationSource,
     detection_threshold_n: f64,
     min_lateral_force_n: f64,
+    /// The links' friction on obstacles (`terrain.obstacle_friction`, sliding): bounds a peg's
+    /// vertical friction by its normal force.
+    obstacle_mu: f64,
     floor: FloorShare,
     attitude: HeadAttitude,
     estimator: Box<dyn ContactEstimator + Send + Sync>,
@@ -1130,6 +1133,7 @@ impl MotionEstimator {
             orientation: e.orientation,
             detection_threshold_n: e.detection_threshold_n,
             min_lateral_force_n: e.min_lateral_force_n,
+            obstacle_mu: config.terrain.obstacle_friction[0],
             floor: FloorShare::from_config(config),
             attitude: HeadAttitude {
                 gravity_m_per_s2: {
@@ -1523,12 +1527,16 @@ impl MotionEstimator {
         let floor_lateral = lateral_axis[0] * friction[0] + lateral_axis[1] * friction[1];
         let m = self.out.link_moment_nm[i];
         let roll = axis3[0] * m[0] + axis3[1] * m[1] + axis3[2] * m[2];
-        // Only a peg holding the link up, and only when the measured roll itself shows it (not
-        // the floor friction the first pass assumed): a link that only presses or slides keeps
-        // the floor carrying f_z.
+        // Only when the measured roll itself shows the peg's vertical friction (not the floor
+        // friction the first pass assumed), holding the link up or pressing it down: a link that
+        // only pushes or slides along a peg keeps the floor carrying f_z.
         let measured = side * roll / r;
         let peg_z = (measured - side * floor_lateral).min(normal_n);
-        if measured < self.detection_threshold_n || peg_z < self.detection_threshold_n { 0.0 } else { peg_z }
+        let threshold = self.detection_threshold_n;
+        let up = measured >= threshold && peg_z >= threshold;
+        // Pressing down needs the peg's friction cone: |P_z| ≤ μ_o·N_peg, N_peg ≈ |f_lat|.
+        let down = measured <= -threshold && peg_z <= -threshold && -peg_z <= self.obstacle_mu * lateral.abs();
+        if up || down { peg_z } else { 0.0 }
     }
 
     /// Stage 2's moments are quasi-static (the link's `I·α + ω×I·ω` neglected); a link turning
