@@ -37,17 +37,21 @@
 //! 3. **The floor's share** ([`FloorShare`]): the floor (horizontal, `z` up) carries the link
 //!    with the normal force `N = max(f_z − P_z, 0)` split between the two contact points of a
 //!    capsule lying on a plane (from the moment about the link's lateral axis, below). `P_z` is
-//!    the vertical friction of a peg that holds the link up: it acts beside the axis, on the
+//!    the vertical friction of a peg that holds the link up (or presses it down): it acts beside the axis, on the
 //!    side `n·ŷ` the peg touches, so it turns the link about its axis by `n·r·P_z`, while the
 //!    floor, below the axis, turns it only by its lateral friction, `r·F_l`; from the moment
 //!    about the axis `M_x`, `P_z = n·(M_x/r − F_l)` with `n` and `F_l` from a first pass that
-//!    gives the floor the whole `f_z`. It counts only when a contact is detected and both
-//!    `n·M_x/r` and `P_z` reach `estimation.detection_threshold_n` (a link that only presses
-//!    or slides against a peg keeps the floor carrying `f_z`). Without it, a link that the gait's
-//!    ramp lifts against a peg would get floor support and friction it does not have, and its
-//!    contact point would be centimetres off (anisotropic seed 303 of the estimation
-//!    experiment: 52 % of the first second's points within 1 cm without it, 98 % of the run's
-//!    with it). The two contact points are the caps' lowest points,
+//!    gives the floor the whole `f_z` (nothing when `f_z ≤ 0`). It counts only when a contact is
+//!    detected and both `n·M_x/r` and `P_z` reach `estimation.detection_threshold_n` in the same
+//!    direction: up (at most `f_z`), or down within the peg's friction cone,
+//!    `|P_z| ≤ μ_o·|f_lat|` (`μ_o` = `terrain.obstacle_friction`'s sliding coefficient, the peg's
+//!    normal force about the lateral obstacle force); a link that only pushes or slides against a
+//!    peg keeps the floor carrying `f_z`. Without it, a link that the gait's ramp lifts against a
+//!    peg would get floor support and friction it does not have, and its contact point would be
+//!    centimetres off (anisotropic seed 303 of the estimation experiment: 52 % of the first
+//!    second's points within 1 cm without it, 98 % of the run's with it); a link a peg presses
+//!    down (anisotropic seed 306: link 5 in the ramp-in, the peg's friction 4.4 N down against a
+//!    lateral push of 11 N, `f_z` below zero) would get no floor support at all. The two contact points are the caps' lowest points,
 //!    `pₖ = c ± (L/2 − r)·x̂ − r·ẑ`, moving at `vₖ = v_c + ω × (pₖ − c)`, each carrying its share
 //!    `Nₖ` of the support. **The stick springs** (`physics.floor_friction = "stick_slip"`, the
 //!    default): each point's friction follows SimSerpent's elasto-plastic floor law, with the
@@ -1498,7 +1502,8 @@ impl MotionEstimator {
     /// The vertical force (N) a peg exerts on link `i` through its friction, from the link's
     /// moment about its own axis (see stage 3 in [`MotionEstimator::update`]): 0 unless a first
     /// pass (the floor carrying the whole vertical force `f_z`) leaves an obstacle force that a
-    /// contact is detected with, and at most `f_z` (a floor pulls nothing down).
+    /// contact is detected with; holding the link up at most `f_z` (a floor pulls nothing down),
+    /// pressing it down at most `μ_o` times the lateral obstacle force (the peg's friction cone).
     fn peg_vertical_friction_n(
         &self,
         i: usize,
@@ -1509,12 +1514,18 @@ impl MotionEstimator {
         points: &FloorPoints,
     ) -> f64 {
         let r = self.geometry.link_radius_m;
-        let normal_n = f[2].max(0.0);
-        if r <= 0.0 || normal_n <= 0.0 {
+        if r <= 0.0 {
             return 0.0;
         }
+        // A vertical force at or below zero: the floor carries nothing in the first pass (only a
+        // peg pressing the link down can explain it).
+        let normal_n = f[2].max(0.0);
         let f_h = [f[0], f[1], 0.0];
-        let friction = self.floor.friction(f_h, axis, [normal_n, normal_n], [0.5, 0.5], v, points).force_n;
+        let friction = if normal_n > 0.0 {
+            self.floor.friction(f_h, axis, [normal_n, normal_n], [0.5, 0.5], v, points).force_n
+        } else {
+            [0.0; 3]
+        };
         let obstacle = [f[0] - friction[0], f[1] - friction[1]];
         if obstacle[0].hypot(obstacle[1]) < self.detection_threshold_n {
             return 0.0;
