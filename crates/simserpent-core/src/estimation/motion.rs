@@ -1915,6 +1915,54 @@ mod tests {
         assert!((s - 0.03).abs() < 5e-6, "{s}");
     }
 
+    /// One link sliding along +x at 0.1 m/s on an isotropic floor (μ 0.5, pegs μ_o 0.5), a peg on
+    /// its −y side pushing 8 N along +y whose friction acts vertically by `peg_z_n` at the side
+    /// (r beside the axis); the floor carries `floor_n` and slides with −μ·N along x. Returns the
+    /// estimated floor force.
+    fn floor_beside_a_peg(floor_n: f64, peg_z_n: f64) -> [f64; 3] {
+        let mut config = straight_config(1);
+        config.ground.model = GroundModel::Isotropic;
+        config.snake.ground_friction = [0.5, 0.0, 0.0];
+        config.terrain.obstacle_friction = [0.5, 0.0, 0.0];
+        let r = config.snake.link_radius_m;
+        struct Fixed([f64; 3], f64);
+        impl ContactEstimator for Fixed {
+            fn estimate(&mut self, _input: &EstimatorInput, out: &mut EstimateOutput) {
+                out.link_force_n[0] = self.0;
+                // About the axis (+x): the peg's vertical friction at −r·ŷ turns the link by
+                // (−r·ŷ) × (P_z·ẑ) = −r·P_z·x̂; the floor's friction (along x) adds nothing.
+                out.link_moment_nm[0] = [self.1, 0.0, 0.0];
+            }
+        }
+        let force = [-0.5 * floor_n, 8.0, floor_n + peg_z_n];
+        let mut est = MotionEstimator::with_estimator(&config, &[0.3], Box::new(Fixed(force, -r * peg_z_n)));
+        let mut obs = Observation::new(1, 0);
+        obs.head_quat = [1.0, 0.0, 0.0, 0.0];
+        obs.head_velocity_m_per_s = [0.1, 0.0, 0.0];
+        let mut out = ContactEstimates::new(1);
+        est.update(&obs, None, &mut out);
+        assert!(out.contact[0]);
+        out.floor_force_n[0]
+    }
+
+    #[test]
+    fn the_floor_carries_a_link_that_a_peg_holds_up_or_presses_down() {
+        // Held up by 1 N: the floor carries the rest of the weight.
+        let f = floor_beside_a_peg(1.94, 1.0);
+        assert!((f[2] - 1.94).abs() < 1e-6 && (f[0] + 0.97).abs() < 1e-6, "{f:?}");
+        // Pressed down by 2 N: the floor carries the weight and the peg's push.
+        let f = floor_beside_a_peg(4.94, -2.0);
+        assert!((f[2] - 4.94).abs() < 1e-6 && (f[0] + 2.47).abs() < 1e-6, "{f:?}");
+        // Pressed down by 3 N while the floor carries 1.5 N: the link's vertical force is below
+        // zero, and the floor still carries 1.5 N.
+        let f = floor_beside_a_peg(1.5, -3.0);
+        assert!((f[2] - 1.5).abs() < 1e-6, "{f:?}");
+        // A roll beyond the peg's friction cone (5 N down against 8 N of push, μ_o = 0.5) is not
+        // a peg's friction: the floor carries the vertical force.
+        let f = floor_beside_a_peg(7.94, -5.0);
+        assert!((f[2] - 2.94).abs() < 1e-6, "{f:?}");
+    }
+
     /// Three links sliding along +x at 0.1 m/s on an isotropic floor (μ 0.5), link 2 lying
     /// beside link 0 at `y_m` (centre to centre; the capsules touch at 2r = 8 cm); the stage-2
     /// forces are the floor's sliding friction and support plus `push[i]` on link i.
