@@ -158,7 +158,7 @@
 //! to an integrator stage, not to the new state.
 
 use super::World;
-use crate::config::{Config, FloorFriction, GroundModel};
+use crate::config::{Config, FloorFriction, GroundModel, STICK_RELEASE_J};
 use crate::contact_law::{
     NormalLaw, damping_ratio_for_restitution, damping_ratio_for_step, explicit_normal_force_n, normal_force_terms,
 };
@@ -381,11 +381,6 @@ pub struct OwnContact {
 /// predicted for the middle of the step is positive acts from that step on (at up to 20 m/s
 /// with 1 ms steps).
 const DETECTION_MARGIN_M: f64 = 0.01;
-
-/// The most energy (J) a ground slot's stick spring gives back in one step by springing back
-/// along its contact point's motion: enough for a stuck link's own small oscillation about its
-/// anchor (holding on a slope), too little to drive a coasting body.
-const STICK_RELEASE_J: f64 = 1e-7;
 
 /// Slots per link: the front and the back half of its contact (a capsule lying on a plane
 /// touches it at both end caps).

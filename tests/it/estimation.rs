@@ -307,19 +307,19 @@ fn estimation_misses(model: GroundModel, seed: u64) -> Vec<String> {
 #[test]
 fn estimation_targets_hold_per_seed_on_a_held_out_peg_field() {
     // Seed 300, the first of the seeds the estimator was not developed on (300-309), on both
-    // floors (measured: points within 1 cm 98.2 % anisotropic, 99.3 % isotropic).
+    // floors (measured: points within 1 cm 95.8 % anisotropic, 99.2 % isotropic).
     let mut misses = estimation_misses(GroundModel::Anisotropic, 300);
     misses.extend(estimation_misses(GroundModel::Isotropic, 300));
     assert!(misses.is_empty(), "{misses:#?}");
 }
 
-/// Not reached on the current obstacle contact law (its normal force is the law's spring–damper
-/// on the contact point's mass through the whole body): anisotropic seeds 304 and 306 place
-/// 94.5 % and 90.6 % of their contact points within 1 cm (target 95 %); every other seed and
-/// target holds. The estimator's contact-point localisation was developed on MuJoCo's obstacle
-/// normal force.
+/// Not reached: anisotropic seed 306 places 94.6 % of its contact points within 1 cm with the
+/// default noise (target 95 %); every other seed and target with the default noise holds. 72 of
+/// its 129 misses are link 5 in the gait's ramp-in (0.7–0.85 s), stuck against a peg that presses
+/// it down: the floor's support is read right, but the floor points' stick springs integrate the
+/// estimated velocity, whose noise gives the floor 1–2 N of lateral friction it does not hold.
 #[test]
-#[ignore = "target not reached: anisotropic seeds 304 and 306 place 94.5 % and 90.6 % of contact points within 1 cm (run with --ignored)"]
+#[ignore = "target not reached: anisotropic seed 306 places 94.6 % of contact points within 1 cm (run with --ignored)"]
 fn estimation_targets_hold_per_seed_on_all_held_out_peg_fields() {
     let mut misses = Vec::new();
     for model in [GroundModel::Anisotropic, GroundModel::Isotropic] {

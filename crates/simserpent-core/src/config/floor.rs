@@ -13,6 +13,11 @@ pub const AUTO_STICK_TIME_CONSTANT_MIN_SECS: f64 = 0.005;
 /// spring–damper is applied as a force held over each step (explicit), and at 3 timesteps a
 /// resting snake already creeps (5.3 mm in 20 s).
 pub const STICK_TIME_CONSTANT_MIN_TIMESTEPS: f64 = 5.0;
+/// The most energy (J) a floor slot's stick spring gives back in one step by springing back
+/// along its contact point's motion (`physics.floor_friction = "stick_slip"`): enough for a stuck
+/// link's own small oscillation about its anchor (holding on a slope), too little to drive a
+/// coasting body. The contact estimator's floor model applies the same rule.
+pub const STICK_RELEASE_J: f64 = 1e-7;
 /// The smallest environment contact time constant `"auto"` gives (s): a link at 5 m/s stops
 /// within 5 mm (user guide, "Floor contact").
 pub const AUTO_ENVIRONMENT_CONTACT_TIME_CONSTANT_MIN_SECS: f64 = 0.002;

@@ -19,7 +19,7 @@ pub mod surfaces;
 mod text;
 mod validate;
 
-pub use floor::{AutoSecs, StickTimeConstant};
+pub use floor::{AutoSecs, STICK_RELEASE_J, StickTimeConstant};
 
 /// The most obstacles a terrain may have.
 pub const MAX_OBSTACLES: usize = 100_000;
@@ -1198,7 +1198,8 @@ pub struct Estimation {
     pub detection_threshold_n: f64,
     /// Smallest lateral obstacle force (N) for which a contact point along the link is reported.
     pub min_lateral_force_n: f64,
-    /// Below this speed (m/s) a link's floor contact point counts as sticking.
+    /// With MuJoCo's floor friction: below this speed (m/s) a link's floor contact point counts
+    /// as sticking (the `stick_slip` floor's stick springs decide otherwise).
     pub sliding_speed_m_per_s: f64,
     /// Gain (1/s) of the head attitude filter's tilt correction from the accelerometer.
     pub tilt_gain_per_s: f64,
