@@ -86,6 +86,35 @@ mod tests {
         }
     }
 
+    /// 100,000 points in a square of side 400 m, queried with a reach of 0.5 m: each query looks
+    /// at the points of its 3 × 3 cells only (about 1.4 on average, a few at most), not at all of
+    /// them, so placing n obstacles costs O(n), not O(n²).
+    #[test]
+    fn a_query_visits_only_the_points_of_its_neighbourhood() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let reach = 0.5;
+        let mut grid = PointGrid::new(reach);
+        for _ in 0..100_000 {
+            grid.insert([rng.random_range(-200.0..200.0), rng.random_range(-200.0..200.0)], ());
+        }
+        let (mut visited, mut most) = (0_usize, 0_usize);
+        let queries = 10_000;
+        for _ in 0..queries {
+            let q = [rng.random_range(-200.0..200.0), rng.random_range(-200.0..200.0)];
+            let mut here = 0;
+            assert!(!grid.any_near(q, |_, _| {
+                here += 1;
+                false
+            }));
+            visited += here;
+            most = most.max(here);
+        }
+        // Expected per query: 100,000 points × (9 cells of 0.25 m²) / 160,000 m² ≈ 1.4.
+        let mean = visited as f64 / queries as f64;
+        assert!((1.0..2.0).contains(&mean), "{mean}");
+        assert!(most <= 15, "{most}");
+    }
+
     #[test]
     fn huge_coordinates_do_not_overflow() {
         let mut grid = PointGrid::new(1e-12);

@@ -439,9 +439,10 @@ mod tests {
         }
     }
 
-    /// 100,000 cylinders in a large square: seconds, not the minutes of the O(n^2) placement.
+    /// 100,000 cylinders in a large square are placed (each candidate is tested against its grid
+    /// neighbours only: `grid::tests::a_query_visits_only_the_points_of_its_neighbourhood`).
     #[test]
-    fn placing_100000_random_cylinders_is_fast() {
+    fn placing_100000_random_cylinders_succeeds() {
         let overrides = [
             "terrain.kind=\"random_cylinders\"".to_string(),
             "terrain.random_cylinders.count=100000".to_string(),
@@ -449,10 +450,8 @@ mod tests {
         ];
         let cfg = load_config_str("", ConfigSource::Toml, &overrides).unwrap();
         let segments = crate::model::link_axis_segments_m(&cfg, &vec![0.0; cfg.snake.n_joints()]);
-        let start = std::time::Instant::now();
         let placed = super::random_cylinders(&cfg, &segments).unwrap();
         assert_eq!(placed.len(), 100_000);
-        assert!(start.elapsed().as_secs_f64() < 20.0, "{:?}", start.elapsed());
     }
 
     #[test]
