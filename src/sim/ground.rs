@@ -97,7 +97,7 @@
 //!     energy it stored: at most [`STICK_RELEASE_J`] per step and slot (the rest of the force
 //!     along v is dropped and the anchor follows, z = −F/k_t), so a coasting snake does not
 //!     gain energy from the springs that held it.
-//! - **Obstacle friction**, one slot per link and touching obstacle geom (at most 4 per link),
+//! - **Obstacle friction**, one slot per link and touching obstacle geom (at most 8 per link),
 //!   isotropic with `terrain.obstacle_friction[0]`, the link's axis as the first tangent, solved
 //!   jointly over all of them. A second forward pass at x_k (the law's geoms detached, the step's
 //!   normal and ground friction forces in `xfrc_applied`) gives
@@ -153,14 +153,69 @@
 //! the mass matrix and the velocities are those of the law's pass, at the same state); nothing
 //! on the other steps.
 //!
+//! **Whole-body solve** (`physics.environment_contact_solve = "whole_body"`; the default
+//! `"per_link"` is the law above, its floor per link, its obstacles normals-then-friction).
+//! Every link–ground contact point (floor, slopes, boxes, heightfields, meshes: the same
+//! contacts as above, one per link end) and every link–obstacle contact point gets its normal
+//! force and its friction from one projected Gauss–Seidel solve ([`Ground::whole_body_solve`];
+//! Moreau, *Unilateral contact and dry friction in finite freedom dynamics*, 1988; Jean, *The
+//! non-smooth contact dynamics method*, CMAME 177, 1999), on every step with a contact:
+//! - One forward pass at x_k without the law's forces (the external forces of
+//!   `[[physics.external_forces]]` applied) gives each point i three rows r ∈ {n, a, l} (its
+//!   normal from the ground or obstacle into the link, the link's axis in the contact plane,
+//!   across it), their accelerations without contact forces acc_r, and M⁻¹·J_rᵀ (one `mj_jac`
+//!   per point, M⁻¹ once). The solve keeps Δq̈ = Σ_r M⁻¹·J_rᵀ·f_r, so a row's acceleration with
+//!   the forces f is acc_r + J_r·Δq̈ (O(nv) per row; W_rs = J_r·M⁻¹·J_sᵀ only for each point's
+//!   own 3 × 3 block).
+//! - Normal: the implicit spring–damper of the obstacle law ([`normal_force_terms`]: trapezoidal
+//!   spring, backward-Euler damper), N_i = max(0, (num_i − X_i·(J_n·Δq̈ − W_nn·N_i))/(1 +
+//!   X_i·W_nn)), the point's carried mass m_c: a ground point its share of its link (m/2 for a
+//!   capsule's two caps, as the per-link law), an obstacle point 1/Σ_j W_ij over the touching
+//!   obstacle points. k = m_c·ω², c = m_c·b with b from `physics.contact_restitution` for this
+//!   step, averaged over where in the step an impact starts
+//!   ([`crate::contact_law::damping_ratio_for_step_averaged`]).
+//! - Friction, right after the point's N: the force that stops the point's slip s (tangential
+//!   velocity plus its drift since it stuck over `floor_stick_time_constant_secs`) within the
+//!   step, W_tt·Δf = −(s/dt + acc_t + J_t·Δq̈), projected onto its ellipse
+//!   (f_a/(μ_a·N))² + (f_l/(μ_l·N))² ≤ 1 of the same N in the metric W_tt
+//!   ([`project_to_ellipse_in_metric`]: the exact minimiser of the point's sub-problem; μ_a the
+//!   forward or backward coefficient by the force's sign along the link, the region's under the
+//!   link; obstacles isotropic `terrain.obstacle_friction[0]`). On its ellipse the point slides
+//!   (its anchor follows), inside it sticks.
+//! - Sweeps until no force changes by more than [`WHOLE_BODY_TOLERANCE`] of the largest normal
+//!   term (at most [`WHOLE_BODY_SWEEPS`]), warm started from each point's forces of the step
+//!   before (one slot per link, contact geom and place on the link, at most [`OBSTACLE_SLOTS`]
+//!   per link).
+//! - The forces go into `xfrc_applied`, the contact rows and the per-link floor and obstacle
+//!   channels exactly where the per-link law's go.
+//!
+//! What it changes: the friction and the normal force of a point are solved together through
+//! the whole body, so a link's pitch under its friction moves load between its ends within the
+//! step (a link pushed at μN breaks away at 1.0001·μN), a run that starts under load holds (a
+//! link pushed at 0.999·μN from t = 0 moves 0.007 mm at μ 0.5), and the floor's damping is
+//! implicit, so a floor impact rebounds at the configured restitution at any step. Limits: at
+//! ω·dt = 1 (the default 1-ms step) one impact rebounds within about ±0.05 of the configured
+//! restitution depending on where in the step it starts (0.3: 0.27–0.33; the average is the
+//! configured value less what gravity takes); a body at rest is statically indeterminate for
+//! the rigid friction, and the solve may leave friction pairs that cancel within it (a straight
+//! snake at rest: up to 23 % of μN on a contact, Σ per link zero); a step with a contact on
+//! third-party ground of other shapes (MuJoCo's normal force) takes the per-link law; a hard
+//! sideways hit at μ 1 lifts the snake 10.9 mm at 1 ms and 16.4 mm at 0.1 ms (the reference
+//! engine: 5.03 mm): the cylinders' friction stopping the links' spin drives them into the floor
+//! (about 6.6 N·s in 7 ms at 1 ms) and the floor's spring gives the stored energy back. Cost:
+//! a forward pass, the Jacobians and the sweeps on every step with a contact (the step's own
+//! forward pass then starts from the actuation stage): about 1.7 × the per-link law's
+//! step-loop work on the bare floor (BENCHMARKS.md, "Steps among pegs").
+//!
 //! Velocities are those of the state at the start of the step: kinematics and centre-of-mass
 //! velocities are recomputed first, because after `mj_step` MuJoCo's derived quantities belong
 //! to an integrator stage, not to the new state.
 
 use super::World;
-use crate::config::{Config, FloorFriction, GroundModel, STICK_RELEASE_J};
+use crate::config::{Config, EnvironmentContactSolve, FloorFriction, GroundModel, STICK_RELEASE_J};
 use crate::contact_law::{
-    NormalLaw, damping_ratio_for_restitution, damping_ratio_for_step, explicit_normal_force_n, normal_force_terms,
+    NormalLaw, damping_ratio_for_restitution, damping_ratio_for_step, damping_ratio_for_step_averaged,
+    explicit_normal_force_n, normal_force_terms,
 };
 use crate::model::{SurfaceMap, names};
 use crate::state::{ContactRow, GeomClass, Snapshot, x_axis};
@@ -400,6 +455,14 @@ struct StickSlip {
     obstacle_geom: Vec<bool>,
     /// Link–obstacle friction coefficient (`terrain.obstacle_friction[0]`, isotropic).
     obstacle_mu: f64,
+    /// `physics.environment_contact_solve = "whole_body"`: every ground and obstacle contact
+    /// point in [`Ground::whole_body_solve`].
+    whole_body: bool,
+    /// The whole-body solve's contact points, their frames for the Jacobians, and the joint-space
+    /// velocity change of its forces, M⁻¹·Jᵀ·f·dt/dt (capacity kept between steps).
+    solve_points: Vec<SolvePoint>,
+    solve_frames: Vec<super::PointFrame>,
+    solve_dv: Vec<f64>,
     /// Half of each link's mass (kg): the largest mass a ground slot's stick spring–damper is
     /// scaled for.
     half_link_mass_kg: Vec<f64>,
@@ -432,6 +495,8 @@ struct StickSlip {
     /// c = m_eff · this) per kilogram of the point's effective mass.
     normal_stiffness_per_s2: f64,
     normal_damping_per_s: f64,
+    /// The whole-body solve's damping per kilogram of effective mass (1/s).
+    whole_body_damping_per_s: f64,
     /// The ground contacts' damping per kilogram of effective mass (1/s; b·dt ≤ ½).
     ground_damping_per_s: f64,
     /// The part of each ground slot's Σ N from MuJoCo's heightfield and mesh contacts at x_k, and
@@ -500,7 +565,7 @@ struct StickSlip {
 
 /// Obstacle slots per link: a link touching more obstacle geoms at once than this gets no
 /// friction from the extra ones (their normal force still acts).
-const OBSTACLE_SLOTS: usize = 4;
+const OBSTACLE_SLOTS: usize = 8;
 
 /// One link's contact with one obstacle geom, with the isotropic coefficient
 /// `terrain.obstacle_friction[0]`: its friction is solved with every other obstacle contact's in
@@ -509,6 +574,11 @@ const OBSTACLE_SLOTS: usize = 4;
 struct ObstacleSlot {
     /// The obstacle geom, or `usize::MAX` when the slot is free.
     geom: usize,
+    /// Where on the link the contact is ([`contact_place`]; always 0 with `"per_link"`, whose
+    /// obstacle slots gather every contact with their geom).
+    place: usize,
+    /// The normal force of the latest prepared step (N; the whole-body solve's warm start).
+    last_normal_n: f64,
     /// Whether a contact with `geom` and a positive normal force was seen at x_k.
     seen: bool,
     normal_n: f64,
@@ -540,6 +610,57 @@ struct ActiveSlot {
     limit_n: f64,
 }
 
+/// Projected Gauss–Seidel sweeps of the whole-body solve at most (it stops when no force changes
+/// by more than [`WHOLE_BODY_TOLERANCE`] of the largest normal force term).
+const WHOLE_BODY_SWEEPS: usize = 300;
+
+/// The whole-body solve stops when no force changes in a sweep by more than this share of the
+/// largest normal force term (N).
+const WHOLE_BODY_TOLERANCE: f64 = 1e-6;
+
+/// A contact point of [`Ground::whole_body_solve`]: its candidate, its frame (normal, along the
+/// link, across), the two terms of its normal law ([`normal_force_terms`]) and its stiffness
+/// (N/m), its coefficients (forward, backward, lateral), the slip to remove in the step (m/s,
+/// along a and l), its deflection from its anchor and tangential velocity (world frame), its
+/// own 3 × 3 mobility block and its forces (N: normal, along, across).
+#[derive(Debug, Clone, Copy)]
+struct SolvePoint {
+    candidate: usize,
+    frame: [[f64; 3]; 3],
+    numerator: f64,
+    implicit: f64,
+    stiffness: f64,
+    mu: [f64; 3],
+    slip: [f64; 2],
+    z: [f64; 3],
+    v_t: [f64; 3],
+    block: [[f64; 3]; 3],
+    f: [f64; 3],
+}
+
+impl SolvePoint {
+    const ZERO: Self = Self {
+        candidate: 0,
+        frame: [[0.0; 3]; 3],
+        numerator: 0.0,
+        implicit: 0.0,
+        stiffness: 0.0,
+        mu: [0.0; 3],
+        slip: [0.0; 2],
+        z: [0.0; 3],
+        v_t: [0.0; 3],
+        block: [[0.0; 3]; 3],
+        f: [0.0; 3],
+    };
+}
+
+/// y += s·x.
+fn axpy(y: &mut [f64], s: f64, x: &[f64]) {
+    for (a, b) in y.iter_mut().zip(x) {
+        *a += s * b;
+    }
+}
+
 /// Projected Gauss–Seidel sweeps of the friction solve at most (it stops when no force changes
 /// by more than 1e-9 of the largest limit).
 const FRICTION_SOLVER_SWEEPS: usize = 100;
@@ -547,6 +668,8 @@ const FRICTION_SOLVER_SWEEPS: usize = 100;
 impl ObstacleSlot {
     const FREE: Self = Self {
         geom: usize::MAX,
+        place: 0,
+        last_normal_n: 0.0,
         seen: false,
         normal_n: 0.0,
         point_weighted: [0.0; 3],
@@ -598,6 +721,10 @@ impl StickSlip {
         // step (a link hitting a peg with its side: the solve's mass is the link's, ratio 1).
         let normal_damping_per_s =
             2.0 * omega_normal * damping_ratio_for_step(p.contact_restitution, omega_normal * dt, 1.0);
+        // The whole-body solve (ground and obstacles): the damping whose implicit law rebounds at
+        // the restitution on average over where in a step an impact starts.
+        let whole_body_damping_per_s =
+            2.0 * omega_normal * damping_ratio_for_step_averaged(p.contact_restitution, omega_normal * dt, 1.0);
         // Ground: the same restitution's damping ratio of the continuous law, held explicitly:
         // bounded by b·dt ≤ ½ (see the module docs).
         let ground_damping_per_s =
@@ -625,6 +752,10 @@ impl StickSlip {
             own_ground_geom: own_ground.clone(),
             obstacle_geom: world.index.geom_class.iter().map(|c| *c == GeomClass::Obstacle).collect(),
             obstacle_mu: config.terrain.obstacle_friction[0],
+            whole_body: p.environment_contact_solve == EnvironmentContactSolve::WholeBody,
+            solve_points: Vec::new(),
+            solve_frames: Vec::new(),
+            solve_dv: Vec::new(),
             half_link_mass_kg: world.index.links.iter().map(|l| 0.5 * body_mass[l.body]).collect(),
             obstacle_slots: vec![[ObstacleSlot::FREE; OBSTACLE_SLOTS]; n],
             obstacle_force_n: vec![[0.0; 3]; n],
@@ -643,6 +774,7 @@ impl StickSlip {
             link_inertia_kg_m2: world.index.links.iter().map(|l| world.model().body_inertia()[l.body]).collect(),
             normal_stiffness_per_s2,
             normal_damping_per_s,
+            whole_body_damping_per_s,
             ground_damping_per_s,
             link_velocity: vec![[0.0; 6]; n],
             ground_points: vec![0; n],
@@ -918,10 +1050,13 @@ impl Ground {
             let applied = if slot < SLOTS {
                 st.slot_force_n[link][slot]
             } else {
-                match st.obstacle_slots[link].iter().find(|o| o.geom == slot - SLOTS) {
-                    Some(o) => o.force_n,
-                    None => continue,
+                // The link's slots with this obstacle geom (one, but for the whole-body solve's
+                // per-point slots).
+                let mut with_geom = st.obstacle_slots[link].iter().filter(|o| o.geom == slot - SLOTS).peekable();
+                if with_geom.peek().is_none() {
+                    continue;
                 }
+                with_geom.fold([0.0; 3], |f, o| add(f, o.force_n))
             };
             // Σ N over the rows of this slot (obstacle slots: a handful of rows, summed here).
             let n_slot: f64 = if slot < SLOTS {
@@ -1094,14 +1229,32 @@ impl Ground {
                 // solve is never less implicit than the point's real motion.
                 let depth = -contact.distance_m;
                 let approach = -dot(v_point, nrm);
-                if obstacle {
+                // The whole-body solve takes every contact (a step with a third-party ground
+                // contact, whose normal force is MuJoCo's, takes the per-link law).
+                let whole_body = st.whole_body && !mujoco_ground_contact;
+                if obstacle || whole_body {
                     // Obstacle contacts get their normal force from the whole body's mobility
-                    // once the ground's forces are known ([`StickSlip::obstacle_normals`]).
+                    // once the ground's forces are known ([`StickSlip::obstacle_normals`]); with
+                    // the whole-body solve every contact does, with its friction.
                     obstacle_contact |= depth > 0.0 || depth + approach * dt > 0.0;
+                    let (place, ground_mu) = if whole_body {
+                        let m = xmat[body];
+                        let along = r[0] * m[0] + r[1] * m[3] + r[2] * m[6];
+                        let half = st.link_capsules[link].map_or(0.0, |c| c.half_length_m);
+                        let mu = (!obstacle).then(|| {
+                            let region = if self.map.is_empty() { 0 } else { self.map.region_at(com[0], com[1]) };
+                            friction_coefficients(self.model, self.map.friction(region))
+                        });
+                        (contact_place(along, half), mu)
+                    } else {
+                        (0, None)
+                    };
                     st.obstacle_candidates.push(ObstacleCandidate {
                         contact,
                         link,
                         other,
+                        place,
+                        ground_mu,
                         nrm,
                         arm_m: r,
                         depth,
@@ -1181,14 +1334,7 @@ impl Ground {
             let region = if surfaces { self.map.region_at(com[0], com[1]) } else { 0 };
             self.region_now[i] = region;
             let f = *self.map.friction(region);
-            // Coefficients: forward (friction force toward the tail), backward (toward the head),
-            // lateral.
-            let (mu_fwd, mu_back, mu_lat) = match self.model {
-                GroundModel::Isotropic => (f.sliding, f.sliding, f.sliding),
-                GroundModel::Anisotropic => (f.axial, f.axial, f.lateral),
-                GroundModel::Directional => (f.axial, f.backward, f.lateral),
-                GroundModel::Viscous => (0.0, 0.0, 0.0),
-            };
+            let [mu_fwd, mu_back, mu_lat] = friction_coefficients(self.model, &f);
             let xmat = world.data.xmat()[body];
             let axis = [xmat[0], xmat[3], xmat[6]];
             let vel = st.link_velocity[i];
@@ -1258,8 +1404,12 @@ impl Ground {
             *slot = [force[0], force[1], force[2], torque[0], torque[1], torque[2]];
         }
         if obstacle_contact {
-            self.obstacle_normals(world, mujoco_ground_contact);
-            self.obstacle_friction(world, mujoco_ground_contact);
+            if st.whole_body && !mujoco_ground_contact {
+                self.whole_body_solve(world);
+            } else {
+                self.obstacle_normals(world, mujoco_ground_contact);
+                self.obstacle_friction(world, mujoco_ground_contact);
+            }
             return true;
         }
         for slot in st.obstacle_slots.iter_mut().flatten() {
@@ -1377,20 +1527,231 @@ impl Ground {
             // One friction slot per link and touching obstacle geom: a slot keeps its geom while
             // the link touches it; a new geom takes a free slot, or one not seen at this state.
             let slots = &mut st.obstacle_slots[c.link];
-            let k = slots
-                .iter()
-                .position(|s| s.geom == c.other)
-                .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
-                .or_else(|| slots.iter().position(|s| !s.seen));
-            let Some(k) = k else { continue };
-            let slot = &mut slots[k];
-            if slot.geom != c.other {
-                *slot = ObstacleSlot { geom: c.other, ..ObstacleSlot::FREE };
-            }
+            let Some(slot) = claim_slot(slots, c.other, c.place) else { continue };
             slot.seen = true;
             slot.normal_n += n;
             slot.point_weighted = add(slot.point_weighted, c.contact.position_m.map(|x| n * x));
             slot.normal_weighted = add(slot.normal_weighted, f);
+        }
+    }
+
+    /// `physics.environment_contact_solve = "whole_body"`: the normal force and the friction of
+    /// every link–ground and link–obstacle contact point of x_k in one projected Gauss–Seidel
+    /// solve through the whole body's mobility (see "Whole-body solve" in the module docs). A
+    /// forward pass at x_k without the law's forces (the law's geoms detached, as in MuJoCo's
+    /// step) gives each point's three rows (normal n, the link's axis in the contact plane a,
+    /// across it l), their accelerations without contact forces and M⁻¹·Jᵀ; the solve keeps the
+    /// joint-space effect of its forces, Δq̈ = Σ_r M⁻¹·J_rᵀ·f_r, so a row's acceleration is
+    /// acc_r + J_r·Δq̈ (O(nv) per row, no dense W). Per point, in turn until no force changes by
+    /// more than [`WHOLE_BODY_TOLERANCE`] of the largest: the normal force of the implicit spring–damper
+    /// ([`normal_force_terms`]) given the others, then the friction that stops the point's slip
+    /// (plus its drift since it stuck over the stick time constant) within the step, projected
+    /// onto its ellipse μ·N of this N in the metric of the point's own 2 × 2 mobility block
+    /// ([`project_to_ellipse_in_metric`]: the exact minimiser of the block's sub-problem). The
+    /// forces go into `xfrc_applied`, the contact rows and the per-link floor and obstacle
+    /// channels where the per-link law's go.
+    fn whole_body_solve(&mut self, world: &mut World) {
+        let Some(st) = self.stick_slip.as_mut() else { return };
+        world.data.forward();
+        let dt = st.timestep_secs;
+        // Only the points that push within the step (the others carry no force).
+        let touching = |c: &ObstacleCandidate| c.depth > 0.0 || c.depth + c.approach * dt > 0.0;
+        st.solve_points.clear();
+        st.solve_frames.clear();
+        for (i, c) in st.obstacle_candidates.iter().enumerate() {
+            if !touching(c) {
+                continue;
+            }
+            let body = self.bodies[c.link];
+            let xmat = world.data.xmat()[body];
+            let axis = [xmat[0], xmat[3], xmat[6]];
+            let a = normalized(tangential(axis, c.nrm)).unwrap_or_else(|| any_perpendicular(c.nrm));
+            let l = cross(c.nrm, a);
+            st.solve_frames.push((body, c.contact.position_m, [c.nrm, a, l]));
+            st.solve_points.push(SolvePoint { candidate: i, frame: [c.nrm, a, l], ..SolvePoint::ZERO });
+        }
+        world.point_frame_jacobians(&st.solve_frames, &mut st.mobility);
+        let mob = &st.mobility;
+        let nv = mob.nv();
+        let count = st.solve_points.len();
+        // Per point: its normal law, coefficients, slip to remove, own mobility block, and the
+        // warm start (the forces of its slot in the step before).
+        for p in 0..count {
+            let c = st.obstacle_candidates[st.solve_points[p].candidate];
+            // The mass the point's spring–damper is scaled for: a ground point, its share of
+            // the link (as the per-link law: a capsule lying flat rests on its two caps); an
+            // obstacle point, the inverse of its normal row of W summed over the touching
+            // obstacle points (one point: 1/W_ii; a link hitting flat on both caps: half the
+            // link and what its joints add).
+            let carried = if c.ground_mu.is_some() {
+                st.link_mass_kg[c.link] / st.ground_points[c.link].max(2) as f64
+            } else {
+                let row_sum: f64 = (0..count)
+                    .filter(|&q| st.obstacle_candidates[st.solve_points[q].candidate].ground_mu.is_none())
+                    .map(|q| mob.mobility(3 * p, 3 * q).max(0.0))
+                    .sum();
+                if row_sum > 0.0 { 1.0 / row_sum } else { st.link_mass_kg[c.link] }
+            };
+            let law = NormalLaw {
+                stiffness_n_per_m: carried * st.normal_stiffness_per_s2,
+                damping_n_s_per_m: carried * st.whole_body_damping_per_s,
+                effective_mass_kg: carried,
+            };
+            // The rows point away from the ground or obstacle: the approach acceleration is −acc.
+            let (numerator, implicit) = normal_force_terms(law, c.depth, c.approach, -mob.acc[3 * p], dt);
+            let vel = st.link_velocity[c.link];
+            let v_t = tangential(add([vel[3], vel[4], vel[5]], cross([vel[0], vel[1], vel[2]], c.arm_m)), c.nrm);
+            let slot = st.obstacle_slots[c.link].iter().find(|s| s.geom == c.other && s.place == c.place);
+            let z = tangential(slot.map_or([0.0; 3], |s| s.deflection_m), c.nrm);
+            let slip = add(v_t, z.map(|x| x / st.stick_time_constant_secs));
+            let sp = &mut st.solve_points[p];
+            let [_, a, l] = sp.frame;
+            let mut block = [[0.0; 3]; 3];
+            for (j, row) in block.iter_mut().enumerate() {
+                for (k, x) in row.iter_mut().enumerate() {
+                    *x = mob.mobility(3 * p + j, 3 * p + k);
+                }
+            }
+            sp.block = block;
+            sp.numerator = numerator;
+            sp.implicit = implicit;
+            sp.stiffness = law.stiffness_n_per_m;
+            sp.mu = c.ground_mu.unwrap_or([st.obstacle_mu; 3]);
+            sp.slip = [dot(slip, a), dot(slip, l)];
+            sp.z = z;
+            sp.v_t = v_t;
+            sp.f = slot.map_or([0.0; 3], |s| [s.last_normal_n, dot(s.force_n, a), dot(s.force_n, l)]);
+        }
+        // Δq̈ of the warm start.
+        st.solve_dv.clear();
+        st.solve_dv.resize(nv, 0.0);
+        for (p, sp) in st.solve_points.iter().enumerate() {
+            for k in 0..3 {
+                if sp.f[k] != 0.0 {
+                    axpy(&mut st.solve_dv, sp.f[k], mob.response(3 * p + k));
+                }
+            }
+        }
+        let largest = st.solve_points.iter().map(|p| p.numerator.abs()).fold(0.0, f64::max);
+        for _ in 0..WHOLE_BODY_SWEEPS {
+            let mut change = 0.0_f64;
+            for (p, sp) in st.solve_points.iter_mut().enumerate() {
+                // The three rows' accelerations from the forces so far (one pass over Δq̈).
+                let jac = mob.point_jacobians(p);
+                let (jn, rest) = jac.split_at(nv);
+                let (ja, jl) = rest.split_at(nv);
+                let mut g = [0.0; 3];
+                for k in 0..nv {
+                    let d = st.solve_dv[k];
+                    g[0] += jn[k] * d;
+                    g[1] += ja[k] * d;
+                    g[2] += jl[k] * d;
+                }
+                let b = &sp.block;
+                // Normal, given every other force (this point's friction included).
+                let n_old = sp.f[0];
+                let others = g[0] - b[0][0] * n_old;
+                let n = if sp.implicit == 0.0 && sp.numerator <= 0.0 {
+                    0.0
+                } else {
+                    ((sp.numerator - sp.implicit * others) / (1.0 + sp.implicit * b[0][0])).max(0.0)
+                };
+                let dn = n - n_old;
+                // Friction: the force that ends the step without slip, inside μ·N's ellipse (the
+                // rows' accelerations with the new N).
+                let old = [sp.f[1], sp.f[2]];
+                let ga = sp.slip[0] / dt + mob.acc[3 * p + 1] + g[1] + b[1][0] * dn;
+                let gl = sp.slip[1] / dt + mob.acc[3 * p + 2] + g[2] + b[2][0] * dn;
+                let (w00, w01, w10, w11) = (b[1][1], b[1][2], b[2][1], b[2][2]);
+                let det = w00 * w11 - w01 * w10;
+                let (fa, fl) = if det > 0.0 {
+                    let trial = [old[0] - (w11 * ga - w01 * gl) / det, old[1] - (w00 * gl - w10 * ga) / det];
+                    let mu_a = if trial[0] > 0.0 { sp.mu[1] } else { sp.mu[0] };
+                    let metric = [[w00, 0.5 * (w01 + w10)], [0.5 * (w01 + w10), w11]];
+                    project_to_ellipse_in_metric(trial, mu_a * n, sp.mu[2] * n, metric)
+                } else {
+                    (old[0], old[1])
+                };
+                let (da, dl) = (fa - old[0], fl - old[1]);
+                if dn != 0.0 || da != 0.0 || dl != 0.0 {
+                    let resp = mob.point_responses(p);
+                    let (rn, rest) = resp.split_at(nv);
+                    let (ra, rl) = rest.split_at(nv);
+                    for k in 0..nv {
+                        st.solve_dv[k] += dn * rn[k] + da * ra[k] + dl * rl[k];
+                    }
+                }
+                sp.f = [n, fa, fl];
+                change = change.max(dn.abs()).max(da.abs()).max(dl.abs());
+            }
+            if change <= WHOLE_BODY_TOLERANCE * (1.0 + largest) {
+                break;
+            }
+        }
+        // The forces into xfrc_applied, the contact rows and the per-link channels.
+        for o in st.obstacle_force_n.iter_mut().chain(st.obstacle_torque_nm.iter_mut()) {
+            *o = [0.0; 3];
+        }
+        for slot in st.obstacle_slots.iter_mut().flatten() {
+            slot.seen = false;
+        }
+        for p in 0..count {
+            let sp = st.solve_points[p];
+            let c = st.obstacle_candidates[sp.candidate];
+            let n = sp.f[0];
+            if c.depth <= 0.0 && n <= 0.0 {
+                continue; // within the detection margin, not touching
+            }
+            st.own_contacts.push(OwnContact {
+                geom: c.contact.geom,
+                position_m: c.contact.position_m,
+                normal: c.contact.normal,
+                distance_m: c.contact.distance_m,
+                normal_force_n: n,
+            });
+            if c.depth > 0.0 {
+                st.elastic_energy_j += 0.5 * sp.stiffness * c.depth * c.depth;
+            }
+            if n <= 0.0 {
+                continue;
+            }
+            let body = self.bodies[c.link];
+            let f_normal = c.nrm.map(|x| n * x);
+            let t_normal = cross(c.arm_m, f_normal);
+            st.normal_force_n[c.link] = add(st.normal_force_n[c.link], f_normal);
+            st.normal_torque_nm[c.link] = add(st.normal_torque_nm[c.link], t_normal);
+            let x = &mut world.data.xfrc_applied_mut()[body];
+            for k in 0..3 {
+                x[k] += f_normal[k];
+                x[3 + k] += t_normal[k];
+            }
+            let [_, a, l] = sp.frame;
+            let (fa, fl) = (sp.f[1], sp.f[2]);
+            let f_world = [0, 1, 2].map(|j| fa * a[j] + fl * l[j]);
+            // On its ellipse the point slides (its anchor follows it), inside it sticks.
+            let mu_a = if fa > 0.0 { sp.mu[1] } else { sp.mu[0] };
+            let on_ellipse = |f: f64, limit: f64| if limit > 0.0 { (f / limit).powi(2) } else { 1.0 };
+            let sliding = on_ellipse(fa, mu_a * n) + on_ellipse(fl, sp.mu[2] * n) >= 1.0 - 1e-9;
+            if let Some(slot) = claim_slot(&mut st.obstacle_slots[c.link], c.other, c.place) {
+                slot.seen = true;
+                slot.last_normal_n = n;
+                slot.normal_n = n;
+                slot.deflection_m = if sliding { [0.0; 3] } else { add(sp.z, sp.v_t.map(|x| x * dt)) };
+                slot.force_n = f_world;
+                slot.arm_m = c.arm_m;
+            }
+            if c.ground_mu.is_some() {
+                // The ground rows of a snapshot share their link end's friction.
+                let m = world.data.xmat()[body];
+                let end = usize::from(c.arm_m[0] * m[0] + c.arm_m[1] * m[3] + c.arm_m[2] * m[6] < 0.0);
+                st.slot_force_n[c.link][end] = add(st.slot_force_n[c.link][end], f_world);
+            }
+            st.add_friction(world, body, c.link, f_world, cross(c.arm_m, f_world), c.ground_mu.is_none());
+        }
+        for slot in st.obstacle_slots.iter_mut().flatten() {
+            if !slot.seen {
+                *slot = ObstacleSlot::FREE;
+            }
         }
     }
 
@@ -1538,6 +1899,45 @@ fn forward_forces(world: &mut World) {
     world.data.forward_skip(mujoco_rs::prelude::MjtStage::mjSTAGE_VEL, true);
 }
 
+/// A ground region's Coulomb coefficients under `model`: forward (friction force toward the
+/// tail), backward (toward the head), lateral.
+fn friction_coefficients(model: GroundModel, f: &crate::config::SurfaceFriction) -> [f64; 3] {
+    match model {
+        GroundModel::Isotropic => [f.sliding, f.sliding, f.sliding],
+        GroundModel::Anisotropic => [f.axial, f.axial, f.lateral],
+        GroundModel::Directional => [f.axial, f.backward, f.lateral],
+        GroundModel::Viscous => [0.0; 3],
+    }
+}
+
+/// The slot of `slots` for a contact with `geom` at `place`: the one it had (a slot keeps its
+/// contact while the link touches it), else a free one, else one not seen at this state (reset).
+fn claim_slot(slots: &mut [ObstacleSlot; OBSTACLE_SLOTS], geom: usize, place: usize) -> Option<&mut ObstacleSlot> {
+    let k = slots
+        .iter()
+        .position(|s| s.geom == geom && s.place == place)
+        .or_else(|| slots.iter().position(|s| s.geom == usize::MAX))
+        .or_else(|| slots.iter().position(|s| !s.seen))?;
+    let slot = &mut slots[k];
+    if slot.geom != geom || slot.place != place {
+        *slot = ObstacleSlot { geom, place, ..ObstacleSlot::FREE };
+    }
+    Some(slot)
+}
+
+/// Where on a link a contact point lies, for the whole-body solve's per-point friction state:
+/// 0 ahead of the middle half of the capsule's axis segment (`half_length_m` from the centre of
+/// mass each way), 1 behind it, 2 within it (a heightfield bump under the middle).
+fn contact_place(along_m: f64, half_length_m: f64) -> usize {
+    if along_m > 0.5 * half_length_m {
+        0
+    } else if along_m < -0.5 * half_length_m {
+        1
+    } else {
+        2
+    }
+}
+
 /// A link–ground or link–obstacle contact of x_k before its normal force: the geoms (one of them
 /// a link's), the point, the normal from geom 1 to geom 2 and the distance (negative: penetrating).
 #[derive(Debug, Clone, Copy)]
@@ -1556,6 +1956,11 @@ struct ObstacleCandidate {
     contact: FoundContact,
     link: usize,
     other: usize,
+    /// Where on the link ([`contact_place`]; 0 with `"per_link"`).
+    place: usize,
+    /// Ground contacts of the whole-body solve: their friction coefficients (forward, backward,
+    /// lateral); `None` for obstacle contacts.
+    ground_mu: Option<[f64; 3]>,
     nrm: [f64; 3],
     arm_m: [f64; 3],
     depth: f64,
@@ -1864,8 +2269,45 @@ fn any_perpendicular(n: [f64; 3]) -> [f64; 3] {
     normalized(tangential(e, n)).unwrap_or([1.0, 0.0, 0.0])
 }
 
+/// The point of the ellipse (f_a/A)² + (f_l/L)² ≤ 1 nearest to `t` in the metric `b` (symmetric
+/// positive definite): argmin (f − t)ᵀ·b·(f − t), the exact solve of one 2 × 2 block of a
+/// projected Gauss–Seidel sweep. With u = (f_a/A, f_l/L) it is the unit disk in the metric
+/// M = D·b·D, D = diag(A, L); in M's eigenvectors that is an ellipse projection.
+fn project_to_ellipse_in_metric(t: [f64; 2], a_n: f64, l_n: f64, b: [[f64; 2]; 2]) -> (f64, f64) {
+    if a_n <= 0.0 || l_n <= 0.0 {
+        return crate::state::project_to_ellipse(t[0], t[1], a_n, l_n);
+    }
+    let u0 = [t[0] / a_n, t[1] / l_n];
+    if u0[0] * u0[0] + u0[1] * u0[1] <= 1.0 {
+        return (t[0], t[1]);
+    }
+    let m = [[a_n * a_n * b[0][0], a_n * l_n * b[0][1]], [a_n * l_n * b[1][0], l_n * l_n * b[1][1]]];
+    // Eigen-decomposition of the symmetric 2 × 2 M.
+    let (p, q, r) = (m[0][0], m[0][1], m[1][1]);
+    let mean = 0.5 * (p + r);
+    let rad = (0.25 * (p - r) * (p - r) + q * q).sqrt();
+    let (l1, l2) = ((mean + rad).max(0.0), (mean - rad).max(0.0));
+    // The eigenvector of l1, (c, s): (l1 − r, q) or (q, l1 − p), whichever is longer.
+    let (e0, e1) = if p >= r { (l1 - r, q) } else { (q, l1 - p) };
+    let size = e0.hypot(e1);
+    let (c, s) = if size > 0.0 { (e0 / size, e1 / size) } else { (1.0, 0.0) };
+    // v0 = Qᵀ·u0, Q = [[c, −s], [s, c]].
+    let v0 = [c * u0[0] + s * u0[1], -s * u0[0] + c * u0[1]];
+    let (ea, eb) = (l1.sqrt(), l2.sqrt());
+    let v = if ea > 0.0 && eb > 0.0 {
+        let (x, y) = crate::state::project_to_ellipse(ea * v0[0], eb * v0[1], ea, eb);
+        [x / ea, y / eb]
+    } else {
+        let n = (v0[0] * v0[0] + v0[1] * v0[1]).sqrt();
+        [v0[0] / n, v0[1] / n]
+    };
+    let u = [c * v[0] - s * v[1], s * v[0] + c * v[1]];
+    (u[0] * a_n, u[1] * l_n)
+}
+
 #[cfg(test)]
 mod tests {
+    use super::project_to_ellipse_in_metric;
     use crate::state::project_to_ellipse;
 
     #[test]
@@ -1880,5 +2322,53 @@ mod tests {
         let (nx, ny) = (x / 0.01, y / 1.0);
         assert!(((1.0 - x) * ny - (3.0 - y) * nx).abs() < 1e-6 * nx.hypot(ny));
         assert_eq!(project_to_ellipse(1.0, 1.0, 0.0, 0.5), (0.0, 0.5));
+    }
+
+    /// The projection in a metric b is the minimiser of (f − t)ᵀ·b·(f − t) over the ellipse
+    /// (f_a/A)² + (f_l/L)² ≤ 1: a point inside is kept; from outside, the result lies on the
+    /// ellipse and its KKT condition holds, b·(t − f) = λ·∇g(f) with λ ≥ 0 and ∇g =
+    /// (f_a/A², f_l/L²) the ellipse's outward normal; and no point of the ellipse is nearer in b.
+    #[test]
+    fn the_projection_in_a_metric_meets_its_optimality_conditions() {
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        assert_eq!(project_to_ellipse_in_metric([0.1, -0.2], 1.0, 0.5, [[2.0, 0.3], [0.3, 1.0]]), (0.1, -0.2));
+        for _ in 0..2000 {
+            let (a, l) = (0.1 + 2.0 * next(), 0.1 + 2.0 * next());
+            // A symmetric positive definite metric, up to 1:100 between its eigenvalues.
+            let (p, r, angle) = (0.01 + next(), 0.01 + next(), std::f64::consts::PI * next());
+            let (c, s) = (angle.cos(), angle.sin());
+            let b = [[p * c * c + r * s * s, (p - r) * c * s], [(p - r) * c * s, p * s * s + r * c * c]];
+            let t = [6.0 * (next() - 0.5) * a, 6.0 * (next() - 0.5) * l];
+            let (fa, fl) = project_to_ellipse_in_metric(t, a, l, b);
+            let g = (fa / a).powi(2) + (fl / l).powi(2);
+            if (t[0] / a).powi(2) + (t[1] / l).powi(2) <= 1.0 {
+                assert_eq!((fa, fl), (t[0], t[1]));
+                continue;
+            }
+            assert!((g - 1.0).abs() < 1e-9, "not on the ellipse: {g}");
+            let d = [t[0] - fa, t[1] - fl];
+            let bd = [b[0][0] * d[0] + b[0][1] * d[1], b[1][0] * d[0] + b[1][1] * d[1]];
+            let normal = [fa / (a * a), fl / (l * l)];
+            let (bd_size, n_size) = (bd[0].hypot(bd[1]), normal[0].hypot(normal[1]));
+            let across = (bd[0] * normal[1] - bd[1] * normal[0]) / (bd_size * n_size);
+            let along = (bd[0] * normal[0] + bd[1] * normal[1]) / (bd_size * n_size);
+            assert!(across.abs() < 1e-6 && along > 0.0, "b·(t − f) not along the outward normal: {across}, {along}");
+            // No point of the ellipse is nearer in the metric.
+            let dist = |f: [f64; 2]| {
+                let e = [t[0] - f[0], t[1] - f[1]];
+                e[0] * (b[0][0] * e[0] + b[0][1] * e[1]) + e[1] * (b[1][0] * e[0] + b[1][1] * e[1])
+            };
+            let best = dist([fa, fl]);
+            for k in 0..360 {
+                let phi = k as f64 * std::f64::consts::PI / 180.0;
+                assert!(dist([a * phi.cos(), l * phi.sin()]) >= best * (1.0 - 1e-9) - 1e-12);
+            }
+        }
     }
 }

@@ -258,9 +258,17 @@ impl From<model::ModelError> for SimError {
 /// contact at the start is fine, a placement error is not (see [`World::check_start_clear`]).
 pub const START_PENETRATION_TOLERANCE_M: f64 = 0.5e-3;
 
+/// A contact point of [`World::point_frame_jacobians`]: its body, its position (world frame) and
+/// three unit directions.
+pub(crate) type PointFrame = (usize, [f64; 3], [[f64; 3]; 3]);
+
 /// Reusable buffers of [`World::point_mobility`].
 #[derive(Debug, Clone, Default)]
 pub(crate) struct MobilityBuffers {
+    nv: usize,
+    /// M⁻¹ (nv × nv) and the identity it is solved from ([`World::point_frame_jacobians`]).
+    minv: Vec<f64>,
+    identity: Vec<f64>,
     jac: Vec<f64>,
     jt: Vec<f64>,
     minv_jt: Vec<f64>,
@@ -268,6 +276,43 @@ pub(crate) struct MobilityBuffers {
     pub w: Vec<f64>,
     /// The rows' accelerations in the forward pass.
     pub acc: Vec<f64>,
+}
+
+impl MobilityBuffers {
+    /// Degrees of freedom of the latest [`World::point_frame_jacobians`].
+    pub fn nv(&self) -> usize {
+        self.nv
+    }
+
+    /// Row r's Jacobian d_rᵀ·J_r (nv numbers) of the latest [`World::point_frame_jacobians`].
+    pub fn jacobian(&self, r: usize) -> &[f64] {
+        &self.jt[r * self.nv..(r + 1) * self.nv]
+    }
+
+    /// M⁻¹·J_rᵀ·d_r (nv numbers): the joint-space acceleration a unit force along row r causes.
+    pub fn response(&self, r: usize) -> &[f64] {
+        &self.minv_jt[r * self.nv..(r + 1) * self.nv]
+    }
+
+    /// Point i's three rows' Jacobians (3·nv numbers, row after row).
+    pub fn point_jacobians(&self, i: usize) -> &[f64] {
+        &self.jt[3 * i * self.nv..3 * (i + 1) * self.nv]
+    }
+
+    /// Point i's three rows' responses M⁻¹·Jᵀ·d (3·nv numbers, row after row).
+    pub fn point_responses(&self, i: usize) -> &[f64] {
+        &self.minv_jt[3 * i * self.nv..3 * (i + 1) * self.nv]
+    }
+
+    /// W[r][s] = d_rᵀ·J_r·M⁻¹·J_sᵀ·d_s of the latest [`World::point_frame_jacobians`].
+    pub fn mobility(&self, r: usize, s: usize) -> f64 {
+        dot_slices(self.jacobian(r), self.response(s))
+    }
+}
+
+/// Σ a_k·b_k.
+pub(crate) fn dot_slices(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// A saved engine state of a [`World`] ([`World::save_state`]).
@@ -635,6 +680,97 @@ impl World {
                 let ys = &buf.minv_jt[s * nv..(s + 1) * nv];
                 buf.w[r * n + s] = jr.iter().zip(ys).map(|(a, b)| a * b).sum();
             }
+        }
+    }
+
+    /// Like [`World::point_mobility`] for contact points with a frame of three directions each
+    /// (`points`: body, point, directions), without the dense W: one `mj_jac` per point gives
+    /// its three rows d·J (row 3·i + k for direction k of point i), one `mj_solveM` their
+    /// M⁻¹·Jᵀ·d, and `acc` each row's acceleration d·J·q̈ in the latest forward pass. The
+    /// buffers' [`MobilityBuffers::jacobian`], [`MobilityBuffers::response`] and
+    /// [`MobilityBuffers::mobility`] read them; no allocation once warmed up.
+    pub(crate) fn point_frame_jacobians(&mut self, points: &[PointFrame], buf: &mut MobilityBuffers) {
+        let nv = self.data.model().ffi().nv as usize;
+        let n = 3 * points.len();
+        buf.nv = nv;
+        // Every entry below is written before it is read: resized, not cleared.
+        buf.jac.resize(3 * nv, 0.0);
+        buf.jt.resize(n * nv, 0.0);
+        buf.minv_jt.resize(n * nv, 0.0);
+        buf.acc.resize(n, 0.0);
+        if n == 0 || nv == 0 {
+            return;
+        }
+        for (i, (body, point, dirs)) in points.iter().enumerate() {
+            // SAFETY: as in `point_mobility`: `jac` holds 3·nv numbers, the body is the model's.
+            #[allow(unsafe_code)]
+            unsafe {
+                mujoco_rs::mujoco_c::mj_jac(
+                    self.data.model().ffi(),
+                    self.data.ffi(),
+                    buf.jac.as_mut_ptr(),
+                    std::ptr::null_mut(),
+                    point,
+                    *body as i32,
+                );
+            }
+            for (k, dir) in dirs.iter().enumerate() {
+                let row = &mut buf.jt[(3 * i + k) * nv..(3 * i + k + 1) * nv];
+                for (j, x) in row.iter_mut().enumerate() {
+                    *x = dir[0] * buf.jac[j] + dir[1] * buf.jac[nv + j] + dir[2] * buf.jac[2 * nv + j];
+                }
+            }
+        }
+        if n <= nv {
+            // SAFETY: as in `point_mobility`: n vectors of nv numbers each.
+            #[allow(unsafe_code)]
+            unsafe {
+                let m: *const mujoco_rs::mujoco_c::mjModel = self.data.model().ffi();
+                mujoco_rs::mujoco_c::mj_solveM(
+                    m,
+                    self.data.ffi_mut(),
+                    buf.minv_jt.as_mut_ptr(),
+                    buf.jt.as_ptr(),
+                    n as i32,
+                );
+            }
+        } else {
+            // More rows than degrees of freedom: M⁻¹ itself (nv solves), then M⁻¹·Jᵀ·d per row
+            // (M⁻¹ is symmetric: row r's response is M⁻¹ times its Jacobian).
+            if buf.identity.len() != nv * nv {
+                buf.identity.clear();
+                buf.identity.resize(nv * nv, 0.0);
+                for k in 0..nv {
+                    buf.identity[k * nv + k] = 1.0;
+                }
+            }
+            buf.minv.resize(nv * nv, 0.0);
+            // SAFETY: `minv` and `identity` hold nv vectors of nv numbers each.
+            #[allow(unsafe_code)]
+            unsafe {
+                let m: *const mujoco_rs::mujoco_c::mjModel = self.data.model().ffi();
+                mujoco_rs::mujoco_c::mj_solveM(
+                    m,
+                    self.data.ffi_mut(),
+                    buf.minv.as_mut_ptr(),
+                    buf.identity.as_ptr(),
+                    nv as i32,
+                );
+            }
+            for (jr, out) in buf.jt.chunks_exact(nv).zip(buf.minv_jt.chunks_exact_mut(nv)) {
+                out.fill(0.0);
+                for (mk, &j) in buf.minv.chunks_exact(nv).zip(jr) {
+                    if j != 0.0 {
+                        for (o, m) in out.iter_mut().zip(mk) {
+                            *o += m * j;
+                        }
+                    }
+                }
+            }
+        }
+        let qacc = self.data.qacc();
+        for r in 0..n {
+            buf.acc[r] = dot_slices(&buf.jt[r * nv..(r + 1) * nv], qacc);
         }
     }
 

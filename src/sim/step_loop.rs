@@ -442,10 +442,11 @@ impl<C: Controller> Simulation<C> {
     /// public so a caller can take the loop apart (tests, a custom read-out).
     pub fn control(&mut self) {
         if self.controller_state.is_some() {
-            // The ground model's forces of the coming step (they depend on the state only), then
+            // The external forces and the ground model's forces of the coming step (they depend
+            // on the state only; the contact law's forward passes see the external forces), then
             // fresh sensors for this instant and its whole state.
-            self.ground.before_step(&mut self.world);
             self.external.before_step(&mut self.world);
+            self.ground.before_step(&mut self.world);
             self.ground.forward(&mut self.world);
         }
         if self.controller.reads_sensors() || self.controller_state.is_some() {
@@ -462,8 +463,9 @@ impl<C: Controller> Simulation<C> {
         }
         self.world.apply_command(&self.cmd);
         if self.controller_state.is_none() {
-            self.ground.before_step(&mut self.world);
+            // External forces first: the contact law's forward passes see them.
             self.external.before_step(&mut self.world);
+            self.ground.before_step(&mut self.world);
         }
     }
 

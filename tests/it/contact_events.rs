@@ -1,4 +1,6 @@
-//! Contact events with the default contact law (`physics.floor_friction = "stick_slip"`),
+//! Contact events with the default contact law (`physics.floor_friction = "stick_slip"`), with
+//! both its solves (`physics.environment_contact_solve`: `"per_link"`, the default, and
+//! `"whole_body"`; a slow test's whole-body twin is `#[ignore]`d),
 //! measured from every step's snapshot as the recorded tables show it (`Simulation::control`, the
 //! recording's forward pass at x_k, then the step): a straight snake at rest, launched sideways,
 //! standing upright, hit sideways on the cylinders, the gait's ramp, a slowly ramped push that
@@ -15,12 +17,19 @@ use simserpent::state::x_axis;
 
 use crate::common::{G, default_config_with};
 
+/// The two solves of the contact law (`physics.environment_contact_solve`).
+const PER_LINK: &str = "per_link";
+const WHOLE_BODY: &str = "whole_body";
+const LAWS: [&str; 2] = [PER_LINK, WHOLE_BODY];
+
 /// The validation suite's scene settings (`validation/scenes.py`): the default snake on a bare
 /// floor, isotropic μ everywhere, plus the scene's own keys; position servos with the gains the
 /// reference figures below were computed with (kp 5 N·m/rad, kv 0.1 N·m·s/rad: stiffer servos
-/// lift the links more during the ramp, in both engines).
-fn scene(mu: f64, keys: &[&str]) -> Config {
+/// lift the links more during the ramp, in both engines), with
+/// `physics.environment_contact_solve = law`.
+fn scene_in(law: &str, mu: f64, keys: &[&str]) -> Config {
     let mut sets: Vec<String> = [
+        format!("physics.environment_contact_solve=\"{law}\""),
         "control.controller=\"gait\"".to_string(),
         "control.position_kp_nm_per_rad=5.0".to_string(),
         "control.position_kv_nm_s_per_rad=0.1".to_string(),
@@ -37,9 +46,14 @@ fn scene(mu: f64, keys: &[&str]) -> Config {
 
 /// A straight snake (no gait, servos holding it straight) on the bare floor.
 fn straight(mu: f64, keys: &[&str]) -> Config {
+    straight_in(PER_LINK, mu, keys)
+}
+
+/// [`straight`] with `physics.environment_contact_solve = law`.
+fn straight_in(law: &str, mu: f64, keys: &[&str]) -> Config {
     let mut k = vec!["gait.kind=\"none\""];
     k.extend_from_slice(keys);
-    scene(mu, &k)
+    scene_in(law, mu, &k)
 }
 
 /// Height of a link's lowest point above the floor (m): its capsule's axis segment end nearest
@@ -119,39 +133,47 @@ fn simulation(c: &Config) -> Simulation {
 
 #[test]
 fn a_straight_snake_at_rest_carries_each_links_weight_on_that_link() {
-    let c = straight(0.5, &[]);
-    let mut sim = simulation(&c);
-    run_for(&mut sim, &c, 0.5);
-    let e = measure(&c, &mut sim, 0.5, 0.5);
-    eprintln!("{e:?}");
-    assert!(
-        e.link_load_error <= 0.02,
-        "a link's floor load differs from its weight by {:.2} %",
-        e.link_load_error * 100.0
-    );
-    assert_eq!(e.airborne_fraction, 0.0);
+    for law in LAWS {
+        let c = straight_in(law, 0.5, &[]);
+        let mut sim = simulation(&c);
+        run_for(&mut sim, &c, 0.5);
+        let e = measure(&c, &mut sim, 0.5, 0.5);
+        eprintln!("{law}: {e:?}");
+        assert!(
+            e.link_load_error <= 0.02,
+            "{law}: a link's floor load differs from its weight by {:.2} %",
+            e.link_load_error * 100.0
+        );
+        assert_eq!(e.airborne_fraction, 0.0, "{law}");
+    }
 }
 
 #[test]
 fn a_straight_snake_launched_sideways_rolls_without_lifting() {
-    for mu in [0.5, 1.0] {
-        let c = straight(mu, &["initial_state.linear_velocity_m_per_s=[0.0, 5.0, 0.0]"]);
+    for (law, mu) in LAWS.into_iter().flat_map(|law| [(law, 0.5), (law, 1.0)]) {
+        let c = straight_in(law, mu, &["initial_state.linear_velocity_m_per_s=[0.0, 5.0, 0.0]"]);
         // The snake starts touching the floor exactly and settles onto its sink under its own
         // weight (g/ω² ≈ 10 µm) within the first steps; measured from 50 ms on.
         let mut sim = simulation(&c);
         run_for(&mut sim, &c, 0.05);
         let e = measure(&c, &mut sim, 0.95, mu);
-        eprintln!("μ {mu}: {e:?}");
-        assert_eq!(e.airborne_fraction, 0.0, "μ {mu}: {e:?}");
-        assert!(e.total_load_error <= 0.02, "μ {mu}: Σ N / W − 1 up to {:.2} %", e.total_load_error * 100.0);
-        assert!(e.friction_over_mu_n <= 1.0 + 1e-9 && e.friction_without_contact_n == 0.0, "μ {mu}: {e:?}");
+        eprintln!("{law}, μ {mu}: {e:?}");
+        assert_eq!(e.airborne_fraction, 0.0, "{law}, μ {mu}: {e:?}");
+        assert!(e.total_load_error <= 0.02, "{law}, μ {mu}: Σ N / W − 1 up to {:.2} %", e.total_load_error * 100.0);
+        assert!(e.friction_over_mu_n <= 1.0 + 1e-9 && e.friction_without_contact_n == 0.0, "{law}, μ {mu}: {e:?}");
     }
 }
 
 #[test]
 fn an_upright_snake_stands() {
+    for law in LAWS {
+        an_upright_snake_stands_with(law);
+    }
+}
+
+fn an_upright_snake_stands_with(law: &str) {
     // Standing on the head's tip: the body (along −x of the head) pointing up.
-    let c = straight(0.5, &["snake.head_rotation_deg=[0.0, 90.0, 0.0]"]);
+    let c = straight_in(law, 0.5, &["snake.head_rotation_deg=[0.0, 90.0, 0.0]"]);
     let mut world = World::from_config(&c).unwrap();
     // The configured pose holds the tip one radius above the floor: lower it onto the floor.
     world.qpos_mut()[2] -= c.snake.link_radius_m;
@@ -167,14 +189,15 @@ fn an_upright_snake_stands() {
     sim.snapshot(&mut s);
     let top = s.link_position_m[n - 1];
     let off = (top[0] - start[0]).hypot(top[1] - start[1]);
-    eprintln!("top link {off:e} m off the vertical");
-    assert!(off <= 1e-3, "the top link is {off} m off the vertical after 2 s");
+    eprintln!("{law}: top link {off:e} m off the vertical");
+    assert!(off <= 1e-3, "{law}: the top link is {off} m off the vertical after 2 s");
 }
 
 /// The sideways hit on the cylinders: the straight snake at 5 m/s into the two-cylinder terrain
 /// (distance 0.3 m, radius 0.2 m).
-fn hit(mu: f64) -> Config {
-    straight(
+fn hit(law: &str, mu: f64) -> Config {
+    straight_in(
+        law,
         mu,
         &[
             "initial_state.linear_velocity_m_per_s=[0.0, 5.0, 0.0]",
@@ -188,12 +211,15 @@ fn hit(mu: f64) -> Config {
 /// At μ 0.5 the reference (Drake) throws the snake off the floor too: its largest lift is 182 mm.
 #[test]
 fn a_sideways_hit_on_the_cylinders_stays_within_the_reference_lift() {
-    let c = hit(0.5);
-    let e = measure(&c, &mut simulation(&c), 1.0, 0.5);
-    eprintln!("{e:?}");
-    assert!(e.max_lift_m <= 1.5 * 0.182, "a link lifts {} mm (reference 182 mm)", e.max_lift_m * 1e3);
-    // Friction of the same instant's contacts, floor and cylinders: within μN, none on an open row.
-    assert!(e.friction_over_mu_n <= 1.0 + 1e-9 && e.friction_without_contact_n == 0.0, "{e:?}");
+    for law in LAWS {
+        let c = hit(law, 0.5);
+        let e = measure(&c, &mut simulation(&c), 1.0, 0.5);
+        eprintln!("{law}: {e:?}");
+        assert!(e.max_lift_m <= 1.5 * 0.182, "{law}: a link lifts {} mm (reference 182 mm)", e.max_lift_m * 1e3);
+        // Friction of the same instant's contacts, floor and cylinders: within μN, none on an
+        // open row.
+        assert!(e.friction_over_mu_n <= 1.0 + 1e-9 && e.friction_without_contact_n == 0.0, "{law}: {e:?}");
+    }
 }
 
 /// A 64 × 64 gray PNG of bumps (a product of sines, four bumps across), for a heightfield.
@@ -218,8 +244,9 @@ fn friction_on_a_bumpy_heightfield_stays_within_mu_n_of_the_same_instant() {
     let dir = tempfile::tempdir().unwrap();
     let png = dir.path().join("bumps.png");
     write_bumps_png(&png);
-    for mu in [0.5, 1.0] {
-        let c = scene(
+    for (law, mu) in LAWS.into_iter().flat_map(|law| [(law, 0.5), (law, 1.0)]) {
+        let c = scene_in(
+            law,
             mu,
             &[
                 &format!("terrain.heightfield.file={:?}", png.display().to_string()),
@@ -230,8 +257,43 @@ fn friction_on_a_bumpy_heightfield_stays_within_mu_n_of_the_same_instant() {
             ],
         );
         let e = measure(&c, &mut simulation(&c), 3.0, mu);
-        eprintln!("μ {mu}: {e:?}");
-        assert!(e.friction_over_mu_n <= 1.0 + 1e-9 && e.friction_without_contact_n == 0.0, "μ {mu}: {e:?}");
+        eprintln!("{law}, μ {mu}: {e:?}");
+        assert!(e.friction_over_mu_n <= 1.0 + 1e-9 && e.friction_without_contact_n == 0.0, "{law}, μ {mu}: {e:?}");
+    }
+}
+
+/// With the whole-body solve the gait on 10-mm bumps converges in the step: its centre-of-mass
+/// speed over 1–3 s at 0.5 ms within 5 % of the 1-ms step's, at μ 0.5 and 1 (measured 230.1 and
+/// 230.0 mm/s, 204.0 and 204.2 mm/s).
+#[test]
+fn the_gait_on_a_bumpy_heightfield_converges_in_the_step_with_the_whole_body_solve() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = dir.path().join("bumps.png");
+    write_bumps_png(&png);
+    let file = format!("terrain.heightfield.file={:?}", png.display().to_string());
+    for mu in [0.5, 1.0] {
+        let speeds = [1e-3, 5e-4].map(|dt| {
+            let step = format!("general.timestep_secs={dt}");
+            let keys = [
+                &SCENE_GAIT[..],
+                &[
+                    file.as_str(),
+                    "terrain.heightfield.size_x_m=4.0",
+                    "terrain.heightfield.size_y_m=4.0",
+                    "terrain.heightfield.height_m=0.01",
+                    "snake.head_position_m=[0.0, 0.0, 0.011]",
+                    step.as_str(),
+                ],
+            ]
+            .concat();
+            ground_figures(&scene_in(WHOLE_BODY, mu, &keys)).speed_m_per_s
+        });
+        eprintln!(
+            "whole_body, μ {mu}: speed on the bumps {:.1} / {:.1} mm/s at 1 / 0.5 ms",
+            speeds[0] * 1e3,
+            speeds[1] * 1e3
+        );
+        assert!((speeds[1] / speeds[0] - 1.0).abs() <= 0.05, "μ {mu}: {speeds:?}");
     }
 }
 
@@ -239,10 +301,10 @@ fn friction_on_a_bumpy_heightfield_stays_within_mu_n_of_the_same_instant() {
 #[test]
 #[ignore = "probe: the sideways hit at μ 0.5 and 1 (run with --ignored --nocapture)"]
 fn measure_sideways_hit() {
-    for mu in [0.5, 1.0] {
-        let c = hit(mu);
+    for (law, mu) in LAWS.into_iter().flat_map(|law| [(law, 0.5), (law, 1.0)]) {
+        let c = hit(law, mu);
         let e = measure(&c, &mut simulation(&c), 1.0, mu);
-        eprintln!("μ {mu}: {e:?}");
+        eprintln!("{law}, μ {mu}: {e:?}");
     }
 }
 
@@ -265,14 +327,14 @@ const SCENE_GAIT: [&str; 6] = [
 
 #[test]
 fn the_gait_ramp_and_steady_undulation_stay_within_the_reference_envelope() {
-    for (mu, lift, peak, loads) in RAMP_REFERENCE {
-        let c = scene(mu, &SCENE_GAIT);
+    for (law, (mu, lift, peak, loads)) in LAWS.into_iter().flat_map(|law| RAMP_REFERENCE.map(|r| (law, r))) {
+        let c = scene_in(law, mu, &SCENE_GAIT);
         let mut sim = simulation(&c);
         let e = measure(&c, &mut sim, 1.0, mu);
-        eprintln!("μ {mu}, ramp: {e:?}");
-        assert!(e.max_lift_m <= 1.5 * lift, "μ {mu}: largest lift {} mm", e.max_lift_m * 1e3);
-        assert!(e.peak_over_weight <= 2.0 * peak, "μ {mu}: peak {} × m g", e.peak_over_weight);
-        assert!(e.friction_over_mu_n <= 1.0 + 1e-9 && e.friction_without_contact_n == 0.0, "μ {mu}: {e:?}");
+        eprintln!("{law}, μ {mu}, ramp: {e:?}");
+        assert!(e.max_lift_m <= 1.5 * lift, "{law}, μ {mu}: largest lift {} mm", e.max_lift_m * 1e3);
+        assert!(e.peak_over_weight <= 2.0 * peak, "{law}, μ {mu}: peak {} × m g", e.peak_over_weight);
+        assert!(e.friction_over_mu_n <= 1.0 + 1e-9 && e.friction_without_contact_n == 0.0, "{law}, μ {mu}: {e:?}");
         // Steady undulation, 1–3 s: each link's mean floor load.
         let n = c.snake.n_links;
         let mut s = Snapshot::new(n, n - 1);
@@ -286,11 +348,11 @@ fn the_gait_ramp_and_steady_undulation_stay_within_the_reference_envelope() {
             }
             sim.advance().unwrap();
         }
-        eprintln!("μ {mu}, mean load per link 1–3 s: {sum:.3?}");
+        eprintln!("{law}, μ {mu}, mean load per link 1–3 s: {sum:.3?}");
         for (i, (load, reference)) in sum.iter().zip(loads).enumerate() {
             assert!(
                 (load / reference - 1.0).abs() <= 0.05,
-                "μ {mu}: link {i} carries {load} × m g, reference {reference}"
+                "{law}, μ {mu}: link {i} carries {load} × m g, reference {reference}"
             );
         }
     }
@@ -300,8 +362,8 @@ fn the_gait_ramp_and_steady_undulation_stay_within_the_reference_envelope() {
 /// (`[[physics.external_forces]]`): it stays put until the push reaches μ·N and slides from there.
 #[test]
 fn a_slowly_ramped_push_breaks_a_link_away_at_mu_n() {
-    for mu in [0.5, 1.0] {
-        let mut c = straight(mu, &["snake.n_links=1"]);
+    for (law, mu) in LAWS.into_iter().flat_map(|law| [(law, 0.5), (law, 1.0)]) {
+        let mut c = straight_in(law, mu, &["snake.n_links=1"]);
         let mu_n = mu * c.snake.link_mass_kg * G;
         // From 0 at 0.2 s, at a quarter of μN per second, along the link's axis (+x).
         let (start, rate) = (0.2, 0.25 * mu_n);
@@ -333,8 +395,8 @@ fn a_slowly_ramped_push_breaks_a_link_away_at_mu_n() {
             sim.advance().unwrap();
         }
         let ratio = broke_at.expect("the link broke away") / mu_n;
-        eprintln!("μ {mu}: broke away at {ratio} μN");
-        assert!((ratio - 1.0).abs() <= 0.01, "μ {mu}: broke away at {ratio} × μN");
+        eprintln!("{law}, μ {mu}: broke away at {ratio} μN");
+        assert!((ratio - 1.0).abs() <= 0.01, "{law}, μ {mu}: broke away at {ratio} × μN");
     }
 }
 
@@ -345,8 +407,9 @@ fn a_slowly_ramped_push_breaks_a_link_away_at_mu_n() {
 /// moves with the energy the floor springs hold at the step's start and end.)
 #[test]
 fn a_coasting_snake_never_gains_energy_in_a_step() {
-    for mu in [0.5, 1.0] {
-        let c = straight(
+    for (law, mu) in LAWS.into_iter().flat_map(|law| [(law, 0.5), (law, 1.0)]) {
+        let c = straight_in(
+            law,
             mu,
             &[
                 "initial_state.linear_velocity_m_per_s=[0.0, 1.0, 0.0]",
@@ -377,9 +440,10 @@ fn a_coasting_snake_never_gains_energy_in_a_step() {
             sim.advance().unwrap();
         }
         eprintln!(
-            "μ {mu}: largest rise in a step: kinetic + potential {rise:e} J, with the floor's elastic energy {rise_el:e} J"
+            "{law}, μ {mu}: largest rise in a step: kinetic + potential {rise:e} J, with the floor's elastic energy \
+             {rise_el:e} J"
         );
-        assert!(rise_el <= 1e-6, "μ {mu}: the energy rises by {rise_el:e} J in a step");
+        assert!(rise_el <= 1e-6, "{law}, μ {mu}: the energy rises by {rise_el:e} J in a step");
     }
 }
 
@@ -498,46 +562,98 @@ fn a_dropped_link_rebounds_at_the_configured_restitution() {
     }
 }
 
-/// A run that starts under load: one link on the floor pushed along its axis at 0.999 μ·m·g
-/// from t = 0 (default settings, the link placed on the floor at its radius) should hold: its
-/// centre moving less than 0.1 mm in 1 s, at μ 0.5 and 1. It does not yet (9.9 mm at μ 0.5):
-/// the stick spring–damper that holds a contact is critically damped, and settling under a
-/// sudden push it asks up to 1.135 × the push (its force is the push minus the link's
-/// deceleration), above μN for any push above 0.88 μN; the link slides, and then slides on at
-/// μN against 0.999 μN. Loading the floor from the first step (its spring measured from the
-/// resting sink) leaves the figure as it is; a friction that stops the slip within the step from
-/// the forces acting on the link would hold it.
+/// The whole-body solve's bounce is the setting at every step: a link dropped flat from 0.2 m
+/// rebounds at `physics.contact_restitution` within ±0.05 at 0.25 ms and 0.1 ms; at 1 ms
+/// (ω·dt = 1) one impact's rebound moves with where in the step it starts, and the mean over
+/// eight drops from 0.19 to 0.2075 m (a step's travel apart) is within ±0.05 of the setting and
+/// of the 0.1-ms figure. Every figure is the one the guide's table states ("whole_body" columns).
 #[test]
-#[ignore = "target not reached: the critically damped stick spring asks 1.135 x a sudden push while it settles (run with --ignored)"]
+fn a_dropped_link_rebounds_at_the_configured_restitution_with_the_whole_body_solve() {
+    let page = std::fs::read_to_string(crate::common::manifest_dir().join("guide/src/background/physics.md")).unwrap();
+    let law = format!("physics.environment_contact_solve=\"{WHOLE_BODY}\"");
+    for e in [0.3, 0.5, 0.7] {
+        let row = page
+            .lines()
+            .find(|l| l.trim_start().starts_with(&format!("| {e} |")))
+            .unwrap_or_else(|| panic!("the guide's restitution table has no row {e}"));
+        let documented: Vec<f64> =
+            row.split('|').map(str::trim).filter(|c| !c.is_empty()).skip(4).map(|c| c.parse().unwrap()).collect();
+        assert_eq!(documented.len(), 3, "the guide's row {e} has no three \"whole_body\" columns");
+        let at = |dt: f64, drop_m: f64| {
+            let keys = [format!("physics.contact_restitution={e}"), format!("general.timestep_secs={dt}"), law.clone()];
+            let keys: Vec<&str> = keys.iter().map(|s| s.as_str()).collect();
+            dropped_link_restitution(drop_m, &keys)
+        };
+        let drops: Vec<f64> = (0..8).map(|k| at(1e-3, 0.19 + 0.0025 * k as f64)).collect();
+        let mean = drops.iter().sum::<f64>() / drops.len() as f64;
+        let measured = [mean, at(2.5e-4, 0.2), at(1e-4, 0.2)];
+        eprintln!(
+            "restitution {e}, whole_body: 1 ms {drops:.3?} (mean {mean:.3}), 0.25 ms {:.3}, 0.1 ms {:.3}",
+            measured[1], measured[2]
+        );
+        for ((m, doc), dt) in measured.iter().zip(&documented).zip(["1 ms (mean)", "0.25 ms", "0.1 ms"]) {
+            assert!((m - doc).abs() <= 0.0005 + 1e-9, "restitution {e} at {dt}: {m}, the guide says {doc}");
+            assert!((m - e).abs() <= 0.05, "restitution {e} at {dt}: measured {m}");
+        }
+        assert!((measured[0] - measured[2]).abs() <= 0.05, "restitution {e}: {measured:?}");
+    }
+}
+
+/// How far (m) one link on the floor, pushed along its axis at 0.999 μ·m·g from t = 0 (default
+/// settings, the link placed on the floor at its radius), moves its centre in 1 s.
+fn start_under_load_moved_m(law: &str, mu: f64) -> f64 {
+    let mut c = straight_in(law, mu, &["snake.n_links=1"]);
+    let mu_n = mu * c.snake.link_mass_kg * G;
+    c.physics.external_forces = vec![ExternalForce {
+        link: 0,
+        direction: [1.0, 0.0, 0.0],
+        start_secs: 0.0,
+        ramp_n_per_s: 0.0,
+        force_n: 0.999 * mu_n,
+        duration_secs: 0.0,
+    }];
+    c.validate().unwrap();
+    let mut sim = simulation(&c);
+    let x0 = sim.world().data().qpos()[0];
+    let mut moved: f64 = 0.0;
+    for _ in 0..(1.0 / c.general.timestep_secs) as usize {
+        sim.step().unwrap();
+        moved = moved.max((sim.world().data().qpos()[0] - x0).abs());
+    }
+    moved
+}
+
+/// A run that starts under load holds: the link moves less than 0.1 mm in 1 s at μ 0.5 and 1
+/// with the whole-body solve (measured 0.0065 and 0.030 mm: the first step's normal force is a
+/// quarter of the weight, the link slips a few mm/s and is caught within 4 steps, its friction
+/// computed from the forces acting on it in the same step, the push included).
+#[test]
+fn a_link_loaded_just_below_mu_n_from_the_start_holds_with_the_whole_body_solve() {
+    for mu in [0.5, 1.0] {
+        let moved = start_under_load_moved_m(WHOLE_BODY, mu);
+        eprintln!("whole_body, μ {mu}: moved {:.4} mm", moved * 1e3);
+        assert!(moved < 1e-4, "μ {mu}: the link moved {} mm under 0.999 μN", moved * 1e3);
+    }
+}
+
+/// The same with the per-link law does not hold (9.9 mm at μ 0.5): its stick spring–damper is
+/// critically damped, and settling under a sudden push it asks up to 1.135 × the push (its force
+/// is the push minus the link's deceleration), above μN for any push above 0.88 μN; the link
+/// slides, and then slides on at μN against 0.999 μN.
+#[test]
+#[ignore = "target not reached with \"per_link\": the critically damped stick spring asks 1.135 x a sudden push while it settles (run with --ignored)"]
 fn a_link_loaded_just_below_mu_n_from_the_start_holds() {
     for mu in [0.5, 1.0] {
-        let mut c = straight(mu, &["snake.n_links=1"]);
-        let mu_n = mu * c.snake.link_mass_kg * G;
-        c.physics.external_forces = vec![ExternalForce {
-            link: 0,
-            direction: [1.0, 0.0, 0.0],
-            start_secs: 0.0,
-            ramp_n_per_s: 0.0,
-            force_n: 0.999 * mu_n,
-            duration_secs: 0.0,
-        }];
-        c.validate().unwrap();
-        let mut sim = simulation(&c);
-        let x0 = sim.world().data().qpos()[0];
-        let mut moved: f64 = 0.0;
-        for _ in 0..(1.0 / c.general.timestep_secs) as usize {
-            sim.step().unwrap();
-            moved = moved.max((sim.world().data().qpos()[0] - x0).abs());
-        }
-        eprintln!("μ {mu}: moved {:.4} mm", moved * 1e3);
+        let moved = start_under_load_moved_m(PER_LINK, mu);
+        eprintln!("per_link, μ {mu}: moved {:.4} mm", moved * 1e3);
         assert!(moved < 1e-4, "μ {mu}: the link moved {} mm under 0.999 μN", moved * 1e3);
     }
 }
 
 /// The sideways hit's largest lift (m) at the default 1-ms step and at 0.1 ms.
-fn hit_lifts(mu: f64) -> [f64; 2] {
+fn hit_lifts(law: &str, mu: f64) -> [f64; 2] {
     [1e-3, 1e-4].map(|dt| {
-        let mut c = hit(mu);
+        let mut c = hit(law, mu);
         c.general.timestep_secs = dt;
         measure(&c, &mut simulation(&c), 1.0, mu).max_lift_m
     })
@@ -548,7 +664,7 @@ fn hit_lifts(mu: f64) -> [f64; 2] {
 /// reference's (Drake, its floor and obstacle damping at SimSerpent's restitution: 163 mm).
 #[test]
 fn a_sideways_hit_at_mu_0_5_lifts_the_same_at_1_ms_and_0_1_ms() {
-    let lifts = hit_lifts(0.5);
+    let lifts = hit_lifts(PER_LINK, 0.5);
     eprintln!("μ 0.5: largest lift {:.1} mm at 1 ms, {:.1} mm at 0.1 ms", lifts[0] * 1e3, lifts[1] * 1e3);
     assert!((lifts[1] / lifts[0] - 1.0).abs() <= 0.10, "{lifts:?}");
     for lift in lifts {
@@ -565,12 +681,126 @@ fn a_sideways_hit_at_mu_0_5_lifts_the_same_at_1_ms_and_0_1_ms() {
 #[test]
 #[ignore = "target not reached: at μ 1 the lift is 40.0 / 32.4 mm at 1 / 0.1 ms (run with --ignored)"]
 fn a_sideways_hit_at_mu_1_lifts_the_same_at_1_ms_and_0_1_ms() {
-    let lifts = hit_lifts(1.0);
+    let lifts = hit_lifts(PER_LINK, 1.0);
     eprintln!("μ 1: largest lift {:.1} mm at 1 ms, {:.1} mm at 0.1 ms", lifts[0] * 1e3, lifts[1] * 1e3);
     assert!((lifts[1] / lifts[0] - 1.0).abs() <= 0.10, "{lifts:?}");
     for lift in lifts {
         assert!(lift <= 1.5 * 0.023, "{lifts:?}");
     }
+}
+
+/// The sideways hit at μ 0.5 with the whole-body solve: within 10 % between 1 ms and 0.1 ms and
+/// within 1/1.5 … 1.5 × the reference's 163 mm (slow: 10,000 steps at 0.1 ms).
+#[test]
+#[ignore = "slow (about 2 min in a debug build): run with --ignored"]
+fn a_sideways_hit_at_mu_0_5_lifts_the_same_at_1_ms_and_0_1_ms_with_the_whole_body_solve() {
+    let lifts = hit_lifts(WHOLE_BODY, 0.5);
+    eprintln!("whole_body, μ 0.5: largest lift {:.1} mm at 1 ms, {:.1} mm at 0.1 ms", lifts[0] * 1e3, lifts[1] * 1e3);
+    assert!((lifts[1] / lifts[0] - 1.0).abs() <= 0.10, "{lifts:?}");
+    for lift in lifts {
+        assert!((0.163 / 1.5..=0.163 * 1.5).contains(&lift), "{lifts:?}");
+    }
+}
+
+/// At μ 1 with the whole-body solve: 10.9 mm at 1 ms and 16.4 mm at 0.1 ms against the
+/// reference's 5.03 mm. The centre of mass rises alike at both steps (it leaves the floor at
+/// 0.356 m/s after the hit at both): the cylinders' friction stopping the links' spin drives
+/// them into the floor (6.6 N·s in 7 ms) and the floor's spring gives the stored energy back;
+/// the steps differ in how far a link tilts on its way up.
+#[test]
+#[ignore = "target not reached with \"whole_body\": at μ 1 the lift is 10.9 / 16.4 mm at 1 / 0.1 ms (run with --ignored)"]
+fn a_sideways_hit_at_mu_1_lifts_the_same_at_1_ms_and_0_1_ms_with_the_whole_body_solve() {
+    let lifts = hit_lifts(WHOLE_BODY, 1.0);
+    eprintln!("whole_body, μ 1: largest lift {:.1} mm at 1 ms, {:.1} mm at 0.1 ms", lifts[0] * 1e3, lifts[1] * 1e3);
+    assert!((lifts[1] / lifts[0] - 1.0).abs() <= 0.10, "{lifts:?}");
+    for lift in lifts {
+        assert!(lift <= 1.5 * 0.00503, "{lifts:?}");
+    }
+}
+
+/// The whole-body solve's forces land where the per-link law's do: every step of the sideways
+/// hit on the cylinders (μ 0.5, 0.15 s from t = 0), each link's link–floor rows (vertical
+/// normals) add up to its recorded floor force and its link–cylinder rows to its recorded
+/// obstacle force, normal and friction, and the floor force's friction part is the friction the
+/// law applies (`Ground::applied_friction_n`, less the obstacle part).
+#[test]
+fn the_whole_body_solve_records_its_forces_in_the_floor_and_obstacle_channels() {
+    let c = hit(WHOLE_BODY, 0.5);
+    let n = c.snake.n_links;
+    let mut sim = simulation(&c);
+    let mut s = Snapshot::new(n, n - 1);
+    let (mut floor_rows, mut obstacle_rows) = (0, 0);
+    for _ in 0..150 {
+        sim.control();
+        sim.snapshot(&mut s);
+        let mut floor = vec![[0.0; 3]; n];
+        let mut obstacle = vec![[0.0; 3]; n];
+        for row in &s.contacts {
+            // Link bodies are 1 ..= n (link_00 first); floor and cylinders belong to the world.
+            let (link, sign) = match (row.body[0], row.body[1]) {
+                (0, b) if (1..=n).contains(&b) => (b - 1, 1.0),
+                (b, 0) if (1..=n).contains(&b) => (b - 1, -1.0),
+                _ => continue,
+            };
+            let on_floor = row.normal[2].abs() > 0.5;
+            let total = if on_floor { &mut floor[link] } else { &mut obstacle[link] };
+            if on_floor {
+                floor_rows += 1;
+            } else {
+                obstacle_rows += 1;
+            }
+            for (t, f) in total.iter_mut().zip(row.force_on_geom2_n) {
+                *t += sign * f;
+            }
+        }
+        let applied = sim.ground().applied_friction_n().expect("the contact law is in use").to_vec();
+        for i in 0..n {
+            let scale = 1.0 + s.link_floor_force_n[i][2].abs() + s.link_obstacle_force_n[i][1].abs();
+            for k in 0..3 {
+                assert!(
+                    (floor[i][k] - s.link_floor_force_n[i][k]).abs() <= 1e-9 * scale,
+                    "link {i}: floor rows {:?} against {:?}",
+                    floor[i],
+                    s.link_floor_force_n[i]
+                );
+                assert!(
+                    (obstacle[i][k] - s.link_obstacle_force_n[i][k]).abs() <= 1e-9 * scale,
+                    "link {i}: obstacle rows {:?} against {:?}",
+                    obstacle[i],
+                    s.link_obstacle_force_n[i]
+                );
+            }
+            // Horizontal floor force = friction: the applied friction less the obstacles' part.
+            let floor_friction =
+                [0, 1].map(|k| applied[i][k] - s.link_obstacle_force_n[i][k] + obstacle_normal_part(&s, i, k));
+            for k in 0..2 {
+                assert!(
+                    (s.link_floor_force_n[i][k] - floor_friction[k]).abs() <= 1e-9 * scale,
+                    "link {i}: {:?} against {floor_friction:?}",
+                    s.link_floor_force_n[i]
+                );
+            }
+        }
+        sim.advance().unwrap();
+    }
+    assert!(floor_rows > 0 && obstacle_rows > 0, "{floor_rows} floor rows, {obstacle_rows} obstacle rows");
+}
+
+/// The normal part of link i's recorded obstacle force along world axis k (Σ of its link–cylinder
+/// rows' N·normal, on the link).
+fn obstacle_normal_part(s: &Snapshot, i: usize, k: usize) -> f64 {
+    s.contacts
+        .iter()
+        .filter(|r| {
+            r.normal[2].abs() <= 0.5 && (r.body[0] == i + 1 || r.body[1] == i + 1) && (r.body[0] == 0 || r.body[1] == 0)
+        })
+        .map(|r| {
+            // MuJoCo's normal points from geom 1 to geom 2: on the link it is +normal when the
+            // link is geom 2.
+            let sign = if r.body[1] == i + 1 { 1.0 } else { -1.0 };
+            sign * r.normal_force_n * r.normal[k]
+        })
+        .sum()
 }
 
 /// What the gait job on a ground shows over its 3 s: the centre of mass's displacement (m),
@@ -634,6 +864,17 @@ fn ground_figures(c: &Config) -> GroundFigures {
 /// 1 ms and 0.5 ms. What the ground is made of does not change the physics.
 #[test]
 fn a_flat_heightfield_and_a_flat_mesh_terrain_equal_the_plane() {
+    flat_grounds_equal_the_plane(PER_LINK);
+}
+
+/// The same with the whole-body solve (slow: 12 runs of 3 s at twice the per-link law's cost).
+#[test]
+#[ignore = "slow (about 4 min in a debug build): run with --ignored"]
+fn a_flat_heightfield_and_a_flat_mesh_terrain_equal_the_plane_with_the_whole_body_solve() {
+    flat_grounds_equal_the_plane(WHOLE_BODY);
+}
+
+fn flat_grounds_equal_the_plane(law: &str) {
     let dir = tempfile::tempdir().unwrap();
     let png = dir.path().join("flat.png");
     crate::common::write_gray_png(&png, 64, 64, &[255u8; 64 * 64]);
@@ -642,7 +883,7 @@ fn a_flat_heightfield_and_a_flat_mesh_terrain_equal_the_plane() {
     let gait = SCENE_GAIT;
     for mu in [0.5, 1.0] {
         for dt in [1e-3, 5e-4] {
-            let base = scene(mu, &gait);
+            let base = scene_in(law, mu, &gait);
             let z = base.snake.head_position_m[2];
             let raised = format!(
                 "snake.head_position_m=[{}, {}, {}]",
@@ -651,16 +892,16 @@ fn a_flat_heightfield_and_a_flat_mesh_terrain_equal_the_plane() {
                 z + 0.02
             );
             let step = format!("general.timestep_secs={dt}");
-            let plane = ground_figures(&scene(mu, &[&gait[..], &[step.as_str()]].concat()));
+            let plane = ground_figures(&scene_in(law, mu, &[&gait[..], &[step.as_str()]].concat()));
             let hf_file = format!("terrain.heightfield.file={:?}", png.display().to_string());
             let heightfield = [hf_file.as_str(), "terrain.heightfield.height_m=0.02", raised.as_str(), step.as_str()];
             let mesh_file = format!("terrain.mesh_terrain.file={:?}", obj.display().to_string());
             let mesh = [mesh_file.as_str(), raised.as_str(), step.as_str()];
             for (name, keys) in [("heightfield", &heightfield[..]), ("mesh terrain", &mesh[..])] {
-                let f = ground_figures(&scene(mu, &[&gait[..], keys].concat()));
-                eprintln!("μ {mu}, dt {dt}: {name} {f:?}\n  plane {plane:?}");
+                let f = ground_figures(&scene_in(law, mu, &[&gait[..], keys].concat()));
+                eprintln!("{law}, μ {mu}, dt {dt}: {name} {f:?}\n  plane {plane:?}");
                 let close = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * b.abs();
-                assert!(close(f.speed_m_per_s, plane.speed_m_per_s, 0.02), "μ {mu}, dt {dt}, {name}: speed");
+                assert!(close(f.speed_m_per_s, plane.speed_m_per_s, 0.02), "{law}, μ {mu}, dt {dt}, {name}: speed");
                 // At μ 1 the displacement is chaotic in the start: the plane's own job started 1 µm
                 // higher ends 1 mm away (x: −1.4 → −2.4 mm at 1 ms), as far as the heightfield's
                 // (−1.9, −17.5 against −1.4, −18.7 mm); speed, loads and peaks agree within 0.1 %.
@@ -668,13 +909,16 @@ fn a_flat_heightfield_and_a_flat_mesh_terrain_equal_the_plane() {
                     let tol = (0.02 * plane.displacement_m[a].abs()).max(1e-3);
                     assert!(
                         (f.displacement_m[a] - plane.displacement_m[a]).abs() <= tol,
-                        "μ {mu}, dt {dt}, {name}: displacement {a}"
+                        "{law}, μ {mu}, dt {dt}, {name}: displacement {a}"
                     );
                 }
                 for (i, (l, p)) in f.loads.iter().zip(&plane.loads).enumerate() {
-                    assert!(close(*l, *p, 0.02), "μ {mu}, dt {dt}, {name}: link {i} load {l} against {p}");
+                    assert!(close(*l, *p, 0.02), "{law}, μ {mu}, dt {dt}, {name}: link {i} load {l} against {p}");
                 }
-                assert!(close(f.peak_over_weight, plane.peak_over_weight, 0.02), "μ {mu}, dt {dt}, {name}: peak");
+                assert!(
+                    close(f.peak_over_weight, plane.peak_over_weight, 0.02),
+                    "{law}, μ {mu}, dt {dt}, {name}: peak"
+                );
             }
         }
     }
@@ -687,7 +931,27 @@ fn a_flat_heightfield_and_a_flat_mesh_terrain_equal_the_plane() {
 #[test]
 #[ignore = "target not reached: Σ N between 0.56 and 1.81 of the weight (run with --ignored)"]
 fn a_heavy_long_snake_carries_its_weight_at_every_step() {
-    let c = default_config_with(&["snake.n_links=30".to_string(), "snake.link_mass_kg=3.0".to_string()]).unwrap();
+    let (low, high) = heavy_snake_load_range(PER_LINK);
+    assert!(low >= 0.9 && high <= 1.1, "Σ N between {low} and {high} of the weight");
+}
+
+/// The same with the whole-body solve: its floor damping is implicit, the links do not rock
+/// (slow: 4 s of 30 links).
+#[test]
+#[ignore = "slow (about 3 min in a debug build): run with --ignored"]
+fn a_heavy_long_snake_carries_its_weight_at_every_step_with_the_whole_body_solve() {
+    let (low, high) = heavy_snake_load_range(WHOLE_BODY);
+    assert!(low >= 0.9 && high <= 1.1, "Σ N between {low} and {high} of the weight");
+}
+
+/// The smallest and largest Σ N / weight of the 30-link snake of 3-kg links after the ramp.
+fn heavy_snake_load_range(law: &str) -> (f64, f64) {
+    let c = default_config_with(&[
+        "snake.n_links=30".to_string(),
+        "snake.link_mass_kg=3.0".to_string(),
+        format!("physics.environment_contact_solve=\"{law}\""),
+    ])
+    .unwrap();
     let n = c.snake.n_links;
     let dt = c.general.timestep_secs;
     let mut sim = simulation(&c);
@@ -707,17 +971,18 @@ fn a_heavy_long_snake_carries_its_weight_at_every_step() {
         high = high.max(total / weight);
         sim.advance().unwrap();
     }
-    eprintln!("30 links of 3 kg: Σ N between {low:.3} and {high:.3} of the weight");
-    assert!(low >= 0.9 && high <= 1.1, "Σ N between {low} and {high} of the weight");
+    eprintln!("{law}: 30 links of 3 kg: Σ N between {low:.3} and {high:.3} of the weight");
+    (low, high)
 }
 
 /// The rebound of a straight snake (1 link, and 10 links hitting flat) launched sideways at
 /// 1 m/s into a wall, frictionless (floor and wall), from its centre of mass's speed across the
 /// wall before and after the hit.
-fn wall_restitution(n_links: usize, dt: f64) -> f64 {
+fn wall_restitution(law: &str, n_links: usize, dt: f64) -> f64 {
     let links = format!("snake.n_links={n_links}");
     let step = format!("general.timestep_secs={dt}");
-    let c = straight(
+    let c = straight_in(
+        law,
         0.0,
         &[
             &links,
@@ -749,12 +1014,14 @@ fn wall_restitution(n_links: usize, dt: f64) -> f64 {
 #[test]
 fn an_obstacle_impact_rebounds_at_the_configured_restitution() {
     let mut misses = Vec::new();
-    for n in [1, 10] {
-        for dt in [1e-3, 2.5e-4, 1e-4] {
-            let e = wall_restitution(n, dt);
-            eprintln!("{n} links, dt {dt}: restitution {e:.3}");
-            if (e - 0.3).abs() > 0.05 {
-                misses.push((n, dt, e));
+    for law in LAWS {
+        for n in [1, 10] {
+            for dt in [1e-3, 2.5e-4, 1e-4] {
+                let e = wall_restitution(law, n, dt);
+                eprintln!("{law}, {n} links, dt {dt}: restitution {e:.3}");
+                if (e - 0.3).abs() > 0.05 {
+                    misses.push((law, n, dt, e));
+                }
             }
         }
     }

@@ -5,7 +5,9 @@
 //! the largest floor normal force of one link over its weight, and the recorded floor impulse
 //! (Σ vertical floor force · dt) over the weight's impulse. Run with `--nocapture` to see them.
 
-use simserpent::config::{AutoSecs, Config, FloorFriction, GaitKind, GroundModel, StickTimeConstant, TerrainKind};
+use simserpent::config::{
+    AutoSecs, Config, EnvironmentContactSolve, FloorFriction, GaitKind, GroundModel, StickTimeConstant, TerrainKind,
+};
 use simserpent::sim::{Simulation, Snapshot, World};
 
 use crate::common::G;
@@ -192,12 +194,27 @@ fn friction_ratio(config: &Config, direction_deg: f64) -> f64 {
 
 #[test]
 fn anisotropic_and_directional_coefficients_measure_as_configured() {
-    let c = yawed_link(GroundModel::Anisotropic);
+    coefficients_measure_as_configured(EnvironmentContactSolve::PerLink);
+}
+
+#[test]
+fn anisotropic_and_directional_coefficients_measure_as_configured_with_the_whole_body_solve() {
+    coefficients_measure_as_configured(EnvironmentContactSolve::WholeBody);
+}
+
+/// `c` with `physics.environment_contact_solve = solve`.
+fn solved(mut c: Config, solve: EnvironmentContactSolve) -> Config {
+    c.physics.environment_contact_solve = solve;
+    c
+}
+
+fn coefficients_measure_as_configured(solve: EnvironmentContactSolve) {
+    let c = solved(yawed_link(GroundModel::Anisotropic), solve);
     let (along, across) = (friction_ratio(&c, 0.0), friction_ratio(&c, 90.0));
-    let iso = friction_ratio(&yawed_link(GroundModel::Isotropic), 0.0);
-    let d = yawed_link(GroundModel::Directional);
+    let iso = friction_ratio(&solved(yawed_link(GroundModel::Isotropic), solve), 0.0);
+    let d = solved(yawed_link(GroundModel::Directional), solve);
     let (forward, backward) = (friction_ratio(&d, 0.0), friction_ratio(&d, 180.0));
-    eprintln!("axial {along}, lateral {across}, isotropic {iso}, forward {forward}, backward {backward}");
+    eprintln!("{solve:?}: axial {along}, lateral {across}, isotropic {iso}, forward {forward}, backward {backward}");
     assert!((along - 0.1).abs() < 0.003, "axial {along}");
     assert!((across - 1.0).abs() < 0.03, "lateral {across}");
     assert!((iso - 0.5).abs() < 0.015, "isotropic {iso}");
@@ -233,8 +250,17 @@ fn run_for(sim: &mut Simulation, secs: f64) {
 
 #[test]
 fn on_a_20_degree_slope_mu_0_5_holds_without_creep() {
+    holds_on_the_slope(EnvironmentContactSolve::PerLink);
+}
+
+#[test]
+fn on_a_20_degree_slope_mu_0_5_holds_without_creep_with_the_whole_body_solve() {
+    holds_on_the_slope(EnvironmentContactSolve::WholeBody);
+}
+
+fn holds_on_the_slope(solve: EnvironmentContactSolve) {
     let (c, dir) = link_on_slope(0.5, 20.0, 1.0);
-    let mut sim = simulation(&c);
+    let mut sim = simulation(&solved(c, solve));
     run_for(&mut sim, 0.3);
     let mut s = Snapshot::new(1, 0);
     sim.snapshot(&mut s);
@@ -244,16 +270,25 @@ fn on_a_20_degree_slope_mu_0_5_holds_without_creep() {
     let p1 = s.link_position_m[0];
     let moved = (p1[0] - p0[0]) * dir[0] + (p1[2] - p0[2]) * dir[2];
     let v = slope_velocity(&mut sim, dir);
-    eprintln!("hold: moved {moved} m in 1 s, v {v} m/s");
+    eprintln!("{solve:?}, hold: moved {moved} m in 1 s, v {v} m/s");
     assert!(moved.abs() <= 0.001, "creep {} mm/s", moved * 1e3);
     assert!(v.abs() <= 0.001, "creep velocity {} mm/s", v * 1e3);
 }
 
 #[test]
 fn on_a_20_degree_slope_mu_0_2_slides_with_g_sin_minus_mu_cos() {
+    slides_down_the_slope(EnvironmentContactSolve::PerLink);
+}
+
+#[test]
+fn on_a_20_degree_slope_mu_0_2_slides_with_g_sin_minus_mu_cos_with_the_whole_body_solve() {
+    slides_down_the_slope(EnvironmentContactSolve::WholeBody);
+}
+
+fn slides_down_the_slope(solve: EnvironmentContactSolve) {
     let mu = 0.2;
     let (c, dir) = link_on_slope(mu, 20.0, 2.5);
-    let mut sim = simulation(&c);
+    let mut sim = simulation(&solved(c, solve));
     run_for(&mut sim, 0.2);
     let va = slope_velocity(&mut sim, dir);
     run_for(&mut sim, 0.5);
@@ -261,7 +296,7 @@ fn on_a_20_degree_slope_mu_0_2_slides_with_g_sin_minus_mu_cos() {
     let a = -(vb - va) / 0.5;
     let th = 20f64.to_radians();
     let expected = G * (th.sin() - mu * th.cos());
-    eprintln!("slide: a = {a} m/s², expected {expected} m/s²");
+    eprintln!("{solve:?}, slide: a = {a} m/s², expected {expected} m/s²");
     assert!((a - expected).abs() <= 0.02 * expected, "sliding acceleration {a} m/s², expected {expected}");
 }
 

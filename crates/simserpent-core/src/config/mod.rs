@@ -288,6 +288,9 @@ pub struct Physics {
     pub solver_iterations: u32,
     /// Who computes the friction between links and the floor (and ground-like terrain).
     pub floor_friction: FloorFriction,
+    /// `"stick_slip"` only: how the links' environment contacts (ground and obstacles) are solved
+    /// (see `sim::ground`).
+    pub environment_contact_solve: EnvironmentContactSolve,
     /// `"stick_slip"` only: time constant of the stick spring–damper that holds a link's contact
     /// point at rest (s; critically damped), or `"auto"`: max(5 ms, 5 timesteps) (see
     /// [`Config::floor_stick_time_constant_secs`]). Its presliding displacement is μ·g·τ².
@@ -344,6 +347,19 @@ pub enum FloorFriction {
     /// Frictionless link–ground contacts (condim 1) for the normal force, and SimSerpent's
     /// elasto-plastic Coulomb law applied at each link's contact points before every step.
     StickSlip,
+}
+
+/// How SimSerpent's contact law solves the links' environment contacts
+/// (`physics.environment_contact_solve`, `"stick_slip"` only).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EnvironmentContactSolve {
+    /// Each link's ground contacts from its own spring–damper and elasto-plastic friction (the
+    /// link alone); obstacle contacts through the whole body's mobility, normals before friction.
+    PerLink,
+    /// Every ground and obstacle contact point's normal force and friction in one projected
+    /// Gauss–Seidel solve through the whole body's mobility.
+    WholeBody,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
