@@ -110,6 +110,7 @@ contact_stiffness_per_s2 = 2000.0
 contact_damping_per_s = 3.0
 solver_iterations = 50
 floor_friction = "mujoco"
+environment_contact_solve = "per_link"
 floor_stick_time_constant_secs = 0.01
 environment_contact_time_constant_secs = 0.004
 environment_contact_damping_ratio = 0.7
@@ -887,9 +888,17 @@ fn every_field_can_be_set_from_toml() {
     assert_eq!(all, in_file, "ALL_FIELDS must set every key of the default config");
     let mut changed = Vec::new();
     differing_leaves(&defaults, &file, "", &mut changed);
-    // `env.observation_version` has one allowed value so far (1, the default).
-    let unchanged: Vec<&String> =
-        all.iter().filter(|k| !changed.contains(k) && k.as_str() != "env.observation_version").collect();
+    // `env.observation_version` has one allowed value so far (1, the default);
+    // `physics.environment_contact_solve = "whole_body"` needs `floor_friction = "stick_slip"`,
+    // which the file changes to "mujoco" (the rule is in RULES below).
+    let unchanged: Vec<&String> = all
+        .iter()
+        .filter(|k| {
+            !changed.contains(k)
+                && k.as_str() != "env.observation_version"
+                && k.as_str() != "physics.environment_contact_solve"
+        })
+        .collect();
     assert!(unchanged.is_empty(), "keys left at their default: {unchanged:?}");
 }
 
@@ -897,6 +906,12 @@ fn every_field_can_be_set_from_toml() {
 
 /// (overrides, key path of the expected error). Every rule of `Config::validate`.
 const RULES: &[(&[&str], &str)] = &[
+    // the whole-body solve needs the own contact law
+    (
+        &["physics.environment_contact_solve=\"whole_body\"", "physics.floor_friction=\"mujoco\""],
+        "physics.environment_contact_solve",
+    ),
+    (&["physics.environment_contact_solve=\"whole_body\"", "ground.model=\"viscous\""], "physics.environment_contact_solve"),
     // terrain features
     (&["terrain.pegboard.spacing_m=0.05"], "terrain.pegboard.spacing_m"),
     (&["terrain.pegboard.peg_radius_m=0"], "terrain.pegboard.peg_radius_m"),

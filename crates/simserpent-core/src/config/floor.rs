@@ -3,7 +3,7 @@
 //! `"auto"`-or-seconds values and their checks, kept apart from `validate.rs`.
 
 use super::text::fmt_f;
-use super::{Config, ConfigError, FloorFriction, GroundModel};
+use super::{Config, ConfigError, EnvironmentContactSolve, FloorFriction, GroundModel};
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::fmt;
 
@@ -161,6 +161,17 @@ impl Config {
         let p = &self.physics;
         let key = "physics.floor_stick_time_constant_secs";
         let own = p.floor_friction == FloorFriction::StickSlip && self.ground.model != GroundModel::Viscous;
+        if p.environment_contact_solve == EnvironmentContactSolve::WholeBody && !own {
+            return Err(ConfigError::invalid(
+                "physics.environment_contact_solve",
+                "\"whole_body\"",
+                format!(
+                    "\"whole_body\" needs SimSerpent's own contact law: physics.floor_friction = \"stick_slip\" \
+                     and a ground.model other than \"viscous\" (here {:?} and {:?}); use \"per_link\" otherwise",
+                    p.floor_friction, self.ground.model
+                ),
+            ));
+        }
         let StickTimeConstant::Secs(tau) = p.floor_stick_time_constant_secs else {
             return if own { self.validate_no_torsional_ground_friction() } else { Ok(()) };
         };
