@@ -911,7 +911,10 @@ const RULES: &[(&[&str], &str)] = &[
         &["physics.environment_contact_solve=\"whole_body\"", "physics.floor_friction=\"mujoco\""],
         "physics.environment_contact_solve",
     ),
-    (&["physics.environment_contact_solve=\"whole_body\"", "ground.model=\"viscous\""], "physics.environment_contact_solve"),
+    (
+        &["physics.environment_contact_solve=\"whole_body\"", "ground.model=\"viscous\""],
+        "physics.environment_contact_solve",
+    ),
     // terrain features
     (&["terrain.pegboard.spacing_m=0.05"], "terrain.pegboard.spacing_m"),
     (&["terrain.pegboard.peg_radius_m=0"], "terrain.pegboard.peg_radius_m"),
