@@ -832,6 +832,46 @@ impl StickSlip {
 }
 
 impl StickSlip {
+    /// A law contact point's normal force `n` (N) at x_k: a touching point (`depth > 0` or
+    /// `n > 0`) becomes a contact row and adds its elastic energy (stiffness in N/m); a pushing
+    /// one (`n > 0`) adds `n` along the contact normal, with its moment about the centre of mass,
+    /// to its link's normal channels and its body's `xfrc_applied`, and returns that force.
+    fn add_contact_normal(
+        &mut self,
+        world: &mut World,
+        body: usize,
+        c: &ObstacleCandidate,
+        n: f64,
+        stiffness: f64,
+    ) -> Option<[f64; 3]> {
+        if c.depth <= 0.0 && n <= 0.0 {
+            return None; // within the detection margin, not touching
+        }
+        self.own_contacts.push(OwnContact {
+            geom: c.contact.geom,
+            position_m: c.contact.position_m,
+            normal: c.contact.normal,
+            distance_m: c.contact.distance_m,
+            normal_force_n: n,
+        });
+        if c.depth > 0.0 {
+            self.elastic_energy_j += 0.5 * stiffness * c.depth * c.depth;
+        }
+        if n <= 0.0 {
+            return None;
+        }
+        let f = c.nrm.map(|x| n * x);
+        let torque = cross(c.arm_m, f);
+        self.normal_force_n[c.link] = add(self.normal_force_n[c.link], f);
+        self.normal_torque_nm[c.link] = add(self.normal_torque_nm[c.link], torque);
+        let x = &mut world.data.xfrc_applied_mut()[body];
+        for k in 0..3 {
+            x[k] += f[k];
+            x[3 + k] += torque[k];
+        }
+        Some(f)
+    }
+
     /// Adds a friction force (N) and its moment (N·m) to link `i`'s applied friction and to its
     /// body's `xfrc_applied`; with `obstacle`, to its obstacle friction too.
     fn add_friction(
@@ -1467,15 +1507,8 @@ impl Ground {
             };
             // The acceleration toward the obstacle (the rows point away from it, into the link).
             let free_approach = -st.mobility.acc[i];
-            let depth = c.depth;
-            let (numerator, implicit) = normal_force_terms(law, depth, c.approach, free_approach, dt);
-            st.obstacle_terms.push(ObstacleTerms {
-                depth,
-                numerator,
-                implicit,
-                stiffness: law.stiffness_n_per_m,
-                n: 0.0,
-            });
+            let (numerator, implicit) = normal_force_terms(law, c.depth, c.approach, free_approach, dt);
+            st.obstacle_terms.push(ObstacleTerms { numerator, implicit, stiffness: law.stiffness_n_per_m, n: 0.0 });
         }
         // N_i = (numerator_i − implicit_i·Σ_{j≠i} W_ij·N_j)/(1 + implicit_i·W_ii), N ≥ 0:
         // projected Gauss–Seidel (the points pushing one body share its motion in the step).
@@ -1497,33 +1530,10 @@ impl Ground {
                 break;
             }
         }
-        for (i, c) in st.obstacle_candidates.iter().enumerate() {
-            let ObstacleTerms { depth, stiffness, n, .. } = st.obstacle_terms[i];
-            if depth <= 0.0 && n <= 0.0 {
-                continue; // within the detection margin, not touching
-            }
-            st.own_contacts.push(OwnContact {
-                geom: c.contact.geom,
-                position_m: c.contact.position_m,
-                normal: c.contact.normal,
-                distance_m: c.contact.distance_m,
-                normal_force_n: n,
-            });
-            if depth > 0.0 {
-                st.elastic_energy_j += 0.5 * stiffness * depth * depth;
-            }
-            if n <= 0.0 {
-                continue;
-            }
-            let f = c.nrm.map(|x| n * x);
-            let torque = cross(c.arm_m, f);
-            st.normal_force_n[c.link] = add(st.normal_force_n[c.link], f);
-            st.normal_torque_nm[c.link] = add(st.normal_torque_nm[c.link], torque);
-            let x = &mut world.data.xfrc_applied_mut()[self.bodies[c.link]];
-            for k in 0..3 {
-                x[k] += f[k];
-                x[3 + k] += torque[k];
-            }
+        for i in 0..st.obstacle_candidates.len() {
+            let c = st.obstacle_candidates[i];
+            let ObstacleTerms { stiffness, n, .. } = st.obstacle_terms[i];
+            let Some(f) = st.add_contact_normal(world, self.bodies[c.link], &c, n, stiffness) else { continue };
             // One friction slot per link and touching obstacle geom: a slot keeps its geom while
             // the link touches it; a new geom takes a free slot, or one not seen at this state.
             let slots = &mut st.obstacle_slots[c.link];
@@ -1699,31 +1709,9 @@ impl Ground {
             let sp = st.solve_points[p];
             let c = st.obstacle_candidates[sp.candidate];
             let n = sp.f[0];
-            if c.depth <= 0.0 && n <= 0.0 {
-                continue; // within the detection margin, not touching
-            }
-            st.own_contacts.push(OwnContact {
-                geom: c.contact.geom,
-                position_m: c.contact.position_m,
-                normal: c.contact.normal,
-                distance_m: c.contact.distance_m,
-                normal_force_n: n,
-            });
-            if c.depth > 0.0 {
-                st.elastic_energy_j += 0.5 * sp.stiffness * c.depth * c.depth;
-            }
-            if n <= 0.0 {
-                continue;
-            }
             let body = self.bodies[c.link];
-            let f_normal = c.nrm.map(|x| n * x);
-            let t_normal = cross(c.arm_m, f_normal);
-            st.normal_force_n[c.link] = add(st.normal_force_n[c.link], f_normal);
-            st.normal_torque_nm[c.link] = add(st.normal_torque_nm[c.link], t_normal);
-            let x = &mut world.data.xfrc_applied_mut()[body];
-            for k in 0..3 {
-                x[k] += f_normal[k];
-                x[3 + k] += t_normal[k];
+            if st.add_contact_normal(world, body, &c, n, sp.stiffness).is_none() {
+                continue;
             }
             let [_, a, l] = sp.frame;
             let (fa, fl) = (sp.f[1], sp.f[2]);
@@ -1967,12 +1955,10 @@ struct ObstacleCandidate {
     approach: f64,
 }
 
-/// An obstacle contact point's terms of the coupled normal-force solve: its penetration from
-/// the rest length (m), the two terms of [`normal_force_terms`], its stiffness (N/m) and its
-/// normal force (N).
+/// An obstacle contact point's terms of the coupled normal-force solve: the two terms of
+/// [`normal_force_terms`], its stiffness (N/m) and its normal force (N).
 #[derive(Debug, Clone, Copy)]
 struct ObstacleTerms {
-    depth: f64,
     numerator: f64,
     implicit: f64,
     stiffness: f64,

@@ -315,6 +315,15 @@ pub(crate) fn dot_slices(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// One row of a point's Jacobian along `dir`: dᵀ·J, J the point's 3 × nv translational Jacobian
+/// (row after row, as `mj_jac` writes it); `row` holds nv numbers.
+fn directional_row(jac: &[f64], dir: [f64; 3], row: &mut [f64]) {
+    let nv = row.len();
+    for (k, x) in row.iter_mut().enumerate() {
+        *x = dir[0] * jac[k] + dir[1] * jac[nv + k] + dir[2] * jac[2 * nv + k];
+    }
+}
+
 /// A saved engine state of a [`World`] ([`World::save_state`]).
 #[derive(Clone)]
 pub struct WorldState {
@@ -647,39 +656,51 @@ impl World {
             return;
         }
         for (r, (body, point, dir)) in rows.iter().enumerate() {
-            // SAFETY: `jac` holds 3·nv numbers, as mj_jac writes for one point; model and data
-            // belong together and the body id is one of the model's (a link's body).
-            #[allow(unsafe_code)]
-            unsafe {
-                mujoco_rs::mujoco_c::mj_jac(
-                    self.data.model().ffi(),
-                    self.data.ffi(),
-                    buf.jac.as_mut_ptr(),
-                    std::ptr::null_mut(),
-                    point,
-                    *body as i32,
-                );
-            }
-            let row = &mut buf.jt[r * nv..(r + 1) * nv];
-            for (k, x) in row.iter_mut().enumerate() {
-                *x = dir[0] * buf.jac[k] + dir[1] * buf.jac[nv + k] + dir[2] * buf.jac[2 * nv + k];
-            }
+            self.point_jacobian(*body, point, &mut buf.jac);
+            directional_row(&buf.jac, *dir, &mut buf.jt[r * nv..(r + 1) * nv]);
         }
-        // SAFETY: `minv_jt` and `jt` hold n vectors of nv numbers each, as mj_solveM reads and
-        // writes; it only reads the factorisation (qLD) the latest forward pass left in `data`.
-        #[allow(unsafe_code)]
-        unsafe {
-            let m: *const mujoco_rs::mujoco_c::mjModel = self.data.model().ffi();
-            mujoco_rs::mujoco_c::mj_solveM(m, self.data.ffi_mut(), buf.minv_jt.as_mut_ptr(), buf.jt.as_ptr(), n as i32);
-        }
+        self.solve_mass_matrix(&mut buf.minv_jt, &buf.jt, n);
         let qacc = self.data.qacc();
         for r in 0..n {
             let jr = &buf.jt[r * nv..(r + 1) * nv];
-            buf.acc[r] = jr.iter().zip(qacc).map(|(a, b)| a * b).sum();
+            buf.acc[r] = dot_slices(jr, qacc);
             for s in 0..n {
-                let ys = &buf.minv_jt[s * nv..(s + 1) * nv];
-                buf.w[r * n + s] = jr.iter().zip(ys).map(|(a, b)| a * b).sum();
+                buf.w[r * n + s] = dot_slices(jr, &buf.minv_jt[s * nv..(s + 1) * nv]);
             }
+        }
+    }
+
+    /// The translational Jacobian of `point` (world frame) on `body` into `jac` (3 × nv, row
+    /// after row), from the kinematics of the latest forward pass.
+    fn point_jacobian(&self, body: usize, point: &[f64; 3], jac: &mut [f64]) {
+        let nv = self.data.model().ffi().nv as usize;
+        assert!(jac.len() >= 3 * nv, "a point's Jacobian needs 3·nv numbers");
+        // SAFETY: `jac` holds 3·nv numbers (checked), as mj_jac writes for one point; model and
+        // data belong together and the body id is one of the model's (a link's body).
+        #[allow(unsafe_code)]
+        unsafe {
+            mujoco_rs::mujoco_c::mj_jac(
+                self.data.model().ffi(),
+                self.data.ffi(),
+                jac.as_mut_ptr(),
+                std::ptr::null_mut(),
+                point,
+                body as i32,
+            );
+        }
+    }
+
+    /// `out` = M⁻¹·`rhs` for `count` vectors of nv numbers each, with the factorisation of the
+    /// mass matrix (qLD) the latest forward pass left in `data`.
+    fn solve_mass_matrix(&mut self, out: &mut [f64], rhs: &[f64], count: usize) {
+        let nv = self.data.model().ffi().nv as usize;
+        assert!(out.len() >= count * nv && rhs.len() >= count * nv, "M⁻¹ needs count·nv numbers");
+        // SAFETY: `out` and `rhs` hold `count` vectors of nv numbers each (checked), as mj_solveM
+        // reads and writes; it only reads the factorisation in `data`.
+        #[allow(unsafe_code)]
+        unsafe {
+            let m: *const mujoco_rs::mujoco_c::mjModel = self.data.model().ffi();
+            mujoco_rs::mujoco_c::mj_solveM(m, self.data.ffi_mut(), out.as_mut_ptr(), rhs.as_ptr(), count as i32);
         }
     }
 
@@ -702,38 +723,13 @@ impl World {
             return;
         }
         for (i, (body, point, dirs)) in points.iter().enumerate() {
-            // SAFETY: as in `point_mobility`: `jac` holds 3·nv numbers, the body is the model's.
-            #[allow(unsafe_code)]
-            unsafe {
-                mujoco_rs::mujoco_c::mj_jac(
-                    self.data.model().ffi(),
-                    self.data.ffi(),
-                    buf.jac.as_mut_ptr(),
-                    std::ptr::null_mut(),
-                    point,
-                    *body as i32,
-                );
-            }
+            self.point_jacobian(*body, point, &mut buf.jac);
             for (k, dir) in dirs.iter().enumerate() {
-                let row = &mut buf.jt[(3 * i + k) * nv..(3 * i + k + 1) * nv];
-                for (j, x) in row.iter_mut().enumerate() {
-                    *x = dir[0] * buf.jac[j] + dir[1] * buf.jac[nv + j] + dir[2] * buf.jac[2 * nv + j];
-                }
+                directional_row(&buf.jac, *dir, &mut buf.jt[(3 * i + k) * nv..(3 * i + k + 1) * nv]);
             }
         }
         if n <= nv {
-            // SAFETY: as in `point_mobility`: n vectors of nv numbers each.
-            #[allow(unsafe_code)]
-            unsafe {
-                let m: *const mujoco_rs::mujoco_c::mjModel = self.data.model().ffi();
-                mujoco_rs::mujoco_c::mj_solveM(
-                    m,
-                    self.data.ffi_mut(),
-                    buf.minv_jt.as_mut_ptr(),
-                    buf.jt.as_ptr(),
-                    n as i32,
-                );
-            }
+            self.solve_mass_matrix(&mut buf.minv_jt, &buf.jt, n);
         } else {
             // More rows than degrees of freedom: M⁻¹ itself (nv solves), then M⁻¹·Jᵀ·d per row
             // (M⁻¹ is symmetric: row r's response is M⁻¹ times its Jacobian).
@@ -745,18 +741,7 @@ impl World {
                 }
             }
             buf.minv.resize(nv * nv, 0.0);
-            // SAFETY: `minv` and `identity` hold nv vectors of nv numbers each.
-            #[allow(unsafe_code)]
-            unsafe {
-                let m: *const mujoco_rs::mujoco_c::mjModel = self.data.model().ffi();
-                mujoco_rs::mujoco_c::mj_solveM(
-                    m,
-                    self.data.ffi_mut(),
-                    buf.minv.as_mut_ptr(),
-                    buf.identity.as_ptr(),
-                    nv as i32,
-                );
-            }
+            self.solve_mass_matrix(&mut buf.minv, &buf.identity, nv);
             for (jr, out) in buf.jt.chunks_exact(nv).zip(buf.minv_jt.chunks_exact_mut(nv)) {
                 out.fill(0.0);
                 for (mk, &j) in buf.minv.chunks_exact(nv).zip(jr) {

@@ -179,10 +179,17 @@ pub fn damping_ratio_for_restitution(e: f64) -> f64 {
 /// carried mass of 1 whose solve assumes `1 / mass_ratio`, damping ratio ζ, without gravity:
 /// the exit speed over the entry speed.
 pub fn discrete_restitution(zeta: f64, omega_dt: f64, mass_ratio: f64) -> f64 {
-    // Units: ω = 1, so dt = ω·dt; entry at speed 1 from just above the surface.
+    // Entry from just above the surface.
+    rebound_speed(zeta, omega_dt, mass_ratio, -1e-9)
+}
+
+/// One impact stepped with [`normal_force_n`] in units where ω = 1 (so dt = ω·dt): entry at
+/// speed 1 from `start_depth` (≤ 0), the exit speed once the point has left the surface (0 if it
+/// does not within 100,000 steps).
+fn rebound_speed(zeta: f64, omega_dt: f64, mass_ratio: f64, start_depth: f64) -> f64 {
     let dt = omega_dt;
     let law = NormalLaw { stiffness_n_per_m: 1.0, damping_n_s_per_m: 2.0 * zeta, effective_mass_kg: 1.0 / mass_ratio };
-    let (mut depth, mut approach, mut touched) = (-1e-9, 1.0, false);
+    let (mut depth, mut approach, mut touched) = (start_depth, 1.0, false);
     for _ in 0..100_000 {
         let n = normal_force_n(law, depth, approach, 0.0, dt);
         depth += approach * dt - 0.5 * n * dt * dt;
@@ -199,23 +206,10 @@ pub fn discrete_restitution(zeta: f64, omega_dt: f64, mass_ratio: f64) -> f64 {
 /// [`ENTRY_PHASES`] evenly spread over one step's travel above the surface (at ω·dt near 1 the
 /// rebound of one impact moves by ±0.03 with it; an impact meets the step grid anywhere).
 pub fn phase_averaged_restitution(zeta: f64, omega_dt: f64, mass_ratio: f64) -> f64 {
-    let dt = omega_dt;
-    let law = NormalLaw { stiffness_n_per_m: 1.0, damping_n_s_per_m: 2.0 * zeta, effective_mass_kg: 1.0 / mass_ratio };
-    let mut sum = 0.0;
-    for k in 0..ENTRY_PHASES {
-        // Units: ω = 1; entry at speed 1, (k + ½)/ENTRY_PHASES of a step above the surface.
-        let (mut depth, mut approach, mut touched) = (-(k as f64 + 0.5) / ENTRY_PHASES as f64 * dt, 1.0, false);
-        for _ in 0..100_000 {
-            let n = normal_force_n(law, depth, approach, 0.0, dt);
-            depth += approach * dt - 0.5 * n * dt * dt;
-            approach -= n * dt;
-            touched |= depth > 0.0;
-            if touched && depth < 0.0 && approach < 0.0 {
-                break;
-            }
-        }
-        sum += -approach;
-    }
+    // Entry (k + ½)/ENTRY_PHASES of a step above the surface.
+    let sum: f64 = (0..ENTRY_PHASES)
+        .map(|k| rebound_speed(zeta, omega_dt, mass_ratio, -(k as f64 + 0.5) / ENTRY_PHASES as f64 * omega_dt))
+        .sum();
     sum / ENTRY_PHASES as f64
 }
 
@@ -226,29 +220,42 @@ const ENTRY_PHASES: usize = 16;
 /// contact starts ([`phase_averaged_restitution`] inverted by bisection below the damping of its
 /// lowest rebound), with steps of `omega_dt` and the solve's mass ratio `mass_ratio`.
 pub fn damping_ratio_for_step_averaged(e: f64, omega_dt: f64, mass_ratio: f64) -> f64 {
+    damping_ratio_giving(e, |zeta| phase_averaged_restitution(zeta, omega_dt, mass_ratio))
+}
+
+/// The damping ratio at which `restitution(ζ)` is `e`: 0 for e ≥ 1; else the lowest
+/// restitution over [`SCAN_ZETA`] and its ζ, that ζ when e is at or below it, and otherwise
+/// bisection between 0 and it (where the restitution falls as ζ grows).
+fn damping_ratio_giving(e: f64, restitution: impl Fn(f64) -> f64) -> f64 {
     if e >= 1.0 {
         return 0.0;
     }
-    let (mut lowest, mut at) = (f64::INFINITY, 0.0);
-    for z in SCAN_ZETA {
-        let r = phase_averaged_restitution(z, omega_dt, mass_ratio);
-        if r < lowest {
-            (lowest, at) = (r, z);
-        }
-    }
+    let (lowest, at) = lowest_of(&restitution);
     if e <= lowest {
         return at;
     }
     let (mut lo, mut hi) = (0.0_f64, at);
     for _ in 0..60 {
         let mid = 0.5 * (lo + hi);
-        if phase_averaged_restitution(mid, omega_dt, mass_ratio) > e {
+        if restitution(mid) > e {
             lo = mid;
         } else {
             hi = mid;
         }
     }
     0.5 * (lo + hi)
+}
+
+/// The lowest `restitution(ζ)` over [`SCAN_ZETA`] and the ζ that gives it (the first, on a tie).
+fn lowest_of(restitution: impl Fn(f64) -> f64) -> (f64, f64) {
+    let mut best = (f64::INFINITY, 0.0);
+    for z in SCAN_ZETA {
+        let e = restitution(z);
+        if e < best.0 {
+            best = (e, z);
+        }
+    }
+    best
 }
 
 /// Damping ratios scanned for the lowest restitution a step can give (0.05 apart, up to 4).
@@ -267,14 +274,7 @@ const SCAN_ZETA: [f64; 80] = {
 /// cannot resolve a heavily damped impact (above that damping the rebound grows again; 0.19 at
 /// ω·dt = 1 and mass ratio 1, 0.06 at ω·dt = 0.5, 0.015 at 0.2).
 pub fn lowest_restitution(omega_dt: f64, mass_ratio: f64) -> (f64, f64) {
-    let mut best = (f64::INFINITY, 0.0);
-    for z in SCAN_ZETA {
-        let e = discrete_restitution(z, omega_dt, mass_ratio);
-        if e < best.0 {
-            best = (e, z);
-        }
-    }
-    best
+    lowest_of(|zeta| discrete_restitution(zeta, omega_dt, mass_ratio))
 }
 
 /// The damping ratio whose contact point rebounds at `e` with steps of `omega_dt` (ω·dt) and
@@ -283,23 +283,7 @@ pub fn lowest_restitution(omega_dt: f64, mass_ratio: f64) -> (f64, f64) {
 /// use, not only as dt → 0 (where it is [`damping_ratio_for_restitution`]). Below the lowest
 /// reachable restitution, the damping of the lowest.
 pub fn damping_ratio_for_step(e: f64, omega_dt: f64, mass_ratio: f64) -> f64 {
-    if e >= 1.0 {
-        return 0.0;
-    }
-    let (lowest, at) = lowest_restitution(omega_dt, mass_ratio);
-    if e <= lowest {
-        return at;
-    }
-    let (mut lo, mut hi) = (0.0_f64, at);
-    for _ in 0..60 {
-        let mid = 0.5 * (lo + hi);
-        if discrete_restitution(mid, omega_dt, mass_ratio) > e {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
+    damping_ratio_giving(e, |zeta| discrete_restitution(zeta, omega_dt, mass_ratio))
 }
 
 #[cfg(test)]
