@@ -28,8 +28,9 @@
 //!    velocities are the measured gyros, `ωᵢ = Rᵢ·gyroᵢ`, and centre-of-mass velocities follow
 //!    from the head's (taken as known: a tracking system or odometry; the observation's
 //!    `head_velocity_m_per_s` of the instant the IMU values describe, which is the previous
-//!    observation's when the estimator runs every step: `HeadSample`) as `v_{o,i+1} = v_{o,i} + ωᵢ × (oᵢ₊₁ − oᵢ)`,
-//!    `v_{c,i} = v_{o,i} + ωᵢ × (cᵢ − oᵢ)`. `"true"`: the simulator's poses and velocities.
+//!    observation's when the estimator runs every step: `HeadSample`) as
+//!    `v_{o,i+1} = v_{o,i} + ωᵢ × (oᵢ₊₁ − oᵢ)`, `v_{c,i} = v_{o,i} + ωᵢ × (cᵢ − oᵢ)`. `"true"`:
+//!    the simulator's poses and velocities.
 //! 2. **External force per link**: the [`ContactEstimator`] (Newton–Euler by default; module
 //!    `estimation`), and the moment of the external forces about each centre of mass: the
 //!    estimator's quasi-static moment plus the link's rate of change of angular momentum,
@@ -1045,8 +1046,6 @@ fn closest_points_of_segments(p1: [f64; 3], q1: [f64; 3], p2: [f64; 3], q2: [f64
     (add(p1, scale(d1, s)), add(p2, scale(d2, t)))
 }
 
-/// The estimator of the step loop (module documentation). Built once; `update` does not
-/// allocate.
 /// The head's pose as the observation gives it (`Observation::head_position_m`,
 /// `head_velocity_m_per_s`): those of the observation's own instant (`time_secs`), one step
 /// after the instant its IMU and force/torque values describe (`sensor_time_secs`, the last
@@ -1088,6 +1087,8 @@ impl HeadSample {
     }
 }
 
+/// The estimator of the step loop (module documentation). Built once; `update` does not
+/// allocate.
 pub struct MotionEstimator {
     geometry: ChainGeometry,
     orientation: OrientationSource,
