@@ -202,7 +202,10 @@
 //! third-party ground of other shapes (MuJoCo's normal force) takes the per-link law; a hard
 //! sideways hit at μ 1 lifts the snake 10.9 mm at 1 ms and 16.4 mm at 0.1 ms (the reference
 //! engine: 5.03 mm): the cylinders' friction stopping the links' spin drives them into the floor
-//! (about 6.6 N·s in 7 ms at 1 ms) and the floor's spring gives the stored energy back. Cost:
+//! (about 6.6 N·s in 7 ms at 1 ms) and the floor's spring gives the stored energy back; the
+//! reference's impulses during the hit are these within 15 %, but its Hunt–Crossley cylinder
+//! contact fades out over 6 ms more while the links rise along the cylinder, and its friction
+//! there takes 0.86 N·s of upward momentum (the snake leaves at 0.19 against 0.356 m/s). Cost:
 //! a forward pass, the Jacobians and the sweeps on every step with a contact (the step's own
 //! forward pass then starts from the actuation stage): about 1.7 × the per-link law's
 //! step-loop work on the bare floor (BENCHMARKS.md, "Steps among pegs").

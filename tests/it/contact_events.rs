@@ -703,7 +703,16 @@ fn a_sideways_hit_at_mu_0_5_lifts_the_same_at_1_ms_and_0_1_ms_with_the_whole_bod
 /// reference's 5.03 mm. The centre of mass rises alike at both steps (it leaves the floor at
 /// 0.356 m/s after the hit at both): the cylinders' friction stopping the links' spin drives
 /// them into the floor (6.6 N·s in 7 ms) and the floor's spring gives the stored energy back;
-/// the steps differ in how far a link tilts on its way up.
+/// the steps differ in how far a link tilts on its way up (the snake's roll rate after the hit:
+/// +1.2 rad/s at 1 ms, +3.6 at 0.1 ms). The lift converges to 16.5–16.7 mm at 50 and 20 µs, so
+/// 1 ms is the step off the converged law, and the converged law is 3.3 × the reference. The
+/// reference differs after the hit, not during it (its floor impulse, 7.3 N·s, and the
+/// cylinders' downward friction, 6.6 N·s, match these within 15 %): its Hunt–Crossley cylinder contact fades out over 6 ms more (to
+/// 77 ms, ours ends at 70–71 ms) while the links rise along the cylinder's face, and its friction
+/// there takes 0.86 N·s of upward momentum, so the snake leaves at about 0.19 m/s with a roll
+/// rate of −0.42 rad/s. A Hunt–Crossley cylinder contact in this solve (damping ∝ penetration,
+/// scaled by the impact speed so that the restitution stays the configured one) brings the
+/// take-off speed to 0.26 / 0.28 m/s but not the roll (+1.1 / +4.5 rad/s).
 #[test]
 #[ignore = "target not reached with \"whole_body\": at μ 1 the lift is 10.9 / 16.4 mm at 1 / 0.1 ms (run with --ignored)"]
 fn a_sideways_hit_at_mu_1_lifts_the_same_at_1_ms_and_0_1_ms_with_the_whole_body_solve() {
@@ -1018,4 +1027,60 @@ fn an_obstacle_impact_rebounds_at_the_configured_restitution() {
         }
     }
     assert!(misses.is_empty(), "{misses:?}");
+}
+
+/// The largest horizontal speed (m/s) of one link at rest on the floor from t = 0 (default
+/// settings, isotropic or anisotropic floor), over 0.2 s of steps, and the step where it occurs.
+fn link_at_rest_largest_speed(law: &str, keys: &[&str]) -> (f64, usize) {
+    let mut k = vec!["snake.n_links=1"];
+    k.extend_from_slice(keys);
+    let c = straight_in(law, 0.5, &k);
+    let mut sim = simulation(&c);
+    let mut worst = (0.0_f64, 0);
+    for step in 0..(0.2 / c.general.timestep_secs).round() as usize {
+        sim.step().unwrap();
+        let v = sim.world().data().qvel();
+        let speed = v[0].hypot(v[1]);
+        if speed > worst.0 {
+            worst = (speed, step);
+        }
+    }
+    worst
+}
+
+/// A link at rest on the floor from t = 0 stays at rest with the whole-body solve: its horizontal
+/// speed stays below 0.1 mm/s at every step, on the isotropic and on the anisotropic floor, at
+/// 1 ms and 0.1 ms. Measured: 1.51 and 0.62 mm/s at 1 ms (isotropic, anisotropic; in the first
+/// four steps), 0.023 and 0.022 mm/s at 0.1 ms. The link starts at zero penetration: rounding
+/// puts one cap a hair below the floor and the other a hair above, the solve takes the first
+/// only (the second's free motion reaches the floor only through gravity, which the test for a
+/// point that pushes within the step leaves out), and that cap's normal force pitches the link
+/// while its friction, holding the cap, pushes the link sideways. Taking both caps (gravity in
+/// that test) is not enough: the law's first-step force of a cap at +0 and at −0 penetration
+/// differs (0.90 against 0.13 N). Starting the link sunk to its static depth g/ω² (what the
+/// reference engine does) removes the drift (below 1e-7 m/s), but then a link pushed at
+/// 0.999 μN from t = 0 slips in the pitch rocking the sudden push starts (0.099 and 0.199 mm at
+/// μ 0.5 and 1), which [`a_link_loaded_just_below_mu_n_from_the_start_holds_with_the_whole_body_solve`]
+/// does not allow: a start in static equilibrium under the loads of t = 0 (gravity and the
+/// push together) is what both need. Giving each ground point lying at rest on the first step
+/// the normal force that leaves it no normal acceleration, and carrying that force on as a
+/// preload of its spring, passes both (under 0.05 µm moved, under 1e-7 m/s) and leaves the
+/// ramp's steps with every link off the floor at 3 and 40 (μ 0.5 and 1), but that rigid solve is
+/// statically indeterminate for a chain: a straight 10-link snake at rest then keeps one link at
+/// 1.93 × its weight for good. The static start needs the compliant solution (the springs'
+/// least complementary energy among the loads that balance the body).
+#[test]
+#[ignore = "target not reached with \"whole_body\": 1.51 / 0.62 mm/s at the first steps at 1 ms, isotropic / anisotropic (run with --ignored)"]
+fn a_link_at_rest_from_the_start_stays_at_rest_with_the_whole_body_solve() {
+    let mut worst = Vec::new();
+    for keys in [&[][..], &["ground.model=\"anisotropic\""][..]] {
+        for dt in ["general.timestep_secs=0.001", "general.timestep_secs=0.0001"] {
+            let mut k = keys.to_vec();
+            k.push(dt);
+            let (speed, step) = link_at_rest_largest_speed(WHOLE_BODY, &k);
+            eprintln!("{k:?}: largest horizontal speed {:.4} mm/s at step {step}", speed * 1e3);
+            worst.push((k, speed, step));
+        }
+    }
+    assert!(worst.iter().all(|(_, speed, _)| *speed < 1e-4), "{worst:?}");
 }
