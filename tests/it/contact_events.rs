@@ -540,12 +540,7 @@ fn dropped_link_restitution(drop_m: f64, keys: &[&str]) -> f64 {
 fn a_dropped_link_rebounds_at_the_configured_restitution() {
     let page = std::fs::read_to_string(crate::common::manifest_dir().join("guide/src/background/physics.md")).unwrap();
     for e in [0.3, 0.5, 0.7] {
-        let row = page
-            .lines()
-            .find(|l| l.trim_start().starts_with(&format!("| {e} |")))
-            .unwrap_or_else(|| panic!("the guide's restitution table has no row {e}"));
-        let documented: Vec<f64> =
-            row.split('|').map(str::trim).filter(|c| !c.is_empty()).skip(1).map(|c| c.parse().unwrap()).collect();
+        let documented = guide_restitution_row(&page, e, 1);
         for (dt, doc) in [1e-3, 2.5e-4, 1e-4].into_iter().zip(documented) {
             let keys = [format!("physics.contact_restitution={e}"), format!("general.timestep_secs={dt}")];
             let keys: Vec<&str> = keys.iter().map(|s| s.as_str()).collect();
@@ -562,6 +557,17 @@ fn a_dropped_link_rebounds_at_the_configured_restitution() {
     }
 }
 
+/// The figures of the guide's restitution table ("Floor contact") in the row of the configured
+/// restitution `e`, from column `first` on (1: the per-link law's three, 4: the whole-body
+/// solve's three).
+fn guide_restitution_row(page: &str, e: f64, first: usize) -> Vec<f64> {
+    let row = page
+        .lines()
+        .find(|l| l.trim_start().starts_with(&format!("| {e} |")))
+        .unwrap_or_else(|| panic!("the guide's restitution table has no row {e}"));
+    row.split('|').map(str::trim).filter(|c| !c.is_empty()).skip(first).map(|c| c.parse().unwrap()).collect()
+}
+
 /// The whole-body solve's bounce is the setting at every step: a link dropped flat from 0.2 m
 /// rebounds at `physics.contact_restitution` within ±0.05 at 0.25 ms and 0.1 ms; at 1 ms
 /// (ω·dt = 1) one impact's rebound moves with where in the step it starts, and the mean over
@@ -572,12 +578,7 @@ fn a_dropped_link_rebounds_at_the_configured_restitution_with_the_whole_body_sol
     let page = std::fs::read_to_string(crate::common::manifest_dir().join("guide/src/background/physics.md")).unwrap();
     let law = format!("physics.environment_contact_solve=\"{WHOLE_BODY}\"");
     for e in [0.3, 0.5, 0.7] {
-        let row = page
-            .lines()
-            .find(|l| l.trim_start().starts_with(&format!("| {e} |")))
-            .unwrap_or_else(|| panic!("the guide's restitution table has no row {e}"));
-        let documented: Vec<f64> =
-            row.split('|').map(str::trim).filter(|c| !c.is_empty()).skip(4).map(|c| c.parse().unwrap()).collect();
+        let documented = guide_restitution_row(&page, e, 4);
         assert_eq!(documented.len(), 3, "the guide's row {e} has no three \"whole_body\" columns");
         let at = |dt: f64, drop_m: f64| {
             let keys = [format!("physics.contact_restitution={e}"), format!("general.timestep_secs={dt}"), law.clone()];
