@@ -217,8 +217,8 @@
 use super::World;
 use crate::config::{Config, EnvironmentContactSolve, FloorFriction, GroundModel, STICK_RELEASE_J};
 use crate::contact_law::{
-    NormalLaw, damping_ratio_for_restitution, damping_ratio_for_step, damping_ratio_for_step_averaged,
-    explicit_normal_force_n, normal_force_terms,
+    NormalLaw, damping_ratio_for_step, damping_ratio_for_step_averaged,
+    DampingByMassRatio, held_normal_force_n, normal_force_terms,
 };
 use crate::model::{SurfaceMap, names};
 use crate::state::{ContactRow, GeomClass, Snapshot, x_axis};
@@ -500,8 +500,9 @@ struct StickSlip {
     normal_damping_per_s: f64,
     /// The whole-body solve's damping per kilogram of effective mass (1/s).
     whole_body_damping_per_s: f64,
-    /// The ground contacts' damping per kilogram of effective mass (1/s; b·dt ≤ ½).
-    ground_damping_per_s: f64,
+    /// The ground contacts' damping per kilogram of effective mass (1/s), by the ratio of a
+    /// link's half mass to the point's effective mass.
+    ground_damping: DampingByMassRatio,
     /// The part of each ground slot's Σ N from MuJoCo's heightfield and mesh contacts at x_k, and
     /// the same after the step's friction is applied (the check of the second forward pass).
     mujoco_ground_n: Vec<[f64; SLOTS]>,
@@ -728,10 +729,10 @@ impl StickSlip {
         // the restitution on average over where in a step an impact starts.
         let whole_body_damping_per_s =
             2.0 * omega_normal * damping_ratio_for_step_averaged(p.contact_restitution, omega_normal * dt, 1.0);
-        // Ground: the same restitution's damping ratio of the continuous law, held explicitly:
-        // bounded by b·dt ≤ ½ (see the module docs).
-        let ground_damping_per_s =
-            (2.0 * omega_normal * damping_ratio_for_restitution(p.contact_restitution)).min(0.5 / dt);
+        // Ground: the damping whose implicit law rebounds at the restitution at this step, on
+        // average over where in a step an impact starts, for a link landing flat (each end cap
+        // carries half the link; its solve assumes the cap's effective mass).
+        let ground_damping = DampingByMassRatio::new(p.contact_restitution, omega_normal, dt);
         // The ground geoms whose contacts this law computes: planes and boxes (the floor, slopes,
         // steps) through MuJoCo's collision detection, heightfields and meshes through the law's
         // own (one contact per link end: MuJoCo's give one per prism or face, which appear and
@@ -778,7 +779,7 @@ impl StickSlip {
             normal_stiffness_per_s2,
             normal_damping_per_s,
             whole_body_damping_per_s,
-            ground_damping_per_s,
+            ground_damping,
             link_velocity: vec![[0.0; 6]; n],
             ground_points: vec![0; n],
             obstacle_points: vec![0; n],
@@ -1322,9 +1323,14 @@ impl Ground {
                 }
                 let share = 2.0 / st.ground_points[link].max(2) as f64;
                 let stiffness = share * st.normal_stiffness_per_s2 / inv_mass;
-                let damping = share * st.ground_damping_per_s / inv_mass;
+                let damping = share * st.ground_damping.damping_per_s(0.5 * mass * inv_mass) / inv_mass;
+                let law = NormalLaw {
+                    stiffness_n_per_m: stiffness,
+                    damping_n_s_per_m: damping,
+                    effective_mass_kg: share * 0.5 * mass,
+                };
                 let free_approach = -dot(st.gravity_vector_m_per_s2, nrm);
-                let n = explicit_normal_force_n(stiffness, damping, depth, approach, free_approach, dt);
+                let n = held_normal_force_n(law, depth, approach, free_approach, dt);
                 if depth <= 0.0 && n <= 0.0 {
                     continue; // within the detection margin, not touching
                 }

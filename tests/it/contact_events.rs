@@ -1085,3 +1085,4 @@ fn a_link_at_rest_from_the_start_stays_at_rest_with_the_whole_body_solve() {
     }
     assert!(worst.iter().all(|(_, speed, _)| *speed < 1e-4), "{worst:?}");
 }
+
