@@ -1,5 +1,6 @@
 //! SimSerpent's contact law for one contact point, in the normal direction: the normal force of
-//! a step held explicitly ([`held_normal_force_n`], the ground) or integrated implicitly
+//! a step with its spring held explicitly and its damper implicit ([`held_normal_force_n`], the
+//! per-link ground), or integrated implicitly
 //! through the point's mass ([`normal_force_n`], [`normal_force_terms`] for points coupled
 //! through a body's mobility: the obstacles), and the damping that gives a configured
 //! coefficient of restitution ([`damping_ratio_for_restitution`], [`damping_ratio_for_step`]). Pure functions of the point's state and the step;
@@ -95,11 +96,12 @@ pub fn normal_force_terms(
 /// - the spring's held force is its energy's change over the penetration's free predicted change,
 ///   F_s = k·(δ₁⁺² − δ₀⁺²)/(2·(δ₁ − δ₀)), δ₁ = δ₀ + u₀·dt + ½·a·dt² (k·(δ₀ + δ₁)/2 while the contact
 ///   lasts the whole step, the spring's exact work when it starts or ends within it), so the
-///   spring neither gains nor loses energy whatever the point's real mass;
-/// - the damper acts on the end-of-step approach speed its own force leaves, backward Euler over
-///   the part f of the step in contact: D = f·c·u₁ with u₁ = u₀ + (a − (F_s + D)/m)·dt, so
-///   D = f·c·(u₀ + (a − F_s/m)·dt)/(1 + f·c·dt/m). It needs no bound on c·dt/m (the damper of
-///   an explicit force would: its eigenvalues leave the unit circle at c·dt/m = 2).
+///   undamped spring neither gains nor loses energy whatever the point's real mass;
+/// - the damper by backward Euler on the point alone, over the part f of the step in contact:
+///   D = f·c·u₁ with u₁ = u₀ − D·dt/m, so D = f·c·u₀/(1 + f·c·dt/m). It always resists the
+///   motion at the step's start (no energy from the damper where the point turns within the
+///   step), and its effective damping c/(1 + c·dt/m) stays below m/dt: for a point whose real
+///   mass is m or more it neither flips the point's motion in one step nor needs a bound on c.
 pub fn held_normal_force_n(
     law: NormalLaw,
     depth_m: f64,
@@ -117,7 +119,7 @@ pub fn held_normal_force_n(
         return 0.0;
     }
     let fraction = if crossing { p0.max(p1) / (d1 - d0).abs() } else { 1.0 };
-    let damper = fraction * c * (u + (a - spring / m) * dt) / (1.0 + fraction * c * dt / m);
+    let damper = fraction * c * u / (1.0 + fraction * c * dt / m);
     (spring + damper).max(0.0)
 }
 
@@ -309,13 +311,15 @@ pub fn damping_ratio_for_step(e: f64, omega_dt: f64, mass_ratio: f64) -> f64 {
 }
 
 /// The damping per kilogram of a ground contact point's assumed mass (1/s) that makes an impact
-/// under [`held_normal_force_n`] rebound at a restitution `e` on average over where in a step it starts, for a point whose solve
-/// assumes a mass m_a while the impact carries q·m_a (the mass ratio q): a link landing flat on a
-/// plane pushes each of its two end caps with half its mass, while each cap's solve assumes the
-/// cap's effective mass for the link alone, 1/m_eff = 1/m + (r × n)ᵀ I⁻¹ (r × n), so q = m/(2·m_eff).
+/// under [`held_normal_force_n`] rebound at a restitution `e` on average over where in a step it
+/// starts, for a point whose solve assumes a mass m_a while the impact carries q·m_a (the mass
+/// ratio q): a link landing flat on a plane pushes each of its two end caps with half its mass,
+/// while each cap's law assumes the cap's effective mass for the link alone,
+/// 1/m_eff = 1/m + (r × n)ᵀ I⁻¹ (r × n), so q = m/(2·m_eff) (1.11 for the default link).
 /// With k = m_a·ω² and c = m_a·b the impact's own frequency is ω/√q and its damping ratio
 /// b/(2·ω)·√q: b = 2·ω·√q·ζ with ζ the damping ratio whose phase-averaged rebound (as
-/// [`phase_averaged_restitution`], with this law) is e at ω·dt/√q and mass ratio q.
+/// [`phase_averaged_restitution`], with this law and mass ratio q) is e at ω·dt/√q; where a step
+/// cannot reach e (too coarse for the damping it needs), the damping of the lowest rebound.
 /// Tabulated over q at set-up ([`DampingByMassRatio::new`]) and read by linear interpolation
 /// ([`DampingByMassRatio::damping_per_s`]), clamped to the table's range.
 #[derive(Debug, Clone)]
@@ -336,7 +340,7 @@ impl DampingByMassRatio {
             .map(|i| {
                 let q = MASS_RATIO_MIN + MASS_RATIO_STEP * i as f64;
                 let omega_dt = omega_per_s * dt / q.sqrt();
-                let zeta = damping_ratio_giving(e, |z| phase_averaged_restitution_of(held_normal_force_n, z, omega_dt, 1.0));
+                let zeta = damping_ratio_giving(e, |z| phase_averaged_restitution_of(held_normal_force_n, z, omega_dt, q));
                 2.0 * omega_per_s * q.sqrt() * zeta
             })
             .collect();
