@@ -219,8 +219,8 @@
 use super::World;
 use crate::config::{Config, EnvironmentContactSolve, FloorFriction, GroundModel, STICK_RELEASE_J};
 use crate::contact_law::{
-    NormalLaw, damping_ratio_for_step, damping_ratio_for_step_averaged,
-    DampingByMassRatio, held_normal_force_n, normal_force_terms,
+    DampingByMassRatio, NormalLaw, damping_ratio_for_step, damping_ratio_for_step_averaged, held_normal_force_n,
+    normal_force_terms,
 };
 use crate::model::{SurfaceMap, names};
 use crate::state::{ContactRow, GeomClass, Snapshot, x_axis};

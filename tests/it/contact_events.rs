@@ -568,7 +568,8 @@ fn rebounds_at_the_configured_restitution(law: &str, first: usize) {
         let documented = guide_restitution_row(&page, e, first);
         assert!(documented.len() >= 3, "the guide's row {e} has no three \"{law}\" columns");
         let at = |dt: f64, drop_m: f64| {
-            let keys = [format!("physics.contact_restitution={e}"), format!("general.timestep_secs={dt}"), solve.clone()];
+            let keys =
+                [format!("physics.contact_restitution={e}"), format!("general.timestep_secs={dt}"), solve.clone()];
             let keys: Vec<&str> = keys.iter().map(|s| s.as_str()).collect();
             dropped_link_restitution(drop_m, &keys)
         };
@@ -1072,7 +1073,6 @@ fn a_link_at_rest_from_the_start_stays_at_rest_with_the_whole_body_solve() {
     assert!(worst.iter().all(|(_, speed, _)| *speed < 1e-4), "{worst:?}");
 }
 
-
 #[test]
 #[ignore = "probe"]
 fn zz_probe_implicit_floor() {
@@ -1084,7 +1084,11 @@ fn zz_probe_implicit_floor() {
         };
         let drops: Vec<f64> = (0..8).map(|k| at(1e-3, 0.19 + 0.0025 * k as f64)).collect();
         let mean = drops.iter().sum::<f64>() / 8.0;
-        eprintln!("e {e}: 1 ms {drops:.3?} mean {mean:.3}; 0.25 ms {:.3}; 0.1 ms {:.3}", at(2.5e-4, 0.2), at(1e-4, 0.2));
+        eprintln!(
+            "e {e}: 1 ms {drops:.3?} mean {mean:.3}; 0.25 ms {:.3}; 0.1 ms {:.3}",
+            at(2.5e-4, 0.2),
+            at(1e-4, 0.2)
+        );
     }
     for mu in [0.5, 1.0] {
         eprintln!("start under load mu {mu}: {:.4} mm", start_under_load_moved_m(PER_LINK, mu) * 1e3);

@@ -232,7 +232,9 @@ fn phase_averaged_restitution_of(
 ) -> f64 {
     // Entry (k + ½)/ENTRY_PHASES of a step above the surface.
     let sum: f64 = (0..ENTRY_PHASES)
-        .map(|k| rebound_speed_of(force, zeta, omega_dt, mass_ratio, -(k as f64 + 0.5) / ENTRY_PHASES as f64 * omega_dt))
+        .map(|k| {
+            rebound_speed_of(force, zeta, omega_dt, mass_ratio, -(k as f64 + 0.5) / ENTRY_PHASES as f64 * omega_dt)
+        })
         .sum();
     sum / ENTRY_PHASES as f64
 }
@@ -340,7 +342,8 @@ impl DampingByMassRatio {
             .map(|i| {
                 let q = MASS_RATIO_MIN + MASS_RATIO_STEP * i as f64;
                 let omega_dt = omega_per_s * dt / q.sqrt();
-                let zeta = damping_ratio_giving(e, |z| phase_averaged_restitution_of(held_normal_force_n, z, omega_dt, q));
+                let zeta =
+                    damping_ratio_giving(e, |z| phase_averaged_restitution_of(held_normal_force_n, z, omega_dt, q));
                 2.0 * omega_per_s * q.sqrt() * zeta
             })
             .collect();
