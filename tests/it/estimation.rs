@@ -361,8 +361,8 @@ fn links_pressed_together_by_a_wide_wave_are_self_contacts_not_obstacles() {
 
 #[test]
 fn the_static_pinch_flags_every_push_that_exceeds_the_floors_static_friction() {
-    // Ground friction 0.5, exact sensors: the end links hit their pegs at 0.134-0.137 s with
-    // pushes up to 2.2 N beyond μ·N. Scored against the instant its sensor values describe, the
+    // Ground friction 0.5, exact sensors: the end links hit their pegs at 0.135-0.137 s with
+    // pushes up to 2.5 N beyond μ·N (three steps each). Scored against the instant its sensor values describe, the
     // step loop's flag is on at each of them.
     use simserpent::experiments::estimation::{detection, pinch_config, score_estimator};
     let config = pinch_config(&Config::default(), 0.5);
@@ -371,7 +371,7 @@ fn the_static_pinch_flags_every_push_that_exceeds_the_floors_static_friction() {
     let per_link: Vec<_> = (0..N_LINKS).map(|i| detection(&trace, i, 0.5, threshold)).collect();
     let (hits, misses) = per_link.iter().fold((0, 0), |(h, m), d| (h + d.hits, m + d.misses));
     assert_eq!(misses, 0, "{per_link:?}");
-    assert!(hits >= 8, "{per_link:?}");
+    assert!(hits >= 6, "{per_link:?}");
 }
 
 /// A user's estimator: reports no force at all.
@@ -575,3 +575,4 @@ fn seeds_and_floor_are_options_of_the_estimation_experiment_only() {
     // Nothing was written for a refused option.
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
+
