@@ -131,13 +131,12 @@
 //!
 //! **Limits of the law.** At a 1-ms step one floor impact rebounds at 0.23–0.38 for 0.3, with
 //! where in the step it starts (the mean over the step is the setting). A run that starts with a
-//! link pushed at 0.999·μN slides at first: its
-//! stick spring–damper, critically damped, asks 13 % more than the push while it settles. A hard
-//! sideways hit at μ 1 lifts the snake 33 mm (32 mm at 0.1 ms) where the reference engine lifts it
-//! 5–7 mm: the
-//! links roll on the floor before the hit, the obstacles' friction stops their spin and drives
-//! them into the floor, which throws them back. Gravity during a contact (≈ 3 ms) takes about
-//! g·t/v off a rebound at speed v. Rolling and torsional friction are not modelled.
+//! link pushed at 0.999·μN slides at first: its stick spring–damper, critically damped, asks 13 %
+//! more than the push while it settles. A hard sideways hit at μ 1 lifts the snake 33 mm (32 mm
+//! at 0.1 ms) where the reference engine lifts it 5–7 mm: the links roll on the floor before the
+//! hit, the obstacles' friction stops their spin and drives them into the floor, which throws
+//! them back. Gravity during a contact (≈ 3 ms) takes about g·t/v off a rebound at speed v.
+//! Rolling and torsional friction are not modelled.
 //!
 //! **Obstacles.** MuJoCo's own friction on the link–obstacle contacts (condim 3) would bound
 //! friction by the normal force of the same solve, but its convex contact model turns sliding

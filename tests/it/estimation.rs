@@ -575,4 +575,3 @@ fn seeds_and_floor_are_options_of_the_estimation_experiment_only() {
     // Nothing was written for a refused option.
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
-
