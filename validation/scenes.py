@@ -81,12 +81,12 @@ def hold_command(model: Model) -> Callable[[float], np.ndarray]:
 TILT_DEG = 1.0
 TOPPLE_OFFSET_M = 0.2
 
-# Heightfield scenes: a 3 m x 1 m heightfield (2-cm grid) under the default snake, its flat part
+# Heightfield scenes: a 3 m x 2 m heightfield (2-cm grid) under the default snake, its flat part
 # GROUND_Z_M above the floor; the bumpy one carries BUMPS, spherical caps (centre x, y; sphere
 # radius; cap height), which the reference builds as spheres buried in its plane.
 HF_CENTRE_M = (-1.0, 0.0)
-HF_SIZE_M = (3.0, 1.0)
-HF_PIXELS = (151, 51)
+HF_SIZE_M = (3.0, 2.0)
+HF_PIXELS = (151, 101)
 HF_HEIGHT_M = 0.04
 GROUND_Z_M = 0.02
 BUMPS = [((x, y), 0.5, 0.01) for x in (-0.3, -0.9, -1.5) for y in (-0.15, 0.15)]

@@ -389,8 +389,15 @@ def write_tables(out: Path, rows, chosen, mus, engines, binaries, settings, damp
         "each of its steps), and so are SimSerpent's finer-step runs (the convergence column, \"finer step\").",
     ]
     for name in engines:
-        if name not in args.builds and name in binaries and binaries[name].is_file():
-            args.builds[name] = binary_version(binaries[name])
+        if name in binaries and binaries[name].is_file():
+            build = binary_version(binaries[name])
+            before = args.builds.get(name)
+            if before is None:
+                args.builds[name] = build
+            elif build.split("sha256 ")[-1] not in before:
+                # An --update with another build of the same name: each build names its scenes.
+                rerun = args.scenes.replace(",", ", ")
+                args.builds[name] = f"{before}; {build.split(', ')[-1]} ({rerun})"
         header.append(f"SimSerpent `{name}`: {args.builds.get(name, 'build unknown')}.")
     spent = {k: v + args.previous_wall.get(k, 0.0) for k, v in wall.items()}
     header.append("Wall time: " + ", ".join(f"{k} {v:.0f} s" for k, v in spent.items())
