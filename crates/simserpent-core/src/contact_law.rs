@@ -98,10 +98,10 @@ pub fn normal_force_terms(
 ///   lasts the whole step, the spring's exact work when it starts or ends within it), so the
 ///   undamped spring neither gains nor loses energy whatever the point's real mass;
 /// - the damper by backward Euler on the point alone, over the part f of the step in contact:
-///   D = f·c·u₁ with u₁ = u₀ − D·dt/m, so D = f·c·u₀/(1 + f·c·dt/m). It always resists the
-///   motion at the step's start (no energy from the damper where the point turns within the
-///   step), and its effective damping c/(1 + c·dt/m) stays below m/dt: for a point whose real
-///   mass is m or more it neither flips the point's motion in one step nor needs a bound on c.
+///   D = f·c·u₁ with u₁ = u₀ − D·dt/m, so D = f·c·u₀/(1 + f·c·dt/m). It resists the motion at
+///   the step's start, as an explicit damper does, and its effective damping c/(1 + c·dt/m)
+///   stays below m/dt: for a point whose real mass is m or more it never flips the point's
+///   motion in one step, so it needs no bound on c.
 pub fn held_normal_force_n(
     law: NormalLaw,
     depth_m: f64,
