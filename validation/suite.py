@@ -149,6 +149,7 @@ def main() -> int:
     damping: dict[str, tuple[float, float]] = {}
     commands: list[str] = []
     args.builds = {}
+    args.described = set()  # the builds whose binary this run has hashed (once per run)
     args.previous_wall = {}
     if args.update:
         rows, impacts, damping, commands, args.builds = load_previous(out, {(s.key, mu) for s in chosen for mu in mus})
@@ -367,6 +368,18 @@ def binary_version(path: Path) -> str:
     return f"{version}, binary sha256 {digest}…"
 
 
+def build_history(before: str | None, build: str, scenes: str) -> str:
+    """A name's builds after this run measured `scenes` with `build` (`binary_version`): `build`,
+    or, when an --update measured them with another build than the one `before` describes, that
+    description and then the new build's digest with the scenes it measured."""
+    if before is None:
+        return build
+    digest = build.rsplit(", ", 1)[-1]
+    if digest in before:
+        return before
+    return f"{before}; {digest} ({scenes.replace(',', ', ')})"
+
+
 def write_tables(out: Path, rows, chosen, mus, engines, binaries, settings, damping, impacts, wall, total, args,
                  configured_e) -> None:
     with (out / "figures.csv").open("w", newline="") as f:
@@ -389,15 +402,9 @@ def write_tables(out: Path, rows, chosen, mus, engines, binaries, settings, damp
         "each of its steps), and so are SimSerpent's finer-step runs (the convergence column, \"finer step\").",
     ]
     for name in engines:
-        if name in binaries and binaries[name].is_file():
-            build = binary_version(binaries[name])
-            before = args.builds.get(name)
-            if before is None:
-                args.builds[name] = build
-            elif build.split("sha256 ")[-1] not in before:
-                # An --update with another build of the same name: each build names its scenes.
-                rerun = args.scenes.replace(",", ", ")
-                args.builds[name] = f"{before}; {build.split(', ')[-1]} ({rerun})"
+        if name not in args.described and name in binaries and binaries[name].is_file():
+            args.described.add(name)
+            args.builds[name] = build_history(args.builds.get(name), binary_version(binaries[name]), args.scenes)
         header.append(f"SimSerpent `{name}`: {args.builds.get(name, 'build unknown')}.")
     spent = {k: v + args.previous_wall.get(k, 0.0) for k, v in wall.items()}
     header.append("Wall time: " + ", ".join(f"{k} {v:.0f} s" for k, v in spent.items())
