@@ -250,7 +250,14 @@ fn the_estimation_experiment_writes_data_and_plots_and_counts_every_case() {
         assert!(outcome.folder.join(format!("estimation_{case}.csv")).is_file());
         assert!(outcome.folder.join(format!("plots/estimation_{case}_link_00.png")).is_file());
     }
-    assert!(outcome.folder.join("estimation_motion.csv").is_file());
+    // Every row of the motion table has the header's columns (a quoted field may hold a comma).
+    let motion = std::fs::read_to_string(outcome.folder.join("estimation_motion.csv")).unwrap();
+    let columns = |line: &str| 1 + line.split('"').step_by(2).map(|outside| outside.matches(',').count()).sum::<usize>();
+    let mut lines = motion.lines();
+    let header = columns(lines.next().unwrap());
+    for line in lines {
+        assert_eq!(columns(line), header, "{line}");
+    }
     assert!(outcome.folder.join("estimation_mu_identified.csv").is_file());
     assert!(outcome.folder.join("plots/estimation_friction_isotropic.png").is_file());
 }
@@ -433,6 +440,8 @@ fn measure_causes_of_estimation_misses() {
         misses: Vec<[f64; 7]>,
         /// Contact points scored per second of the run: (scored, within 1 cm).
         points_by_second: [(u64, u64); 10],
+        /// The same by the true lateral force: 1-2, 2-3, 3-5, 5-10, above 10 N.
+        points_by_force: [(u64, u64); 5],
     }
     impl Observer<SimError> for Probe {
         fn on_record(&mut self, view: &StepView<'_>, snap: &Snapshot) -> Result<(), SimError> {
@@ -469,10 +478,13 @@ fn measure_causes_of_estimation_misses() {
                     }
                     let lateral = (t.axis[0] * t.obstacle[1] - t.axis[1] * t.obstacle[0]).abs();
                     if let (true, Some(truth)) = (lateral > 1.0, t.point_along_m) {
-                        let bin = &mut self.points_by_second[(self.prev_t as usize).min(9)];
-                        bin.0 += 1;
-                        if est.contact_point_along_m[i].is_some_and(|p| (p - truth).abs() <= 0.01) {
-                            bin.1 += 1;
+                        let within = est.contact_point_along_m[i].is_some_and(|p| (p - truth).abs() <= 0.01);
+                        let by_force = [2.0, 3.0, 5.0, 10.0].iter().filter(|&&edge| lateral >= edge).count();
+                        for bin in
+                            [&mut self.points_by_second[(self.prev_t as usize).min(9)], &mut self.points_by_force[by_force]]
+                        {
+                            bin.0 += 1;
+                            bin.1 += u64::from(within);
                         }
                     }
                     if h(t.obstacle) >= self.threshold_n && !est.contact[i] {
@@ -552,6 +564,12 @@ fn measure_causes_of_estimation_misses() {
             .map(|(n, w)| format!("{:.1} % of {n}", 100.0 * *w as f64 / (*n).max(1) as f64))
             .collect();
         eprintln!("seed {seed}: contact points within 1 cm per second of the run: {}", bins.join(", "));
+        let bins: Vec<String> = ["1-2 N", "2-3 N", "3-5 N", "5-10 N", "> 10 N"]
+            .iter()
+            .zip(probe.points_by_force)
+            .map(|(range, (n, w))| format!("{range}: {:.1} % of {n}", 100.0 * w as f64 / n.max(1) as f64))
+            .collect();
+        eprintln!("seed {seed}: contact points within 1 cm by true lateral force: {}", bins.join(", "));
     }
 }
 
