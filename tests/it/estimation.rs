@@ -252,7 +252,8 @@ fn the_estimation_experiment_writes_data_and_plots_and_counts_every_case() {
     }
     // Every row of the motion table has the header's columns (a quoted field may hold a comma).
     let motion = std::fs::read_to_string(outcome.folder.join("estimation_motion.csv")).unwrap();
-    let columns = |line: &str| 1 + line.split('"').step_by(2).map(|outside| outside.matches(',').count()).sum::<usize>();
+    let columns =
+        |line: &str| 1 + line.split('"').step_by(2).map(|outside| outside.matches(',').count()).sum::<usize>();
     let mut lines = motion.lines();
     let header = columns(lines.next().unwrap());
     for line in lines {
@@ -480,9 +481,10 @@ fn measure_causes_of_estimation_misses() {
                     if let (true, Some(truth)) = (lateral > 1.0, t.point_along_m) {
                         let within = est.contact_point_along_m[i].is_some_and(|p| (p - truth).abs() <= 0.01);
                         let by_force = [2.0, 3.0, 5.0, 10.0].iter().filter(|&&edge| lateral >= edge).count();
-                        for bin in
-                            [&mut self.points_by_second[(self.prev_t as usize).min(9)], &mut self.points_by_force[by_force]]
-                        {
+                        for bin in [
+                            &mut self.points_by_second[(self.prev_t as usize).min(9)],
+                            &mut self.points_by_force[by_force],
+                        ] {
                             bin.0 += 1;
                             bin.1 += u64::from(within);
                         }

@@ -406,7 +406,10 @@ fn probe_bare_floor_flags_per_link() {
     let mut sim = Simulation::new(&c, world);
     let steps = (secs / c.general.timestep_secs).round() as u64;
     sim.run(LoopPlan { steps, record_every_n_steps: 1 }, &mut [&mut p]).unwrap();
-    println!("{floor:?} {kind:?} feedback {feedback}: {} instants, first wall contact at {:?} s", p.n, p.first_wall_secs);
+    println!(
+        "{floor:?} {kind:?} feedback {feedback}: {} instants, first wall contact at {:?} s",
+        p.n, p.first_wall_secs
+    );
     for i in 0..nl {
         let fl = p.flags[i];
         println!(
