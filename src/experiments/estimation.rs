@@ -903,7 +903,8 @@ fn run_motion(ctx: &Context, base: &Config, section: &mut Section) -> Result<(),
             seeds.iter().map(|&seed| (seed, result_of(f, noise, seed).0.clone())).collect();
         for (seed, s) in &per_seed {
             csv.push_str(&format!(
-                "{floor_name},{noise_name},{seed},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+                // The noise column is quoted: "default, μ identified" holds a comma.
+                "{floor_name},\"{noise_name}\",{seed},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
                 s.hits,
                 s.misses,
                 s.false_alarms,

@@ -44,24 +44,26 @@
 //!   that surface's), or against the mesh's nearest triangle ([`closest_point_on_triangle`]).
 //!   MuJoCo's own heightfield and mesh collisions give one contact per prism or face, which
 //!   appear and vanish between steps; these move smoothly with the link, as a plane's do.
-//! - **Ground normal force** of each link–ground contact point: N = max(0, F_s + c·δ̇·f), δ the
+//! - **Ground normal force** of each link–ground contact point: N = max(0, F_s + D), δ the
 //!   penetration (−distance), δ̇ its rate (the link point's velocity relative to the ground body,
 //!   along the normal). The spring's held force is its energy's change over the penetration's
 //!   predicted change in the step, F_s = k·(δ₁⁺² − δ₀⁺²)/(2·(δ₁ − δ₀)) with δ₁ = δ₀ + δ̇·dt + ½·a·dt²
 //!   (a: gravity along the normal): k·(δ₀ + δ₁)/2 while the contact lasts the whole step, and the
-//!   spring's exact work when it starts or ends within the step; f is the part of the step in
-//!   contact ([`explicit_normal_force_n`]). k = s·m_eff·ω², c = s·m_eff·b, with m_eff the point's
+//!   spring's exact work when it starts or ends within the step. The damper is backward Euler on
+//!   the point alone, D = f·c·δ̇/(1 + f·c·dt/m_a), f the part of the step in contact, m_a = s·m_eff
+//!   ([`held_normal_force_n`]). k = s·m_eff·ω², c = s·m_eff·b, with m_eff the point's
 //!   effective mass along the normal for the link alone, 1/m_eff = 1/m + (r×n)ᵀI⁻¹(r×n), and
 //!   s = 2/max(2, the link's penetrating ground points) (a capsule on a plane, a heightfield or a
 //!   mesh touches with its two caps); ω = 1/(τ·ζ_env) from
 //!   `physics.environment_contact_time_constant_secs` (τ, `"auto"`: max(2 ms, 2 timesteps)) and
 //!   `environment_contact_damping_ratio` (ζ_env), MuJoCo's reading of `solref`, or ω² given
-//!   directly (`contact_stiffness_per_s2`), at most 1/dt; b = 2·ζ·ω with ζ the damping ratio whose
-//!   linear spring–damper, pushing only, rebounds at `physics.contact_restitution`
-//!   ([`damping_ratio_for_restitution`], Schwager and Pöschel 2007), bounded by b·dt ≤ ½. So a
-//!   link landing flat rebounds at the configured restitution where the bound leaves b alone
-//!   (0.3 → 0.29–0.30 at 0.25 and 0.1 ms steps, measured in `tests/it/contact_events.rs`); at
-//!   1 ms with the default stiffness the bound holds the damping at 0.5/dt and 0.3 gives 0.45.
+//!   directly (`contact_stiffness_per_s2`), at most 1/dt; b the damping whose rebound at this
+//!   step is `physics.contact_restitution` for a link landing flat, on average over where in a
+//!   step the impact starts ([`DampingByMassRatio`]: each cap carries half the link, q = m/(2·m_eff)
+//!   times the mass its law assumes). So a link landing flat rebounds at the configured
+//!   restitution at every step (0.3 → 0.285 at 1 ms as the mean over where the impact starts,
+//!   0.23–0.38 for one impact; 0.293–0.295 at 0.25 and 0.1 ms; measured in
+//!   `tests/it/contact_events.rs`).
 //!   Every link of the same shape has the same compliance, so a straight body at rest carries
 //!   each link's weight on that link; a capsule lying on the floor sinks about
 //!   m·g/(2·m_eff·ω²) (≈ 10 µm with the defaults).
@@ -115,11 +117,11 @@
 //!   `xfrc_applied`, held over the step. [`Ground::own_contacts`] gives a snapshot its
 //!   link–ground and link–obstacle contact rows; [`Ground::fill_snapshot`] adds the friction.
 //!
-//! **Why it is stable** with forces held over an explicit step: for one ground contact point the
-//! held spring–damper maps (δ, δ̇) to the next step with eigenvalues of modulus √(1 − b·dt)
-//! while ω·dt ≤ 1.2 (the energy-consistent spring alone neither gains nor loses energy), so
-//! b·dt ≤ ½ leaves room for the damping the stick springs add through the link's rotation. m_eff
-//! is the link alone: joints only add mass to a point, which lowers ω·dt and b·dt. The obstacle
+//! **Why it is stable** with forces held over an explicit step: the energy-consistent spring alone
+//! neither gains nor loses energy, and the ground damper's effective damping c/(1 + c·dt/m_a) stays
+//! below m_a/dt, the link-alone mass of its point: joints only add mass to a point, so the damper
+//! never reverses a point's motion within a step, whatever the damping the restitution asks for
+//! (a cap rocking on the link's pitch carries m_a; a link landing flat, q·m_a). The obstacle
 //! law is implicit through the body's real mobility: unconditionally stable for the spring
 //! (Newmark's average acceleration) and the damper (backward Euler), whatever c·dt. The stick
 //! spring–damper is scaled by at most half the link's mass (c_t·dt/m ≤ 2·dt/τ_s ≤ 0.4). Cost
@@ -127,15 +129,14 @@
 //! already), a loop over the contacts and, per link end, one heightfield lookup or one pass over
 //! a mesh's triangles.
 //!
-//! **Limits of the law.** The floor's damping, held explicitly, is bounded by 0.5/dt: at the
-//! default 1-ms step a bounce on the floor is higher than configured (0.45 for 0.3), and a chain
-//! of heavy links rocks on the floor (30 links of 3 kg: Σ N between 0.56 and 1.81 of the weight
-//! in steady undulation). A run that starts with a link pushed at 0.999·μN slides at first: its
-//! stick spring–damper, critically damped, asks 13 % more than the push while it settles. A hard
-//! sideways hit at μ 1 lifts the snake 29–46 mm where the reference engine lifts it 5–23 mm: the
-//! links roll on the floor before the hit, the obstacles' friction stops their spin and drives
-//! them into the floor, which throws them back. Gravity during a contact (≈ 3 ms) takes about
-//! g·t/v off a rebound at speed v. Rolling and torsional friction are not modelled.
+//! **Limits of the law.** At a 1-ms step one floor impact rebounds at 0.23–0.38 for 0.3, with
+//! where in the step it starts (the mean over the step is the setting). A run that starts with a
+//! link pushed at 0.999·μN slides at first: its stick spring–damper, critically damped, asks 13 %
+//! more than the push while it settles. A hard sideways hit at μ 1 lifts the snake 33 mm (32 mm
+//! at 0.1 ms) where the reference engine lifts it 5–7 mm: the links roll on the floor before the
+//! hit, the obstacles' friction stops their spin and drives them into the floor, which throws
+//! them back. Gravity during a contact (≈ 3 ms) takes about g·t/v off a rebound at speed v.
+//! Rolling and torsional friction are not modelled.
 //!
 //! **Obstacles.** MuJoCo's own friction on the link–obstacle contacts (condim 3) would bound
 //! friction by the normal force of the same solve, but its convex contact model turns sliding
@@ -217,8 +218,8 @@
 use super::World;
 use crate::config::{Config, EnvironmentContactSolve, FloorFriction, GroundModel, STICK_RELEASE_J};
 use crate::contact_law::{
-    NormalLaw, damping_ratio_for_restitution, damping_ratio_for_step, damping_ratio_for_step_averaged,
-    explicit_normal_force_n, normal_force_terms,
+    DampingByMassRatio, NormalLaw, damping_ratio_for_step, damping_ratio_for_step_averaged, held_normal_force_n,
+    normal_force_terms,
 };
 use crate::model::{SurfaceMap, names};
 use crate::state::{ContactRow, GeomClass, Snapshot, x_axis};
@@ -500,8 +501,9 @@ struct StickSlip {
     normal_damping_per_s: f64,
     /// The whole-body solve's damping per kilogram of effective mass (1/s).
     whole_body_damping_per_s: f64,
-    /// The ground contacts' damping per kilogram of effective mass (1/s; b·dt ≤ ½).
-    ground_damping_per_s: f64,
+    /// The ground contacts' damping per kilogram of effective mass (1/s), by the ratio of a
+    /// link's half mass to the point's effective mass.
+    ground_damping: DampingByMassRatio,
     /// The part of each ground slot's Σ N from MuJoCo's heightfield and mesh contacts at x_k, and
     /// the same after the step's friction is applied (the check of the second forward pass).
     mujoco_ground_n: Vec<[f64; SLOTS]>,
@@ -728,10 +730,10 @@ impl StickSlip {
         // the restitution on average over where in a step an impact starts.
         let whole_body_damping_per_s =
             2.0 * omega_normal * damping_ratio_for_step_averaged(p.contact_restitution, omega_normal * dt, 1.0);
-        // Ground: the same restitution's damping ratio of the continuous law, held explicitly:
-        // bounded by b·dt ≤ ½ (see the module docs).
-        let ground_damping_per_s =
-            (2.0 * omega_normal * damping_ratio_for_restitution(p.contact_restitution)).min(0.5 / dt);
+        // Ground: the damping whose implicit law rebounds at the restitution at this step, on
+        // average over where in a step an impact starts, for a link landing flat (each end cap
+        // carries half the link; its solve assumes the cap's effective mass).
+        let ground_damping = DampingByMassRatio::new(p.contact_restitution, omega_normal, dt);
         // The ground geoms whose contacts this law computes: planes and boxes (the floor, slopes,
         // steps) through MuJoCo's collision detection, heightfields and meshes through the law's
         // own (one contact per link end: MuJoCo's give one per prism or face, which appear and
@@ -778,7 +780,7 @@ impl StickSlip {
             normal_stiffness_per_s2,
             normal_damping_per_s,
             whole_body_damping_per_s,
-            ground_damping_per_s,
+            ground_damping,
             link_velocity: vec![[0.0; 6]; n],
             ground_points: vec![0; n],
             obstacle_points: vec![0; n],
@@ -1308,7 +1310,7 @@ impl Ground {
                 // Ground: a spring–damper on the point's effective mass along the normal for
                 // the link alone, 1/m_eff = 1/m + (r × n)ᵀ I⁻¹ (r × n), shared among the link's
                 // penetrating ground points (at least 2: a capsule lying on a plane rests on its
-                // two caps), held explicitly (see the module docs).
+                // two caps), the spring held explicitly, the damper implicit (see the module docs).
                 let mass = st.link_mass_kg[link];
                 let rn = cross(r, nrm);
                 let im = ximat[body];
@@ -1322,9 +1324,14 @@ impl Ground {
                 }
                 let share = 2.0 / st.ground_points[link].max(2) as f64;
                 let stiffness = share * st.normal_stiffness_per_s2 / inv_mass;
-                let damping = share * st.ground_damping_per_s / inv_mass;
+                let damping = share * st.ground_damping.damping_per_s(0.5 * mass * inv_mass) / inv_mass;
+                let law = NormalLaw {
+                    stiffness_n_per_m: stiffness,
+                    damping_n_s_per_m: damping,
+                    effective_mass_kg: share / inv_mass,
+                };
                 let free_approach = -dot(st.gravity_vector_m_per_s2, nrm);
-                let n = explicit_normal_force_n(stiffness, damping, depth, approach, free_approach, dt);
+                let n = held_normal_force_n(law, depth, approach, free_approach, dt);
                 if depth <= 0.0 && n <= 0.0 {
                     continue; // within the detection margin, not touching
                 }

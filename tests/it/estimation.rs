@@ -250,7 +250,15 @@ fn the_estimation_experiment_writes_data_and_plots_and_counts_every_case() {
         assert!(outcome.folder.join(format!("estimation_{case}.csv")).is_file());
         assert!(outcome.folder.join(format!("plots/estimation_{case}_link_00.png")).is_file());
     }
-    assert!(outcome.folder.join("estimation_motion.csv").is_file());
+    // Every row of the motion table has the header's columns (a quoted field may hold a comma).
+    let motion = std::fs::read_to_string(outcome.folder.join("estimation_motion.csv")).unwrap();
+    let columns =
+        |line: &str| 1 + line.split('"').step_by(2).map(|outside| outside.matches(',').count()).sum::<usize>();
+    let mut lines = motion.lines();
+    let header = columns(lines.next().unwrap());
+    for line in lines {
+        assert_eq!(columns(line), header, "{line}");
+    }
     assert!(outcome.folder.join("estimation_mu_identified.csv").is_file());
     assert!(outcome.folder.join("plots/estimation_friction_isotropic.png").is_file());
 }
@@ -361,8 +369,8 @@ fn links_pressed_together_by_a_wide_wave_are_self_contacts_not_obstacles() {
 
 #[test]
 fn the_static_pinch_flags_every_push_that_exceeds_the_floors_static_friction() {
-    // Ground friction 0.5, exact sensors: the end links hit their pegs at 0.134-0.137 s with
-    // pushes up to 2.2 N beyond μ·N. Scored against the instant its sensor values describe, the
+    // Ground friction 0.5, exact sensors: the end links hit their pegs at 0.135-0.137 s with
+    // pushes up to 2.5 N beyond μ·N (three steps each). Scored against the instant its sensor values describe, the
     // step loop's flag is on at each of them.
     use simserpent::experiments::estimation::{detection, pinch_config, score_estimator};
     let config = pinch_config(&Config::default(), 0.5);
@@ -371,7 +379,7 @@ fn the_static_pinch_flags_every_push_that_exceeds_the_floors_static_friction() {
     let per_link: Vec<_> = (0..N_LINKS).map(|i| detection(&trace, i, 0.5, threshold)).collect();
     let (hits, misses) = per_link.iter().fold((0, 0), |(h, m), d| (h + d.hits, m + d.misses));
     assert_eq!(misses, 0, "{per_link:?}");
-    assert!(hits >= 8, "{per_link:?}");
+    assert!(hits >= 6, "{per_link:?}");
 }
 
 /// A user's estimator: reports no force at all.
@@ -433,6 +441,8 @@ fn measure_causes_of_estimation_misses() {
         misses: Vec<[f64; 7]>,
         /// Contact points scored per second of the run: (scored, within 1 cm).
         points_by_second: [(u64, u64); 10],
+        /// The same by the true lateral force: 1-2, 2-3, 3-5, 5-10, above 10 N.
+        points_by_force: [(u64, u64); 5],
     }
     impl Observer<SimError> for Probe {
         fn on_record(&mut self, view: &StepView<'_>, snap: &Snapshot) -> Result<(), SimError> {
@@ -469,10 +479,14 @@ fn measure_causes_of_estimation_misses() {
                     }
                     let lateral = (t.axis[0] * t.obstacle[1] - t.axis[1] * t.obstacle[0]).abs();
                     if let (true, Some(truth)) = (lateral > 1.0, t.point_along_m) {
-                        let bin = &mut self.points_by_second[(self.prev_t as usize).min(9)];
-                        bin.0 += 1;
-                        if est.contact_point_along_m[i].is_some_and(|p| (p - truth).abs() <= 0.01) {
-                            bin.1 += 1;
+                        let within = est.contact_point_along_m[i].is_some_and(|p| (p - truth).abs() <= 0.01);
+                        let by_force = [2.0, 3.0, 5.0, 10.0].iter().filter(|&&edge| lateral >= edge).count();
+                        for bin in [
+                            &mut self.points_by_second[(self.prev_t as usize).min(9)],
+                            &mut self.points_by_force[by_force],
+                        ] {
+                            bin.0 += 1;
+                            bin.1 += u64::from(within);
                         }
                     }
                     if h(t.obstacle) >= self.threshold_n && !est.contact[i] {
@@ -552,6 +566,12 @@ fn measure_causes_of_estimation_misses() {
             .map(|(n, w)| format!("{:.1} % of {n}", 100.0 * *w as f64 / (*n).max(1) as f64))
             .collect();
         eprintln!("seed {seed}: contact points within 1 cm per second of the run: {}", bins.join(", "));
+        let bins: Vec<String> = ["1-2 N", "2-3 N", "3-5 N", "5-10 N", "> 10 N"]
+            .iter()
+            .zip(probe.points_by_force)
+            .map(|(range, (n, w))| format!("{range}: {:.1} % of {n}", 100.0 * w as f64 / n.max(1) as f64))
+            .collect();
+        eprintln!("seed {seed}: contact points within 1 cm by true lateral force: {}", bins.join(", "));
     }
 }
 

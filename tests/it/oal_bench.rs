@@ -321,6 +321,13 @@ fn probe_bare_floor_flags_per_link() {
         self_flags: Vec<usize>,
         true_obs: Vec<usize>,
         true_self: Vec<usize>,
+        /// Flags after the ramp-in on a link that touches nothing: count, largest force (N), and
+        /// how many of them on a link that touched a wall at the instant before.
+        false_late: Vec<(usize, f64, usize)>,
+        /// Whether each link touched a wall at the previous instant.
+        wall_before: Vec<bool>,
+        /// The first instant any link touches a wall (s).
+        first_wall_secs: Option<f64>,
         offset_sq: Vec<f64>,
         base: Vec<f64>,
         vel: Vec<f64>,
@@ -351,14 +358,27 @@ fn probe_bare_floor_flags_per_link() {
                     self.flags[i] += 1;
                     self.sum_n[i] += m;
                     self.max_n[i] = self.max_n[i].max(m);
-                    if snap.link_obstacle_force_n[i][0].hypot(snap.link_obstacle_force_n[i][1]) > 0.0 {
+                    let touches_wall = snap.link_obstacle_force_n[i][0].hypot(snap.link_obstacle_force_n[i][1]) > 0.0;
+                    if touches_wall {
                         self.true_obs[i] += 1;
                     }
                     let s = snap.link_self_contact_force_n[i];
-                    if s[0].hypot(s[1]) > 0.0 {
+                    let touches_link = s[0].hypot(s[1]) > 0.0;
+                    if touches_link {
                         self.true_self[i] += 1;
                     }
+                    if t >= 1.0 && !touches_wall && !touches_link {
+                        self.false_late[i].0 += 1;
+                        self.false_late[i].1 = self.false_late[i].1.max(m);
+                        self.false_late[i].2 += usize::from(self.wall_before[i]);
+                    }
                 }
+                let wall = snap.link_obstacle_force_n[i];
+                let on_wall = wall[0].hypot(wall[1]) > 0.0;
+                if self.first_wall_secs.is_none() && on_wall {
+                    self.first_wall_secs = Some(t);
+                }
+                self.wall_before[i] = on_wall;
                 if e.self_contact[i] {
                     self.self_flags[i] += 1;
                 }
@@ -382,6 +402,9 @@ fn probe_bare_floor_flags_per_link() {
         self_flags: vec![0; nl],
         true_obs: vec![0; nl],
         true_self: vec![0; nl],
+        false_late: vec![(0, 0.0, 0); nl],
+        wall_before: vec![false; nl],
+        first_wall_secs: None,
         offset_sq: vec![0.0; nl - 1],
         base: vec![0.0; nl - 1],
         vel: vec![0.0; nl - 1],
@@ -390,13 +413,19 @@ fn probe_bare_floor_flags_per_link() {
     let mut sim = Simulation::new(&c, world);
     let steps = (secs / c.general.timestep_secs).round() as u64;
     sim.run(LoopPlan { steps, record_every_n_steps: 1 }, &mut [&mut p]).unwrap();
-    println!("{floor:?} {kind:?} feedback {feedback}: {} instants", p.n);
+    println!(
+        "{floor:?} {kind:?} feedback {feedback}: {} instants, first wall contact at {:?} s",
+        p.n, p.first_wall_secs
+    );
     for i in 0..nl {
         let fl = p.flags[i];
         println!(
-            "link {i}: flagged {:.2} % (ramp {}), mean {:.2} N, max {:.2} N; true obstacle {} true self {} est self {}; rms offset joint {:.3} deg",
+            "link {i}: flagged {fl} = {:.2} % (ramp {}, after it touching nothing {} up to {:.2} N, {} of them touching a wall at the instant before), mean {:.2} N, max {:.2} N; true obstacle {} true self {} est self {}; rms offset joint {:.3} deg",
             100.0 * fl as f64 / p.n as f64,
             p.flags_ramp[i],
+            p.false_late[i].0,
+            p.false_late[i].1,
+            p.false_late[i].2,
             if fl > 0 { p.sum_n[i] / fl as f64 } else { 0.0 },
             p.max_n[i],
             p.true_obs[i],

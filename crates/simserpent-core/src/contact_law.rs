@@ -1,5 +1,6 @@
 //! SimSerpent's contact law for one contact point, in the normal direction: the normal force of
-//! a step held explicitly ([`explicit_normal_force_n`], the ground) or integrated implicitly
+//! a step with its spring held explicitly and its damper implicit ([`held_normal_force_n`], the
+//! per-link ground), or integrated implicitly
 //! through the point's mass ([`normal_force_n`], [`normal_force_terms`] for points coupled
 //! through a body's mobility: the obstacles), and the damping that gives a configured
 //! coefficient of restitution ([`damping_ratio_for_restitution`], [`damping_ratio_for_step`]). Pure functions of the point's state and the step;
@@ -89,35 +90,37 @@ pub fn normal_force_terms(
     (spring + fraction * c * u, fraction * c * dt)
 }
 
-/// The normal force (N, ≥ 0) of a contact point held explicitly over a step of `dt` (the
-/// ground's law): N = max(0, F_s + c·δ̇·f) with the spring's held force the spring energy's change
-/// over the penetration's free predicted change, F_s = k·(δ₁⁺² − δ₀⁺²)/(2·(δ₁ − δ₀)), δ₁ = δ₀ +
-/// δ̇·dt + ½·a·dt² (k·(δ₀ + δ₁)/2 while the contact lasts the whole step, the spring's exact work
-/// when it starts or ends within it), f the part of the step in contact. For one point of mass
-/// m with k = m·ω² and c = m·b its eigenvalues have modulus √(1 − b·dt) while ω·dt ≤ 1.2: stable
-/// for b·dt ≤ 1, and the ground bounds it to b·dt ≤ ½ (room for the damping the stick springs add
-/// through a link's rotation).
-pub fn explicit_normal_force_n(
-    stiffness_n_per_m: f64,
-    damping_n_s_per_m: f64,
+/// The normal force (N, ≥ 0) of a ground contact point held over a step of `dt`: the spring held
+/// explicitly, the damper implicitly through the point's mass m (`law.effective_mass_kg`).
+/// N = max(0, F_s + D):
+/// - the spring's held force is its energy's change over the penetration's free predicted change,
+///   F_s = k·(δ₁⁺² − δ₀⁺²)/(2·(δ₁ − δ₀)), δ₁ = δ₀ + u₀·dt + ½·a·dt² (k·(δ₀ + δ₁)/2 while the contact
+///   lasts the whole step, the spring's exact work when it starts or ends within it), so the
+///   undamped spring neither gains nor loses energy whatever the point's real mass;
+/// - the damper by backward Euler on the point alone, over the part f of the step in contact:
+///   D = f·c·u₁ with u₁ = u₀ − D·dt/m, so D = f·c·u₀/(1 + f·c·dt/m). It resists the motion at
+///   the step's start, as an explicit damper does, and its effective damping c/(1 + c·dt/m)
+///   stays below m/dt: for a point whose real mass is m or more it never flips the point's
+///   motion in one step, so it needs no bound on c.
+pub fn held_normal_force_n(
+    law: NormalLaw,
     depth_m: f64,
     approach_m_per_s: f64,
     free_approach_m_per_s2: f64,
     dt: f64,
 ) -> f64 {
-    let (k, c) = (stiffness_n_per_m, damping_n_s_per_m);
-    let (d0, d1) = (depth_m, depth_m + dt * approach_m_per_s + 0.5 * dt * dt * free_approach_m_per_s2);
+    let NormalLaw { stiffness_n_per_m: k, damping_n_s_per_m: c, effective_mass_kg: m } = law;
+    let (u, a) = (approach_m_per_s, free_approach_m_per_s2);
+    let (d0, d1) = (depth_m, depth_m + dt * u + 0.5 * dt * dt * a);
     let (p0, p1) = (d0.max(0.0), d1.max(0.0));
     let crossing = (d0 > 0.0) != (d1 > 0.0);
     let spring = if crossing { k * (p1 * p1 - p0 * p0) / (2.0 * (d1 - d0)) } else { 0.5 * k * (p0 + p1) };
-    let fraction = if crossing {
-        p0.max(p1) / (d1 - d0).abs()
-    } else if d0 > 0.0 {
-        1.0
-    } else {
-        0.0
-    };
-    if spring > 0.0 { (spring + fraction * c * approach_m_per_s).max(0.0) } else { 0.0 }
+    if spring <= 0.0 {
+        return 0.0;
+    }
+    let fraction = if crossing { p0.max(p1) / (d1 - d0).abs() } else { 1.0 };
+    let damper = fraction * c * u / (1.0 + fraction * c * dt / m);
+    (spring + damper).max(0.0)
 }
 
 /// The coefficient of restitution of a mass on a linear spring–damper that only pushes, with
@@ -187,11 +190,22 @@ pub fn discrete_restitution(zeta: f64, omega_dt: f64, mass_ratio: f64) -> f64 {
 /// speed 1 from `start_depth` (≤ 0), the exit speed once the point has left the surface (0 if it
 /// does not within 100,000 steps).
 fn rebound_speed(zeta: f64, omega_dt: f64, mass_ratio: f64, start_depth: f64) -> f64 {
+    rebound_speed_of(normal_force_n, zeta, omega_dt, mass_ratio, start_depth)
+}
+
+/// [`rebound_speed`] with the force law `force` ([`normal_force_n`] or [`held_normal_force_n`]).
+fn rebound_speed_of(
+    force: fn(NormalLaw, f64, f64, f64, f64) -> f64,
+    zeta: f64,
+    omega_dt: f64,
+    mass_ratio: f64,
+    start_depth: f64,
+) -> f64 {
     let dt = omega_dt;
     let law = NormalLaw { stiffness_n_per_m: 1.0, damping_n_s_per_m: 2.0 * zeta, effective_mass_kg: 1.0 / mass_ratio };
     let (mut depth, mut approach, mut touched) = (start_depth, 1.0, false);
     for _ in 0..100_000 {
-        let n = normal_force_n(law, depth, approach, 0.0, dt);
+        let n = force(law, depth, approach, 0.0, dt);
         depth += approach * dt - 0.5 * n * dt * dt;
         approach -= n * dt;
         touched |= depth > 0.0;
@@ -206,9 +220,21 @@ fn rebound_speed(zeta: f64, omega_dt: f64, mass_ratio: f64, start_depth: f64) ->
 /// [`ENTRY_PHASES`] evenly spread over one step's travel above the surface (at ω·dt near 1 the
 /// rebound of one impact moves by ±0.03 with it; an impact meets the step grid anywhere).
 pub fn phase_averaged_restitution(zeta: f64, omega_dt: f64, mass_ratio: f64) -> f64 {
+    phase_averaged_restitution_of(normal_force_n, zeta, omega_dt, mass_ratio)
+}
+
+/// [`phase_averaged_restitution`] with the force law `force`.
+fn phase_averaged_restitution_of(
+    force: fn(NormalLaw, f64, f64, f64, f64) -> f64,
+    zeta: f64,
+    omega_dt: f64,
+    mass_ratio: f64,
+) -> f64 {
     // Entry (k + ½)/ENTRY_PHASES of a step above the surface.
     let sum: f64 = (0..ENTRY_PHASES)
-        .map(|k| rebound_speed(zeta, omega_dt, mass_ratio, -(k as f64 + 0.5) / ENTRY_PHASES as f64 * omega_dt))
+        .map(|k| {
+            rebound_speed_of(force, zeta, omega_dt, mass_ratio, -(k as f64 + 0.5) / ENTRY_PHASES as f64 * omega_dt)
+        })
         .sum();
     sum / ENTRY_PHASES as f64
 }
@@ -284,6 +310,53 @@ pub fn lowest_restitution(omega_dt: f64, mass_ratio: f64) -> (f64, f64) {
 /// reachable restitution, the damping of the lowest.
 pub fn damping_ratio_for_step(e: f64, omega_dt: f64, mass_ratio: f64) -> f64 {
     damping_ratio_giving(e, |zeta| discrete_restitution(zeta, omega_dt, mass_ratio))
+}
+
+/// The damping per kilogram of a ground contact point's assumed mass (1/s) that makes an impact
+/// under [`held_normal_force_n`] rebound at a restitution `e` on average over where in a step it
+/// starts, for a point whose solve assumes a mass m_a while the impact carries q·m_a (the mass
+/// ratio q): a link landing flat on a plane pushes each of its two end caps with half its mass,
+/// while each cap's law assumes the cap's effective mass for the link alone,
+/// 1/m_eff = 1/m + (r × n)ᵀ I⁻¹ (r × n), so q = m/(2·m_eff) (1.11 for the default link).
+/// With k = m_a·ω² and c = m_a·b the impact's own frequency is ω/√q and its damping ratio
+/// b/(2·ω)·√q: b = 2·ω·√q·ζ with ζ the damping ratio whose phase-averaged rebound (as
+/// [`phase_averaged_restitution`], with this law and mass ratio q) is e at ω·dt/√q; where a step
+/// cannot reach e (too coarse for the damping it needs), the damping of the lowest rebound.
+/// Tabulated over q at set-up ([`DampingByMassRatio::new`]) and read by linear interpolation
+/// ([`DampingByMassRatio::damping_per_s`]), clamped to the table's range.
+#[derive(Debug, Clone)]
+pub struct DampingByMassRatio {
+    damping_per_s: Vec<f64>,
+}
+
+/// The mass ratios [`DampingByMassRatio`] tabulates: 0.5 (a point at its body's centre of mass)
+/// to 5, 1/8 apart.
+const MASS_RATIO_MIN: f64 = 0.5;
+const MASS_RATIO_STEP: f64 = 0.125;
+const MASS_RATIOS: usize = 37;
+
+impl DampingByMassRatio {
+    /// The table for restitution `e`, stiffness ω² = `omega_per_s`² per kilogram and step `dt`.
+    pub fn new(e: f64, omega_per_s: f64, dt: f64) -> Self {
+        let damping_per_s = (0..MASS_RATIOS)
+            .map(|i| {
+                let q = MASS_RATIO_MIN + MASS_RATIO_STEP * i as f64;
+                let omega_dt = omega_per_s * dt / q.sqrt();
+                let zeta =
+                    damping_ratio_giving(e, |z| phase_averaged_restitution_of(held_normal_force_n, z, omega_dt, q));
+                2.0 * omega_per_s * q.sqrt() * zeta
+            })
+            .collect();
+        Self { damping_per_s }
+    }
+
+    /// The damping per kilogram of assumed mass (1/s) at mass ratio `mass_ratio`.
+    pub fn damping_per_s(&self, mass_ratio: f64) -> f64 {
+        let x = ((mass_ratio - MASS_RATIO_MIN) / MASS_RATIO_STEP).clamp(0.0, (MASS_RATIOS - 1) as f64);
+        let i = (x as usize).min(MASS_RATIOS - 2);
+        let f = x - i as f64;
+        self.damping_per_s[i] * (1.0 - f) + self.damping_per_s[i + 1] * f
+    }
 }
 
 #[cfg(test)]
