@@ -52,12 +52,13 @@
 //!   spring's exact work when it starts or ends within the step. The damper is backward Euler on
 //!   the point alone, D = f·c·δ̇/(1 + f·c·dt/m_a), f the part of the step in contact, m_a = s·m_eff
 //!   ([`held_normal_force_n`]). k = s·m_eff·ω², c = s·m_eff·b, with m_eff the point's
-//!   effective mass along the normal for the link alone, 1/m_eff = 1/m + (r×n)ᵀI⁻¹(r×n), at most
-//!   m/2 where two points of the link or more are within the detection margin (each carries at most its share of the
-//!   link: the end of a short, thick link moves almost as its centre does, m_eff near m, and two
-//!   ends landing flat, each scaled by m_eff, would push back the whole link twice over in a step),
-//!   and s = 2/max(2, the link's penetrating ground points) (a capsule on a plane, a heightfield or a
-//!   mesh touches with its two caps); ω = 1/(τ·ζ_env) from
+//!   effective mass along the normal for the link alone, 1/m_eff = 1/m + (r×n)ᵀI⁻¹(r×n), at
+//!   most m/2 where two or more of the link's ground points are within the detection margin
+//!   (each carries at most its share of the link: the end of a short, thick link moves almost
+//!   as its centre does, m_eff near m, and two ends landing flat, each scaled by m_eff, would
+//!   push back the whole link twice over in a step), and s = 2/max(2, the link's penetrating
+//!   ground points) (a capsule on a plane, a heightfield or a mesh touches with its two caps);
+//!   ω = 1/(τ·ζ_env) from
 //!   `physics.environment_contact_time_constant_secs` (τ, `"auto"`: max(2 ms, 2 timesteps)) and
 //!   `environment_contact_damping_ratio` (ζ_env), MuJoCo's reading of `solref`, or ω² given
 //!   directly (`contact_stiffness_per_s2`), at most 1/dt; b the damping whose rebound at this
