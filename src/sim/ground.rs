@@ -52,9 +52,13 @@
 //!   spring's exact work when it starts or ends within the step. The damper is backward Euler on
 //!   the point alone, D = f·c·δ̇/(1 + f·c·dt/m_a), f the part of the step in contact, m_a = s·m_eff
 //!   ([`held_normal_force_n`]). k = s·m_eff·ω², c = s·m_eff·b, with m_eff the point's
-//!   effective mass along the normal for the link alone, 1/m_eff = 1/m + (r×n)ᵀI⁻¹(r×n), and
-//!   s = 2/max(2, the link's penetrating ground points) (a capsule on a plane, a heightfield or a
-//!   mesh touches with its two caps); ω = 1/(τ·ζ_env) from
+//!   effective mass along the normal for the link alone, 1/m_eff = 1/m + (r×n)ᵀI⁻¹(r×n), at
+//!   most m/2 where two or more of the link's ground points are within the detection margin
+//!   (each carries at most its share of the link: the end of a short, thick link moves almost
+//!   as its centre does, m_eff near m, and two ends landing flat, each scaled by m_eff, would
+//!   push back the whole link twice over in a step), and s = 2/max(2, the link's penetrating
+//!   ground points) (a capsule on a plane, a heightfield or a mesh touches with its two caps);
+//!   ω = 1/(τ·ζ_env) from
 //!   `physics.environment_contact_time_constant_secs` (τ, `"auto"`: max(2 ms, 2 timesteps)) and
 //!   `environment_contact_damping_ratio` (ζ_env), MuJoCo's reading of `solref`, or ω² given
 //!   directly (`contact_stiffness_per_s2`), at most 1/dt; b the damping whose rebound at this
@@ -515,6 +519,9 @@ struct StickSlip {
     bound_previous: Vec<[(f64, f64); SLOTS]>,
     /// Penetrating ground contact points of each link at x_k.
     ground_points: Vec<usize>,
+    /// Ground contact points of each link at x_k within the detection margin, touching or not:
+    /// two or more, and the link may land on them together within the step.
+    ground_points_near: Vec<usize>,
     /// Penetrating obstacle contact points of each link at x_k.
     obstacle_points: Vec<usize>,
     /// The link–ground and link–obstacle contacts found at x_k (capacity kept).
@@ -783,6 +790,7 @@ impl StickSlip {
             ground_damping,
             link_velocity: vec![[0.0; 6]; n],
             ground_points: vec![0; n],
+            ground_points_near: vec![0; n],
             obstacle_points: vec![0; n],
             found: Vec::new(),
             obstacle_candidates: Vec::new(),
@@ -1230,12 +1238,16 @@ impl Ground {
             // Penetrating ground contact points per link: a link's two end caps on a plane share
             // its compliance; more points (a box edge, a mesh) share the same total.
             st.ground_points.fill(0);
+            st.ground_points_near.fill(0);
             st.obstacle_points.fill(0);
             for contact in &st.found {
+                let Some((l, other, _)) = st.link_side(contact.geom[0], contact.geom[1]) else { continue };
+                if !st.obstacle_geom[other] {
+                    st.ground_points_near[l] += 1;
+                }
                 if contact.distance_m >= 0.0 {
                     continue;
                 }
-                let Some((l, other, _)) = st.link_side(contact.geom[0], contact.geom[1]) else { continue };
                 if st.obstacle_geom[other] {
                     st.obstacle_points[l] += 1;
                 } else if !st.surface_geom[other] {
@@ -1321,6 +1333,13 @@ impl Ground {
                     if inertia[j] > 0.0 {
                         inv_mass += u * u / inertia[j];
                     }
+                }
+                if st.ground_points_near[link] >= 2 {
+                    // Points that may push one link together carry at most their share of its
+                    // mass: a short, thick link's end point moves almost as its centre does
+                    // (m_eff near m), and scaled by that mass two ends landing flat would push
+                    // back the whole link twice over within a step.
+                    inv_mass = inv_mass.max(2.0 / mass);
                 }
                 let share = 2.0 / st.ground_points[link].max(2) as f64;
                 let stiffness = share * st.normal_stiffness_per_s2 / inv_mass;

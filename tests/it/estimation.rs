@@ -370,8 +370,8 @@ fn links_pressed_together_by_a_wide_wave_are_self_contacts_not_obstacles() {
 #[test]
 fn the_static_pinch_flags_every_push_that_exceeds_the_floors_static_friction() {
     // Ground friction 0.5, exact sensors: the end links hit their pegs at 0.135-0.137 s with
-    // pushes up to 2.5 N beyond μ·N (three steps each). Scored against the instant its sensor values describe, the
-    // step loop's flag is on at each of them.
+    // pushes up to 2.5 N beyond μ·N (three steps each). Scored against the instant its sensor
+    // values describe, the step loop's flag is on at each of them.
     use simserpent::experiments::estimation::{detection, pinch_config, score_estimator};
     let config = pinch_config(&Config::default(), 0.5);
     let (_, trace) = score_estimator(&config, TORQUE_NM, 300, &mut NewtonEulerEstimator::default()).unwrap();
