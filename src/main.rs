@@ -820,7 +820,10 @@ fn run_command(
         errln!("note: {}", echo(note));
     }
     if let Some(joints) = &summary.tracking {
-        outln!("tracking of the commanded joint angles (after the ramp-in; error = actual - commanded angle):");
+        let in_ramp_in = run::ended_in_ramp_in(&config, &summary);
+        let window =
+            if in_ramp_in { "during the ramp-in, which the run ended in: no verdict" } else { "after the ramp-in" };
+        outln!("tracking of the commanded joint angles ({window}; error = actual - commanded angle):");
         outln!("  joint        amplitude  reached   RMS error           max error");
         for j in joints {
             outln!(
@@ -832,7 +835,7 @@ fn run_command(
                 j.rms_error_percent,
                 j.max_error_rad,
                 j.max_error_percent,
-                if j.tracks() { "" } else { "  (not tracked)" }
+                if j.tracks() || in_ramp_in { "" } else { "  (not tracked)" }
             );
         }
     }

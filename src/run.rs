@@ -145,11 +145,21 @@ pub fn run(config: &Config, options: &RunOptions) -> Result<RunSummary, RunError
     run_simulation_tracked(config, options, sim, tracking, None)
 }
 
+/// Whether a run ended before the gait's ramp-in did: its tracking figures then cover the ramp-in
+/// (the command still growing from rest), and no tracking warning is given.
+pub fn ended_in_ramp_in(config: &Config, summary: &RunSummary) -> bool {
+    summary.simulated_secs < config.gait.ramp_secs
+}
+
 /// The tracking warning of a summary: which joints missed their command (see
 /// [`crate::state::JointTracking::tracks`]), by how much, and what to change; `None` when every
-/// joint tracked (or nothing was commanded).
+/// joint tracked, nothing was commanded, or the run ended during the ramp-in
+/// ([`ended_in_ramp_in`]).
 pub fn tracking_warning(config: &Config, summary: &RunSummary) -> Option<String> {
     use crate::config::ControlMethod;
+    if ended_in_ramp_in(config, summary) {
+        return None;
+    }
     let joints = summary.tracking.as_deref()?;
     let missed: Vec<&crate::state::JointTracking> = joints.iter().filter(|j| !j.tracks()).collect();
     let worst = missed.iter().max_by(|a, b| a.rms_error_percent.total_cmp(&b.rms_error_percent))?;

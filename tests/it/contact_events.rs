@@ -1,6 +1,6 @@
 //! Contact events with the default contact law (`physics.floor_friction = "stick_slip"`), with
 //! both its solves (`physics.environment_contact_solve`: `"per_link"`, the default, and
-//! `"whole_body"`; a slow test's whole-body twin is `#[ignore]`d),
+//! `"whole_body"`; a slow test's whole-body twin runs with the slow tests),
 //! measured from every step's snapshot as the recorded tables show it (`Simulation::control`, the
 //! recording's forward pass at x_k, then the step): a straight snake at rest, launched sideways,
 //! standing upright, hit sideways on the cylinders, the gait's ramp, a slowly ramped push that
@@ -708,7 +708,7 @@ fn a_sideways_hit_at_mu_1_lifts_the_same_at_1_ms_and_0_1_ms() {
 /// The sideways hit at μ 0.5 with the whole-body solve: within 10 % between 1 ms and 0.1 ms and
 /// within 1/1.5 … 1.5 × the reference's 163 mm (slow: 10,000 steps at 0.1 ms).
 #[test]
-#[ignore = "slow (about 2 min in a debug build): run with --ignored"]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn a_sideways_hit_at_mu_0_5_lifts_the_same_at_1_ms_and_0_1_ms_with_the_whole_body_solve() {
     hit_lift_converges_near_the_reference(WHOLE_BODY, 0.5, 0.163);
 }
@@ -884,7 +884,7 @@ fn a_flat_heightfield_and_a_flat_mesh_terrain_equal_the_plane() {
 
 /// The same with the whole-body solve (slow: 12 runs of 3 s at twice the per-link law's cost).
 #[test]
-#[ignore = "slow (about 4 min in a debug build): run with --ignored"]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn a_flat_heightfield_and_a_flat_mesh_terrain_equal_the_plane_with_the_whole_body_solve() {
     flat_grounds_equal_the_plane(WHOLE_BODY);
 }
@@ -952,7 +952,7 @@ fn a_heavy_long_snake_carries_its_weight_at_every_step() {
 /// The same with the whole-body solve: its floor damping is implicit, the links do not rock
 /// (slow: 4 s of 30 links).
 #[test]
-#[ignore = "slow (about 3 min in a debug build): run with --ignored"]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn a_heavy_long_snake_carries_its_weight_at_every_step_with_the_whole_body_solve() {
     let (low, high) = heavy_snake_load_range(WHOLE_BODY);
     assert!(low >= 0.9 && high <= 1.1, "Σ N between {low} and {high} of the weight");

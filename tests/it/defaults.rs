@@ -54,6 +54,32 @@ fn the_default_gait_is_tracked_by_the_default_servos() {
     println!("figures: default gait open loop on the bare floor, worst RMS error {worst:.1} %");
 }
 
+/// A run that ends during the ramp-in (0.5 s of the default job's 1 s): the joints lag a command
+/// still growing from rest, so the figures are labelled as the ramp-in's and no warning is given;
+/// the same joints judged a second after the ramp-in get their verdict.
+#[test]
+fn a_run_that_ends_in_the_ramp_in_gets_no_tracking_verdict() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = output_dir(dir.path());
+    let short = default_config_with(&[out.clone(), "general.duration_secs=0.5".into()]).unwrap();
+    assert!(short.general.duration_secs < short.gait.ramp_secs);
+    let summary = run::run(&short, &RunOptions::default()).unwrap();
+    assert!(run::ended_in_ramp_in(&short, &summary));
+    let tracking = summary.tracking.as_ref().expect("a tracking report");
+    assert!(tracking.iter().any(|t| !t.tracks()), "the ramp-in's lag: {tracking:?}");
+    assert!(run::tracking_warning(&short, &summary).is_none());
+    let mut after = summary.clone();
+    after.simulated_secs = short.gait.ramp_secs + 1.0;
+    assert!(!run::ended_in_ramp_in(&short, &after));
+    assert!(run::tracking_warning(&short, &after).is_some());
+    let printed = simserpent(dir.path(), &["run", "--set", "general.duration_secs=0.5", "--set", &out]);
+    assert!(printed.status.success());
+    let stdout = String::from_utf8_lossy(&printed.stdout);
+    let stderr = String::from_utf8_lossy(&printed.stderr);
+    assert!(stdout.contains("(during the ramp-in, which the run ended in: no verdict;"), "{stdout}");
+    assert!(!stdout.contains("(not tracked)") && !stderr.contains("do not track"), "{stdout}\n{stderr}");
+}
+
 /// The open-loop gait in the default corridor: tracked by the default servos, and when pegs do
 /// hold joints back, the tracking warning says so first.
 #[test]
