@@ -86,4 +86,25 @@ impl ExternalForces {
         }
         world.data.qfrc_applied_mut().copy_from_slice(&self.qfrc);
     }
+
+    /// The force on each link (N, world frame, at its centre of mass) at the start of the step at
+    /// `time_secs`, into `out` (indexed by link; links without a force get zero).
+    pub fn link_forces_n(&self, time_secs: f64, out: &mut [[f64; 3]]) {
+        if self.forces.is_empty() {
+            return;
+        }
+        for f in out.iter_mut() {
+            *f = [0.0; 3];
+        }
+        for (f, _, dir) in &self.forces {
+            let size = f.magnitude_n(time_secs);
+            if size > 0.0
+                && let Some(o) = out.get_mut(f.link)
+            {
+                for j in 0..3 {
+                    o[j] += dir[j] * size;
+                }
+            }
+        }
+    }
 }

@@ -90,19 +90,23 @@
 //!   - N, the point and the normal of a slot: Σ N of its contacts, point and normal weighted by N.
 //!   - v, the velocity of the contact point at x_k (centre-of-mass velocity + ω × r), tangential.
 //!   - An anchor on the ground per slot, with the deflection z of the contact point from it. The
-//!     trial force −k_t·(z + v·dt) − c_t·v (k_t = m_s·ω_s², c_t = 2·m_s·ω_s: critically damped
+//!     trial force −k_t·(z + v·dt) − c_t·v − f_k (k_t = m_s·ω_s², c_t = 2·m_s·ω_s: critically damped
 //!     with ω_s = 1/`floor_stick_time_constant_secs` (`"auto"`: max(5 ms, 5 timesteps)); m_s =
-//!     min(N/g, m/2), the mass the slot carries up to half the link's) is kept if it lies inside
+//!     min(N/g, m/2), the mass the slot carries up to half the link's; f_k the tangential part of
+//!     the forces on the link known before the step, its weight and its applied external force
+//!     (`[[physics.external_forces]]`), each slot taking the part of the link its N carries,
+//!     N/(m·|g·n|), at most the whole link over its slots, so a push or a slope is held within
+//!     the step it starts in, not after the spring has yielded) is kept if it lies inside
 //!     the friction ellipse (F_axial/(μ_axial·N))² + (F_lateral/(μ_lateral·N))² ≤ 1 (stick: z
 //!     grows by v·dt), else replaced by its nearest point on the ellipse (slide: the anchor is
-//!     dragged, z = −F/k_t). In steady sliding that is μ·N against the sliding direction
+//!     dragged, z = −(F + f_k)/k_t). In steady sliding that is μ·N against the sliding direction
 //!     (maximum dissipation on the ellipse), while sticking it is whatever holds the link, with
 //!     no creep. μ_axial is `axial_friction` for a force toward the tail and
 //!     `backward_friction` (directional) toward the head; the coefficients come from the region
 //!     under the link. A stick spring springing back along the point's motion gives back the
 //!     energy it stored: at most [`STICK_RELEASE_J`] per step and slot (the rest of the force
-//!     along v is dropped and the anchor follows, z = −F/k_t), so a coasting snake does not
-//!     gain energy from the springs that held it.
+//!     along v is dropped and the anchor follows), so a coasting snake does not gain energy from
+//!     the springs that held it (f_k is a force on the link, not the spring's: it is not capped).
 //! - **Obstacle friction**, one slot per link and touching obstacle geom (at most 8 per link),
 //!   isotropic with `terrain.obstacle_friction[0]`, the link's axis as the first tangent, solved
 //!   jointly over all of them. A second forward pass at x_k (the law's geoms detached, the step's
@@ -135,8 +139,11 @@
 //!
 //! **Limits of the law.** At a 1-ms step one floor impact rebounds at 0.23–0.38 for 0.3, with
 //! where in the step it starts (the mean over the step is the setting). A run that starts with a
-//! link pushed at 0.999·μN slides at first: its stick spring–damper, critically damped, asks 13 %
-//! more than the push while it settles. A hard sideways hit at μ 1 lifts the snake 33 mm (32 mm
+//! link pushed at 0.999·μN slides 0.95 mm (μ 0.5) to 2.0 mm (μ 1): the link starts on the floor
+//! at its radius, the floor carries a quarter of its weight at the first step, and the link slips
+//! before the floor carries it all. Pushed so once it rests, it moves 0.07 mm (μ 0.5) and 0.31 mm
+//! (μ 1: the push pitches the link onto its front end, each end then holds 99.9 % of its μN, and
+//! the stick spring's reaction to the pitch tips one into sliding). A hard sideways hit at μ 1 lifts the snake 33 mm (32 mm
 //! at 0.1 ms) where the reference engine lifts it 5–7 mm: the links roll on the floor before the
 //! hit, the obstacles' friction stops their spin and drives them into the floor, which throws
 //! them back. Gravity during a contact (≈ 3 ms) takes about g·t/v off a rebound at speed v.
@@ -350,6 +357,12 @@ impl Ground {
     /// Prepares the coming step: looks up the surface under each link, switches pair friction
     /// (surfaces, directional) or writes the viscous forces into `xfrc_applied`. Does not
     /// allocate.
+    /// Where the step loop writes each link's applied external force of the coming step (the
+    /// friction's stick force holds the part of it, and of gravity, along the ground at once).
+    pub fn external_forces_mut(&mut self) -> Option<&mut [[f64; 3]]> {
+        self.stick_slip.as_mut().map(|st| st.external_force_n.as_mut_slice())
+    }
+
     pub fn before_step(&mut self, world: &mut World) {
         self.forward_ready = false;
         if !self.is_active() {
@@ -494,6 +507,9 @@ struct StickSlip {
     /// Gravity (m/s², world frame).
     gravity_vector_m_per_s2: [f64; 3],
     /// |gravity| (m/s²; 9.81 without gravity): N / g is the mass a contact supports.
+    /// The applied external force on each link this step (N, world frame; see
+    /// [`Ground::external_forces_mut`]).
+    external_force_n: Vec<[f64; 3]>,
     gravity_m_per_s2: f64,
     timestep_secs: f64,
     /// Each link's mass (kg) and principal moments of inertia (kg·m², in its inertial frame).
@@ -779,6 +795,7 @@ impl StickSlip {
             stick_time_constant_secs: 1.0 / omega,
             omega_sq_per_s2: omega * omega,
             two_omega_per_s: 2.0 * omega,
+            external_force_n: vec![[0.0; 3]; n],
             gravity_m_per_s2: if g_abs > 0.1 { g_abs } else { 9.81 },
             gravity_vector_m_per_s2: g,
             timestep_secs: config.general.timestep_secs,
@@ -1410,7 +1427,27 @@ impl Ground {
             let (w, v_com) = ([vel[0], vel[1], vel[2]], [vel[3], vel[4], vel[5]]);
             let mut force = [0.0; 3];
             let mut torque = [0.0; 3];
-            for slot in 0..SLOTS {
+            // The forces on the link known before the step, its weight and its applied external
+            // force (on a level plane the weight has no tangential part: f_k is zero and the
+            // stick force is the spring's).
+            let ext = st.external_force_n[i];
+            let known = [0, 1, 2].map(|j| st.link_mass_kg[i] * st.gravity_vector_m_per_s2[j] + ext[j]);
+            // Each slot's share: the part of the link's weight its N carries, N / (m·|g·n|), the
+            // shares capped at one link in all (joints or an obstacle carry the rest).
+            let mut share = [0.0; SLOTS];
+            for (slot, s) in share.iter_mut().enumerate() {
+                let n_force = st.normal_n[i][slot];
+                if n_force > 0.0 {
+                    let nrm = normalized(st.normal_weighted[i][slot]).unwrap_or([0.0, 0.0, 1.0]);
+                    let weight_n = st.link_mass_kg[i] * dot(st.gravity_vector_m_per_s2, nrm).abs();
+                    *s = if weight_n > 0.0 { n_force / weight_n } else { 0.0 };
+                }
+            }
+            let total: f64 = share.iter().sum();
+            if total > 1.0 {
+                share = share.map(|s| s / total);
+            }
+            for (slot, &slot_share) in share.iter().enumerate() {
                 let n_force = st.normal_n[i][slot];
                 let z = &mut st.deflection_m[i][slot];
                 st.slot_force_n[i][slot] = [0.0; 3];
@@ -1432,24 +1469,39 @@ impl Ground {
                 let z_pred = add(z_now, v_t.map(|x| x * dt));
                 let mass = (n_force / st.gravity_m_per_s2).min(st.half_link_mass_kg[i]);
                 let (k, c) = (mass * st.omega_sq_per_s2, mass * st.two_omega_per_s);
-                let trial = [0, 1, 2].map(|j| -k * z_pred[j] - c * v_t[j]);
+                let known_t = tangential(known.map(|x| x * slot_share), nrm);
+                let held = known_t != [0.0; 3];
+                let trial = [0, 1, 2].map(|j| -k * z_pred[j] - c * v_t[j] - if held { known_t[j] } else { 0.0 });
                 let (ta, tl) = (dot(trial, a), dot(trial, l));
                 let mu_a = if ta > 0.0 { mu_back } else { mu_fwd };
                 let (fa, fl) = crate::state::project_to_ellipse(ta, tl, mu_a * n_force, mu_lat * n_force);
                 let mut f_world = [0, 1, 2].map(|j| fa * a[j] + fl * l[j]);
                 // A stick spring springing back along the point's motion gives back the energy
                 // it stored: at most STICK_RELEASE_J per step (the rest of the force along the
-                // velocity is dropped and the anchor follows).
-                let (power, v_sq) = (dot(f_world, v_t), dot(v_t, v_t));
+                // velocity is dropped and the anchor follows). The known forces' part is not the
+                // spring's.
+                let spring_part = if held { add(f_world, known_t) } else { f_world };
+                let (power, v_sq) = (dot(spring_part, v_t), dot(v_t, v_t));
                 let pushes = power * dt > STICK_RELEASE_J && v_sq > 0.0;
                 if pushes {
                     let excess = power - STICK_RELEASE_J / dt;
                     f_world = sub(f_world, v_t.map(|x| x * excess / v_sq));
+                    if held {
+                        // Taken from the spring's part, the rest may leave the ellipse: back
+                        // onto it.
+                        let (ha, hl) = (dot(f_world, a), dot(f_world, l));
+                        let mu_h = if ha > 0.0 { mu_back } else { mu_fwd };
+                        let (pa, pl) = crate::state::project_to_ellipse(ha, hl, mu_h * n_force, mu_lat * n_force);
+                        f_world = [0, 1, 2].map(|j| pa * a[j] + pl * l[j]);
+                    }
                 }
                 if fa == ta && fl == tl && !pushes {
                     *z = z_pred; // sticks
                 } else if k > 0.0 {
-                    *z = f_world.map(|x| -x / k); // slides: the anchor is dragged along
+                    // Slides: the anchor is dragged along (the spring holds what the known
+                    // forces do not).
+                    let spring = if held { add(f_world, known_t) } else { f_world };
+                    *z = spring.map(|x| -x / k);
                 }
                 if st.mujoco_ground_n[i][slot] > 0.0 {
                     // The N this force needs: where it lies on its ellipse (see the scale-back).

@@ -446,6 +446,9 @@ impl<C: Controller> Simulation<C> {
             // on the state only; the contact law's forward passes see the external forces), then
             // fresh sensors for this instant and its whole state.
             self.external.before_step(&mut self.world);
+            if let Some(out) = self.ground.external_forces_mut() {
+                self.external.link_forces_n(self.world.time_secs(), out);
+            }
             self.ground.before_step(&mut self.world);
             self.ground.forward(&mut self.world);
         }
@@ -465,6 +468,9 @@ impl<C: Controller> Simulation<C> {
         if self.controller_state.is_none() {
             // External forces first: the contact law's forward passes see them.
             self.external.before_step(&mut self.world);
+            if let Some(out) = self.ground.external_forces_mut() {
+                self.external.link_forces_n(self.world.time_secs(), out);
+            }
             self.ground.before_step(&mut self.world);
         }
     }

@@ -616,25 +616,57 @@ fn rebounds_at_the_configured_restitution(law: &str, first: usize) {
 /// How far (m) one link on the floor, pushed along its axis at 0.999 μ·m·g from t = 0 (default
 /// settings, the link placed on the floor at its radius), moves its centre in 1 s.
 fn start_under_load_moved_m(law: &str, mu: f64) -> f64 {
+    pushed_moved_m(law, mu, 0.0)
+}
+
+/// How far (m) one link on the floor, pushed along its axis at 0.999 μ·m·g from `push_from_secs`
+/// on (default settings, the link placed on the floor at its radius), moves its centre in the
+/// push's first second.
+fn pushed_moved_m(law: &str, mu: f64, push_from_secs: f64) -> f64 {
     let mut c = straight_in(law, mu, &["snake.n_links=1"]);
     let mu_n = mu * c.snake.link_mass_kg * G;
     c.physics.external_forces = vec![ExternalForce {
         link: 0,
         direction: [1.0, 0.0, 0.0],
-        start_secs: 0.0,
+        start_secs: push_from_secs,
         ramp_n_per_s: 0.0,
         force_n: 0.999 * mu_n,
         duration_secs: 0.0,
     }];
     c.validate().unwrap();
     let mut sim = simulation(&c);
+    let dt = c.general.timestep_secs;
+    run_for(&mut sim, &c, push_from_secs);
     let x0 = sim.world().data().qpos()[0];
     let mut moved: f64 = 0.0;
-    for _ in 0..(1.0 / c.general.timestep_secs) as usize {
+    for _ in 0..(1.0 / dt).round() as usize {
         sim.step().unwrap();
         moved = moved.max((sim.world().data().qpos()[0] - x0).abs());
     }
     moved
+}
+
+/// A link resting on the floor and pushed at 0.999 μN all at once holds at μ 0.5: the stick
+/// force takes the push within the step it starts in (a force known before the step, as gravity
+/// along a slope is), so the link moves less than 0.1 mm in the push's first second (measured
+/// 0.066 mm; the whole-body solve: 0.099 mm).
+#[test]
+fn a_resting_link_pushed_just_below_mu_n_all_at_once_holds() {
+    let moved = pushed_moved_m(PER_LINK, 0.5, 0.2);
+    eprintln!("per_link, μ 0.5: moved {:.5} mm", moved * 1e3);
+    assert!(moved < 1e-4, "the link moved {} mm under 0.999 μN", moved * 1e3);
+}
+
+/// The same at μ 1 does not hold within 0.1 mm (0.31 mm; the whole-body solve: 0.20 mm): the push
+/// at the centre of mass, one radius above the floor, pitches the link onto its front end, each
+/// end's share of the push is then 99.9 % of its μN, and the stick spring's reaction to the pitch
+/// tips one end into sliding.
+#[test]
+#[ignore = "target not reached with \"per_link\" at μ 1: 0.31 mm (run with --ignored)"]
+fn a_resting_link_pushed_just_below_mu_n_all_at_once_holds_at_mu_1() {
+    let moved = pushed_moved_m(PER_LINK, 1.0, 0.2);
+    eprintln!("per_link, μ 1: moved {:.5} mm", moved * 1e3);
+    assert!(moved < 1e-4, "the link moved {} mm under 0.999 μN", moved * 1e3);
 }
 
 /// A run that starts under load holds: the link moves less than 0.1 mm in 1 s at μ 0.5 and 1
@@ -650,12 +682,13 @@ fn a_link_loaded_just_below_mu_n_from_the_start_holds_with_the_whole_body_solve(
     }
 }
 
-/// The same with the per-link law does not hold (9.2 and 21.8 mm at μ 0.5 and 1): its stick
-/// spring–damper is critically damped, and settling under a sudden push it asks up to 1.135 ×
-/// the push (its force is the push minus the link's deceleration), above μN for any push above
-/// 0.88 μN; the link slides, and then slides on at μN against 0.999 μN.
+/// The same with the per-link law does not hold (0.95 and 2.03 mm at μ 0.5 and 1): the link
+/// starts on the floor at its radius, so the floor carries a quarter of its weight at the first
+/// step and μN is below the push; the link slips at 3.8 mm/s (μ 0.5) before the floor carries it
+/// all, and a moving link is then slowed only by the 0.001 μN between push and friction. A link
+/// pushed once it rests holds (above).
 #[test]
-#[ignore = "target not reached with \"per_link\": the critically damped stick spring asks 1.135 x a sudden push while it settles (run with --ignored)"]
+#[ignore = "target not reached with \"per_link\": the floor carries a quarter of the link's weight at the first step, and the link slips before it carries all (run with --ignored)"]
 fn a_link_loaded_just_below_mu_n_from_the_start_holds() {
     for mu in [0.5, 1.0] {
         let moved = start_under_load_moved_m(PER_LINK, mu);

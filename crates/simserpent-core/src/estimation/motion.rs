@@ -57,7 +57,8 @@
 //!    `pₖ = c ± (L/2 − r)·x̂ − r·ẑ`, moving at `vₖ = v_c + ω × (pₖ − c)`, each carrying its share
 //!    `Nₖ` of the support. **The stick springs** (`physics.floor_friction = "stick_slip"`, the
 //!    default): each point's friction follows SimSerpent's elasto-plastic floor law, with the
-//!    estimated motion in place of the true one. An anchor per point keeps the spring's
+//!    estimated motion in place of the true one (on a level floor: the floor law's part for forces
+//!    known before the step, a slope's weight or an applied external force, is zero there). An anchor per point keeps the spring's
 //!    deflection `z` (horizontal, world); at each update (`dt` after the previous one) the trial
 //!    force `T = −k·(z + v·dt) − c·v` (`k = m_s·ω_s²`, `c = 2·m_s·ω_s`, `m_s = min(Nₖ/g, m/2)`,
 //!    `ω_s = 1/physics.floor_stick_time_constant_secs`, the floor's own) is the friction if it
