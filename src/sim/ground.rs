@@ -1435,11 +1435,13 @@ impl Ground {
             // Each slot's share: the part of the link's weight its N carries, N / (m·|g·n|), the
             // shares capped at one link in all (joints or an obstacle carry the rest).
             let mut share = [0.0; SLOTS];
-            for (slot, s) in share.iter_mut().enumerate() {
-                let n_force = st.normal_n[i][slot];
+            let mut normals = [[0.0, 0.0, 1.0]; SLOTS];
+            for ((s, nrm), (&n_force, &weighted)) in
+                share.iter_mut().zip(&mut normals).zip(st.normal_n[i].iter().zip(&st.normal_weighted[i]))
+            {
                 if n_force > 0.0 {
-                    let nrm = normalized(st.normal_weighted[i][slot]).unwrap_or([0.0, 0.0, 1.0]);
-                    let weight_n = st.link_mass_kg[i] * dot(st.gravity_vector_m_per_s2, nrm).abs();
+                    *nrm = normalized(weighted).unwrap_or([0.0, 0.0, 1.0]);
+                    let weight_n = st.link_mass_kg[i] * dot(st.gravity_vector_m_per_s2, *nrm).abs();
                     *s = if weight_n > 0.0 { n_force / weight_n } else { 0.0 };
                 }
             }
@@ -1456,7 +1458,7 @@ impl Ground {
                     continue;
                 }
                 let p = st.point_weighted[i][slot].map(|x| x / n_force);
-                let nrm = normalized(st.normal_weighted[i][slot]).unwrap_or([0.0, 0.0, 1.0]);
+                let nrm = normals[slot];
                 let r = sub(p, com);
                 let v_point = add(v_com, cross(w, r));
                 let v_t = tangential(v_point, nrm);
