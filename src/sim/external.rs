@@ -60,15 +60,19 @@ impl ExternalForces {
     }
 
     /// The forces at the world's current time into `qfrc_applied` (written every step, zero
-    /// while none acts, so a reset or a restored state never keeps a stale force). Does nothing
-    /// without configured forces.
-    pub fn before_step(&mut self, world: &mut World) {
+    /// while none acts, so a reset or a restored state never keeps a stale force), and each
+    /// link's force (N, world frame, at its centre of mass) into `link_forces_n` when given
+    /// (indexed by link; links without a force get zero). Does nothing without configured forces.
+    pub fn before_step(&mut self, world: &mut World, mut link_forces_n: Option<&mut [[f64; 3]]>) {
         if self.forces.is_empty() {
             return;
         }
         let t = world.time_secs();
         let any = self.forces.iter().any(|(f, _, _)| f.magnitude_n(t) > 0.0);
         self.qfrc.fill(0.0);
+        if let Some(out) = link_forces_n.as_deref_mut() {
+            out.fill([0.0; 3]);
+        }
         if any {
             // The kinematics and centre-of-mass positions of the state itself (mj_applyFT's
             // Jacobian needs them).
@@ -81,30 +85,12 @@ impl ExternalForces {
                     let force = dir.map(|x| x * size);
                     // The body id comes from the world's own index: always in range.
                     let _ = world.data.apply_ft(&force, &[0.0; 3], &point, *body, &mut self.qfrc);
+                    if let Some(o) = link_forces_n.as_deref_mut().and_then(|out| out.get_mut(f.link)) {
+                        *o = [o[0] + force[0], o[1] + force[1], o[2] + force[2]];
+                    }
                 }
             }
         }
         world.data.qfrc_applied_mut().copy_from_slice(&self.qfrc);
-    }
-
-    /// The force on each link (N, world frame, at its centre of mass) at the start of the step at
-    /// `time_secs`, into `out` (indexed by link; links without a force get zero).
-    pub fn link_forces_n(&self, time_secs: f64, out: &mut [[f64; 3]]) {
-        if self.forces.is_empty() {
-            return;
-        }
-        for f in out.iter_mut() {
-            *f = [0.0; 3];
-        }
-        for (f, _, dir) in &self.forces {
-            let size = f.magnitude_n(time_secs);
-            if size > 0.0
-                && let Some(o) = out.get_mut(f.link)
-            {
-                for j in 0..3 {
-                    o[j] += dir[j] * size;
-                }
-            }
-        }
     }
 }

@@ -354,15 +354,15 @@ impl Ground {
         &self.region_now
     }
 
-    /// Prepares the coming step: looks up the surface under each link, switches pair friction
-    /// (surfaces, directional) or writes the viscous forces into `xfrc_applied`. Does not
-    /// allocate.
     /// Where the step loop writes each link's applied external force of the coming step (the
     /// friction's stick force holds the part of it, and of gravity, along the ground at once).
     pub fn external_forces_mut(&mut self) -> Option<&mut [[f64; 3]]> {
         self.stick_slip.as_mut().map(|st| st.external_force_n.as_mut_slice())
     }
 
+    /// Prepares the coming step: looks up the surface under each link, switches pair friction
+    /// (surfaces, directional) or writes the viscous forces into `xfrc_applied`. Does not
+    /// allocate.
     pub fn before_step(&mut self, world: &mut World) {
         self.forward_ready = false;
         if !self.is_active() {
@@ -506,10 +506,10 @@ struct StickSlip {
     two_omega_per_s: f64,
     /// Gravity (m/s², world frame).
     gravity_vector_m_per_s2: [f64; 3],
-    /// |gravity| (m/s²; 9.81 without gravity): N / g is the mass a contact supports.
     /// The applied external force on each link this step (N, world frame; see
     /// [`Ground::external_forces_mut`]).
     external_force_n: Vec<[f64; 3]>,
+    /// |gravity| (m/s²; 9.81 without gravity): N / g is the mass a contact supports.
     gravity_m_per_s2: f64,
     timestep_secs: f64,
     /// Each link's mass (kg) and principal moments of inertia (kg·m², in its inertial frame).
@@ -1474,16 +1474,21 @@ impl Ground {
                 let known_t = tangential(known.map(|x| x * slot_share), nrm);
                 let held = known_t != [0.0; 3];
                 let trial = [0, 1, 2].map(|j| -k * z_pred[j] - c * v_t[j] - if held { known_t[j] } else { 0.0 });
-                let (ta, tl) = (dot(trial, a), dot(trial, l));
-                let mu_a = if ta > 0.0 { mu_back } else { mu_fwd };
-                let (fa, fl) = crate::state::project_to_ellipse(ta, tl, mu_a * n_force, mu_lat * n_force);
-                let mut f_world = [0, 1, 2].map(|j| fa * a[j] + fl * l[j]);
+                // The nearest point of the friction ellipse in the contact's (a, l) frame.
+                let onto_ellipse = |f: [f64; 3]| {
+                    let (fa, fl) = (dot(f, a), dot(f, l));
+                    let mu_a = if fa > 0.0 { mu_back } else { mu_fwd };
+                    let (pa, pl) = crate::state::project_to_ellipse(fa, fl, mu_a * n_force, mu_lat * n_force);
+                    ((fa, fl), (pa, pl), [0, 1, 2].map(|j| pa * a[j] + pl * l[j]))
+                };
+                let ((ta, tl), (fa, fl), mut f_world) = onto_ellipse(trial);
+                // The spring's part of a friction force (the known forces' part is not the spring's).
+                let spring_of = |f: [f64; 3]| if held { add(f, known_t) } else { f };
                 // A stick spring springing back along the point's motion gives back the energy
                 // it stored: at most STICK_RELEASE_J per step (the rest of the force along the
                 // velocity is dropped and the anchor follows). The known forces' part is not the
                 // spring's.
-                let spring_part = if held { add(f_world, known_t) } else { f_world };
-                let (power, v_sq) = (dot(spring_part, v_t), dot(v_t, v_t));
+                let (power, v_sq) = (dot(spring_of(f_world), v_t), dot(v_t, v_t));
                 let pushes = power * dt > STICK_RELEASE_J && v_sq > 0.0;
                 if pushes {
                     let excess = power - STICK_RELEASE_J / dt;
@@ -1491,10 +1496,7 @@ impl Ground {
                     if held {
                         // Taken from the spring's part, the rest may leave the ellipse: back
                         // onto it.
-                        let (ha, hl) = (dot(f_world, a), dot(f_world, l));
-                        let mu_h = if ha > 0.0 { mu_back } else { mu_fwd };
-                        let (pa, pl) = crate::state::project_to_ellipse(ha, hl, mu_h * n_force, mu_lat * n_force);
-                        f_world = [0, 1, 2].map(|j| pa * a[j] + pl * l[j]);
+                        f_world = onto_ellipse(f_world).2;
                     }
                 }
                 if fa == ta && fl == tl && !pushes {
@@ -1502,8 +1504,7 @@ impl Ground {
                 } else if k > 0.0 {
                     // Slides: the anchor is dragged along (the spring holds what the known
                     // forces do not).
-                    let spring = if held { add(f_world, known_t) } else { f_world };
-                    *z = spring.map(|x| -x / k);
+                    *z = spring_of(f_world).map(|x| -x / k);
                 }
                 if st.mujoco_ground_n[i][slot] > 0.0 {
                     // The N this force needs: where it lies on its ellipse (see the scale-back).

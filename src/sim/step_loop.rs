@@ -442,14 +442,9 @@ impl<C: Controller> Simulation<C> {
     /// public so a caller can take the loop apart (tests, a custom read-out).
     pub fn control(&mut self) {
         if self.controller_state.is_some() {
-            // The external forces and the ground model's forces of the coming step (they depend
-            // on the state only; the contact law's forward passes see the external forces), then
-            // fresh sensors for this instant and its whole state.
-            self.external.before_step(&mut self.world);
-            if let Some(out) = self.ground.external_forces_mut() {
-                self.external.link_forces_n(self.world.time_secs(), out);
-            }
-            self.ground.before_step(&mut self.world);
+            // The forces of the coming step (they depend on the state only), then fresh sensors
+            // for this instant and its whole state.
+            self.prepare_step_forces();
             self.ground.forward(&mut self.world);
         }
         if self.controller.reads_sensors() || self.controller_state.is_some() {
@@ -466,13 +461,15 @@ impl<C: Controller> Simulation<C> {
         }
         self.world.apply_command(&self.cmd);
         if self.controller_state.is_none() {
-            // External forces first: the contact law's forward passes see them.
-            self.external.before_step(&mut self.world);
-            if let Some(out) = self.ground.external_forces_mut() {
-                self.external.link_forces_n(self.world.time_secs(), out);
-            }
-            self.ground.before_step(&mut self.world);
+            self.prepare_step_forces();
         }
+    }
+
+    /// The external forces and the ground model's forces of the coming step: the external ones
+    /// first, since the contact law's forward passes see them and its friction holds them.
+    fn prepare_step_forces(&mut self) {
+        self.external.before_step(&mut self.world, self.ground.external_forces_mut());
+        self.ground.before_step(&mut self.world);
     }
 
     /// Advances the physics by one timestep with the controls already written, then checks
