@@ -310,3 +310,25 @@ def breakaway_ratio(run: dict, model: Model, ramp_secs_per_mu_n: float, speed_m_
     t = run["time_s"][k]
     t_b = t - math.sqrt(2 * m * ramp_secs_per_mu_n * speed[k] / mu_n)
     return t_b / ramp_secs_per_mu_n
+
+
+def ensemble_mean(runs: list[list[tuple[str, object]]]) -> list[tuple[str, object]]:
+    """The figures of a chaotic scene's starts, one list per start (the same labels in the same
+    order): each number their mean, each per-link list or pair the mean of each element; and for
+    each number the smallest … largest over the starts, labelled "LABEL, smallest … largest of N
+    starts"."""
+    n = len(runs)
+    out, spread = [], []
+    for k, (label, first) in enumerate(runs[0]):
+        values = [figs[k][1] for figs in runs]
+        if any(figs[k][0] != label for figs in runs):
+            raise ValueError(f"the starts' figures differ at {label!r}")
+        if isinstance(first, (list, tuple)):
+            mean = [float(np.mean([v[i] for v in values])) for i in range(len(first))]
+            out.append((label, tuple(mean) if isinstance(first, tuple) else mean))
+        elif isinstance(first, (int, float)) and not isinstance(first, bool):
+            out.append((label, float(np.mean(values))))
+            spread.append((f"{label}, smallest … largest of {n} starts", (float(min(values)), float(max(values)))))
+        else:
+            out.append((label, first))
+    return out + spread

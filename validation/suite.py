@@ -211,11 +211,16 @@ def run_scene(scene, mu, prepared, tag, model_binary, binaries, engines, extra, 
     damping[scene.key] = (d_floor, d_obstacle)
     settings.floor_dissipation_s_per_m = d_floor
     settings.obstacle_dissipation_s_per_m = d_obstacle
-    # Recorded at SimSerpent's step: states at its rows, forces the mean over its steps.
-    run = drake_side.simulate(model, command, scene.duration_secs, settings, push=push, ground=scene.ground,
-                              mesh_dir=work, sample_secs=model.timestep_secs)
+    # Recorded at SimSerpent's step: states at its rows, forces the mean over its steps. A chaotic
+    # scene runs its ensemble of starts in each engine and at each step; its figures are the means.
+    found: dict[str, list] = {}
+    for k in range(scene.ensemble):
+        k_sets = sc.perturbed(sets, k)
+        k_model = model if k == 0 else mjcf_model.read(ss.write_model(model_binary, k_sets, work / f"{tag}-{k}.xml"))
+        run = drake_side.simulate(k_model, command, scene.duration_secs, settings, push=push, ground=scene.ground,
+                                  mesh_dir=work, sample_secs=model.timestep_secs)
+        found.setdefault("drake", []).append(scene.figures(run, k_model))
     wall["drake"] += time.time() - t0
-    add_figures(rows, scene, mu, "drake", run, model)
     print(f"{tag}: drake done ({time.time() - t0:.1f} s)", flush=True)
     for engine in engines:
         t0 = time.time()
@@ -223,23 +228,27 @@ def run_scene(scene, mu, prepared, tag, model_binary, binaries, engines, extra, 
         if scene.push:
             run_sets.update(push_sets(mu_n))
         energy = "energy" in scene.tags
-        folder = ss.run(binaries[engine], run_sets, work / engine, tag)
-        ours_model = mjcf_model.read(folder / "model.xml")
-        ours = ss.read_run(folder, len(model.links), ours_model if energy else None)
-        add_figures(rows, scene, mu, engine, ours, ours_model)
-        if not args.no_fine:
-            fine_sets = {**run_sets, "general.timestep_secs": scene.fine_step_secs}
-            folder = ss.run(binaries[engine], fine_sets, work / f"{engine}-fine", tag)
-            fine_model = mjcf_model.read(folder / "model.xml")
-            fine = ss.read_run(folder, len(model.links), fine_model if energy else None)
-            add_figures(rows, scene, mu, f"{engine}@fine", fg.resample(fine, ours_model.timestep_secs),
-                        fine_model)
+        for k in range(scene.ensemble):
+            k_sets = sc.perturbed(run_sets, k)
+            folder = ss.run(binaries[engine], k_sets, work / engine, f"{tag}-{k}")
+            ours_model = mjcf_model.read(folder / "model.xml")
+            ours = ss.read_run(folder, len(model.links), ours_model if energy else None)
+            found.setdefault(engine, []).append(scene.figures(ours, ours_model))
+            if not args.no_fine:
+                fine_sets = {**k_sets, "general.timestep_secs": scene.fine_step_secs}
+                folder = ss.run(binaries[engine], fine_sets, work / f"{engine}-fine", f"{tag}-{k}")
+                fine_model = mjcf_model.read(folder / "model.xml")
+                fine = ss.read_run(folder, len(model.links), fine_model if energy else None)
+                found.setdefault(f"{engine}@fine", []).append(
+                    scene.figures(fg.resample(fine, ours_model.timestep_secs), fine_model))
         wall[engine] += time.time() - t0
         print(f"{tag}: {engine} done ({time.time() - t0:.1f} s)", flush=True)
+    for engine, figures in found.items():
+        add_figures(rows, scene, mu, engine, figures[0] if len(figures) == 1 else fg.ensemble_mean(figures))
 
 
-def add_figures(rows, scene, mu, engine, run, model) -> None:
-    for label, value in scene.figures(run, model):
+def add_figures(rows, scene, mu, engine, figures) -> None:
+    for label, value in figures:
         rows.append({"scene": scene.key, "mu": mu, "engine": engine, "figure": label,
                      "value": fmt(value, label), "raw": value})
 

@@ -158,3 +158,37 @@ def test_calibration_finds_the_damping_of_a_target_restitution():
     # A restitution falling with d like exp(-d/3): d for 0.3 is 3.61.
     d, e = rs.calibrate(lambda d: math.exp(-d / 3.0), 0.3, 1.0, iterations=20)
     assert e == pytest.approx(0.3, abs=1e-3) and d == pytest.approx(-3.0 * math.log(0.3), rel=1e-2)
+
+
+def test_a_chaotic_scenes_figures_are_the_means_over_its_starts():
+    starts = [[("speed", 180.0), ("loads", [0.0, 2.0]), ("range", (0.9, 1.1)), ("name", "x")],
+              [("speed", 220.0), ("loads", [1.0, 1.0]), ("range", (0.7, 1.3)), ("name", "x")]]
+    figures = dict(fg.ensemble_mean(starts))
+    assert figures["speed"] == pytest.approx(200.0)
+    assert figures["loads"] == pytest.approx([0.5, 1.5])
+    assert figures["range"] == pytest.approx((0.8, 1.2)) and isinstance(figures["range"], tuple)
+    assert figures["name"] == "x"
+    assert figures["speed, smallest … largest of 2 starts"] == (180.0, 220.0)
+    with pytest.raises(ValueError):
+        fg.ensemble_mean([[("speed", 1.0)], [("lift", 1.0)]])
+
+
+def test_a_start_of_an_ensemble_moves_only_the_head_sideways():
+    import scenes as sc
+
+    sets = {"snake.head_position_m": [0.0, 0.0, 0.02], "general.duration_secs": 3.0}
+    assert sc.perturbed(sets, 0) is sets
+    moved = sc.perturbed(sets, 3)
+    assert moved["snake.head_position_m"] == [0.0, 3 * sc.ENSEMBLE_OFFSET_M, 0.02]
+    assert sets["snake.head_position_m"] == [0.0, 0.0, 0.02] and moved["general.duration_secs"] == 3.0
+    assert next(s for s in sc.SCENES if s.key == "hf_bumps").ensemble > 1
+
+
+def test_a_per_link_floor_passes_only_links_that_carry_next_to_nothing_in_both():
+    t = tg.Target("loads", "hf_bumps", "loads", "each ratio", 0.95, 1.05, floor=0.05)
+    assert tg.check(t, [0.009, 1.0], [0.02, 1.02])[0] is True
+    assert tg.check(t, [0.0, 1.0], [0.227, 1.0])[0] is False
+    assert tg.check(t, [0.04, 1.2], [0.01, 1.0])[0] is False
+    assert tg.check_fine(t, [0.009, 1.0], [0.03, 1.04])[0] is True
+    assert tg.check_fine(t, [0.009, 1.0], [0.06, 1.0])[0] is False
+    assert "worst +20.0 %" in tg.check(t, [0.04, 1.2], [0.01, 1.0])[1]

@@ -2183,8 +2183,9 @@ impl HeightfieldGround {
         let [sx, sy] = self.half_size_m;
         let spacing = (2.0 * sx / (self.cols - 1) as f64).min(2.0 * sy / (self.rows - 1) as f64);
         let span = sub(ends[1], ends[0]);
-        let length = dot(span, span).sqrt();
-        let samples = ((length / spacing).ceil() as usize).clamp(1, INTERIOR_SAMPLES);
+        // From the capsule's own length, not the span between its ends' world positions: that
+        // differs from it by rounding, and a ratio near a whole number would switch the count.
+        let samples = ((2.0 * cap.half_length_m / spacing).ceil() as usize).clamp(1, INTERIOR_SAMPLES);
         // How far the gap at t (0 … 1 along the segment) lies below the ends' gaps interpolated.
         let below = |t: f64| {
             let center = add(ends[0], span.map(|x| t * x));
