@@ -541,7 +541,8 @@ impl World {
         let bytes = model::files::read_regular_file(robot, model::files::MAX_MJCF_BYTES)
             .map_err(|e| robot_err(e.to_string()))?;
         // One pass before MuJoCo reads it: NaN or infinities, which MuJoCo would take as they are
-        // (a NaN joint limit runs to the end), and a chain longer than MuJoCo can load.
+        // (a NaN joint limit runs to the end), a chain longer than MuJoCo can load, and more links
+        // than MuJoCo sets up in seconds.
         let scan = model::files::scan_robot_file(&bytes);
         drop(bytes);
         if let Some(number) = scan.non_finite {
@@ -555,6 +556,14 @@ impl World {
                  cost grows with about the cube of its length)",
                 scan.longest_chain_links,
                 crate::config::shorten(&scan.deepest_link)
+            )));
+        }
+        let cap = model::files::MAX_ROBOT_LINKS;
+        if scan.links > cap {
+            return Err(robot_err(format!(
+                "it has {} links; a robot may have at most {cap} links in all (MuJoCo's set-up time grows with \
+                 about the square of the number of links)",
+                scan.links
             )));
         }
         let robot_model = MjModel::from_xml(robot).map_err(|e| {

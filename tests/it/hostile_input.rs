@@ -450,6 +450,75 @@ fn mjcf_chain(n: usize) -> String {
     out
 }
 
+/// A URDF of `n` links all on one base (cylinders 0.1 m apart on a grid of 100 columns,
+/// revolute joints with limits): many links, none on a long chain.
+fn urdf_star(n: usize) -> String {
+    let mut out = String::from("<?xml version=\"1.0\"?>\n<robot name=\"star\">\n");
+    for i in 0..n {
+        out.push_str(&format!(
+            "<link name=\"link_{i}\"><inertial><origin xyz=\"0.05 0 0\"/><mass value=\"0.1\"/><inertia ixx=\"1e-4\" \
+             ixy=\"0\" ixz=\"0\" iyy=\"1e-4\" iyz=\"0\" izz=\"1e-4\"/></inertial><collision><origin xyz=\"0.05 0 0\" \
+             rpy=\"0 1.5707963 0\"/><geometry><cylinder radius=\"0.02\" length=\"0.06\"/></geometry></collision></link>\n"
+        ));
+    }
+    for i in 1..n {
+        out.push_str(&format!(
+            "<joint name=\"joint_{i}\" type=\"revolute\"><parent link=\"link_0\"/><child link=\"link_{i}\"/><origin \
+             xyz=\"{:.1} {:.1} 0\"/><axis xyz=\"0 0 1\"/><limit lower=\"-1\" upper=\"1\" effort=\"5\" velocity=\"2\"/></joint>\n",
+            (i % 100) as f64 * 0.1,
+            (i / 100) as f64 * 0.1
+        ));
+    }
+    out.push_str("</robot>\n");
+    out
+}
+
+/// Robots with more links in all than the documented cap (2,000), none on a long chain, are
+/// refused at once, before MuJoCo reads them (a 5,000-link one took 7.5 s of CPU time to set up,
+/// 10,000 links 34 s: MuJoCo's set-up grows with about the square of the links), naming the
+/// number of links and the cap.
+#[test]
+fn robots_with_more_links_than_the_cap_are_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out_dir = format!("general.output_dir=\"{}\"", d.join("runs").display());
+    // An MJCF robot of 2,001 bodies side by side (each a child of the world).
+    let mut flat = String::from("<mujoco><worldbody>\n");
+    for i in 0..2001 {
+        flat.push_str(&format!(
+            "<body name=\"b{i}\" pos=\"{:.1} 0 0.1\"><geom type=\"sphere\" size=\"0.02\"/></body>\n",
+            i as f64 * 0.1
+        ));
+    }
+    flat.push_str("</worldbody></mujoco>\n");
+    let mut cases = Vec::new();
+    for (name, text, needle) in [
+        ("star2001.urdf", urdf_star(2001), "it has 2001 links; a robot may have at most 2000 links"),
+        ("star10000.urdf", urdf_star(10_000), "it has 10000 links; a robot may have at most 2000 links"),
+        ("flat2001.xml", flat, "it has 2001 links; a robot may have at most 2000 links"),
+    ] {
+        std::fs::write(d.join(name), text).unwrap();
+        cases.push((
+            args(&["run", "--robot", name, "--quiet", "--set", "gait.kind=\"none\"", "--set", &out_dir]),
+            needle,
+        ));
+    }
+    let started = Instant::now();
+    expect_refused("robots beyond the link cap", d, &cases);
+    eprintln!(
+        "figures: robots beyond the link cap: {} refused in {:.2} s",
+        cases.len(),
+        started.elapsed().as_secs_f64()
+    );
+    assert!(!d.join("runs").exists());
+    use simserpent::model::files::{MAX_ROBOT_LINKS, scan_robot_file};
+    assert_eq!(MAX_ROBOT_LINKS, 2000);
+    let star = scan_robot_file(urdf_star(2000).as_bytes());
+    assert_eq!((star.links, star.longest_chain_links), (2000, 2));
+    assert_eq!(scan_robot_file(urdf_chain(30).as_bytes()).links, 30);
+    assert_eq!(scan_robot_file(mjcf_chain(7).as_bytes()).links, 7);
+}
+
 /// Robots with a chain longer than the documented cap (400 links) are refused at once, before
 /// MuJoCo reads them (a 1,000-link chain failed after three compiles; a 10,000-link one gave no
 /// answer in 120 s), naming the chain's length, its last link and the cap.
@@ -518,6 +587,36 @@ fn a_robot_chain_at_the_cap_runs() {
             "--quiet",
             "--set",
             "gait.kind=\"none\"",
+            "--set",
+            "general.duration_secs=0.01",
+            "--set",
+            &out_dir,
+        ],
+    );
+    assert!(out.status.success(), "{}", text(&out));
+    assert_eq!(crate::common::manifest(&run_folders(d)[0])["status"], "complete");
+}
+
+/// A robot at the link cap (2,000 links on one base) loads, sets up and runs (slow: MuJoCo's
+/// set-up of 2,000 links takes about a second of CPU time in a release build).
+#[test]
+#[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
+fn a_robot_at_the_link_cap_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("star2000.urdf"), urdf_star(2000)).unwrap();
+    let out_dir = format!("general.output_dir=\"{}\"", d.join("runs").display());
+    let out = cli(
+        d,
+        &[
+            "run",
+            "--robot",
+            "star2000.urdf",
+            "--quiet",
+            "--set",
+            "gait.kind=\"none\"",
+            "--set",
+            "terrain.kind=\"none\"",
             "--set",
             "general.duration_secs=0.01",
             "--set",

@@ -448,6 +448,12 @@ impl std::fmt::Display for NonFiniteNumber {
 /// links took 9.6 times the CPU time of a 10-step run (BENCHMARKS.md, "Robot set-up").
 pub const MAX_ROBOT_CHAIN_LINKS: usize = 400;
 
+/// The most links of a robot file in all (URDF `<link>` and MJCF `<body>` elements). MuJoCo's
+/// set-up grows with about the square of a robot's links even when none is on a long chain (its
+/// compiler's tree lists and the first forward pass): a URDF of 2,500 links on one base took 2.0 s
+/// of CPU time to set up, 5,000 links 7.5 s and 10,000 links 34 s (BENCHMARKS.md, "Robot set-up").
+pub const MAX_ROBOT_LINKS: usize = 2000;
+
 /// What one pass over a robot file (URDF or MJCF) finds.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct RobotScan {
@@ -458,6 +464,8 @@ pub struct RobotScan {
     pub longest_chain_links: usize,
     /// The last link of that chain (URDF: its name; MJCF: the deepest body's name, or empty).
     pub deepest_link: String,
+    /// Links in all (URDF: `<link>` elements; MJCF: `<body>` elements).
+    pub links: usize,
 }
 
 /// The first attribute of the XML text `bytes` (MJCF or URDF) holding a number that is not
@@ -469,7 +477,7 @@ pub fn first_non_finite_number(bytes: &[u8]) -> Option<NonFiniteNumber> {
 /// One pass over the XML text of a robot or terrain file, linear in its size: the first
 /// attribute holding a number that is not finite (every attribute but names and files,
 /// [`NAME_ATTRIBUTES`], whose whitespace-separated parts include one that reads as a number and
-/// is NaN or infinite), and the longest chain of links. Malformed XML ends the pass (MuJoCo's
+/// is NaN or infinite), the longest chain of links and the number of links. Malformed XML ends the pass (MuJoCo's
 /// loader reports it).
 pub fn scan_robot_file(bytes: &[u8]) -> RobotScan {
     use quick_xml::events::Event;
@@ -519,6 +527,7 @@ pub fn scan_robot_file(bytes: &[u8]) -> RobotScan {
         };
         match element.as_slice() {
             b"body" => {
+                scan.links += 1;
                 let depth = body_depth + 1;
                 if depth > scan.longest_chain_links {
                     scan.longest_chain_links = depth;
@@ -528,7 +537,10 @@ pub fn scan_robot_file(bytes: &[u8]) -> RobotScan {
                     body_depth = depth;
                 }
             }
-            b"link" if !in_joint => links.extend(attribute(b"name")),
+            b"link" if !in_joint => {
+                scan.links += 1;
+                links.extend(attribute(b"name"));
+            }
             b"joint" if !empty && body_depth == 0 => in_joint = true,
             b"parent" if in_joint => parent = attribute(b"link"),
             b"child" if in_joint => child = attribute(b"link"),
