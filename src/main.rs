@@ -170,7 +170,7 @@ enum Command {
         threads: usize,
         /// `estimation`: the seeds of the peg-field runs, scored and checked per seed, e.g.
         /// `300-309` or `3,7,11` (default 0-9; --quick: 0). `oal-bench`: the held-out seeds, one
-        /// range A-B (A at least --tuning-fields; default 1000 on).
+        /// range A-B (A at least --tuning-fields; default 1000 on). At most 10000 seeds.
         #[arg(long, value_parser = parse_seeds)]
         seeds: Option<SeedList>,
         /// `estimation` only: the peg-field runs on this floor only (default both).
