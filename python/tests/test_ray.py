@@ -21,7 +21,11 @@ SETS = [
 
 def test_ray_sweep_matches_the_cli_sweep(ray_local, tmp_path):
     vary = ["gait.sine_wave.frequency_hz=0.5,1.0", "gait.sine_wave.amplitude_deg=20,30"]
-    df, csv = ray_sweep.sweep(vary=vary, overrides=SETS, sweep_dir=tmp_path / "ray")
+    seen = []
+    df, csv = ray_sweep.sweep(vary=vary, overrides=SETS, sweep_dir=tmp_path / "ray",
+                              progress=lambda done, total: seen.append((done, total)))
+    # Progress in runs: 0 of 4 when the runs are handed out, then once as each finishes.
+    assert seen == [(0, 4), (1, 4), (2, 4), (3, 4), (4, 4)], seen
     assert Path(csv) == (tmp_path / "ray" / "summary.csv").resolve()
     assert list(df["run_index"]) == [0, 1, 2, 3]
     assert set(df["status"]) == {"complete"}

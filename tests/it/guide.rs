@@ -49,6 +49,38 @@ fn the_rust_tutorial_shows_the_example_as_it_is() {
     assert!(page.contains(code.trim_end()), "copy examples/custom_controller.rs into the tutorial again");
 }
 
+/// The Rust tutorial's shown output is what `examples/custom_controller.rs` prints: the example
+/// (which `cargo test` builds beside the test binaries) runs in a fresh folder, and its distance
+/// is the one shown within 2 %.
+#[test]
+fn the_rust_tutorial_shows_what_the_example_prints() {
+    let page = std::fs::read_to_string(manifest_dir().join("guide/src/tutorials/controller-rust.md")).unwrap();
+    let shown = page.lines().find(|l| l.starts_with("recorded in runs/custom_controller-")).expect("the shown output");
+    let shown_m: f64 = shown.rsplit("moved ").next().unwrap().trim_end_matches(" m").parse().unwrap();
+    // target/<profile>/deps/it-<hash> -> target/<profile>/examples/custom_controller
+    let exe = std::env::current_exe().unwrap();
+    let example = exe
+        .parent()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .join("examples")
+        .join(format!("custom_controller{}", std::env::consts::EXE_SUFFIX));
+    if !example.is_file() {
+        assert!(std::env::var_os("CI").is_none(), "{}: not built (cargo test builds the examples)", example.display());
+        eprintln!("skipped: {} is not built (`cargo test` without a --test filter builds it)", example.display());
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new(&example).current_dir(dir.path()).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let printed = String::from_utf8_lossy(&out.stdout);
+    let line = printed.lines().find(|l| l.starts_with("recorded in runs")).expect("the example's line");
+    assert!(line.starts_with("recorded in runs/custom_controller-"), "{line}");
+    let moved_m: f64 = line.rsplit("moved ").next().unwrap().trim_end_matches(" m").parse().unwrap();
+    assert!((moved_m - shown_m).abs() <= 0.02 * shown_m, "printed {line:?}, the tutorial shows {shown:?}");
+}
+
 /// The troubleshooting page states the tracking warning's thresholds as the code has them.
 #[test]
 fn the_troubleshooting_page_states_the_tracking_thresholds_of_the_code() {
