@@ -417,7 +417,19 @@ fn warnings_and_robot_messages_echo_values_as_errors_do() {
 /// A URDF chain of `n` links (0.1 m each, a cylinder and revolute joints with limits), as a
 /// user's long robot would be.
 fn urdf_chain(n: usize) -> String {
-    let mut out = String::from("<?xml version=\"1.0\"?>\n<robot name=\"chain\">\n");
+    urdf_robot("chain", n, |i| (i - 1, "0.1 0 0".to_string()))
+}
+
+/// A URDF of `n` links all on one base (cylinders 0.1 m apart on a grid of 100 columns,
+/// revolute joints with limits): many links, none on a long chain.
+fn urdf_star(n: usize) -> String {
+    urdf_robot("star", n, |i| (0, format!("{:.1} {:.1} 0", (i % 100) as f64 * 0.1, (i / 100) as f64 * 0.1)))
+}
+
+/// A URDF robot of `n` cylinder links; `joint(i)` gives link i's parent and its joint's origin
+/// (x y z) for i ≥ 1.
+fn urdf_robot(name: &str, n: usize, joint: impl Fn(usize) -> (usize, String)) -> String {
+    let mut out = format!("<?xml version=\"1.0\"?>\n<robot name=\"{name}\">\n");
     for i in 0..n {
         out.push_str(&format!(
             "<link name=\"link_{i}\"><inertial><origin xyz=\"0.05 0 0\"/><mass value=\"0.1\"/><inertia ixx=\"1e-4\" \
@@ -426,10 +438,10 @@ fn urdf_chain(n: usize) -> String {
         ));
     }
     for i in 1..n {
+        let (parent, origin) = joint(i);
         out.push_str(&format!(
-            "<joint name=\"joint_{i}\" type=\"revolute\"><parent link=\"link_{}\"/><child link=\"link_{i}\"/><origin \
-             xyz=\"0.1 0 0\"/><axis xyz=\"0 0 1\"/><limit lower=\"-1\" upper=\"1\" effort=\"5\" velocity=\"2\"/></joint>\n",
-            i - 1
+            "<joint name=\"joint_{i}\" type=\"revolute\"><parent link=\"link_{parent}\"/><child link=\"link_{i}\"/><origin \
+             xyz=\"{origin}\"/><axis xyz=\"0 0 1\"/><limit lower=\"-1\" upper=\"1\" effort=\"5\" velocity=\"2\"/></joint>\n"
         ));
     }
     out.push_str("</robot>\n");
@@ -450,27 +462,22 @@ fn mjcf_chain(n: usize) -> String {
     out
 }
 
-/// A URDF of `n` links all on one base (cylinders 0.1 m apart on a grid of 100 columns,
-/// revolute joints with limits): many links, none on a long chain.
-fn urdf_star(n: usize) -> String {
-    let mut out = String::from("<?xml version=\"1.0\"?>\n<robot name=\"star\">\n");
-    for i in 0..n {
-        out.push_str(&format!(
-            "<link name=\"link_{i}\"><inertial><origin xyz=\"0.05 0 0\"/><mass value=\"0.1\"/><inertia ixx=\"1e-4\" \
-             ixy=\"0\" ixz=\"0\" iyy=\"1e-4\" iyz=\"0\" izz=\"1e-4\"/></inertial><collision><origin xyz=\"0.05 0 0\" \
-             rpy=\"0 1.5707963 0\"/><geometry><cylinder radius=\"0.02\" length=\"0.06\"/></geometry></collision></link>\n"
+/// Writes each robot file into `d`, runs it, and expects every run refused at once with its
+/// message, no run folder left; prints the class's figures.
+fn run_robots_expecting_refusal<const N: usize>(label: &str, d: &Path, robots: [(&str, String, &str); N]) {
+    let out_dir = format!("general.output_dir=\"{}\"", d.join("runs").display());
+    let mut cases = Vec::new();
+    for (name, text, needle) in robots {
+        std::fs::write(d.join(name), text).unwrap();
+        cases.push((
+            args(&["run", "--robot", name, "--quiet", "--set", "gait.kind=\"none\"", "--set", &out_dir]),
+            needle,
         ));
     }
-    for i in 1..n {
-        out.push_str(&format!(
-            "<joint name=\"joint_{i}\" type=\"revolute\"><parent link=\"link_0\"/><child link=\"link_{i}\"/><origin \
-             xyz=\"{:.1} {:.1} 0\"/><axis xyz=\"0 0 1\"/><limit lower=\"-1\" upper=\"1\" effort=\"5\" velocity=\"2\"/></joint>\n",
-            (i % 100) as f64 * 0.1,
-            (i / 100) as f64 * 0.1
-        ));
-    }
-    out.push_str("</robot>\n");
-    out
+    let started = Instant::now();
+    expect_refused(label, d, &cases);
+    eprintln!("figures: {label}: {} refused in {:.2} s", cases.len(), started.elapsed().as_secs_f64());
+    assert!(!d.join("runs").exists());
 }
 
 /// Robots with more links in all than the documented cap (2,000), none on a long chain, are
@@ -481,7 +488,6 @@ fn urdf_star(n: usize) -> String {
 fn robots_with_more_links_than_the_cap_are_refused_at_once() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let out_dir = format!("general.output_dir=\"{}\"", d.join("runs").display());
     // An MJCF robot of 2,001 bodies side by side (each a child of the world).
     let mut flat = String::from("<mujoco><worldbody>\n");
     for i in 0..2001 {
@@ -491,26 +497,15 @@ fn robots_with_more_links_than_the_cap_are_refused_at_once() {
         ));
     }
     flat.push_str("</worldbody></mujoco>\n");
-    let mut cases = Vec::new();
-    for (name, text, needle) in [
-        ("star2001.urdf", urdf_star(2001), "it has 2001 links; a robot may have at most 2000 links"),
-        ("star10000.urdf", urdf_star(10_000), "it has 10000 links; a robot may have at most 2000 links"),
-        ("flat2001.xml", flat, "it has 2001 links; a robot may have at most 2000 links"),
-    ] {
-        std::fs::write(d.join(name), text).unwrap();
-        cases.push((
-            args(&["run", "--robot", name, "--quiet", "--set", "gait.kind=\"none\"", "--set", &out_dir]),
-            needle,
-        ));
-    }
-    let started = Instant::now();
-    expect_refused("robots beyond the link cap", d, &cases);
-    eprintln!(
-        "figures: robots beyond the link cap: {} refused in {:.2} s",
-        cases.len(),
-        started.elapsed().as_secs_f64()
+    run_robots_expecting_refusal(
+        "robots beyond the link cap",
+        d,
+        [
+            ("star2001.urdf", urdf_star(2001), "it has 2001 links; a robot may have at most 2000 links"),
+            ("star10000.urdf", urdf_star(10_000), "it has 10000 links; a robot may have at most 2000 links"),
+            ("flat2001.xml", flat, "it has 2001 links; a robot may have at most 2000 links"),
+        ],
     );
-    assert!(!d.join("runs").exists());
     use simserpent::model::files::{MAX_ROBOT_LINKS, scan_robot_file};
     assert_eq!(MAX_ROBOT_LINKS, 2000);
     let star = scan_robot_file(urdf_star(2000).as_bytes());
@@ -526,28 +521,16 @@ fn robots_with_more_links_than_the_cap_are_refused_at_once() {
 fn robots_with_chains_beyond_the_cap_are_refused_at_once() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let out_dir = format!("general.output_dir=\"{}\"", d.join("runs").display());
-    let mut cases = Vec::new();
-    for (name, text, needle) in [
-        ("chain401.urdf", urdf_chain(401), "401 links (to `link_400`)"),
-        ("chain1000.urdf", urdf_chain(1000), "1000 links (to `link_999`)"),
-        ("chain10000.urdf", urdf_chain(10_000), "10000 links (to `link_9999`)"),
-        ("chain401.xml", mjcf_chain(401), "401 links (to `b400`)"),
-    ] {
-        std::fs::write(d.join(name), text).unwrap();
-        cases.push((
-            args(&["run", "--robot", name, "--quiet", "--set", "gait.kind=\"none\"", "--set", &out_dir]),
-            needle,
-        ));
-    }
-    let started = Instant::now();
-    expect_refused("robot chains beyond the cap", d, &cases);
-    eprintln!(
-        "figures: robot chains beyond the cap: {} refused in {:.2} s",
-        cases.len(),
-        started.elapsed().as_secs_f64()
+    run_robots_expecting_refusal(
+        "robot chains beyond the cap",
+        d,
+        [
+            ("chain401.urdf", urdf_chain(401), "401 links (to `link_400`)"),
+            ("chain1000.urdf", urdf_chain(1000), "1000 links (to `link_999`)"),
+            ("chain10000.urdf", urdf_chain(10_000), "10000 links (to `link_9999`)"),
+            ("chain401.xml", mjcf_chain(401), "401 links (to `b400`)"),
+        ],
     );
-    assert!(!d.join("runs").exists());
     use simserpent::model::files::{MAX_ROBOT_CHAIN_LINKS, scan_robot_file};
     assert_eq!(MAX_ROBOT_CHAIN_LINKS, 400);
     let urdf = scan_robot_file(urdf_chain(400).as_bytes());
@@ -574,27 +557,7 @@ fn robots_with_chains_beyond_the_cap_are_refused_at_once() {
 #[test]
 #[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn a_robot_chain_at_the_cap_runs() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    std::fs::write(d.join("chain400.urdf"), urdf_chain(400)).unwrap();
-    let out_dir = format!("general.output_dir=\"{}\"", d.join("runs").display());
-    let out = cli(
-        d,
-        &[
-            "run",
-            "--robot",
-            "chain400.urdf",
-            "--quiet",
-            "--set",
-            "gait.kind=\"none\"",
-            "--set",
-            "general.duration_secs=0.01",
-            "--set",
-            &out_dir,
-        ],
-    );
-    assert!(out.status.success(), "{}", text(&out));
-    assert_eq!(crate::common::manifest(&run_folders(d)[0])["status"], "complete");
+    run_robot_expecting_completion("chain400.urdf", &urdf_chain(400));
 }
 
 /// A robot at the link cap (2,000 links on one base) loads, sets up and runs (slow: MuJoCo's
@@ -602,16 +565,21 @@ fn a_robot_chain_at_the_cap_runs() {
 #[test]
 #[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn a_robot_at_the_link_cap_runs() {
+    run_robot_expecting_completion("star2000.urdf", &urdf_star(2000));
+}
+
+/// Writes the robot file `name` and runs it for 10 ms without a gait or terrain: it completes.
+fn run_robot_expecting_completion(name: &str, robot: &str) {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::write(d.join("star2000.urdf"), urdf_star(2000)).unwrap();
+    std::fs::write(d.join(name), robot).unwrap();
     let out_dir = format!("general.output_dir=\"{}\"", d.join("runs").display());
     let out = cli(
         d,
         &[
             "run",
             "--robot",
-            "star2000.urdf",
+            name,
             "--quiet",
             "--set",
             "gait.kind=\"none\"",
