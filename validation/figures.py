@@ -312,6 +312,18 @@ def breakaway_ratio(run: dict, model: Model, ramp_secs_per_mu_n: float, speed_m_
     return t_b / ramp_secs_per_mu_n
 
 
+# How far apart (m, sideways) the starts of a chaotic scene's ensemble are.
+ENSEMBLE_OFFSET_M = 1e-9
+
+
+def perturbed(sets: dict, k: int) -> dict:
+    """A scene's `--set` keys for start k of its ensemble: the head k · ENSEMBLE_OFFSET_M aside (+y)."""
+    if k == 0:
+        return sets
+    x, y, z = sets.get("snake.head_position_m", (0.0, 0.0, 0.0))
+    return {**sets, "snake.head_position_m": [x, y + k * ENSEMBLE_OFFSET_M, z]}
+
+
 def ensemble_mean(runs: list[list[tuple[str, object]]]) -> list[tuple[str, object]]:
     """The figures of a chaotic scene's starts, one list per start (the same labels in the same
     order): each number their mean, each per-link list or pair the mean of each element; and for

@@ -122,20 +122,9 @@ class Scene:
     tags: tuple = field(default_factory=tuple)
     # Starts per engine and step: 1, or for a chaotic scene (one whose figures a nanometre's
     # change of the start moves by more than its bounds) the number of starts whose figures are
-    # averaged; start k has the head ENSEMBLE_OFFSET_M · k aside (perturbed).
+    # averaged; start k has the head fg.ENSEMBLE_OFFSET_M · k aside (fg.perturbed).
     ensemble: int = 1
 
-
-# How far apart (m, sideways) the starts of a chaotic scene's ensemble are.
-ENSEMBLE_OFFSET_M = 1e-9
-
-
-def perturbed(sets: dict, k: int) -> dict:
-    """The scene's `--set` keys for start k of its ensemble: the head k · ENSEMBLE_OFFSET_M aside (+y)."""
-    if k == 0:
-        return sets
-    x, y, z = sets.get("snake.head_position_m", (0.0, 0.0, 0.0))
-    return {**sets, "snake.head_position_m": [x, y + k * ENSEMBLE_OFFSET_M, z]}
 
 
 

@@ -215,7 +215,7 @@ def run_scene(scene, mu, prepared, tag, model_binary, binaries, engines, extra, 
     # scene runs its ensemble of starts in each engine and at each step; its figures are the means.
     found: dict[str, list] = {}
     for k in range(scene.ensemble):
-        k_sets = sc.perturbed(sets, k)
+        k_sets = fg.perturbed(sets, k)
         k_model = model if k == 0 else mjcf_model.read(ss.write_model(model_binary, k_sets, work / f"{tag}-{k}.xml"))
         run = drake_side.simulate(k_model, command, scene.duration_secs, settings, push=push, ground=scene.ground,
                                   mesh_dir=work, sample_secs=model.timestep_secs)
@@ -229,7 +229,7 @@ def run_scene(scene, mu, prepared, tag, model_binary, binaries, engines, extra, 
             run_sets.update(push_sets(mu_n))
         energy = "energy" in scene.tags
         for k in range(scene.ensemble):
-            k_sets = sc.perturbed(run_sets, k)
+            k_sets = fg.perturbed(run_sets, k)
             folder = ss.run(binaries[engine], k_sets, work / engine, f"{tag}-{k}")
             ours_model = mjcf_model.read(folder / "model.xml")
             ours = ss.read_run(folder, len(model.links), ours_model if energy else None)
