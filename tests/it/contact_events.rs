@@ -344,6 +344,8 @@ fn the_gait_on_a_bumpy_heightfield_converges_in_the_step_with_the_whole_body_sol
     bumpy_gait_converges(WHOLE_BODY);
 }
 
+/// The gait on the 10-mm bumps with `law`: its speed over 1–3 s at 0.5 ms within 5 % of the 1-ms
+/// step's, at μ 0.5 and 1.
 fn bumpy_gait_converges(law: &str) {
     let dir = tempfile::tempdir().unwrap();
     let png = dir.path().join("bumps.png");
