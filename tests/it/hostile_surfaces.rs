@@ -112,7 +112,10 @@ fn experiments_and_studies_stop_on_sigint_and_sigterm_with_exit_130() {
             .filter(|e| e.path().join("manifest.json").is_file())
             .map(|e| manifest(&e.path())["status"].as_str().unwrap().to_string())
             .collect();
-        assert!(statuses.iter().any(|s| s == "incomplete"), "{statuses:?}");
+        // A case the signal stopped is `incomplete`; on a loaded machine the signal may also land
+        // between cases (the quick experiment has 4), and then fewer than 4 are there, all complete.
+        let stopped = statuses.iter().any(|s| s == "incomplete");
+        assert!(stopped || statuses.len() < 4, "SIG{signal}: no case stopped and none left out: {statuses:?}");
         assert!(statuses.iter().all(|s| s == "incomplete" || s == "complete"), "{statuses:?}");
     }
     for signal in ["INT", "TERM"] {
