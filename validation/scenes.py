@@ -126,8 +126,6 @@ class Scene:
     ensemble: int = 1
 
 
-
-
 def gait_figures(run, model):
     lo, hi = fg.total_load_range(run, model)
     return [

@@ -24,6 +24,13 @@ pub fn write_gray_png(path: &Path, w: u32, h: u32, pixels: &[u8]) {
     enc.write_header().unwrap().write_image_data(pixels).unwrap();
 }
 
+/// [`write_gray_png`] of the gray `pixel(column, row)` gives (row 0 the image's top, column 0
+/// its left).
+pub fn write_gray_png_of(path: &Path, w: u32, h: u32, pixel: impl Fn(u32, u32) -> u8) {
+    let pixels: Vec<u8> = (0..h).flat_map(|r| (0..w).map(move |c| (r, c))).map(|(r, c)| pixel(c, r)).collect();
+    write_gray_png(path, w, h, &pixels);
+}
+
 pub fn manifest_dir() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }

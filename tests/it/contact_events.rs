@@ -224,16 +224,10 @@ fn a_sideways_hit_on_the_cylinders_stays_within_the_reference_lift() {
 
 /// A 64 × 64 gray PNG of bumps (a product of sines, four bumps across), for a heightfield.
 fn write_bumps_png(path: &std::path::Path) {
-    let (w, h) = (64u32, 64u32);
-    let pixels: Vec<u8> = (0..h)
-        .flat_map(|r| {
-            (0..w).map(move |c| {
-                let (x, y) = (c as f64 / w as f64, r as f64 / h as f64);
-                (127.5 + 127.5 * (8.0 * std::f64::consts::PI * x).sin() * (8.0 * std::f64::consts::PI * y).cos()) as u8
-            })
-        })
-        .collect();
-    crate::common::write_gray_png(path, w, h, &pixels);
+    crate::common::write_gray_png_of(path, 64, 64, |c, r| {
+        let (x, y) = (c as f64 / 64.0, r as f64 / 64.0);
+        (127.5 + 127.5 * (8.0 * std::f64::consts::PI * x).sin() * (8.0 * std::f64::consts::PI * y).cos()) as u8
+    });
 }
 
 /// On heightfield ground (the law's contacts at the link's ends and under a bump at its middle)
@@ -268,24 +262,16 @@ fn friction_on_a_bumpy_heightfield_stays_within_mu_n_of_the_same_instant() {
 fn write_validation_bumps_png(path: &std::path::Path) {
     let (cols, rows) = (151u32, 101u32);
     let caps: Vec<(f64, f64)> = [-0.3, -0.9, -1.5].into_iter().flat_map(|x| [(x, -0.15), (x, 0.15)]).collect();
-    let pixels: Vec<u8> = (0..rows)
-        .flat_map(|r| {
-            let caps = caps.clone();
-            (0..cols).map(move |c| {
-                let x = -1.0 + (c as f64 / (cols - 1) as f64 - 0.5) * 3.0;
-                let y = (0.5 - r as f64 / (rows - 1) as f64) * 2.0;
-                let cap = caps
-                    .iter()
-                    .map(|&(cx, cy)| {
-                        let d2 = (x - cx).powi(2) + (y - cy).powi(2);
-                        if d2 < 0.25 { (0.25 - d2).sqrt() - 0.49 } else { 0.0 }
-                    })
-                    .fold(0.0, f64::max);
-                ((0.02 + cap) / 0.04 * 255.0).round() as u8
-            })
-        })
-        .collect();
-    crate::common::write_gray_png(path, cols, rows, &pixels);
+    crate::common::write_gray_png_of(path, cols, rows, |c, r| {
+        let x = -1.0 + (c as f64 / (cols - 1) as f64 - 0.5) * 3.0;
+        let y = (0.5 - r as f64 / (rows - 1) as f64) * 2.0;
+        // The caps' height above the flat part: sphere (radius 0.5 m) centres 0.49 m below it.
+        let cap = caps
+            .iter()
+            .map(|&(cx, cy)| (0.25 - (x - cx).powi(2) - (y - cy).powi(2)).max(0.0).sqrt() - 0.49)
+            .fold(0.0, f64::max);
+        ((0.02 + cap) / 0.04 * 255.0).round() as u8
+    });
 }
 
 /// Two starts a nanometre apart on the bumps stay a nanometre apart through the first impacts

@@ -130,9 +130,7 @@ fn keys_the_controller_ignores_are_reported() {
 
 /// A 16 × 16 gray PNG rising linearly from black (left, -x) to white (right, +x).
 fn write_ramp_png(path: &Path) {
-    let (w, h) = (16u32, 16u32);
-    let pixels: Vec<u8> = (0..h).flat_map(|_| (0..w).map(move |c| (c * 255 / (w - 1)) as u8)).collect();
-    crate::common::write_gray_png(path, w, h, &pixels);
+    crate::common::write_gray_png_of(path, 16, 16, |c, _| (c * 255 / 15) as u8);
 }
 
 /// A snake started inside a heightfield is refused with the height to raise it by; raising it by

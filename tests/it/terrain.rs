@@ -108,14 +108,12 @@ fn on_a_slope_a_link_holds_when_mu_exceeds_tan_and_slides_with_g_sin_minus_mu_co
 /// A 20 × 20 gray PNG: white square in rows 2..=8, columns 2..=8 (the image's top left), black
 /// elsewhere.
 fn write_png(path: &Path) {
-    let (w, h) = (20u32, 20u32);
-    let mut pixels = vec![0u8; (w * h) as usize];
-    for r in 2..=8 {
-        for c in 2..=8 {
-            pixels[r * w as usize + c] = 255;
-        }
-    }
-    crate::common::write_gray_png(path, w, h, &pixels);
+    crate::common::write_gray_png_of(
+        path,
+        20,
+        20,
+        |c, r| if (2..=8).contains(&c) && (2..=8).contains(&r) { 255 } else { 0 },
+    );
 }
 
 /// Drops one link (axis along x, 5 cm above the white plateau's height) at (x, y); returns the
