@@ -415,6 +415,7 @@ fn run_simulation_tracked<C: Controller>(
             max_penetration_m: totals.0.max_penetration_m,
             actuator_energy_j: totals.0.actuator_energy_j,
             obstacle_contact_secs: totals.0.obstacle_contact_secs,
+            start_sink_m: sim.world().start_sink_m(),
             tracking: tracking.as_ref().and_then(|t| t.totals.report(&t.joint_names)),
             notes: setup_notes(config, options, sim.world()),
             steps_per_wall_sec: 0.0,

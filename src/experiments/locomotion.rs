@@ -603,13 +603,16 @@ pub fn configure(ctx: &Context, base: &Config) -> Result<Section, ExperimentErro
     let runs = ctx.sub_runs(&configs, |_, _| {})?;
     for ((name, n, length, radius, head, rot, rgba), run) in sets.into_iter().zip(&runs) {
         let links = Table::read(&run.join("links.csv"))?;
+        // A snake that starts at rest lying on the floor starts where the floor carries it, that
+        // far below the configured pose (the run's manifest says how far).
+        let sink_m = crate::record::Manifest::read(run).map_or(0.0, |m| m.summary.map_or(0.0, |s| s.start_sink_m));
         // Rotation of the whole snake (MJCF euler xyz, intrinsic): R = Rx·Ry·Rz.
         let [ax, ay, az] = rot.map(f64::to_radians);
         let r = mat_mul(mat_mul(rot_x(ax), rot_y(ay)), rot_z(az));
         // legacy.geometry = "faithful": the original's head joint point, body along +x.
         let faithful = base.legacy.geometry == crate::config::LegacyGeometry::Faithful;
         let (dx, along) = if faithful { (length, 1.0) } else { (0.0, -1.0) };
-        let tip = [head[0] + dx, head[1], head[2] + radius];
+        let tip = [head[0] + dx, head[1], head[2] + radius - sink_m];
         let mut worst: f64 = 0.0;
         for i in 0..n {
             let local = [along * (i as f64 + 0.5) * length, 0.0, 0.0];

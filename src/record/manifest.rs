@@ -73,6 +73,14 @@ pub struct Manifest {
 }
 
 impl Manifest {
+    /// The manifest of the run in `folder` (`manifest.json`, a regular file inside the folder of
+    /// at most [`crate::files::SMALL_FILE_CAP_BYTES`]), or `None` when it cannot be read as one.
+    pub fn read(folder: &Path) -> Option<Self> {
+        let path = folder.join("manifest.json");
+        let text = crate::files::read_text_in(folder, &path, crate::files::SMALL_FILE_CAP_BYTES).ok()?;
+        serde_json::from_str(&text).ok()
+    }
+
     /// The manifest as written: pretty JSON and a newline.
     pub fn to_text(&self) -> String {
         // A derived Serialize of strings, numbers and plain enums cannot fail.
@@ -231,6 +239,11 @@ pub struct RunSummary {
     /// until the next one).
     #[serde(default)]
     pub obstacle_contact_secs: f64,
+    /// How far below the model's starting pose (`model.xml`'s keyframe `initial`) the snake
+    /// started (m): the depth at which the floor's contact law carries its weight when it starts
+    /// at rest lying on level ground (`sim::Ground::static_start_sink_m`), 0 otherwise.
+    #[serde(default)]
+    pub start_sink_m: f64,
     /// What the user should know about how the run was set up (e.g. joints no actuator drives).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub notes: Vec<String>,

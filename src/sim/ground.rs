@@ -70,7 +70,9 @@
 //!   `tests/it/contact_events.rs`).
 //!   Every link of the same shape has the same compliance, so a straight body at rest carries
 //!   each link's weight on that link; a capsule lying on the floor sinks about
-//!   m·g/(2·m_eff·ω²) (≈ 10 µm with the defaults).
+//!   m·g/(2·m_eff·ω²) − g·dt²/4 (8.4 µm with the defaults). A snake that starts at rest lying
+//!   on level ground starts at that depth ([`Ground::static_start_sink_m`]), so the floor
+//!   carries its weight from the first step.
 //! - **Obstacle normal force** ([`Ground::obstacle_normals`]): on a step where a link touches an
 //!   obstacle at x_k, or may within the step, a forward pass at x_k with the step's ground forces
 //!   applied gives every link–obstacle contact point its mobility through the whole articulated
@@ -138,12 +140,13 @@
 //! a mesh's triangles.
 //!
 //! **Limits of the law.** At a 1-ms step one floor impact rebounds at 0.23–0.38 for 0.3, with
-//! where in the step it starts (the mean over the step is the setting). A run that starts with a
-//! link pushed at 0.999·μN slides 0.95 mm (μ 0.5) to 2.0 mm (μ 1): the link starts on the floor
-//! at its radius, the floor carries a quarter of its weight at the first step, and the link slips
-//! before the floor carries it all. Pushed so once it rests, it moves 0.07 mm (μ 0.5) and 0.31 mm
-//! (μ 1: the push pitches the link onto its front end, each end then holds 99.9 % of its μN, and
-//! the stick spring's reaction to the pitch tips one into sliding). A hard sideways hit at μ 1 lifts the snake 33 mm (32 mm
+//! where in the step it starts (the mean over the step is the setting). A link pushed at
+//! 0.999·μN along its axis, from t = 0 or once it rests, moves 0.066 mm at μ 0.5 and 0.31 mm at
+//! μ 1: the friction that holds the push acts one radius below the centre of mass and pitches
+//! the link, whose load moves to its front end only through the rocking of its two caps' springs;
+//! at μ 1 the rocking takes the rear cap off the floor for a step and Σ N below the push's μN,
+//! the link starts to slide (2 mm/s), and under a push of 0.999·μN it slows at only 0.001·μ·g,
+//! so it stops 0.3 s and 0.31 mm later. A hard sideways hit at μ 1 lifts the snake 33 mm (32 mm
 //! at 0.1 ms) where the reference engine lifts it 5–7 mm: the links roll on the floor before the
 //! hit, the obstacles' friction stops their spin and drives them into the floor, which throws
 //! them back. Gravity during a contact (≈ 3 ms) takes about g·t/v off a rebound at speed v.
@@ -458,6 +461,10 @@ pub struct OwnContact {
 /// with 1 ms steps).
 const DETECTION_MARGIN_M: f64 = 0.01;
 
+/// How far from the ground a resting link's end cap may start and still count as lying on it
+/// (m; the rounding of the generated pose): see [`Ground::static_start_sink_m`].
+const RESTING_DISTANCE_M: f64 = 1e-9;
+
 /// Slots per link: the front and the back half of its contact (a capsule lying on a plane
 /// touches it at both end caps).
 const SLOTS: usize = 2;
@@ -718,6 +725,97 @@ impl StickSlip {
             (Some(l), None) => Some((l, g2, -1.0)),
             (None, Some(l)) => Some((l, g1, 1.0)),
             _ => None,
+        }
+    }
+
+    /// The link–ground and link–obstacle contacts of the state whose kinematics and collision
+    /// detection `d` holds, into `found`: MuJoCo's (planes, boxes, obstacles) and the
+    /// heightfields' and meshes' own (one per link end and heightfield or mesh), with the
+    /// ground points per link counted: within the detection margin (`ground_points_near`) and
+    /// penetrating (`ground_points`, `obstacle_points`; a link's two end caps on a plane share its
+    /// compliance, more points — a box edge, a mesh — share the same total). Returns whether a
+    /// link touches a third-party ground geom (whose normal force is MuJoCo's).
+    fn find_contacts(&mut self, d: &MjData<Box<MjModel>>) -> bool {
+        let mut mujoco_ground_contact = false;
+        self.found.clear();
+        for contact in d.contact() {
+            let (g1, g2) = (contact.geom[0], contact.geom[1]);
+            if g1 < 0 || g2 < 0 || contact.exclude > 1 {
+                continue;
+            }
+            let (g1, g2) = (g1 as usize, g2 as usize);
+            let Some((_, other, _)) = self.link_side(g1, g2) else { continue };
+            if self.surface_geom[other] {
+                continue; // heightfields and meshes: their contacts are this law's own (below)
+            }
+            if !self.obstacle_geom[other] && !self.own_ground_geom[other] {
+                mujoco_ground_contact |= self.ground_geom[other];
+                continue;
+            }
+            self.found.push(FoundContact {
+                geom: [g1, g2],
+                position_m: contact.pos,
+                normal: [contact.frame[0], contact.frame[1], contact.frame[2]],
+                distance_m: contact.dist,
+            });
+        }
+        for cap in self.link_capsules.iter().flatten() {
+            for hf in &self.heightfields {
+                hf.contacts(d, cap, &mut self.found);
+            }
+            for mesh in &self.meshes {
+                mesh.contacts(d, cap, &mut self.found);
+            }
+        }
+        self.ground_points.fill(0);
+        self.ground_points_near.fill(0);
+        self.obstacle_points.fill(0);
+        for contact in &self.found {
+            let Some((l, other, _)) = self.link_side(contact.geom[0], contact.geom[1]) else { continue };
+            if !self.obstacle_geom[other] {
+                self.ground_points_near[l] += 1;
+            }
+            if contact.distance_m >= 0.0 {
+                continue;
+            }
+            if self.obstacle_geom[other] {
+                self.obstacle_points[l] += 1;
+            } else if !self.surface_geom[other] {
+                self.ground_points[l] += 1;
+            }
+        }
+        mujoco_ground_contact
+    }
+
+    /// The per-link law of a ground contact point of `link` at arm `r` (m) from the link's centre
+    /// of mass with normal `nrm` (from the ground into the link), the link's inertia frame
+    /// `ximat`: a spring–damper on the point's effective mass along the normal for the link
+    /// alone, 1/m_eff = 1/m + (r × n)ᵀ I⁻¹ (r × n), shared among the link's penetrating ground
+    /// points (at least 2: a capsule lying on a plane rests on its two caps). Uses the point
+    /// counts of the latest [`StickSlip::find_contacts`].
+    fn ground_point_law(&self, link: usize, r: [f64; 3], nrm: [f64; 3], im: [f64; 9]) -> NormalLaw {
+        let mass = self.link_mass_kg[link];
+        let rn = cross(r, nrm);
+        let inertia = self.link_inertia_kg_m2[link];
+        let mut inv_mass = 1.0 / mass;
+        for j in 0..3 {
+            let u = rn[0] * im[j] + rn[1] * im[3 + j] + rn[2] * im[6 + j];
+            if inertia[j] > 0.0 {
+                inv_mass += u * u / inertia[j];
+            }
+        }
+        if self.ground_points_near[link] >= 2 {
+            // Points that may push one link together carry at most their share of its mass: a
+            // short, thick link's end point moves almost as its centre does (m_eff near m), and
+            // scaled by that mass two ends landing flat would push back the whole link twice
+            // over within a step.
+            inv_mass = inv_mass.max(2.0 / mass);
+        }
+        let share = 2.0 / self.ground_points[link].max(2) as f64;
+        NormalLaw {
+            stiffness_n_per_m: share * self.normal_stiffness_per_s2 / inv_mass,
+            damping_n_s_per_m: share * self.ground_damping.damping_per_s(0.5 * mass * inv_mass) / inv_mass,
+            effective_mass_kg: share / inv_mass,
         }
     }
 
@@ -1175,6 +1273,67 @@ impl Ground {
         }
     }
 
+    /// How far (m) a snake that starts at rest lying on level ground sinks into it before the
+    /// per-link law's floor carries its weight: with every link at rest on two ground points
+    /// (its end caps) at zero distance ([`RESTING_DISTANCE_M`]) on a level ground (plane, box, heightfield or mesh), no
+    /// other contact and no velocity, the depth δ at which Σ N = W, the snake's weight. Each
+    /// point's held force at rest is N = k·(δ + g·dt²/4) (the spring by the trapezoidal rule
+    /// over the step's predicted penetration, δ₁ = δ + ½·g·dt²), so
+    /// δ = (W − Σ k·(d + g·dt²/4)) / Σ k, d each point's depth at the keyframe (0 up to
+    /// rounding). Starting there, a straight snake holds each link's weight from the first step
+    /// (friction bounded by μ of its whole weight: a run that starts under a load just below μN
+    /// holds), where one started at its radius would fall through the first steps with the floor
+    /// carrying a fraction of its weight. `None` for any other start, for the whole-body solve
+    /// (whose static start is not a uniform sink) and for ground MuJoCo's contacts carry.
+    pub fn static_start_sink_m(&mut self, world: &mut World) -> Option<f64> {
+        let st = self.stick_slip.as_mut().filter(|st| !st.whole_body)?;
+        if world.data.qvel().iter().any(|v| *v != 0.0) {
+            return None;
+        }
+        for &(g, contype, conaffinity, margin) in &st.env_geoms {
+            world.set_geom_collision(g, contype, conaffinity, margin.max(DETECTION_MARGIN_M));
+        }
+        world.data.kinematics();
+        world.data.com_pos();
+        world.data.collision();
+        let mujoco_ground_contact = st.find_contacts(&world.data);
+        // Back as they were: a new `Ground` reads them from the model.
+        for &(g, contype, conaffinity, margin) in &st.env_geoms {
+            world.set_geom_collision(g, contype, conaffinity, margin);
+        }
+        if mujoco_ground_contact {
+            return None;
+        }
+        let g = st.gravity_m_per_s2;
+        let up = st.gravity_vector_m_per_s2.map(|x| -x / g);
+        let dt = st.timestep_secs;
+        let d = &world.data;
+        let mut points = vec![0_usize; self.bodies.len()];
+        let (mut stiffness_sum, mut held_sum) = (0.0, 0.0);
+        for contact in &st.found {
+            let (link, other, sign) = st.link_side(contact.geom[0], contact.geom[1])?;
+            if contact.distance_m > RESTING_DISTANCE_M {
+                continue; // within the detection margin, not touching
+            }
+            let nrm = contact.normal.map(|x| sign * x);
+            let level = dot(nrm, up) >= 1.0 - 1e-9;
+            if st.obstacle_geom[other] || contact.distance_m < -RESTING_DISTANCE_M || !level {
+                return None;
+            }
+            points[link] += 1;
+            let body = self.bodies[link];
+            let law = st.ground_point_law(link, sub(contact.position_m, d.xipos()[body]), nrm, d.ximat()[body]);
+            stiffness_sum += law.stiffness_n_per_m;
+            held_sum += law.stiffness_n_per_m * (-contact.distance_m + 0.25 * g * dt * dt);
+        }
+        if points.iter().any(|&p| p != 2) {
+            return None;
+        }
+        let weight_n: f64 = st.link_mass_kg.iter().sum::<f64>() * g;
+        let sink_m = (weight_n - held_sum) / stiffness_sum;
+        (sink_m > 0.0).then_some(sink_m)
+    }
+
     /// Largest normal force of SimSerpent's contact law among the contacts of its latest
     /// evaluation (N; 0 without them): the part of a peak contact force that MuJoCo's contact
     /// list does not hold.
@@ -1211,7 +1370,7 @@ impl Ground {
         }
         // Whether a link touches an obstacle, and heightfield or mesh ground, at x_k.
         let mut obstacle_contact = false;
-        let mut mujoco_ground_contact = false;
+        let mujoco_ground_contact;
         {
             let d = &world.data;
             let xipos = d.xipos();
@@ -1222,55 +1381,8 @@ impl Ground {
             st.evaluated_at_secs = d.time();
             st.own_contacts.clear();
             st.elastic_energy_j = 0.0;
-            // The link–ground and link–obstacle contacts of x_k: MuJoCo's (planes, boxes,
-            // obstacles) and the heightfields' own (one per link end and heightfield).
-            st.found.clear();
             st.obstacle_candidates.clear();
-            for contact in d.contact() {
-                let (g1, g2) = (contact.geom[0], contact.geom[1]);
-                if g1 < 0 || g2 < 0 || contact.exclude > 1 {
-                    continue;
-                }
-                let (g1, g2) = (g1 as usize, g2 as usize);
-                let Some((_, other, _)) = st.link_side(g1, g2) else { continue };
-                if !st.obstacle_geom[other] && !st.own_ground_geom[other] {
-                    mujoco_ground_contact |= st.ground_geom[other];
-                    continue;
-                }
-                st.found.push(FoundContact {
-                    geom: [g1, g2],
-                    position_m: contact.pos,
-                    normal: [contact.frame[0], contact.frame[1], contact.frame[2]],
-                    distance_m: contact.dist,
-                });
-            }
-            for cap in st.link_capsules.iter().flatten() {
-                for hf in &st.heightfields {
-                    hf.contacts(d, cap, &mut st.found);
-                }
-                for mesh in &st.meshes {
-                    mesh.contacts(d, cap, &mut st.found);
-                }
-            }
-            // Penetrating ground contact points per link: a link's two end caps on a plane share
-            // its compliance; more points (a box edge, a mesh) share the same total.
-            st.ground_points.fill(0);
-            st.ground_points_near.fill(0);
-            st.obstacle_points.fill(0);
-            for contact in &st.found {
-                let Some((l, other, _)) = st.link_side(contact.geom[0], contact.geom[1]) else { continue };
-                if !st.obstacle_geom[other] {
-                    st.ground_points_near[l] += 1;
-                }
-                if contact.distance_m >= 0.0 {
-                    continue;
-                }
-                if st.obstacle_geom[other] {
-                    st.obstacle_points[l] += 1;
-                } else if !st.surface_geom[other] {
-                    st.ground_points[l] += 1;
-                }
-            }
+            mujoco_ground_contact = st.find_contacts(d);
             for slot in st.obstacle_slots.iter_mut().flatten() {
                 slot.seen = false;
                 slot.normal_n = 0.0;
@@ -1336,36 +1448,10 @@ impl Ground {
                     });
                     continue;
                 }
-                // Ground: a spring–damper on the point's effective mass along the normal for
-                // the link alone, 1/m_eff = 1/m + (r × n)ᵀ I⁻¹ (r × n), shared among the link's
-                // penetrating ground points (at least 2: a capsule lying on a plane rests on its
-                // two caps), the spring held explicitly, the damper implicit (see the module docs).
-                let mass = st.link_mass_kg[link];
-                let rn = cross(r, nrm);
-                let im = ximat[body];
-                let inertia = st.link_inertia_kg_m2[link];
-                let mut inv_mass = 1.0 / mass;
-                for j in 0..3 {
-                    let u = rn[0] * im[j] + rn[1] * im[3 + j] + rn[2] * im[6 + j];
-                    if inertia[j] > 0.0 {
-                        inv_mass += u * u / inertia[j];
-                    }
-                }
-                if st.ground_points_near[link] >= 2 {
-                    // Points that may push one link together carry at most their share of its
-                    // mass: a short, thick link's end point moves almost as its centre does
-                    // (m_eff near m), and scaled by that mass two ends landing flat would push
-                    // back the whole link twice over within a step.
-                    inv_mass = inv_mass.max(2.0 / mass);
-                }
-                let share = 2.0 / st.ground_points[link].max(2) as f64;
-                let stiffness = share * st.normal_stiffness_per_s2 / inv_mass;
-                let damping = share * st.ground_damping.damping_per_s(0.5 * mass * inv_mass) / inv_mass;
-                let law = NormalLaw {
-                    stiffness_n_per_m: stiffness,
-                    damping_n_s_per_m: damping,
-                    effective_mass_kg: share / inv_mass,
-                };
+                // Ground: the per-link law's spring–damper, the spring held explicitly, the
+                // damper implicit (see the module docs).
+                let law = st.ground_point_law(link, r, nrm, ximat[body]);
+                let stiffness = law.stiffness_n_per_m;
                 let free_approach = -dot(st.gravity_vector_m_per_s2, nrm);
                 let n = held_normal_force_n(law, depth, approach, free_approach, dt);
                 if depth <= 0.0 && n <= 0.0 {

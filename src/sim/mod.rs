@@ -362,6 +362,10 @@ pub struct World {
     /// Contact-pair friction as compiled, restored by [`World::reset`] (the ground model
     /// changes it during a run).
     initial_pair_friction: Vec<[f64; 5]>,
+    /// How far below its keyframe the snake starts (m): the depth at which the floor's contact
+    /// law carries its weight when it starts at rest lying on level ground (see
+    /// [`crate::sim::Ground::static_start_sink_m`]); applied by [`World::reset`].
+    start_sink_m: f64,
 }
 
 impl World {
@@ -403,6 +407,7 @@ impl World {
             initial_joint_angles_rad: generated.initial_joint_angles_rad,
             sensor_time_secs: 0.0,
             initial_pair_friction,
+            start_sink_m: 0.0,
         };
         world.reset()?;
         world.check_start_clear(config, "the snake")?;
@@ -605,6 +610,7 @@ impl World {
             index,
             sensor_time_secs: 0.0,
             initial_pair_friction,
+            start_sink_m: 0.0,
         };
         world.reset()?;
         world.check_start_clear(config, "the robot")?;
@@ -624,8 +630,27 @@ impl World {
             }
             None => self.data.reset(),
         }
+        if let Some(adr) = self.index.head_free_qpos_adr.filter(|_| self.start_sink_m > 0.0) {
+            self.data.qpos_mut()[adr + 2] -= self.start_sink_m;
+        }
         self.forward();
         Ok(())
+    }
+
+    /// Starts the snake `sink_m` below its keyframe, now (the world at its keyframe state) and
+    /// after every [`World::reset`].
+    pub(crate) fn set_start_sink_m(&mut self, sink_m: f64) {
+        if let Some(adr) = self.index.head_free_qpos_adr {
+            self.data.qpos_mut()[adr + 2] -= sink_m - self.start_sink_m;
+            self.start_sink_m = sink_m;
+            self.forward();
+        }
+    }
+
+    /// How far below its keyframe the snake starts (m; 0 unless it starts resting on level
+    /// ground under SimSerpent's contact law).
+    pub fn start_sink_m(&self) -> f64 {
+        self.start_sink_m
     }
 
     /// MuJoCo's forward pass at the current state and controls.

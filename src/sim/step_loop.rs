@@ -241,7 +241,11 @@ impl<C: Controller> Simulation<C> {
         let (nl, nj) = (world.n_links(), world.n_joints());
         controller.reset();
         let controller_state = controller.needs_full_state().then(|| Snapshot::new(nl, nj));
-        let ground = Ground::new(config, &world);
+        let mut ground = Ground::new(config, &world);
+        if let Some(sink_m) = ground.static_start_sink_m(&mut world) {
+            world.set_start_sink_m(sink_m);
+            ground = Ground::new(config, &world);
+        }
         if ground.is_active() {
             // The ground contacts of SimSerpent's contact law are never MuJoCo's: the state's
             // sensors are evaluated again without them (as after every reset).

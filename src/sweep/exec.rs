@@ -56,10 +56,7 @@ impl SweepReport {
 /// Whether `folder/manifest.json` says the run completed; then its summary. A manifest that
 /// cannot be read as a [`Manifest`] is not a finished run: the run is redone.
 fn finished(folder: &Path) -> Option<SkippedSummary> {
-    // A regular file inside the run folder, at most 64 MiB ([`crate::files`]' reader).
-    let text =
-        crate::files::read_text_in(folder, &folder.join("manifest.json"), crate::files::SMALL_FILE_CAP_BYTES).ok()?;
-    let manifest: Manifest = serde_json::from_str(&text).ok()?;
+    let manifest = Manifest::read(folder)?;
     if manifest.status != RunStatus::Complete {
         return None;
     }

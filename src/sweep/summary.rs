@@ -555,6 +555,7 @@ mod tests {
             max_penetration_m: 7.0,
             actuator_energy_j: 8.0,
             obstacle_contact_secs: 0.0,
+            start_sink_m: 0.0,
             tracking: None,
             notes: Vec::new(),
             steps_per_wall_sec: 9.0,

@@ -687,13 +687,13 @@ fn rebounds_at_the_configured_restitution(law: &str, first: usize) {
 }
 
 /// How far (m) one link on the floor, pushed along its axis at 0.999 μ·m·g from t = 0 (default
-/// settings, the link placed on the floor at its radius), moves its centre in 1 s.
+/// settings, the link starting at rest on the floor), moves its centre in 1 s.
 fn start_under_load_moved_m(law: &str, mu: f64) -> f64 {
     pushed_moved_m(law, mu, 0.0)
 }
 
 /// How far (m) one link on the floor, pushed along its axis at 0.999 μ·m·g from `push_from_secs`
-/// on (default settings, the link placed on the floor at its radius), moves its centre in the
+/// on (default settings, the link starting at rest on the floor), moves its centre in the
 /// push's first second.
 fn pushed_moved_m(law: &str, mu: f64, push_from_secs: f64) -> f64 {
     let mut c = straight_in(law, mu, &["snake.n_links=1"]);
@@ -730,10 +730,11 @@ fn a_resting_link_pushed_just_below_mu_n_all_at_once_holds() {
     assert!(moved < 1e-4, "the link moved {} mm under 0.999 μN", moved * 1e3);
 }
 
-/// The same at μ 1 does not hold within 0.1 mm (0.31 mm; the whole-body solve: 0.20 mm): the push
-/// at the centre of mass, one radius above the floor, pitches the link onto its front end, each
-/// end's share of the push is then 99.9 % of its μN, and the stick spring's reaction to the pitch
-/// tips one end into sliding.
+/// The same at μ 1 does not hold within 0.1 mm (0.31 mm; the whole-body solve: 0.20 mm): the
+/// friction holding the push acts one radius below the centre of mass and pitches the link; its
+/// load moves to the front cap only through the rocking of the two caps' springs, which takes
+/// the rear cap off the floor for a step and Σ N below the push's μN; the link starts to slide
+/// at 2 mm/s and, pushed at 0.999 μN, slows at only 0.001 μ·g (stops after 0.3 s).
 #[test]
 #[ignore = "target not reached with \"per_link\" at μ 1: 0.31 mm (run with --ignored)"]
 fn a_resting_link_pushed_just_below_mu_n_all_at_once_holds_at_mu_1() {
@@ -755,19 +756,26 @@ fn a_link_loaded_just_below_mu_n_from_the_start_holds_with_the_whole_body_solve(
     }
 }
 
-/// The same with the per-link law does not hold (0.95 and 2.03 mm at μ 0.5 and 1): the link
-/// starts on the floor at its radius, so the floor carries a quarter of its weight at the first
-/// step and μN is below the push; the link slips at 3.8 mm/s (μ 0.5) before the floor carries it
-/// all, and a moving link is then slowed only by the 0.001 μN between push and friction. A link
-/// pushed once it rests holds (above).
+/// A run that starts under load holds with the per-link law at μ 0.5: the link starts at rest
+/// sunk to the depth where the floor carries its weight (8.4 µm), so the friction holding the
+/// push is bounded by μ of its whole weight from the first step, and it moves less than 0.1 mm
+/// in 1 s (measured 0.066 mm, as a link pushed once it rests; started at its radius, with the
+/// floor carrying a quarter of its weight at the first step, it slid 0.95 mm).
 #[test]
-#[ignore = "target not reached with \"per_link\": the floor carries a quarter of the link's weight at the first step, and the link slips before it carries all (run with --ignored)"]
 fn a_link_loaded_just_below_mu_n_from_the_start_holds() {
-    for mu in [0.5, 1.0] {
-        let moved = start_under_load_moved_m(PER_LINK, mu);
-        eprintln!("per_link, μ {mu}: moved {:.4} mm", moved * 1e3);
-        assert!(moved < 1e-4, "μ {mu}: the link moved {} mm under 0.999 μN", moved * 1e3);
-    }
+    let moved = start_under_load_moved_m(PER_LINK, 0.5);
+    eprintln!("per_link, μ 0.5: moved {:.4} mm", moved * 1e3);
+    assert!(moved < 1e-4, "the link moved {} mm under 0.999 μN", moved * 1e3);
+}
+
+/// The same at μ 1 does not hold within 0.1 mm (0.31 mm, as a link pushed once it rests, see
+/// [`a_resting_link_pushed_just_below_mu_n_all_at_once_holds_at_mu_1`]).
+#[test]
+#[ignore = "target not reached with \"per_link\" at μ 1: 0.31 mm, the push's pitch rocking (run with --ignored)"]
+fn a_link_loaded_just_below_mu_n_from_the_start_holds_at_mu_1() {
+    let moved = start_under_load_moved_m(PER_LINK, 1.0);
+    eprintln!("per_link, μ 1: moved {:.4} mm", moved * 1e3);
+    assert!(moved < 1e-4, "the link moved {} mm under 0.999 μN", moved * 1e3);
 }
 
 /// The sideways hit's largest lift (m) at the default 1-ms step and at 0.1 ms.
@@ -995,31 +1003,64 @@ fn a_flat_heightfield_and_a_flat_mesh_terrain_equal_the_plane_with_the_whole_bod
     flat_grounds_equal_the_plane(WHOLE_BODY);
 }
 
+/// The keys of a flat heightfield and of a flat mesh terrain 20 mm above the floor, with the snake
+/// of `base` raised onto them (their files written into `dir`).
+fn flat_terrain_keys(dir: &std::path::Path, base: &Config) -> [Vec<String>; 2] {
+    let png = dir.join("flat.png");
+    crate::common::write_gray_png(&png, 64, 64, &[255u8; 64 * 64]);
+    let obj = dir.join("flat.obj");
+    std::fs::write(&obj, "v -2 -2 0.02\nv 2 -2 0.02\nv 2 2 0.02\nv -2 2 0.02\nf 1 2 3\nf 1 3 4\n").unwrap();
+    let p = base.snake.head_position_m;
+    let raised = format!("snake.head_position_m=[{}, {}, {}]", p[0], p[1], p[2] + 0.02);
+    [
+        vec![
+            format!("terrain.heightfield.file={:?}", png.display().to_string()),
+            "terrain.heightfield.height_m=0.02".to_string(),
+            raised.clone(),
+        ],
+        vec![format!("terrain.mesh_terrain.file={:?}", obj.display().to_string()), raised],
+    ]
+}
+
+/// A straight snake that starts at rest lying on level ground carries each link's weight on that
+/// link from its first step with the per-link law: it starts sunk to the depth where the law's
+/// floor carries it (8.4 µm with the defaults), on the plane, a flat heightfield and a flat mesh
+/// terrain alike. Every link's floor load within 1e-6 of its weight at every step of the first
+/// 0.2 s, and every link slower than 1 µm/s (started at its radius, the floor carried a quarter
+/// of the weight at the first step and the snake fell into it).
+#[test]
+fn a_snake_resting_on_level_ground_carries_its_weight_from_the_first_step() {
+    let dir = tempfile::tempdir().unwrap();
+    let base = straight(0.5, &[]);
+    let [heightfield, mesh] = flat_terrain_keys(dir.path(), &base);
+    for (name, keys) in [("plane", vec![]), ("heightfield", heightfield), ("mesh terrain", mesh)] {
+        let keys: Vec<&str> = keys.iter().map(String::as_str).collect();
+        let c = straight(0.5, &keys);
+        let mut sim = simulation(&c);
+        assert!(sim.world().start_sink_m() > 8e-6 && sim.world().start_sink_m() < 9e-6, "{name}");
+        let e = measure(&c, &mut sim, 0.2, 0.5);
+        let speed = sim.world().data().qvel().iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        eprintln!("{name}: sink {:.3} µm, {e:?}, largest speed {speed:.2e}", sim.world().start_sink_m() * 1e6);
+        assert!(e.link_load_error <= 1e-6, "{name}: a link's load differs from its weight by {}", e.link_load_error);
+        assert!(speed < 1e-6, "{name}: {speed} m/s");
+    }
+}
+
 fn flat_grounds_equal_the_plane(law: &str) {
     let dir = tempfile::tempdir().unwrap();
-    let png = dir.path().join("flat.png");
-    crate::common::write_gray_png(&png, 64, 64, &[255u8; 64 * 64]);
-    let obj = dir.path().join("flat.obj");
-    std::fs::write(&obj, "v -2 -2 0.02\nv 2 -2 0.02\nv 2 2 0.02\nv -2 2 0.02\nf 1 2 3\nf 1 3 4\n").unwrap();
     let gait = SCENE_GAIT;
     for mu in [0.5, 1.0] {
         for dt in [1e-3, 5e-4] {
             let base = scene_in(law, mu, &gait);
-            let z = base.snake.head_position_m[2];
-            let raised = format!(
-                "snake.head_position_m=[{}, {}, {}]",
-                base.snake.head_position_m[0],
-                base.snake.head_position_m[1],
-                z + 0.02
-            );
             let step = format!("general.timestep_secs={dt}");
             let plane = ground_figures(&scene_in(law, mu, &[&gait[..], &[step.as_str()]].concat()));
-            let hf_file = format!("terrain.heightfield.file={:?}", png.display().to_string());
-            let heightfield = [hf_file.as_str(), "terrain.heightfield.height_m=0.02", raised.as_str(), step.as_str()];
-            let mesh_file = format!("terrain.mesh_terrain.file={:?}", obj.display().to_string());
-            let mesh = [mesh_file.as_str(), raised.as_str(), step.as_str()];
-            for (name, keys) in [("heightfield", &heightfield[..]), ("mesh terrain", &mesh[..])] {
-                let f = ground_figures(&scene_in(law, mu, &[&gait[..], keys].concat()));
+            let [heightfield, mesh] = flat_terrain_keys(dir.path(), &base).map(|mut k| {
+                k.push(step.clone());
+                k
+            });
+            for (name, keys) in [("heightfield", &heightfield), ("mesh terrain", &mesh)] {
+                let keys: Vec<&str> = keys.iter().map(String::as_str).collect();
+                let f = ground_figures(&scene_in(law, mu, &[&gait[..], &keys[..]].concat()));
                 eprintln!("{law}, μ {mu}, dt {dt}: {name} {f:?}\n  plane {plane:?}");
                 let close = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * b.abs();
                 assert!(close(f.speed_m_per_s, plane.speed_m_per_s, 0.02), "{law}, μ {mu}, dt {dt}, {name}: speed");
@@ -1047,16 +1088,24 @@ fn flat_grounds_equal_the_plane(law: &str) {
 
 /// A 30-link snake of 3-kg links in steady undulation carries its weight: Σ N within 10 % of
 /// it at every step at the default timestep, from the end of the gait's ramp on (default
-/// servos, anisotropic floor). Measured: Σ N between 0.991 and 1.016 of the weight (the floor's
-/// damper, implicit on each point, keeps the heavy links from rocking).
+/// servos, anisotropic floor), to 6 s, from the default start and from starts 1 and 2 µm
+/// higher. Not reached with the per-link law: once a gait cycle (at 2.57 and 4.52–4.62 s from
+/// the default start) the links behind the head rock off the floor for 10–20 ms while the head
+/// carries up to 7 × its weight: Σ N between 0.73 and 1.43 of the weight (0.73–1.31 and
+/// 0.79–1.42 from the higher starts); at 0.5-ms steps the same job stays within 0.996–1.008
+/// (8 s). The damper is implicit on each point's mass for its link alone, and a heavy link
+/// pressed by its neighbours through the joints carries more, so the rocking of the chain's
+/// links is damped less than a link's. Whether a start runs into the cycle's event is chaotic
+/// (started at its radius, 4 s: 0.991–1.016; 1 µm higher: 0.77–1.31).
 #[test]
+#[ignore = "target not reached with \"per_link\": Σ N 0.73–1.43 of the weight once a gait cycle at 1 ms (run with --ignored)"]
 fn a_heavy_long_snake_carries_its_weight_at_every_step() {
     let (low, high) = heavy_snake_load_range(PER_LINK);
     assert!(low >= 0.9 && high <= 1.1, "Σ N between {low} and {high} of the weight");
 }
 
-/// The same with the whole-body solve: its floor damping is implicit, the links do not rock
-/// (slow: 4 s of 30 links).
+/// The same with the whole-body solve: its floor damping is implicit through the whole body's
+/// mobility, the links do not rock (slow: 3 × 6 s of 30 links).
 #[test]
 #[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn a_heavy_long_snake_carries_its_weight_at_every_step_with_the_whole_body_solve() {
@@ -1064,34 +1113,40 @@ fn a_heavy_long_snake_carries_its_weight_at_every_step_with_the_whole_body_solve
     assert!(low >= 0.9 && high <= 1.1, "Σ N between {low} and {high} of the weight");
 }
 
-/// The smallest and largest Σ N / weight of the 30-link snake of 3-kg links after the ramp.
+/// The smallest and largest Σ N / weight of the 30-link snake of 3-kg links from the end of the
+/// ramp to 6 s, over the default start and starts 1 and 2 µm higher.
 fn heavy_snake_load_range(law: &str) -> (f64, f64) {
-    let c = default_config_with(&[
-        "snake.n_links=30".to_string(),
-        "snake.link_mass_kg=3.0".to_string(),
-        format!("physics.environment_contact_solve=\"{law}\""),
-    ])
-    .unwrap();
-    let n = c.snake.n_links;
-    let dt = c.general.timestep_secs;
-    let mut sim = simulation(&c);
-    let mut s = Snapshot::new(n, n - 1);
     let (mut low, mut high) = (f64::INFINITY, 0.0_f64);
-    let ramp_steps = (c.gait.ramp_secs / dt).round() as usize;
-    for k in 0..(4.0 / dt).round() as usize {
-        sim.control();
-        sim.snapshot(&mut s);
-        if k < ramp_steps {
+    for lift_m in [0.0, 1e-6, 2e-6] {
+        let c = default_config_with(&[
+            "snake.n_links=30".to_string(),
+            "snake.link_mass_kg=3.0".to_string(),
+            format!("physics.environment_contact_solve=\"{law}\""),
+            format!("snake.head_position_m=[0.0, 0.0, {lift_m}]"),
+        ])
+        .unwrap();
+        let n = c.snake.n_links;
+        let dt = c.general.timestep_secs;
+        let mut sim = simulation(&c);
+        let mut s = Snapshot::new(n, n - 1);
+        let ramp_steps = (c.gait.ramp_secs / dt).round() as usize;
+        let (mut start_low, mut start_high) = (f64::INFINITY, 0.0_f64);
+        for k in 0..(6.0 / dt).round() as usize {
+            sim.control();
+            sim.snapshot(&mut s);
+            if k >= ramp_steps {
+                let total: f64 = (0..n).map(|i| s.link_floor_force_n[i][2]).sum();
+                let weight: f64 = s.link_mass_kg.iter().map(|m| m * G).sum();
+                start_low = start_low.min(total / weight);
+                start_high = start_high.max(total / weight);
+            }
             sim.advance().unwrap();
-            continue;
         }
-        let total: f64 = (0..n).map(|i| s.link_floor_force_n[i][2]).sum();
-        let weight: f64 = s.link_mass_kg.iter().map(|m| m * G).sum();
-        low = low.min(total / weight);
-        high = high.max(total / weight);
-        sim.advance().unwrap();
+        eprintln!(
+            "{law}, {lift_m} m higher: 30 links of 3 kg: Σ N between {start_low:.3} and {start_high:.3} of the weight"
+        );
+        (low, high) = (low.min(start_low), high.max(start_high));
     }
-    eprintln!("{law}: 30 links of 3 kg: Σ N between {low:.3} and {high:.3} of the weight");
     (low, high)
 }
 
