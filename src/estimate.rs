@@ -63,8 +63,8 @@ pub enum EstimateError {
         "{}: recording.every_n_steps = {every_n_steps}: the tables hold one row per {every_n_steps} steps, and the \
          estimator needs every step (its head-attitude filter integrates the gyro and differentiates the head's \
          velocity from one row to the next); on sparser rows its estimates degrade (the peg-field \
-         tutorial's 10-s run scored on every 10th row: a force error of 50 % of the force's RMS and 93 % of the \
-         contact points within 1 cm, against 1.9 % and 98 % on every row). Record every step: \
+         tutorial's 10-s run scored on every 10th row: a force error of 63 % of the force's RMS and 93 % of the \
+         contact points within 1 cm, against 1.1 % and 98 % on every row). Record every step: \
          `simserpent run CONFIG --set recording.every_n_steps=1`, or estimate during the run with \
          `--set estimation.enabled=true` (estimates.csv)",
         path.display()
