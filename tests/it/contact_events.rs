@@ -1105,7 +1105,8 @@ fn a_heavy_long_snake_carries_its_weight_at_every_step() {
 }
 
 /// The same with the whole-body solve: its floor damping is implicit through the whole body's
-/// mobility, the links do not rock (slow: 3 × 6 s of 30 links).
+/// mobility, the links do not rock (measured: Σ N between 0.996 and 1.009 of the weight from each
+/// start; slow: 3 × 6 s of 30 links).
 #[test]
 #[cfg_attr(not(feature = "slow-tests"), ignore = "slow: runs with `cargo test --features slow-tests`")]
 fn a_heavy_long_snake_carries_its_weight_at_every_step_with_the_whole_body_solve() {
