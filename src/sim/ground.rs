@@ -1274,17 +1274,18 @@ impl Ground {
     }
 
     /// How far (m) a snake that starts at rest lying on level ground sinks into it before the
-    /// per-link law's floor carries its weight: with every link at rest on two ground points
-    /// (its end caps) at zero distance ([`RESTING_DISTANCE_M`]) on a level ground (plane, box, heightfield or mesh), no
-    /// other contact and no velocity, the depth δ at which Σ N = W, the snake's weight. Each
-    /// point's held force at rest is N = k·(δ + g·dt²/4) (the spring by the trapezoidal rule
-    /// over the step's predicted penetration, δ₁ = δ + ½·g·dt²), so
+    /// per-link law's floor carries its weight. With every link at rest on two ground points
+    /// (its end caps) at zero distance ([`RESTING_DISTANCE_M`]) on level ground (a plane, a box,
+    /// a heightfield or a mesh), no other contact and no velocity: the depth δ at which Σ N = W,
+    /// the snake's weight. Each point's held force at rest is N = k·(δ + g·dt²/4) (the spring by
+    /// the trapezoidal rule over the step's predicted penetration, δ₁ = δ + ½·g·dt²), so
     /// δ = (W − Σ k·(d + g·dt²/4)) / Σ k, d each point's depth at the keyframe (0 up to
-    /// rounding). Starting there, a straight snake holds each link's weight from the first step
-    /// (friction bounded by μ of its whole weight: a run that starts under a load just below μN
-    /// holds), where one started at its radius would fall through the first steps with the floor
-    /// carrying a fraction of its weight. `None` for any other start, for the whole-body solve
-    /// (whose static start is not a uniform sink) and for ground MuJoCo's contacts carry.
+    /// rounding). Started there, a straight snake carries each link's weight on that link from
+    /// the first step, and friction is bounded by μ of the whole weight from the first step (a
+    /// link pushed at 0.999·μN from t = 0 moves 0.066 mm at μ 0.5); started at its radius, the
+    /// floor carried a quarter of the weight at the first step and the snake fell into it.
+    /// `None` for any other start, for the whole-body solve (whose static start is not a
+    /// uniform sink) and for ground whose normal force is MuJoCo's.
     pub fn static_start_sink_m(&mut self, world: &mut World) -> Option<f64> {
         let st = self.stick_slip.as_mut().filter(|st| !st.whole_body)?;
         if world.data.qvel().iter().any(|v| *v != 0.0) {
