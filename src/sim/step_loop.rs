@@ -244,7 +244,6 @@ impl<C: Controller> Simulation<C> {
         let mut ground = Ground::new(config, &world);
         if let Some(sink_m) = ground.static_start_sink_m(&mut world) {
             world.set_start_sink_m(sink_m);
-            ground = Ground::new(config, &world);
         }
         if ground.is_active() {
             // The ground contacts of SimSerpent's contact law are never MuJoCo's: the state's
