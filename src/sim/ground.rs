@@ -149,10 +149,20 @@
 //! so it stops 0.3 s and 0.31 mm later. A 30-link snake of 3-kg links in steady undulation at
 //! 1 ms rocks once a gait cycle (the links behind the head off the floor for 10–20 ms, Σ N
 //! 0.73–1.43 of its weight; 0.996–1.008 at 0.5 ms): the damper is implicit on each point's mass
-//! for its link alone, and a heavy link pressed by its neighbours carries more. A hard sideways hit at μ 1 lifts the snake 33 mm (32 mm
-//! at 0.1 ms) where the reference engine lifts it 5–7 mm: the links roll on the floor before the
-//! hit, the obstacles' friction stops their spin and drives them into the floor, which throws
-//! them back. Gravity during a contact (≈ 3 ms) takes about g·t/v off a rebound at speed v.
+//! for its link alone, and a heavy link pressed by its neighbours carries more. A hard sideways
+//! hit at μ 1 lifts the snake 33 mm (31 mm at 0.1 ms) where the reference engine lifts it 6–7
+//! mm, and the lift rides on the snake's roll: sliding sideways, the floor's friction spins every
+//! link about its axis (−33 rad/s before the hit; the yaw joints make it one roll of the whole
+//! chain), and the two links that hit a cylinder roll up its face without slipping, at |ω|·r.
+//! In the reference engine the friction of the links still on the floor, loaded by the
+//! cylinders' downward friction, stops the roll within 8 ms (−3.8 rad/s as the snake leaves the
+//! floor, its centre of mass at 0.21 m/s); here the floor's load comes earlier, while those
+//! links still slide forward and its friction spins the roll up (2.7 of 4.9 N·s at 1 ms; the
+//! reference 1.4 of 7.2), and less of it after (2.2 against 5.8 N·s), so the roll leaves at
+//! −37 rad/s (−27 at 0.1 ms), the hitting links climb at 1.3 m/s and the centre of mass rises
+//! 21 mm against 4.3. The whole-body solve, with the floor's and the cylinders' contacts in one
+//! solve, stops the roll (−1.1 rad/s; the centre of mass rises 7.3 mm). Gravity during a contact (≈ 3 ms) takes about
+//! g·t/v off a rebound at speed v.
 //! Rolling and torsional friction are not modelled.
 //!
 //! **Obstacles.** MuJoCo's own friction on the link–obstacle contacts (condim 3) would bound
