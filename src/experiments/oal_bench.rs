@@ -51,8 +51,10 @@
 //! [`JAM_WINDOW_SECS`] after the ramp-in: the run stops there, a failure), time to goal,
 //! distance (forward advance of the centre of mass, body lengths), speed (body lengths per cycle
 //! of the base gait after the ramp-in), heading change (the direction of motion over the last
-//! [`EXIT_WINDOW_SECS`] against that over the first after the ramp-in: the scattering angle).
-//! Per condition: success and jam rates, medians with 90 % bootstrap intervals, heading-change
+//! [`EXIT_WINDOW_SECS`] against that over the first after the ramp-in: the scattering angle),
+//! self-contact (the share of the recorded instants, every [`RECORD_EVERY`] steps from t = 0,
+//! with a contact between two links, and the largest link–link force on one link: where the
+//! body meets itself, the estimates read it as an obstacle). Per condition: success and jam rates, medians with 90 % bootstrap intervals, heading-change
 //! quartiles and histogram; paired differences against the baselines with 90 % bootstrap
 //! intervals and McNemar's exact p for success.
 //!
@@ -681,6 +683,11 @@ pub struct BareGait {
     pub estimate_flag_share: f64,
 }
 
+/// The largest total link–link contact force on one link at `snap` (N; 0 when no two links touch).
+fn largest_self_contact_n(snap: &Snapshot) -> f64 {
+    snap.link_self_contact_force_n.iter().map(|f| (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt()).fold(0.0, f64::max)
+}
+
 /// Counts link–link contacts at every instant.
 #[derive(Default)]
 struct SelfContacts {
@@ -697,11 +704,7 @@ impl Observer<SimError> for SelfContacts {
     fn on_record(&mut self, view: &StepView<'_>, snap: &Snapshot) -> Result<(), SimError> {
         // Link–link contact over the whole run from t = 0.
         self.steps += 1;
-        let most = snap
-            .link_self_contact_force_n
-            .iter()
-            .map(|f| (f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt())
-            .fold(0.0, f64::max);
+        let most = largest_self_contact_n(snap);
         if most > 0.0 {
             self.touching += 1;
         }
@@ -798,6 +801,10 @@ pub struct Trace {
     pub reached: bool,
     /// Whether the run stopped jammed.
     pub jammed: bool,
+    /// Recorded instants with a contact between two links, and the largest link–link contact
+    /// force on one link (N).
+    pub self_touching: usize,
+    pub max_self_contact_n: f64,
 }
 
 impl Observer<Stop> for Trace {
@@ -806,6 +813,11 @@ impl Observer<Stop> for Trace {
         let t = snap.time_secs;
         self.time_secs.push(t);
         self.com_m.push([com[0], com[1]]);
+        let most = largest_self_contact_n(snap);
+        if most > 0.0 {
+            self.self_touching += 1;
+        }
+        self.max_self_contact_n = self.max_self_contact_n.max(most);
         let est = &view.observation.contacts;
         if est.active {
             self.estimated_n.push(est.obstacle_force_n.iter().map(|f| f[0].hypot(f[1])).sum());
@@ -887,6 +899,11 @@ pub struct Score {
     /// Relative error of the estimated total obstacle force (Σ|est − true| / Σ true; NaN
     /// without estimates or without contact).
     pub estimate_error: f64,
+    /// Share of the recorded instants (every [`RECORD_EVERY`] steps from t = 0) with a contact
+    /// between two links.
+    pub self_contact_share: f64,
+    /// Largest total link–link contact force on one link (N).
+    pub max_self_contact_n: f64,
 }
 
 /// Number of jams of a path of (time (s), x (m)) samples after `from_secs`: windows of
@@ -929,6 +946,7 @@ pub fn score(trace: &Trace, ramp_secs: f64, body_m: f64) -> Score {
             time_to_goal_secs: f64::NAN,
             heading_change_deg: f64::NAN,
             estimate_error: f64::NAN,
+            self_contact_share: f64::NAN,
             ..Score::default()
         };
     }
@@ -963,6 +981,8 @@ pub fn score(trace: &Trace, ramp_secs: f64, body_m: f64) -> Score {
         heading_change_deg: change,
         exit_heading_deg: exit,
         estimate_error: if truth > 0.0 { error / truth } else { f64::NAN },
+        self_contact_share: trace.self_touching as f64 / n as f64,
+        max_self_contact_n: trace.max_self_contact_n,
     }
 }
 
@@ -1161,7 +1181,7 @@ struct Row {
     score: Score,
 }
 
-const RUNS_HEADER: &str = "floor,family,layout,seed,split,condition,success,jammed,end_s,time_to_goal_s,distance_bl,speed_bl_per_cycle,heading_change_deg,exit_heading_deg,estimate_error";
+const RUNS_HEADER: &str = "floor,family,layout,seed,split,condition,success,jammed,end_s,time_to_goal_s,distance_bl,speed_bl_per_cycle,heading_change_deg,exit_heading_deg,estimate_error,self_contact_share,max_self_contact_n";
 
 /// The plan of a bench: conditions, tuning cases, and (given the tuning rows) the held-out ones.
 struct Plan<'a> {
@@ -1322,7 +1342,7 @@ impl Plan<'_> {
 
 fn format_row(key: &str, s: &Score) -> String {
     format!(
-        "{key},{},{},{},{},{},{},{},{},{}\n",
+        "{key},{},{},{},{},{},{},{},{},{},{},{}\n",
         s.success,
         s.jammed,
         s.end_secs,
@@ -1331,7 +1351,9 @@ fn format_row(key: &str, s: &Score) -> String {
         s.speed_bl_per_cycle,
         s.heading_change_deg,
         s.exit_heading_deg,
-        s.estimate_error
+        s.estimate_error,
+        s.self_contact_share,
+        s.max_self_contact_n
     )
 }
 
@@ -1353,8 +1375,8 @@ fn read_rows(path: &Path) -> Result<Vec<Row>, ExperimentError> {
     let mut rows = Vec::new();
     for (i, line) in lines.enumerate() {
         let cells: Vec<&str> = line.split(',').collect();
-        if cells.len() != 15 {
-            return Err(bad(i + 2, format!("{} cells, 15 expected", cells.len())));
+        if cells.len() != 17 {
+            return Err(bad(i + 2, format!("{} cells, 17 expected", cells.len())));
         }
         let flag = |j: usize| match cells[j] {
             "true" => Ok(true),
@@ -1374,6 +1396,8 @@ fn read_rows(path: &Path) -> Result<Vec<Row>, ExperimentError> {
             heading_change_deg: num(12)?,
             exit_heading_deg: num(13)?,
             estimate_error: num(14)?,
+            self_contact_share: num(15)?,
+            max_self_contact_n: num(16)?,
         };
         rows.push(Row { key: cells[..6].join(","), score });
     }
@@ -1788,7 +1812,7 @@ fn report(
     // Summary per floor × family × condition (held-out fields).
     let mut summary_rows = Vec::new();
     let mut summary_csv = String::from(
-        "floor,family,condition,fields,success_rate,success_lo,success_hi,jam_rate,median_distance_bl,distance_lo,distance_hi,median_time_to_goal_s,median_speed_bl_per_cycle,heading_change_q25_deg,heading_change_median_deg,heading_change_q75_deg,twin_median_distance_bl,peg_effect_mean_bl,peg_effect_lo,peg_effect_hi,estimate_error_median\n",
+        "floor,family,condition,fields,success_rate,success_lo,success_hi,jam_rate,median_distance_bl,distance_lo,distance_hi,median_time_to_goal_s,median_speed_bl_per_cycle,heading_change_q25_deg,heading_change_median_deg,heading_change_q75_deg,twin_median_distance_bl,peg_effect_mean_bl,peg_effect_lo,peg_effect_hi,estimate_error_median,self_contact_runs,self_contact_share_mean,max_self_contact_n\n",
     );
     let mut heading_csv = String::from("floor,family,condition,bin_lo_deg,bin_hi_deg,runs\n");
     for (fl, floor) in bench.floors.iter().enumerate() {
@@ -1815,13 +1839,16 @@ fn report(
                 let effect = peg_effect(fl, fa, k);
                 let (elo, ehi) = bootstrap_interval(&effect, mean);
                 let err = median(&values(fl, Some(fa), k, |s| s.estimate_error));
+                let self_runs = mean(&values(fl, Some(fa), k, |s| if s.self_contact_share > 0.0 { 1.0 } else { 0.0 }));
+                let self_share = mean(&values(fl, Some(fa), k, |s| s.self_contact_share));
+                let self_n = values(fl, Some(fa), k, |s| s.max_self_contact_n).into_iter().fold(0.0, f64::max);
                 let (slo, shi) = bootstrap_interval(&s, mean);
                 let (dlo, dhi) = bootstrap_interval(&d, median);
                 let goal_time = median(&values(fl, Some(fa), k, |s| s.time_to_goal_secs));
                 let speed = median(&values(fl, Some(fa), k, |s| s.speed_bl_per_cycle));
                 let jam = mean(&values(fl, Some(fa), k, jammed));
                 summary_csv.push_str(&format!(
-                    "{},{},{},{},{},{slo},{shi},{jam},{},{dlo},{dhi},{goal_time},{speed},{},{},{},{twin},{},{elo},{ehi},{err}\n",
+                    "{},{},{},{},{},{slo},{shi},{jam},{},{dlo},{dhi},{goal_time},{speed},{},{},{},{twin},{},{elo},{ehi},{err},{self_runs},{self_share},{self_n}\n",
                     floor.name(),
                     family.name(),
                     condition.name,
@@ -1853,6 +1880,7 @@ fn report(
                     opt(twin),
                     if effect.is_empty() { String::new() } else { with_interval(&effect, mean, 1.0) },
                     opt(err),
+                    format!("{} / {} / {}", sig(100.0 * self_runs), sig(100.0 * self_share), sig(self_n)),
                 ]);
             }
         }
@@ -2193,6 +2221,7 @@ fn report(
                     "twin: median distance (BL)",
                     "peg effect on distance (BL; mean, 90 % interval)",
                     "estimate error (median Σ‖est − true‖ / Σ true)",
+                    "self-contact: runs touching (%) / mean share of the run (%) / largest force (N)",
                 ]
                 .map(String::from)
                 .to_vec(),
@@ -2354,6 +2383,20 @@ mod tests {
         assert!(s.exit_heading_deg.abs() < 1e-12);
         assert!(s.heading_change_deg.abs() < 1e-12);
         assert!(!s.success && !s.jammed && s.time_to_goal_secs.is_nan());
+    }
+
+    /// The self-contact share is over every recorded instant from t = 0, the largest force as
+    /// recorded; a run too short to score has no share.
+    #[test]
+    fn self_contact_is_the_share_of_recorded_instants_touching() {
+        let mut t = trace(&(0..=200).map(|k| 0.01 * k as f64).collect::<Vec<_>>(), 0.1);
+        t.self_touching = 67;
+        t.max_self_contact_n = 4.5;
+        let s = score(&t, 2.0, 2.0);
+        assert!((s.self_contact_share - 67.0 / 201.0).abs() < 1e-15, "{}", s.self_contact_share);
+        assert_eq!(s.max_self_contact_n, 4.5);
+        assert_eq!(score(&trace(&[0.0, 0.1], 0.1), 0.0, 2.0).self_contact_share, 0.0);
+        assert!(score(&trace(&[0.0], 0.1), 0.0, 2.0).self_contact_share.is_nan());
     }
 
     #[test]

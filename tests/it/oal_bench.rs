@@ -114,6 +114,20 @@ fn a_small_benchmark_writes_its_tables_repeats_and_shards() {
         assert_eq!(outcome.runs_planned, 8 + 2 * 2 * 6, "{}", t[0]);
         assert_eq!(t[0].lines().count(), 1 + outcome.runs_planned);
         assert!(t[0].lines().any(|l| l.contains(",twin,")), "{}", t[0]);
+        // Every run measures where the body meets itself: a share of its instants in 0 … 1 and
+        // the largest link–link force, and the summary gives them per condition.
+        let header: Vec<&str> = t[0].lines().next().unwrap().split(',').collect();
+        let share = header.iter().position(|c| *c == "self_contact_share").expect("a self-contact column");
+        assert_eq!(header[share + 1], "max_self_contact_n");
+        for line in t[0].lines().skip(1) {
+            let cells: Vec<&str> = line.split(',').collect();
+            let v: f64 = cells[share].parse().unwrap();
+            let n: f64 = cells[share + 1].parse().unwrap();
+            assert!((0.0..=1.0).contains(&v) && n >= 0.0 && (v > 0.0) == (n > 0.0), "{line}");
+        }
+        assert!(
+            t[1].lines().next().unwrap().ends_with(",self_contact_runs,self_contact_share_mean,max_self_contact_n")
+        );
         assert!(dir.path().join("plots/oal_success_anisotropic_random.png").exists());
         runs.push(t);
     }
