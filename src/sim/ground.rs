@@ -36,7 +36,8 @@
 //! are restored for it, with a detection margin of [`DETECTION_MARGIN_M`], and zeroed again
 //! before MuJoCo's step), heightfields and meshes never collide in MuJoCo (the law finds their
 //! contacts itself); the compiled model, and the MJCF written to the run folder, keep MuJoCo's
-//! contacts. Link–link contacts stay MuJoCo's. Before every step, from the state x_k alone:
+//! contacts. Link–link contacts stay MuJoCo's (normal force and friction from one solve in its
+//! elliptic cone: friction bounded by μN of the same step). Before every step, from the state x_k alone:
 //! - **Contacts of x_k**: `mj_kinematics`, `mj_comPos`, `mj_comVel` and `mj_collision` at the
 //!   state itself (planes, boxes, obstacles), and one contact per link end and heightfield or
 //!   mesh: the end's sphere (the capsule's radius about an end of its axis segment) against the

@@ -1293,3 +1293,46 @@ fn measure_the_per_link_laws_figures() {
         eprintln!("hit mu {mu}: {:?}", hit_lifts(PER_LINK, mu));
     }
 }
+
+/// The snake's contacts with itself are MuJoCo's, normal force and friction from the same
+/// constraint solve in its elliptic cone, so their friction is bounded by μ times the normal
+/// force of the same step, as the contact law's are. The wide wave on the bare floor
+/// (`simserpent::experiments::estimation::self_contact_config`) folds the body onto itself:
+/// over 4 s from t = 0, every link–link row keeps |friction| ≤ μ·N, and links touch on more
+/// than 5 % of the steps.
+#[test]
+fn link_link_contacts_keep_their_friction_within_mu_n_of_the_same_step() {
+    use simserpent::config::GroundModel;
+    use simserpent::experiments::estimation::self_contact_config;
+    let c = self_contact_config(&Config::default(), GroundModel::Anisotropic, 0, true);
+    let n = c.snake.n_links;
+    let mu = c.snake.link_friction[0];
+    let mut sim = simulation(&c);
+    let mut s = Snapshot::new(n, n - 1);
+    let steps = (4.0 / c.general.timestep_secs).round() as usize;
+    let (mut touching_steps, mut worst) = (0, 0.0_f64);
+    for _ in 0..steps {
+        sim.control();
+        sim.snapshot(&mut s);
+        let mut touching = false;
+        // Link bodies are 1 ..= n; the world (floor) is 0.
+        for row in s.contacts.iter().filter(|r| r.body.iter().all(|b| (1..=n).contains(b))) {
+            let friction = row.friction_force_n[0].hypot(row.friction_force_n[1]);
+            assert!(
+                friction <= mu * row.normal_force_n * (1.0 + 1e-6) + 1e-9,
+                "t = {} s, links {:?}: friction {friction} N against μN = {} N",
+                s.time_secs,
+                row.body,
+                mu * row.normal_force_n
+            );
+            if row.normal_force_n > 0.0 {
+                touching = true;
+                worst = worst.max(friction / (mu * row.normal_force_n));
+            }
+        }
+        touching_steps += usize::from(touching);
+        sim.advance().unwrap();
+    }
+    eprintln!("links touch on {touching_steps} of {steps} steps; largest |friction| / μN {worst:.4}");
+    assert!(touching_steps as f64 > 0.05 * steps as f64, "{touching_steps} of {steps} steps");
+}
