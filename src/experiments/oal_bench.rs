@@ -54,8 +54,9 @@
 //! [`EXIT_WINDOW_SECS`] against that over the first after the ramp-in: the scattering angle),
 //! self-contact (the share of the recorded instants, every [`RECORD_EVERY`] steps from t = 0,
 //! with a contact between two links, and the largest link–link force on one link: where the
-//! body meets itself, the estimates read it as an obstacle). Per condition: success and jam rates, medians with 90 % bootstrap intervals, heading-change
-//! quartiles and histogram; paired differences against the baselines with 90 % bootstrap
+//! body meets itself, the estimates read it as an obstacle). Per condition: success and jam
+//! rates, medians with 90 % bootstrap intervals, heading-change quartiles and histogram,
+//! self-contact (runs touching, mean share, largest force); paired differences against the baselines with 90 % bootstrap
 //! intervals and McNemar's exact p for success.
 //!
 //! **Shards**: [`Bench::shard`] `(i, n)` runs every tuning case (the choices need them all) and

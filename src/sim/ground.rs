@@ -37,7 +37,8 @@
 //! before MuJoCo's step), heightfields and meshes never collide in MuJoCo (the law finds their
 //! contacts itself); the compiled model, and the MJCF written to the run folder, keep MuJoCo's
 //! contacts. Link–link contacts stay MuJoCo's (normal force and friction from one solve in its
-//! elliptic cone: friction bounded by μN of the same step). Before every step, from the state x_k alone:
+//! elliptic cone: friction bounded by μN of the same step). Before every step, from the state
+//! x_k alone:
 //! - **Contacts of x_k**: `mj_kinematics`, `mj_comPos`, `mj_comVel` and `mj_collision` at the
 //!   state itself (planes, boxes, obstacles), and one contact per link end and heightfield or
 //!   mesh: the end's sphere (the capsule's radius about an end of its axis segment) against the
@@ -162,8 +163,8 @@
 //! reference 1.4 of 7.2), and less of it after (2.2 against 5.8 N·s), so the roll leaves at
 //! −37 rad/s (−27 at 0.1 ms), the hitting links climb at 1.3 m/s and the centre of mass rises
 //! 21 mm against 4.3. The whole-body solve, with the floor's and the cylinders' contacts in one
-//! solve, stops the roll (−1.1 rad/s; the centre of mass rises 7.3 mm). Gravity during a contact (≈ 3 ms) takes about
-//! g·t/v off a rebound at speed v.
+//! solve, stops the roll (−1.1 rad/s; the centre of mass rises 7.3 mm). Gravity during a
+//! contact (≈ 3 ms) takes about g·t/v off a rebound at speed v.
 //! Rolling and torsional friction are not modelled.
 //!
 //! **Obstacles.** MuJoCo's own friction on the link–obstacle contacts (condim 3) would bound
