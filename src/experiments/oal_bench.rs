@@ -52,12 +52,12 @@
 //! distance (forward advance of the centre of mass, body lengths), speed (body lengths per cycle
 //! of the base gait after the ramp-in), heading change (the direction of motion over the last
 //! [`EXIT_WINDOW_SECS`] against that over the first after the ramp-in: the scattering angle),
-//! self-contact (the share of the recorded instants, every [`RECORD_EVERY`] steps from t = 0,
+//! self-contact (the share of the recorded instants, every 50 steps from t = 0,
 //! with a contact between two links, and the largest link–link force on one link: where the
 //! body meets itself, the estimates read it as an obstacle). Per condition: success and jam
 //! rates, medians with 90 % bootstrap intervals, heading-change quartiles and histogram,
-//! self-contact (runs touching, mean share, largest force); paired differences against the baselines with 90 % bootstrap
-//! intervals and McNemar's exact p for success.
+//! self-contact (runs touching, mean share, largest force); paired differences against the
+//! baselines with 90 % bootstrap intervals and McNemar's exact p for success.
 //!
 //! **Shards**: [`Bench::shard`] `(i, n)` runs every tuning case (the choices need them all) and
 //! the held-out cases with index mod n = i, and writes `oal_runs-shard-i-of-n.csv`;
@@ -900,7 +900,7 @@ pub struct Score {
     /// Relative error of the estimated total obstacle force (Σ|est − true| / Σ true; NaN
     /// without estimates or without contact).
     pub estimate_error: f64,
-    /// Share of the recorded instants (every [`RECORD_EVERY`] steps from t = 0) with a contact
+    /// Share of the recorded instants (every 50 steps from t = 0) with a contact
     /// between two links.
     pub self_contact_share: f64,
     /// Largest total link–link contact force on one link (N).
