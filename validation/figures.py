@@ -260,6 +260,25 @@ def centre_of_mass(run: dict, model: Model) -> np.ndarray:
     return np.einsum("kna,n->ka", run["position"], m) / m.sum()
 
 
+def largest_com_rise_mm(run: dict, model: Model) -> float:
+    """How far the snake's centre of mass rises above where it started (mm)."""
+    z = centre_of_mass(run, model)[:, 2]
+    return 1000.0 * float(z.max() - z[0])
+
+
+def roll_rate_after_hit(run: dict, delay_secs: float = 0.01) -> float:
+    """The head link's angular velocity about its own axis `delay_secs` after the first row with
+    an obstacle force (rad/s; NaN without one): the roll of the body, which the links that hit an
+    obstacle carry up its face."""
+    touching = np.nonzero(np.abs(run["obstacle_force"]).sum(axis=(1, 2)) > 0)[0]
+    if len(touching) == 0:
+        return math.nan
+    t = run["time_s"]
+    k = min(int(np.searchsorted(t, t[touching[0]] + delay_secs - 1e-9)), len(t) - 1)
+    axis = _rotations(run)[k, 0][:, 0]
+    return float(np.dot(run["angular_velocity"][k, 0], axis))
+
+
 def com_speed_mm_per_s(run: dict, model: Model, t0: float, t1: float) -> float:
     """Mean horizontal speed of the centre of mass over [t0, t1]: its horizontal path length over
     the time (mm/s), from rows 10 ms apart (the same for every sampling)."""

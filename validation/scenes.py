@@ -164,6 +164,16 @@ def motion_figures(run, model):
     return out
 
 
+def hit_figures(run, model):
+    """The motion figures and what carries the lift: the roll of the body after the hit and the
+    centre of mass's rise (figures without targets)."""
+    return motion_figures(run, model) + [
+        ("roll rate about the head link's axis 10 ms after the first obstacle contact (rad/s)",
+         fg.roll_rate_after_hit(run)),
+        ("largest rise of the centre of mass (mm)", fg.largest_com_rise_mm(run, model)),
+    ]
+
+
 def coasting_figures(run, model):
     e0, de, rise = fg.energy_figures(run, model)
     return motion_figures(run, model) + [
@@ -295,7 +305,7 @@ SCENES = [
         "body, the other ahead of the head), 1 s.",
         1.0, lambda mu: {**_launch((0.0, 5.0, 0.0)), "terrain.kind": "two_cylinders",
                          "terrain.two_cylinders.distance_m": 0.3, "terrain.two_cylinders.radius_m": 0.2},
-        motion_figures, floor_impact_m_per_s=1.4, obstacle_test=ImpactTest("obstacle", 5.0, radius_m=0.2),
+        hit_figures, floor_impact_m_per_s=1.4, obstacle_test=ImpactTest("obstacle", 5.0, radius_m=0.2),
         fine_step_secs=1e-4,
     ),
     Scene(

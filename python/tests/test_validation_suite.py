@@ -139,6 +139,29 @@ def test_steps_with_every_link_off_and_topple():
     assert when == pytest.approx(0.004) and direction == pytest.approx(-90.0)
 
 
+def test_the_roll_after_a_hit_and_the_rise_of_the_centre_of_mass():
+    # Two links spinning about their axes (world x, then turned 90° about z: the head's axis is
+    # world y from row 3 on); an obstacle force first at row 2 (t = 2 ms), read 10 ms later.
+    m = model(2, mass=0.3)
+    t = np.arange(0, 0.0201, 1e-3)
+    rows = len(t)
+    obstacle = np.zeros((rows, 2, 3))
+    obstacle[2:5, 1, 1] = -100.0
+    pos = np.zeros((rows, 2, 3))
+    pos[:, 0, 2] = 0.04 + 0.001 * np.sin(np.pi * t / 0.02)  # the head rises 1 mm and comes back
+    pos[:, 1, 2] = 0.04
+    run = run_of(t, np.zeros((rows, 2)), obstacle=obstacle, position=pos)
+    run["rotation"] = np.tile(np.eye(3), (rows, 2, 1, 1))
+    run["rotation"][3:, 0] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]
+    run["angular_velocity"] = np.zeros((rows, 2, 3))
+    run["angular_velocity"][:, 0] = [-30.0, -4.0, 0.0]
+    assert fg.roll_rate_after_hit(run) == pytest.approx(-4.0)  # about world y at t = 12 ms
+    run["angular_velocity"][12, 0] = [-30.0, 5.0, 0.0]
+    assert fg.roll_rate_after_hit(run) == pytest.approx(5.0)
+    assert fg.largest_com_rise_mm(run, m) == pytest.approx(0.5, rel=1e-3)  # equal masses: half the head's
+    assert math.isnan(fg.roll_rate_after_hit(run_of(t, np.zeros((rows, 2)))))
+
+
 def test_restitution_of_a_synthetic_bounce():
     m = model(1)
     w = m.link_weight_n(0)
